@@ -1,0 +1,39 @@
+//! # motionlab-core
+//!
+//! The data model every other motionlab crate shares:
+//!
+//! - [`Motion`]: frame rate, point (marker/joint) positions in mm with an explicit up axis, a
+//!   per-sample missing mask, events, and — for skeleton formats — the hierarchy with per-frame
+//!   channel values and local rotations ([`skeleton`]).
+//! - [`Segmentation`]: ground-truth boundaries and labelled segments, in frames.
+//! - [`units`]: [`FrameRate`], [`TimeSpan`] (frames *or* seconds), [`Millimetres`], … so units
+//!   are visible in types.
+//! - [`Table`]: the column table results travel in (polars stays out of algorithm crates).
+//! - [`Error`]: one error type whose message names the file and line/field and what was expected.
+//! - [`stage`] and [`registry`]: the stage traits and the `inventory`-based plugin registry.
+//!
+//! It depends on no polars, plotters, clap or indicatif.
+
+pub mod error;
+pub mod motion;
+pub mod registry;
+pub mod segmentation;
+pub mod skeleton;
+pub mod stage;
+pub mod table;
+pub mod units;
+
+pub use error::{Error, ErrorKind, Location, Result};
+pub use motion::{Event, Motion, Point3, PointKind};
+pub use registry::{ParamGuard, StageKind};
+pub use segmentation::{Boundary, Segment, Segmentation, Transition};
+pub use skeleton::{ChannelKind, Joint, Skeleton, SkeletonMotion};
+pub use stage::*;
+pub use table::{Column, ColumnValues, Table};
+pub use units::{Axis, CubicMillimetres, Degrees, FrameRate, LengthUnit, Millimetres, MillimetresPerSecond, Seconds, TimeSpan};
+
+// Re-exported for `register_plugin!` and for plugin crates' params structs.
+pub use inventory;
+pub use schemars;
+pub use serde;
+pub use toml;

@@ -1,0 +1,343 @@
+//! [`Motion`]: what every loader produces and every stage reads.
+//!
+//! Positions are world coordinates in **millimetres**, stored frame-major (`F × M`), with an
+//! explicit up axis. A missing sample (occluded marker, residual < 0 in C3D, NaN in TSV) is
+//! flagged in the missing mask **and** stored as NaN, so a stage that forgets to check the mask
+//! propagates NaN instead of computing a silently wrong number.
+
+use std::path::PathBuf;
+
+use crate::skeleton::SkeletonMotion;
+use crate::units::{Axis, FrameRate, Seconds};
+use crate::{Error, ErrorKind, Location, Result};
+
+/// A 3-D point in millimetres.
+pub type Point3 = [f64; 3];
+
+/// Whether the points of a motion are physical markers or joint centres from a skeleton.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PointKind {
+    Marker,
+    Joint,
+}
+
+/// An annotated instant in a recording (C3D `EVENT` parameters, e.g. a foot strike).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Event {
+    /// `Foot Strike`, `Foot Off`, …
+    pub label: String,
+    /// `Left`, `Right`, `General`, …
+    pub context: String,
+    /// Time as stored in the file (seconds from the start of the capture).
+    pub time: Seconds,
+    /// Fractional frame index into this motion's frames (0 = the first stored frame).
+    pub frame: f64,
+}
+
+/// A motion-capture recording: `n_frames` frames of `point_names.len()` points.
+#[derive(Clone, Debug)]
+pub struct Motion {
+    /// A short name for reports (file stem unless a dataset renames it).
+    pub name: String,
+    /// The file it was loaded from, when it was.
+    pub source: Option<PathBuf>,
+    /// The loader that read it (`bvh`, `c3d`, …).
+    pub format: String,
+    frame_rate: FrameRate,
+    up_axis: Axis,
+    point_kind: PointKind,
+    point_names: Vec<String>,
+    positions: Vec<Point3>,
+    missing: Vec<bool>,
+    n_frames: usize,
+    /// Present when the source has a skeleton (BVH, ASF/AMC): hierarchy, channel values and
+    /// per-frame local rotations. `point_names` are then its joints, in skeleton order.
+    pub skeleton: Option<SkeletonMotion>,
+    /// Annotated events (C3D), sorted by time.
+    pub events: Vec<Event>,
+}
+
+impl Motion {
+    /// Builds a motion from frame-major positions (`positions[frame * M + point]`, mm).
+    ///
+    /// Non-finite coordinates mark the sample missing (and are normalised to NaN). Fails when
+    /// the buffer length is not `n_frames × M` or a point name repeats.
+    pub fn new(
+        name: impl Into<String>,
+        frame_rate: FrameRate,
+        up_axis: Axis,
+        point_kind: PointKind,
+        point_names: Vec<String>,
+        mut positions: Vec<Point3>,
+    ) -> Result<Self> {
+        let m = point_names.len();
+        if m == 0 {
+            return Err(Error::new(ErrorKind::EmptySequence, "a motion needs at least one marker or joint"));
+        }
+        if positions.len() % m != 0 {
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!("{} positions is not a whole number of frames of {m} points", positions.len()),
+            ));
+        }
+        let mut seen = std::collections::HashSet::with_capacity(m);
+        for n in &point_names {
+            if !seen.insert(n.as_str()) {
+                return Err(Error::new(ErrorKind::DuplicateName, format!("point name {n:?} appears twice")));
+            }
+        }
+        let n_frames = positions.len() / m;
+        let missing: Vec<bool> = positions
+            .iter_mut()
+            .map(|p| {
+                let gone = !p.iter().all(|c| c.is_finite());
+                if gone {
+                    *p = [f64::NAN; 3];
+                }
+                gone
+            })
+            .collect();
+        Ok(Motion {
+            name: name.into(),
+            source: None,
+            format: String::new(),
+            frame_rate,
+            up_axis,
+            point_kind,
+            point_names,
+            positions,
+            missing,
+            n_frames,
+            skeleton: None,
+            events: Vec::new(),
+        })
+    }
+
+    pub fn with_source(mut self, source: impl Into<PathBuf>, format: impl Into<String>) -> Self {
+        self.source = Some(source.into());
+        self.format = format.into();
+        self
+    }
+
+    pub fn frame_rate(&self) -> FrameRate {
+        self.frame_rate
+    }
+    pub fn up_axis(&self) -> Axis {
+        self.up_axis
+    }
+    pub fn point_kind(&self) -> PointKind {
+        self.point_kind
+    }
+    pub fn n_frames(&self) -> usize {
+        self.n_frames
+    }
+    pub fn n_points(&self) -> usize {
+        self.point_names.len()
+    }
+    pub fn point_names(&self) -> &[String] {
+        &self.point_names
+    }
+    /// Duration from the first to one past the last frame.
+    pub fn duration(&self) -> Seconds {
+        self.frame_rate.frame_to_seconds(self.n_frames)
+    }
+    /// All positions, frame-major.
+    pub fn positions(&self) -> &[Point3] {
+        &self.positions
+    }
+    /// Mutable positions for preprocessing stages. Call [`Motion::refresh_missing`] after
+    /// writing NaN or filling gaps so the mask stays true.
+    pub fn positions_mut(&mut self) -> &mut [Point3] {
+        &mut self.positions
+    }
+    /// Recomputes the missing mask from the positions (non-finite = missing).
+    pub fn refresh_missing(&mut self) {
+        for (p, m) in self.positions.iter_mut().zip(self.missing.iter_mut()) {
+            *m = !p.iter().all(|c| c.is_finite());
+            if *m {
+                *p = [f64::NAN; 3];
+            }
+        }
+    }
+    /// The positions of every point at one frame.
+    pub fn frame(&self, frame: usize) -> &[Point3] {
+        let m = self.n_points();
+        &self.positions[frame * m..(frame + 1) * m]
+    }
+    /// The missing flags of every point at one frame.
+    pub fn frame_missing(&self, frame: usize) -> &[bool] {
+        let m = self.n_points();
+        &self.missing[frame * m..(frame + 1) * m]
+    }
+    pub fn position(&self, frame: usize, point: usize) -> Point3 {
+        self.positions[frame * self.n_points() + point]
+    }
+    pub fn is_missing(&self, frame: usize, point: usize) -> bool {
+        self.missing[frame * self.n_points() + point]
+    }
+    /// The missing mask, frame-major like the positions.
+    pub fn missing_mask(&self) -> &[bool] {
+        &self.missing
+    }
+    /// Number of missing point samples over the whole motion.
+    pub fn missing_count(&self) -> usize {
+        self.missing.iter().filter(|m| **m).count()
+    }
+    /// One point's trajectory over all frames.
+    pub fn trajectory(&self, point: usize) -> impl ExactSizeIterator<Item = Point3> + '_ {
+        let m = self.n_points();
+        (0..self.n_frames).map(move |f| self.positions[f * m + point])
+    }
+    /// Index of a named point; the error names the file and lists what exists.
+    pub fn point_index(&self, name: &str) -> Result<usize> {
+        self.point_names.iter().position(|n| n == name).ok_or_else(|| {
+            let close = crate::registry::closest_names(name, self.point_names.iter().map(String::as_str));
+            let hint = if close.is_empty() { String::new() } else { format!(" (closest: {})", close.join(", ")) };
+            let loc = match &self.source {
+                Some(s) => Location::file(s),
+                None => Location::default(),
+            };
+            Error::new(ErrorKind::UnknownName, format!("no marker or joint named {name:?} in {}{hint}", self.name))
+                .with_location(loc.field(name))
+        })
+    }
+    /// The floor-plane coordinates of a point (drops the up axis; keeps the other two in order).
+    pub fn horizontal(&self, p: Point3) -> [f64; 2] {
+        let [a, b] = self.up_axis.others();
+        [p[a], p[b]]
+    }
+    /// Height of a point above the origin along the up axis.
+    pub fn height(&self, p: Point3) -> f64 {
+        p[self.up_axis.index()]
+    }
+    /// A copy holding frames `start..end` (events and skeleton channels cut alike).
+    pub fn slice_frames(&self, start: usize, end: usize) -> Result<Motion> {
+        if start >= end || end > self.n_frames {
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("frame range {start}..{end} is empty or outside 0..{} of {}", self.n_frames, self.name),
+            ));
+        }
+        let m = self.n_points();
+        let mut out = self.clone();
+        out.positions = self.positions[start * m..end * m].to_vec();
+        out.missing = self.missing[start * m..end * m].to_vec();
+        out.n_frames = end - start;
+        out.skeleton = self.skeleton.as_ref().map(|s| s.slice_frames(start, end));
+        out.events = self
+            .events
+            .iter()
+            .filter(|e| e.frame >= start as f64 && e.frame < end as f64)
+            .map(|e| Event { frame: e.frame - start as f64, ..e.clone() })
+            .collect();
+        Ok(out)
+    }
+    /// A copy holding only the named points, in the given order.
+    pub fn select_points(&self, names: &[impl AsRef<str>]) -> Result<Motion> {
+        let idx: Vec<usize> = names.iter().map(|n| self.point_index(n.as_ref())).collect::<Result<_>>()?;
+        let m = self.n_points();
+        let mut positions = Vec::with_capacity(self.n_frames * idx.len());
+        for f in 0..self.n_frames {
+            positions.extend(idx.iter().map(|&k| self.positions[f * m + k]));
+        }
+        let mut out = Motion::new(
+            self.name.clone(),
+            self.frame_rate,
+            self.up_axis,
+            self.point_kind,
+            idx.iter().map(|&k| self.point_names[k].clone()).collect(),
+            positions,
+        )?;
+        out.source = self.source.clone();
+        out.format = self.format.clone();
+        out.events = self.events.clone();
+        Ok(out)
+    }
+    /// Fails with [`ErrorKind::EmptySequence`] when the motion has fewer than `min_frames` frames.
+    pub fn require_frames(&self, min_frames: usize, stage: &str) -> Result<()> {
+        if self.n_frames < min_frames {
+            let loc = self.source.as_ref().map(Location::file).unwrap_or_default();
+            Err(Error::new(
+                ErrorKind::EmptySequence,
+                format!("{stage} needs at least {min_frames} frames, {} has {}", self.name, self.n_frames),
+            )
+            .with_location(loc))
+        } else {
+            Ok(())
+        }
+    }
+    /// Fails with [`ErrorKind::MissingData`] naming the first missing sample, for stages that
+    /// refuse gaps (they say so in their docs).
+    pub fn require_complete(&self, stage: &str) -> Result<()> {
+        match self.missing.iter().position(|m| *m) {
+            None => Ok(()),
+            Some(i) => {
+                let m = self.n_points();
+                let loc = self.source.as_ref().map(Location::file).unwrap_or_default();
+                Err(Error::new(
+                    ErrorKind::MissingData,
+                    format!(
+                        "{stage} refuses missing samples: {} has {} (first: marker {:?} at frame {}); fill gaps first (preprocessor `fill_gaps`)",
+                        self.name,
+                        self.missing_count(),
+                        self.point_names[i % m],
+                        i / m
+                    ),
+                )
+                .with_location(loc.field(self.point_names[i % m].clone())))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_point_motion() -> Motion {
+        let rate = FrameRate::new(10.0).unwrap();
+        let pos = vec![[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [1.0, 0.0, 0.0], [f64::INFINITY, 2.0, 3.0], [2.0, 0.0, 0.0], [1.0, 2.0, 3.0]];
+        Motion::new("t", rate, Axis::Z, PointKind::Marker, vec!["a".into(), "b".into()], pos).unwrap()
+    }
+
+    #[test]
+    fn non_finite_positions_are_missing_and_nan() {
+        let m = two_point_motion();
+        assert_eq!(m.n_frames(), 3);
+        assert_eq!(m.missing_count(), 1);
+        assert!(m.is_missing(1, 1));
+        assert!(m.position(1, 1)[0].is_nan());
+        assert!(m.require_complete("test").is_err());
+    }
+
+    #[test]
+    fn wrong_buffer_length_and_duplicate_names_are_errors() {
+        let rate = FrameRate::new(10.0).unwrap();
+        let e = Motion::new("t", rate, Axis::Y, PointKind::Marker, vec!["a".into(), "b".into()], vec![[0.0; 3]; 3]).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::WrongValueCount);
+        let e = Motion::new("t", rate, Axis::Y, PointKind::Marker, vec!["a".into(), "a".into()], vec![[0.0; 3]; 2]).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::DuplicateName);
+    }
+
+    #[test]
+    fn slicing_and_selecting_keep_values() {
+        let m = two_point_motion();
+        let s = m.slice_frames(1, 3).unwrap();
+        assert_eq!(s.n_frames(), 2);
+        assert_eq!(s.position(1, 0), [2.0, 0.0, 0.0]);
+        let b = m.select_points(&["b"]).unwrap();
+        assert_eq!(b.n_points(), 1);
+        assert_eq!(b.missing_count(), 1);
+        assert!(m.slice_frames(2, 2).is_err());
+        let e = m.point_index("c").unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::UnknownName);
+    }
+
+    #[test]
+    fn horizontal_drops_the_up_axis() {
+        let m = two_point_motion();
+        assert_eq!(m.horizontal([1.0, 2.0, 3.0]), [1.0, 2.0]);
+        assert_eq!(m.height([1.0, 2.0, 3.0]), 3.0);
+    }
+}

@@ -1,0 +1,476 @@
+//! The plugin registry.
+//!
+//! Every stage implementation registers itself with one line,
+//!
+//! ```ignore
+//! motionlab_core::register_plugin!(Segmenter, SpeedMinimaParams, "speed_minima");
+//! ```
+//!
+//! which submits a [`PluginEntry`] to `inventory`: its TOML name, its kind, the JSON schema of
+//! its parameters (from the params struct's doc comments and serde attributes, via
+//! `schemars`: this is what `motionlab describe` prints) and a builder that deserialises the
+//! TOML table (`deny_unknown_fields`), then validates it into the checked stage
+//! ([`ParamGuard`], as linfa does) — so a bad parameter is reported when the experiment is
+//! validated, before any work runs.
+//!
+//! Caveat: a crate that the final binary never names is not linked, and its plugins vanish
+//! silently. The CLI names every plugin crate, and a registry test lists every expected name.
+
+use schemars::JsonSchema;
+use serde::de::DeserializeOwned;
+
+use crate::stage::*;
+use crate::{Error, ErrorKind, Result};
+
+/// The kinds of pluggable stage. `type = "..."` names are unique across all kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StageKind {
+    Loader,
+    GroundTruth,
+    Preprocessor,
+    FeatureExtractor,
+    Segmenter,
+    Fuser,
+    PointDetector,
+    Matcher,
+    Synchroniser,
+    GaitCycleDetector,
+    WaveformAnalyzer,
+    WalkSynthesizer,
+    Evaluator,
+}
+
+impl StageKind {
+    pub const ALL: [StageKind; 13] = [
+        StageKind::Loader,
+        StageKind::GroundTruth,
+        StageKind::Preprocessor,
+        StageKind::FeatureExtractor,
+        StageKind::Segmenter,
+        StageKind::Fuser,
+        StageKind::PointDetector,
+        StageKind::Matcher,
+        StageKind::Synchroniser,
+        StageKind::GaitCycleDetector,
+        StageKind::WaveformAnalyzer,
+        StageKind::WalkSynthesizer,
+        StageKind::Evaluator,
+    ];
+    /// Human label (`ground truth reader`, `walk synthesizer`).
+    pub fn label(self) -> &'static str {
+        match self {
+            StageKind::Loader => "loader",
+            StageKind::GroundTruth => "ground-truth reader",
+            StageKind::Preprocessor => "preprocessor",
+            StageKind::FeatureExtractor => "feature extractor",
+            StageKind::Segmenter => "segmenter",
+            StageKind::Fuser => "fuser",
+            StageKind::PointDetector => "point detector",
+            StageKind::Matcher => "matcher",
+            StageKind::Synchroniser => "synchroniser",
+            StageKind::GaitCycleDetector => "gait-cycle detector",
+            StageKind::WaveformAnalyzer => "waveform analyzer",
+            StageKind::WalkSynthesizer => "walk synthesizer",
+            StageKind::Evaluator => "evaluator",
+        }
+    }
+}
+
+/// Validation of deserialised parameters into the type a stage runs with (linfa's ParamGuard).
+pub trait ParamGuard: DeserializeOwned + JsonSchema {
+    /// The validated stage.
+    type Checked;
+    /// Checks ranges and consistency; errors name the offending field
+    /// (`Error::with_field("v_low")`).
+    fn check(self) -> Result<Self::Checked>;
+}
+
+/// A builder from a TOML parameter table (the stage's table without its `type` key).
+pub type BuildFn<T> = fn(&toml::Value) -> Result<Box<T>>;
+
+/// The builder of a plugin, by kind.
+#[derive(Clone, Copy)]
+pub enum Build {
+    Loader(BuildFn<dyn Loader>),
+    GroundTruth(BuildFn<dyn GroundTruthReader>),
+    Preprocessor(BuildFn<dyn Preprocessor>),
+    FeatureExtractor(BuildFn<dyn FeatureExtractor>),
+    Segmenter(BuildFn<dyn Segmenter>),
+    Fuser(BuildFn<dyn Fuser>),
+    PointDetector(BuildFn<dyn PointDetector>),
+    Matcher(BuildFn<dyn Matcher>),
+    Synchroniser(BuildFn<dyn Synchroniser>),
+    GaitCycleDetector(BuildFn<dyn GaitCycleDetector>),
+    WaveformAnalyzer(BuildFn<dyn WaveformAnalyzer>),
+    WalkSynthesizer(BuildFn<dyn WalkSynthesizer>),
+    Evaluator(BuildFn<dyn Evaluator>),
+}
+
+/// One registered plugin.
+pub struct PluginEntry {
+    /// The name used in TOML (`type = "fastest_marker_speed"`).
+    pub name: &'static str,
+    pub kind: StageKind,
+    /// The Rust params type (for docs and error messages).
+    pub params_type: &'static str,
+    /// The crate that registered it.
+    pub crate_name: &'static str,
+    /// JSON schema of the parameters, with doc comments as descriptions and defaults.
+    pub schema: fn() -> schemars::Schema,
+    pub build: Build,
+}
+
+inventory::collect!(PluginEntry);
+
+impl PluginEntry {
+    /// The plugin's documentation: the params struct's doc comment (title + description).
+    pub fn doc(&self) -> String {
+        let schema = (self.schema)();
+        let get = |k: &str| schema.get(k).and_then(|v| v.as_str()).unwrap_or("").trim().to_string();
+        let (mut title, description) = (get("title"), get("description"));
+        // schemars titles a root schema with the type name; that is not documentation.
+        if title == self.params_type || !title.contains(' ') {
+            title.clear();
+        }
+        match (title.is_empty(), description.is_empty()) {
+            (true, _) => description,
+            (false, true) => title,
+            (false, false) => format!("{title}\n\n{description}"),
+        }
+    }
+    /// First line of [`PluginEntry::doc`].
+    pub fn summary(&self) -> String {
+        self.doc().lines().next().unwrap_or("").to_string()
+    }
+    /// The parameters: name, type, default and description, in declaration order.
+    pub fn params(&self) -> Vec<ParamDoc> {
+        let schema = (self.schema)();
+        let root = schema.as_value();
+        let defs = root.get("$defs");
+        let Some(props) = root.get("properties").and_then(|p| p.as_object()) else { return Vec::new() };
+        let required: Vec<&str> = root
+            .get("required")
+            .and_then(|r| r.as_array())
+            .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
+            .unwrap_or_default();
+        props
+            .iter()
+            .map(|(name, p)| ParamDoc {
+                name: name.clone(),
+                type_name: type_name(p, defs),
+                default: p.get("default").map(|d| toml_like(d)),
+                required: required.contains(&name.as_str()),
+                description: p
+                    .get("description")
+                    .and_then(|d| d.as_str())
+                    .or_else(|| resolve(p, defs).and_then(|r| r.get("description")).and_then(|d| d.as_str()))
+                    .unwrap_or("")
+                    .trim()
+                    .to_string(),
+            })
+            .collect()
+    }
+}
+
+/// One documented parameter.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ParamDoc {
+    pub name: String,
+    pub type_name: String,
+    pub default: Option<String>,
+    pub required: bool,
+    pub description: String,
+}
+
+fn resolve<'a>(p: &'a serde_json::Value, defs: Option<&'a serde_json::Value>) -> Option<&'a serde_json::Value> {
+    let r = p.get("$ref")?.as_str()?;
+    let name = r.rsplit('/').next()?;
+    defs?.get(name)
+}
+
+fn type_name(p: &serde_json::Value, defs: Option<&serde_json::Value>) -> String {
+    if let Some(r) = p.get("$ref").and_then(|r| r.as_str()) {
+        let name = r.rsplit('/').next().unwrap_or(r).to_string();
+        // Enums of strings read best as their allowed values.
+        if let Some(values) = resolve(p, defs).and_then(enum_values) {
+            return values;
+        }
+        return name;
+    }
+    if let Some(values) = enum_values(p) {
+        return values;
+    }
+    if let Some(all) = p.get("allOf").and_then(|a| a.as_array())
+        && let Some(first) = all.first()
+    {
+        return type_name(first, defs);
+    }
+    if let Some(any) = p.get("anyOf").or_else(|| p.get("oneOf")).and_then(|a| a.as_array()) {
+        let parts: Vec<String> = any
+            .iter()
+            .filter(|s| s.get("type").and_then(|t| t.as_str()) != Some("null"))
+            .map(|s| type_name(s, defs))
+            .collect();
+        let nullable = any.iter().any(|s| s.get("type").and_then(|t| t.as_str()) == Some("null"));
+        let joined = parts.join(" | ");
+        return if nullable { format!("{joined} (optional)") } else { joined };
+    }
+    match p.get("type") {
+        Some(serde_json::Value::String(t)) => match t.as_str() {
+            "array" => format!("[{}]", p.get("items").map(|i| type_name(i, defs)).unwrap_or_default()),
+            "number" => "float".into(),
+            other => other.to_string(),
+        },
+        Some(serde_json::Value::Array(ts)) => {
+            let parts: Vec<&str> = ts.iter().filter_map(|t| t.as_str()).filter(|t| *t != "null").collect();
+            let nullable = ts.iter().any(|t| t.as_str() == Some("null"));
+            let joined = parts.iter().map(|t| if *t == "number" { "float" } else { t }).collect::<Vec<_>>().join(" | ");
+            if nullable { format!("{joined} (optional)") } else { joined }
+        }
+        _ => "value".into(),
+    }
+}
+
+fn enum_values(p: &serde_json::Value) -> Option<String> {
+    let mut out = Vec::new();
+    if let Some(e) = p.get("enum").and_then(|e| e.as_array()) {
+        out.extend(e.iter().filter_map(|v| v.as_str()).map(|s| format!("\"{s}\"")));
+    } else if let Some(one) = p.get("oneOf").and_then(|o| o.as_array()) {
+        for v in one {
+            if let Some(c) = v.get("const").and_then(|c| c.as_str()) {
+                out.push(format!("\"{c}\""));
+            } else if let Some(e) = v.get("enum").and_then(|e| e.as_array()) {
+                out.extend(e.iter().filter_map(|v| v.as_str()).map(|s| format!("\"{s}\"")));
+            } else if let Some(props) = v.get("properties").and_then(|p| p.as_object())
+                && props.len() == 1
+            {
+                // Externally tagged variant with data, e.g. `{ seconds = float }`.
+                let (k, inner) = props.iter().next()?;
+                out.push(format!("{{ {k} = {} }}", type_name(inner, None)));
+            } else {
+                return None;
+            }
+        }
+    } else {
+        return None;
+    }
+    Some(out.join(" | "))
+}
+
+/// Renders a JSON default as TOML would write it.
+fn toml_like(v: &serde_json::Value) -> String {
+    match v {
+        serde_json::Value::Object(m) => {
+            let parts: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {}", toml_like(v))).collect();
+            format!("{{ {} }}", parts.join(", "))
+        }
+        serde_json::Value::Array(a) => format!("[{}]", a.iter().map(toml_like).collect::<Vec<_>>().join(", ")),
+        serde_json::Value::Null => "(none)".into(),
+        other => other.to_string(),
+    }
+}
+
+/// Every registered plugin, sorted by kind then name.
+pub fn plugins() -> Vec<&'static PluginEntry> {
+    let mut v: Vec<&'static PluginEntry> = inventory::iter::<PluginEntry>.into_iter().collect();
+    v.sort_by_key(|p| (p.kind, p.name));
+    v
+}
+
+/// Looks a plugin up by name; an unknown name lists the closest registered names.
+pub fn find(name: &str) -> Result<&'static PluginEntry> {
+    let all = plugins();
+    if let Some(p) = all.iter().find(|p| p.name == name) {
+        return Ok(p);
+    }
+    Err(unknown_plugin(name, None, &all))
+}
+
+/// Looks a plugin of one kind up by name; the error lists the closest names of that kind.
+pub fn find_kind(name: &str, kind: StageKind) -> Result<&'static PluginEntry> {
+    let all = plugins();
+    match all.iter().find(|p| p.name == name) {
+        Some(p) if p.kind == kind => Ok(p),
+        Some(p) => Err(Error::new(
+            ErrorKind::UnknownPlugin,
+            format!("{name:?} is a {}, but a {} is expected here", p.kind.label(), kind.label()),
+        )),
+        None => Err(unknown_plugin(name, Some(kind), &all)),
+    }
+}
+
+fn unknown_plugin(name: &str, kind: Option<StageKind>, all: &[&'static PluginEntry]) -> Error {
+    let pool = all.iter().filter(|p| kind.is_none_or(|k| p.kind == k)).map(|p| p.name);
+    let close = closest_names(name, pool);
+    let what = kind.map(StageKind::label).unwrap_or("plugin");
+    let hint = if close.is_empty() {
+        " (run `motionlab list` to see them all)".to_string()
+    } else {
+        format!("; did you mean {}?", close.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(" or "))
+    };
+    Error::new(ErrorKind::UnknownPlugin, format!("no {what} named {name:?} is registered{hint}"))
+}
+
+/// Up to three names closest to `name` (normalised Damerau–Levenshtein ≥ 0.5, or a prefix match).
+pub fn closest_names<'a>(name: &str, pool: impl IntoIterator<Item = &'a str>) -> Vec<String> {
+    let mut scored: Vec<(f64, &str)> = pool
+        .into_iter()
+        .map(|c| {
+            let mut s = strsim::normalized_damerau_levenshtein(name, c);
+            if c.starts_with(name) || name.starts_with(c) || c.contains(name) {
+                s = s.max(0.75);
+            }
+            (s, c)
+        })
+        .filter(|(s, _)| *s >= 0.5)
+        .collect();
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(b.1)));
+    scored.into_iter().take(3).map(|(_, c)| c.to_string()).collect()
+}
+
+/// Deserialises a params struct from a TOML table, naming the offending field on error.
+pub fn parse_params<P: DeserializeOwned>(value: &toml::Value) -> Result<P> {
+    let result: std::result::Result<P, serde_path_to_error::Error<toml::de::Error>> =
+        serde_path_to_error::deserialize(value.clone());
+    result.map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        let msg = inner.message().to_string();
+        let kind = if msg.starts_with("unknown field") || msg.starts_with("unknown variant") {
+            if msg.starts_with("unknown field") { ErrorKind::UnknownKey } else { ErrorKind::WrongType }
+        } else if msg.starts_with("invalid type") || msg.starts_with("invalid value") {
+            ErrorKind::WrongType
+        } else if msg.starts_with("missing field") {
+            ErrorKind::MissingKey
+        } else {
+            ErrorKind::InvalidParameter
+        };
+        let field = if path == "." || path.is_empty() { String::new() } else { path };
+        let mut err = Error::new(kind, msg);
+        if !field.is_empty() {
+            err = err.with_field(field);
+        }
+        err
+    })
+}
+
+/// The JSON schema of a params type (stored as a fn pointer in [`PluginEntry::schema`]).
+pub fn schema_of<P: JsonSchema>() -> schemars::Schema {
+    schemars::SchemaGenerator::default().into_root_schema_for::<P>()
+}
+
+/// Per-kind generic builders used by [`register_plugin!`](crate::register_plugin).
+#[allow(non_snake_case)]
+pub mod builders {
+    use super::*;
+
+    macro_rules! builder {
+        ($kind:ident, $trait:ident) => {
+            pub fn $kind<P>(value: &toml::Value) -> Result<Box<dyn $trait>>
+            where
+                P: ParamGuard,
+                P::Checked: $trait + 'static,
+            {
+                let params: P = parse_params(value)?;
+                Ok(Box::new(params.check()?))
+            }
+        };
+    }
+    builder!(Loader, Loader);
+    builder!(GroundTruth, GroundTruthReader);
+    builder!(Preprocessor, Preprocessor);
+    builder!(FeatureExtractor, FeatureExtractor);
+    builder!(Segmenter, Segmenter);
+    builder!(Fuser, Fuser);
+    builder!(PointDetector, PointDetector);
+    builder!(Matcher, Matcher);
+    builder!(Synchroniser, Synchroniser);
+    builder!(GaitCycleDetector, GaitCycleDetector);
+    builder!(WaveformAnalyzer, WaveformAnalyzer);
+    builder!(WalkSynthesizer, WalkSynthesizer);
+    builder!(Evaluator, Evaluator);
+}
+
+/// Registers a plugin: `register_plugin!(Segmenter, SpeedMinimaParams, "speed_minima");`
+///
+/// The first argument is the [`StageKind`] variant; the params type must implement
+/// [`ParamGuard`] whose `Checked` type implements that kind's trait.
+#[macro_export]
+macro_rules! register_plugin {
+    ($kind:ident, $params:ty, $name:literal) => {
+        $crate::inventory::submit! {
+            $crate::registry::PluginEntry {
+                name: $name,
+                kind: $crate::registry::StageKind::$kind,
+                params_type: stringify!($params),
+                crate_name: env!("CARGO_PKG_NAME"),
+                schema: $crate::registry::schema_of::<$params>,
+                build: $crate::registry::Build::$kind($crate::registry::builders::$kind::<$params>),
+            }
+        }
+    };
+}
+
+/// Builds a stage of a known kind from its TOML table (without the `type` key).
+macro_rules! typed_builder {
+    ($fn_name:ident, $kind:ident, $trait:ident) => {
+        pub fn $fn_name(name: &str, params: &toml::Value) -> Result<Box<dyn $trait>> {
+            let entry = find_kind(name, StageKind::$kind)?;
+            match entry.build {
+                Build::$kind(f) => f(params),
+                _ => Err(Error::new(ErrorKind::UnknownPlugin, format!("{name:?} is registered with a mismatched builder"))),
+            }
+        }
+    };
+}
+typed_builder!(build_loader, Loader, Loader);
+typed_builder!(build_ground_truth, GroundTruth, GroundTruthReader);
+typed_builder!(build_preprocessor, Preprocessor, Preprocessor);
+typed_builder!(build_feature_extractor, FeatureExtractor, FeatureExtractor);
+typed_builder!(build_segmenter, Segmenter, Segmenter);
+typed_builder!(build_fuser, Fuser, Fuser);
+typed_builder!(build_point_detector, PointDetector, PointDetector);
+typed_builder!(build_matcher, Matcher, Matcher);
+typed_builder!(build_synchroniser, Synchroniser, Synchroniser);
+typed_builder!(build_gait_cycle_detector, GaitCycleDetector, GaitCycleDetector);
+typed_builder!(build_waveform_analyzer, WaveformAnalyzer, WaveformAnalyzer);
+typed_builder!(build_walk_synthesizer, WalkSynthesizer, WalkSynthesizer);
+typed_builder!(build_evaluator, Evaluator, Evaluator);
+
+/// An empty parameter table (every parameter at its default).
+pub fn default_params() -> toml::Value {
+    toml::Value::Table(toml::Table::new())
+}
+
+/// Checks the registry invariants the registry test enforces: names are unique snake_case,
+/// every plugin is documented, every parameter has a description, and default parameters
+/// either build or fail only for a missing required key.
+pub fn check_registry() -> Vec<String> {
+    let mut problems = Vec::new();
+    let all = plugins();
+    let mut seen = std::collections::HashSet::new();
+    for p in &all {
+        if !seen.insert(p.name) {
+            problems.push(format!("{:?} is registered twice", p.name));
+        }
+        let valid = !p.name.is_empty()
+            && p.name.chars().next().is_some_and(|c| c.is_ascii_lowercase())
+            && p.name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+        if !valid {
+            problems.push(format!("{:?} is not a snake_case name", p.name));
+        }
+        if p.doc().len() < 20 {
+            problems.push(format!("{:?} ({}) has no doc comment on {}", p.name, p.kind.label(), p.params_type));
+        }
+        for param in p.params() {
+            if param.description.is_empty() {
+                problems.push(format!("{:?}: parameter {:?} has no doc comment", p.name, param.name));
+            }
+            if !param.required && param.default.is_none() && !param.type_name.contains("optional") {
+                problems.push(format!("{:?}: parameter {:?} is optional but documents no default", p.name, param.name));
+            }
+        }
+    }
+    problems
+}

@@ -1,0 +1,388 @@
+//! The stage traits — one per kind of pluggable step — and the plain records they exchange.
+//!
+//! A plugin is a params struct (serde + schemars, `deny_unknown_fields`, documented defaults)
+//! that [`ParamGuard::check`]s into a validated type implementing one of these traits, plus one
+//! `register_plugin!` line. See `crates/motionlab-segment/src/speed_minima.rs` for the shortest
+//! complete example.
+
+use std::any::Any;
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+use serde::Serialize;
+
+use crate::motion::Motion;
+use crate::segmentation::Segmentation;
+use crate::table::Table;
+use crate::units::FrameRate;
+use crate::{Error, ErrorKind, Result};
+
+// ---------------------------------------------------------------------------------------------
+// Shared records
+// ---------------------------------------------------------------------------------------------
+
+/// A per-frame signal (one value per frame of the motion; NaN where undefined), kept so
+/// figures can show what a stage decided on.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Trace {
+    /// Column-safe name with its unit as suffix (`V_mm_per_s`, `C`, `D_mm3_per_frame`).
+    pub name: String,
+    /// Unit for axis labels (`mm/s`, `mm³/frame`, `deg`, or empty for dimensionless).
+    pub unit: String,
+    pub values: Vec<f64>,
+}
+
+impl Trace {
+    pub fn new(name: impl Into<String>, unit: impl Into<String>, values: Vec<f64>) -> Self {
+        Trace { name: name.into(), unit: unit.into(), values }
+    }
+}
+
+/// A per-frame categorical signal (e.g. which marker is fastest).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LabelTrace {
+    pub name: String,
+    pub values: Vec<String>,
+}
+
+/// A threshold a stage compared a trace against (drawn as a horizontal line).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Threshold {
+    pub name: String,
+    /// The trace it applies to.
+    pub trace: String,
+    pub value: f64,
+}
+
+/// What a feature extractor computes for one motion.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FeatureSet {
+    pub traces: Vec<Trace>,
+    pub labels: Vec<LabelTrace>,
+}
+
+/// What a segmenter finds in one motion.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SegmenterOutput {
+    /// Candidate boundary frames, sorted and unique.
+    pub candidates: Vec<usize>,
+    /// The signals behind the decision, for figures (V, the tracked marker's speed, C, D…).
+    pub traces: Vec<Trace>,
+    pub thresholds: Vec<Threshold>,
+    /// Frames flagged as unreliable (e.g. hull degenerate: fewer than 4 non-coplanar markers).
+    pub flagged_frames: Vec<usize>,
+}
+
+/// One method's candidates, as handed to a fuser.
+#[derive(Clone, Copy, Debug)]
+pub struct MethodCandidates<'a> {
+    pub method: &'a str,
+    pub frames: &'a [usize],
+}
+
+/// What a point detector finds in a continuous take of repetitions (Yabe & Tanaka §3.1.1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointDetection {
+    /// The velocity function `v(i) = |s_i − s_{i+1}|` of the chosen marker (mm per frame).
+    pub velocity: Trace,
+    /// The threshold at which exactly N peaks stood above it.
+    pub threshold: f64,
+    /// Frame of each peak's maximum, in time order.
+    pub peaks: Vec<usize>,
+    /// Window `start..end` (end exclusive) cut around each peak.
+    pub windows: Vec<(usize, usize)>,
+}
+
+/// A model motion aligned to a stretch of a target motion (Yabe & Tanaka §3.1).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Alignment {
+    /// First matched target frame `a` (0-based, into the target given to the matcher).
+    pub start: usize,
+    /// Last matched target frame `b` (inclusive).
+    pub end: usize,
+    /// Per-point distance `h_l`, in the order of the model's points (mm, summed along the path).
+    pub point_distances: Vec<f64>,
+    /// `H = Σ h_l`.
+    pub total_distance: f64,
+    /// Per-point warping path as (model frame i, target frame j) pairs from `(0, start)` to
+    /// `(n−1, end)`; empty when the matcher was asked not to keep paths.
+    pub paths: Vec<Vec<(usize, usize)>>,
+}
+
+/// Synchronisation of the points along an alignment (Yabe & Tanaka §3.2).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Synchronisation {
+    /// The k model frames examined (dividing the model into k+1 equal sections).
+    pub model_frames: Vec<usize>,
+    /// `r_q`: population variance over points of the matched target index at each model frame.
+    pub section_values: Vec<f64>,
+    /// `R = Σ r_q`.
+    pub total: f64,
+}
+
+/// One gait cycle: same-side foot strike to the next foot strike, frames `start..end`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GaitCycle {
+    pub start: usize,
+    pub end: usize,
+    /// `Left` / `Right`.
+    pub side: String,
+}
+
+/// Joint-angle waveforms: channel-major curves in degrees at a frame rate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AngleCurves {
+    pub frame_rate: FrameRate,
+    /// `joint.axis` names (`knee_l.flexion`, `lfemur.rx`).
+    pub channels: Vec<String>,
+    /// `values[channel][frame]`, degrees.
+    pub values: Vec<Vec<f64>>,
+}
+
+impl AngleCurves {
+    pub fn n_frames(&self) -> usize {
+        self.values.first().map(Vec::len).unwrap_or(0)
+    }
+    pub fn channel_index(&self, name: &str) -> Result<usize> {
+        self.channels.iter().position(|c| c == name).ok_or_else(|| {
+            let close = crate::registry::closest_names(name, self.channels.iter().map(String::as_str));
+            Error::new(ErrorKind::UnknownName, format!("no angle channel {name:?} (closest: {})", close.join(", ")))
+                .with_field(name)
+        })
+    }
+}
+
+/// Posture, size and speed of a walk's channels (Osafune et al. §2.2).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct WaveformParameters {
+    pub channels: Vec<String>,
+    /// DC component (mean angle) per channel, degrees.
+    pub dc: Vec<f64>,
+    /// Amplitude per channel, degrees.
+    pub amplitude: Vec<f64>,
+    /// Gait frequency (1 / cycle duration), Hz — common to all channels.
+    pub frequency_hz: f64,
+}
+
+/// Change rates to apply to a walk: only the listed channels change (Osafune et al. §4).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct WalkChanges {
+    /// Per channel: DC change rate μ_DC in %.
+    pub dc_percent: BTreeMap<String, f64>,
+    /// Per channel: amplitude change rate μ_A in %.
+    pub amplitude_percent: BTreeMap<String, f64>,
+    /// Frequency change rate μ_f in %.
+    pub frequency_percent: f64,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Evaluator inputs
+// ---------------------------------------------------------------------------------------------
+
+/// One method's candidates on one sequence.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MethodResult {
+    pub method: String,
+    pub candidates: Vec<usize>,
+}
+
+/// Everything a segmentation evaluator needs about one sequence.
+#[derive(Clone, Debug)]
+pub struct SequenceResult {
+    pub sequence: String,
+    pub motion: Arc<Motion>,
+    pub truth: Option<Segmentation>,
+    /// Each segmenter in experiment order, then the fuser's output (method name = fuser name).
+    pub methods: Vec<MethodResult>,
+}
+
+/// One repetition matched against the model.
+#[derive(Clone, Debug)]
+pub struct RepetitionResult {
+    /// Label for tables (`rep1`, `(b) delayed`).
+    pub repetition: String,
+    /// Start frame of the cut window in the user's take.
+    pub window_start: usize,
+    pub alignment: Alignment,
+    pub synchronisation: Synchronisation,
+}
+
+/// The matched repetitions of one user take against one model.
+#[derive(Clone, Debug)]
+pub struct MatchingResult {
+    pub take: String,
+    pub point_names: Vec<String>,
+    pub repetitions: Vec<RepetitionResult>,
+}
+
+/// Waveform parameters of one subject's walk in one condition.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GaitTrial {
+    pub subject: String,
+    pub condition: String,
+    pub parameters: WaveformParameters,
+}
+
+/// A gait study: every subject in every condition, and which condition is "normal" (G).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GaitStudy {
+    pub normal_condition: String,
+    pub trials: Vec<GaitTrial>,
+}
+
+/// What an evaluator is given; each evaluator declares which variant it accepts so an
+/// experiment that wires it wrongly fails at validation, not after the work.
+#[derive(Clone, Copy, Debug)]
+pub enum EvalInput<'a> {
+    Segmentation(&'a [SequenceResult]),
+    Matching(&'a [MatchingResult]),
+    Gait(&'a GaitStudy),
+}
+
+/// Which [`EvalInput`] variant an evaluator accepts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EvalDomain {
+    Segmentation,
+    Matching,
+    Gait,
+}
+
+impl EvalInput<'_> {
+    pub fn domain(&self) -> EvalDomain {
+        match self {
+            EvalInput::Segmentation(_) => EvalDomain::Segmentation,
+            EvalInput::Matching(_) => EvalDomain::Matching,
+            EvalInput::Gait(_) => EvalDomain::Gait,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Feature cache
+// ---------------------------------------------------------------------------------------------
+
+/// Features computed once per motion and shared by every stage that needs them (the fastest
+/// marker speed used by two segmenters, the hull volumes used by a segmenter and a figure).
+/// Keys must encode every parameter the value depends on.
+#[derive(Default)]
+pub struct FeatureCache {
+    map: Mutex<HashMap<String, Arc<dyn Any + Send + Sync>>>,
+}
+
+impl FeatureCache {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Returns the cached value under `key`, computing it with `compute` the first time.
+    pub fn get_or_compute<T: Any + Send + Sync>(&self, key: &str, compute: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
+        if let Some(v) = self.lock().get(key) {
+            return Arc::clone(v)
+                .downcast::<T>()
+                .map_err(|_| Error::new(ErrorKind::Mismatch, format!("feature cache key {key:?} holds another type")));
+        }
+        // Computed outside the lock so independent features can run concurrently.
+        let value: Arc<T> = Arc::new(compute()?);
+        self.lock().insert(key.to_string(), value.clone() as Arc<dyn Any + Send + Sync>);
+        Ok(value)
+    }
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, Arc<dyn Any + Send + Sync>>> {
+        // A poisoned lock only means another thread panicked mid-insert; the map is still valid.
+        self.map.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The traits
+// ---------------------------------------------------------------------------------------------
+
+/// Reads one motion file (any `.gz`-compressed text format transparently).
+pub trait Loader: Send + Sync {
+    /// File extensions (without dot, lower case, without `.gz`) this loader reads; used by
+    /// `motionlab inspect` to pick a loader.
+    fn extensions(&self) -> &'static [&'static str];
+    fn load(&self, path: &Path) -> Result<Motion>;
+}
+
+/// Reads human ground truth for a motion into a [`Segmentation`] at the motion's rate.
+pub trait GroundTruthReader: Send + Sync {
+    fn read(&self, path: &Path, motion: &Motion) -> Result<Segmentation>;
+}
+
+/// Transforms a motion before analysis (gap filling, initial-pose normalisation, …).
+pub trait Preprocessor: Send + Sync {
+    fn apply(&self, motion: Motion) -> Result<Motion>;
+}
+
+/// Computes per-frame features of a motion.
+pub trait FeatureExtractor: Send + Sync {
+    fn extract(&self, motion: &Motion, cache: &FeatureCache) -> Result<FeatureSet>;
+}
+
+/// Finds candidate segmentation frames.
+pub trait Segmenter: Send + Sync {
+    fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput>;
+}
+
+/// Combines several methods' candidates into one list.
+pub trait Fuser: Send + Sync {
+    fn fuse(&self, motion: &Motion, inputs: &[MethodCandidates<'_>]) -> Result<Vec<usize>>;
+}
+
+/// Finds the repetitions in a continuous take and cuts a window around each.
+pub trait PointDetector: Send + Sync {
+    fn detect(&self, motion: &Motion) -> Result<PointDetection>;
+}
+
+/// Aligns a model motion to (a stretch of) a target motion with the same points.
+pub trait Matcher: Send + Sync {
+    fn align(&self, model: &Motion, target: &Motion) -> Result<Alignment>;
+}
+
+/// Measures how synchronised the points of an alignment are.
+pub trait Synchroniser: Send + Sync {
+    fn synchronise(&self, alignment: &Alignment, model_frames: usize) -> Result<Synchronisation>;
+}
+
+/// Finds gait cycles in a walk.
+pub trait GaitCycleDetector: Send + Sync {
+    fn cycles(&self, motion: &Motion) -> Result<Vec<GaitCycle>>;
+}
+
+/// Computes posture (DC), size (amplitude) and speed (frequency) of angle curves over cycles.
+pub trait WaveformAnalyzer: Send + Sync {
+    fn parameters(&self, curves: &AngleCurves, cycles: &[GaitCycle]) -> Result<WaveformParameters>;
+}
+
+/// Produces a changed walk from a recorded one.
+pub trait WalkSynthesizer: Send + Sync {
+    fn synthesize(&self, walk: &AngleCurves, cycles: &[GaitCycle], changes: &WalkChanges) -> Result<AngleCurves>;
+}
+
+/// Turns results into tables.
+pub trait Evaluator: Send + Sync {
+    fn domain(&self) -> EvalDomain;
+    fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn feature_cache_computes_once() {
+        let cache = FeatureCache::new();
+        let mut calls = 0;
+        let a = cache
+            .get_or_compute("v", || {
+                calls += 1;
+                Ok(vec![1.0f64])
+            })
+            .unwrap();
+        let b = cache.get_or_compute::<Vec<f64>>("v", || unreachable!()).unwrap();
+        assert_eq!(calls, 1);
+        assert!(Arc::ptr_eq(&a, &b));
+        assert!(cache.get_or_compute::<String>("v", || Ok(String::new())).is_err());
+    }
+}

@@ -1,0 +1,3 @@
+//! # motionlab-eval
+//!
+//! Evaluation of segmentations against ground truth (Sonoda et al. §3).

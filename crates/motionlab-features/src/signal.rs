@@ -1,0 +1,49 @@
+//! Small signal helpers shared by segmenters: strict local extrema as the papers define them,
+//! and percentiles that ignore NaN.
+
+/// `x[i-1] > x[i] < x[i+1]` (strict, as in Sonoda et al.); false at the ends and where any of
+/// the three is NaN.
+pub fn is_local_min(x: &[f64], i: usize) -> bool {
+    i > 0 && i + 1 < x.len() && x[i - 1] > x[i] && x[i] < x[i + 1]
+}
+
+/// `x[i-1] < x[i] > x[i+1]`; false at the ends and where any of the three is NaN.
+pub fn is_local_max(x: &[f64], i: usize) -> bool {
+    i > 0 && i + 1 < x.len() && x[i - 1] < x[i] && x[i] > x[i + 1]
+}
+
+/// The `p`-th percentile (0–100, linear interpolation between order statistics) of the finite
+/// values; None when there are none.
+pub fn percentile(x: &[f64], p: f64) -> Option<f64> {
+    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let rank = (p.clamp(0.0, 100.0) / 100.0) * (v.len() - 1) as f64;
+    let (lo, hi) = (rank.floor() as usize, rank.ceil() as usize);
+    Some(v[lo] + (v[hi] - v[lo]) * (rank - lo as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strict_extrema_ignore_plateaus_ends_and_nan() {
+        let x = [3.0, 1.0, 2.0, 2.0, 5.0, f64::NAN, 1.0, 4.0];
+        let mins: Vec<usize> = (0..x.len()).filter(|&i| is_local_min(&x, i)).collect();
+        let maxs: Vec<usize> = (0..x.len()).filter(|&i| is_local_max(&x, i)).collect();
+        assert_eq!(mins, vec![1]);
+        assert!(maxs.is_empty());
+    }
+
+    #[test]
+    fn percentile_interpolates_and_skips_nan() {
+        let x = [4.0, f64::NAN, 1.0, 3.0, 2.0];
+        assert_eq!(percentile(&x, 0.0), Some(1.0));
+        assert_eq!(percentile(&x, 50.0), Some(2.5));
+        assert_eq!(percentile(&x, 100.0), Some(4.0));
+        assert_eq!(percentile(&[f64::NAN], 50.0), None);
+    }
+}

@@ -1,0 +1,91 @@
+//! Reading input files: transparent gzip (by the `.gz` suffix or the gzip magic bytes), a
+//! UTF-8 check that names the offending line, and a leading BOM stripped.
+
+use std::io::Read;
+use std::path::Path;
+
+use motionlab_core::{Error, ErrorKind, Location, Result};
+
+/// The bytes of a file, decompressed when it is gzip (by suffix or magic number).
+pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if raw.starts_with(&[0x1f, 0x8b]) {
+        let mut out = Vec::with_capacity(raw.len() * 4);
+        flate2::read::MultiGzDecoder::new(&raw[..]).read_to_end(&mut out).map_err(|e| {
+            Error::new(ErrorKind::Truncated, format!("cannot decompress gzip data: {e}")).with_location(Location::file(path))
+        })?;
+        Ok(out)
+    } else if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
+        Err(Error::new(ErrorKind::Syntax, "file name ends in .gz but the content is not gzip").with_location(Location::file(path)))
+    } else {
+        Ok(raw)
+    }
+}
+
+/// The text of a file (decompressed when gzip), without a leading UTF-8 BOM. Non-UTF-8 bytes
+/// are an error naming the line they are on.
+pub fn read_text(path: &Path) -> Result<String> {
+    let bytes = read_bytes(path)?;
+    let body = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF][..]).unwrap_or(&bytes);
+    match std::str::from_utf8(body) {
+        Ok(s) => Ok(s.to_string()),
+        Err(e) => {
+            let at = e.valid_up_to();
+            let line = body[..at].iter().filter(|b| **b == b'\n').count() + 1;
+            Err(Error::at_line(ErrorKind::Syntax, path, line, format!("invalid UTF-8 at byte {at}; expected a text file")))
+        }
+    }
+}
+
+/// The file name without `.gz` and without its format extension (`86_01` for `86_01.amc.gz`).
+pub fn stem(path: &Path) -> String {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    match name.rfind('.') {
+        Some(i) if i > 0 => name[..i].to_string(),
+        _ => name.to_string(),
+    }
+}
+
+/// The format extension, lower case, ignoring a trailing `.gz` (`amc` for `86_01.AMC.gz`).
+pub fn format_extension(path: &Path) -> Option<String> {
+    let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    let i = name.rfind('.')?;
+    Some(name[i + 1..].to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    #[test]
+    fn gzip_and_plain_read_the_same_text() {
+        let dir = std::env::temp_dir().join(format!("mlab-read-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let plain = dir.join("a.txt");
+        std::fs::write(&plain, "\u{feff}hello\n").unwrap();
+        let gz = dir.join("a.txt.gz");
+        let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        enc.write_all("\u{feff}hello\n".as_bytes()).unwrap();
+        std::fs::write(&gz, enc.finish().unwrap()).unwrap();
+        assert_eq!(read_text(&plain).unwrap(), "hello\n");
+        assert_eq!(read_text(&gz).unwrap(), "hello\n");
+        let bad = dir.join("b.txt");
+        std::fs::write(&bad, b"ok\nline two \xff\n").unwrap();
+        let e = read_text(&bad).unwrap_err();
+        assert_eq!((e.kind(), e.location().line), (ErrorKind::Syntax, Some(2)));
+        let fake = dir.join("c.txt.gz");
+        std::fs::write(&fake, "not gzip").unwrap();
+        assert_eq!(read_text(&fake).unwrap_err().kind(), ErrorKind::Syntax);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn stem_and_extension_ignore_gz() {
+        assert_eq!(stem(Path::new("data/86_01.amc.gz")), "86_01");
+        assert_eq!(format_extension(Path::new("x/86_01.AMC.gz")).as_deref(), Some("amc"));
+        assert_eq!(format_extension(Path::new("x/noext")), None);
+    }
+}

@@ -1,0 +1,3 @@
+//! # motionlab-match
+//!
+//! Multistream matching after Yabe & Tanaka (see `../shared/papers/SPEC.md`, section 002).

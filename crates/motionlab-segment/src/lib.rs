@@ -1,0 +1,8 @@
+//! # motionlab-segment
+//!
+//! Segmenters and fusers, one file each. A new segmenter is one file like
+//! [`speed_minima`]: a documented params struct, a `ParamGuard` into the checked stage, the
+//! `Segmenter` impl and one `register_plugin!` line — plus its `mod` line below.
+
+pub mod speed_minima;
+pub mod thresholds;

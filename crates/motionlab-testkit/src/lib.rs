@@ -1,0 +1,79 @@
+//! Synthetic motions with known answers — for unit tests only. Every experiment in
+//! `experiments/` runs on real data.
+
+use std::path::PathBuf;
+
+use motionlab_core::{Axis, FrameRate, Motion, Point3, PointKind};
+
+/// A motion of `n_points` markers named `m0, m1, …` whose position at (frame, point) is `f`.
+/// Z is up.
+pub fn motion_from_fn(n_frames: usize, rate_hz: f64, n_points: usize, f: impl Fn(usize, usize) -> Point3) -> Motion {
+    let names = (0..n_points).map(|k| format!("m{k}")).collect();
+    let positions = (0..n_frames).flat_map(|i| (0..n_points).map(move |k| (i, k))).map(|(i, k)| f(i, k)).collect();
+    Motion::new("synthetic", FrameRate::new(rate_hz).expect("test rate > 0"), Axis::Z, PointKind::Marker, names, positions)
+        .expect("synthetic motion is well formed")
+}
+
+/// Like [`motion_from_fn`] with explicit marker names.
+pub fn named_motion(n_frames: usize, rate_hz: f64, names: &[&str], f: impl Fn(usize, usize) -> Point3) -> Motion {
+    let m = names.len();
+    let positions = (0..n_frames).flat_map(|i| (0..m).map(move |k| (i, k))).map(|(i, k)| f(i, k)).collect();
+    Motion::new(
+        "synthetic",
+        FrameRate::new(rate_hz).expect("test rate > 0"),
+        Axis::Z,
+        PointKind::Marker,
+        names.iter().map(|s| s.to_string()).collect(),
+        positions,
+    )
+    .expect("synthetic motion is well formed")
+}
+
+/// The eight corners of an axis-aligned cube of side `side` mm with one corner at `origin`.
+pub fn cube_corners(origin: Point3, side: f64) -> Vec<Point3> {
+    let mut v = Vec::with_capacity(8);
+    for dx in [0.0, side] {
+        for dy in [0.0, side] {
+            for dz in [0.0, side] {
+                v.push([origin[0] + dx, origin[1] + dy, origin[2] + dz]);
+            }
+        }
+    }
+    v
+}
+
+/// Path of a file in the repository's `data/` folder (real mocap shipped with the project).
+pub fn data_path(relative: &str) -> PathBuf {
+    repo_root().join("data").join(relative)
+}
+
+/// The repository root (two levels above this crate).
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap_or_else(|_| PathBuf::from("."))
+}
+
+/// A tiny deterministic PRNG (xorshift64*) so tests need no extra dependency and stay
+/// reproducible.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed.max(1))
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        let mut x = self.0;
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        self.0 = x;
+        x.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Approximately standard normal (sum of 12 uniforms − 6).
+    pub fn normal(&mut self) -> f64 {
+        (0..12).map(|_| self.uniform()).sum::<f64>() - 6.0
+    }
+}
