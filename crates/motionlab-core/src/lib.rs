@@ -16,6 +16,7 @@
 
 pub mod error;
 pub mod motion;
+pub mod paths;
 pub mod registry;
 pub mod segmentation;
 pub mod skeleton;

@@ -5,7 +5,7 @@ use crate::units::FrameRate;
 use crate::{Error, ErrorKind, Result};
 
 /// One labelled stretch of a motion, frames `start..end` (end exclusive).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Segment {
     pub start: usize,
     pub end: usize,
@@ -13,7 +13,7 @@ pub struct Segment {
 }
 
 /// A boundary between two segments as an annotator gave it.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Boundary {
     /// The boundary frame (0-based, at the motion's rate).
     pub frame: usize,
@@ -60,7 +60,7 @@ impl Segmentation {
 }
 
 /// A change from one labelled segment to the next.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Transition {
     pub frame: usize,
     pub from: String,

@@ -10,7 +10,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::motion::Motion;
 use crate::segmentation::Segmentation;
@@ -24,7 +24,7 @@ use crate::{Error, ErrorKind, Result};
 
 /// A per-frame signal (one value per frame of the motion; NaN where undefined), kept so
 /// figures can show what a stage decided on.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Trace {
     /// Column-safe name with its unit as suffix (`V_mm_per_s`, `C`, `D_mm3_per_frame`).
     pub name: String,
@@ -40,14 +40,14 @@ impl Trace {
 }
 
 /// A per-frame categorical signal (e.g. which marker is fastest).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LabelTrace {
     pub name: String,
     pub values: Vec<String>,
 }
 
 /// A threshold a stage compared a trace against (drawn as a horizontal line).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Threshold {
     pub name: String,
     /// The trace it applies to.
@@ -56,14 +56,14 @@ pub struct Threshold {
 }
 
 /// What a feature extractor computes for one motion.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct FeatureSet {
     pub traces: Vec<Trace>,
     pub labels: Vec<LabelTrace>,
 }
 
 /// What a segmenter finds in one motion.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SegmenterOutput {
     /// Candidate boundary frames, sorted and unique.
     pub candidates: Vec<usize>,
@@ -82,7 +82,7 @@ pub struct MethodCandidates<'a> {
 }
 
 /// What a point detector finds in a continuous take of repetitions (Yabe & Tanaka §3.1.1).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PointDetection {
     /// The velocity function `v(i) = |s_i − s_{i+1}|` of the chosen marker (mm per frame).
     pub velocity: Trace,
@@ -95,7 +95,7 @@ pub struct PointDetection {
 }
 
 /// A model motion aligned to a stretch of a target motion (Yabe & Tanaka §3.1).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Alignment {
     /// First matched target frame `a` (0-based, into the target given to the matcher).
     pub start: usize,
@@ -111,7 +111,7 @@ pub struct Alignment {
 }
 
 /// Synchronisation of the points along an alignment (Yabe & Tanaka §3.2).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Synchronisation {
     /// The k model frames examined (dividing the model into k+1 equal sections).
     pub model_frames: Vec<usize>,
@@ -122,7 +122,7 @@ pub struct Synchronisation {
 }
 
 /// One gait cycle: same-side foot strike to the next foot strike, frames `start..end`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GaitCycle {
     pub start: usize,
     pub end: usize,
@@ -131,7 +131,7 @@ pub struct GaitCycle {
 }
 
 /// Joint-angle waveforms: channel-major curves in degrees at a frame rate.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AngleCurves {
     pub frame_rate: FrameRate,
     /// `joint.axis` names (`knee_l.flexion`, `lfemur.rx`).
@@ -154,7 +154,7 @@ impl AngleCurves {
 }
 
 /// Posture, size and speed of a walk's channels (Osafune et al. §2.2).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WaveformParameters {
     pub channels: Vec<String>,
     /// DC component (mean angle) per channel, degrees.
@@ -166,7 +166,7 @@ pub struct WaveformParameters {
 }
 
 /// Change rates to apply to a walk: only the listed channels change (Osafune et al. §4).
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct WalkChanges {
     /// Per channel: DC change rate μ_DC in %.
     pub dc_percent: BTreeMap<String, f64>,
@@ -181,7 +181,7 @@ pub struct WalkChanges {
 // ---------------------------------------------------------------------------------------------
 
 /// One method's candidates on one sequence.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MethodResult {
     pub method: String,
     pub candidates: Vec<usize>,
@@ -217,7 +217,7 @@ pub struct MatchingResult {
 }
 
 /// Waveform parameters of one subject's walk in one condition.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GaitTrial {
     pub subject: String,
     pub condition: String,
@@ -225,7 +225,7 @@ pub struct GaitTrial {
 }
 
 /// A gait study: every subject in every condition, and which condition is "normal" (G).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GaitStudy {
     pub normal_condition: String,
     pub trials: Vec<GaitTrial>,

@@ -115,13 +115,15 @@ impl Table {
         self.columns.iter().find(|c| c.name == name).map(|c| &c.values)
     }
 
-    /// Appends the rows of `other`, which must have the same column names and types.
+    /// Appends the rows of `other`, which must have the same column names and types. A table
+    /// without rows may lack columns (records give no names when there are none), so it
+    /// neither blocks nor adds anything.
     pub fn append(&mut self, other: Table) -> Result<()> {
-        if self.columns.is_empty() {
-            self.columns = other.columns;
+        if other.n_rows() == 0 && other.columns.len() <= self.columns.len() {
             return Ok(());
         }
-        if other.columns.is_empty() {
+        if self.n_rows() == 0 {
+            self.columns = other.columns;
             return Ok(());
         }
         let names_a: Vec<&str> = self.columns.iter().map(|c| c.name.as_str()).collect();
@@ -240,6 +242,13 @@ mod tests {
         let mut c = Table::new("c", "");
         c.push_column("y", ColumnValues::I64(vec![1])).unwrap();
         assert!(a.append(c).is_err());
+        // Tables without rows (possibly without columns) neither block nor add.
+        let mut empty = Table::new("e", "");
+        empty.push_column("only", ColumnValues::I64(vec![])).unwrap();
+        empty.append(a.clone()).unwrap();
+        assert_eq!(empty, Table { name: "e".into(), title: "".into(), columns: a.columns.clone() });
+        a.append(Table::new("z", "")).unwrap();
+        assert_eq!(a.n_rows(), 2);
         assert!(a.push_column("z", ColumnValues::I64(vec![1, 2, 3])).is_err());
     }
 }

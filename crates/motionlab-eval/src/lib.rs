@@ -1,3 +1,35 @@
 //! # motionlab-eval
 //!
-//! Evaluation of segmentations against ground truth (Sonoda et al. §3).
+//! Evaluation of segmentations against ground truth (Sonoda et al. §3; SPEC.md section 000
+//! "Evaluation"):
+//!
+//! - [`boundaries`]: the match rule (tolerance in frames or seconds, optional annotated windows,
+//!   optional pose rule), **maximum** one-to-one matching, precision / recall / F1 with the
+//!   empty-set rules, and the Hausdorff distance.
+//! - [`consensus`]: consensus ground truth from several annotators' marks (clustering by
+//!   chaining, one vote per annotator, `min_votes`, median frame, optional stop rule).
+//! - [`transitions`]: the paper's Table 3 (each labelled transition ○/×) and its evaluator plugin.
+//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled).
+//!
+//! Evaluator plugins registered here: `boundary_pr`, `transitions`.
+//!
+//! Written by hand: the two matching algorithms (a point–interval sweep and Hopcroft–Karp, each
+//! a few dozen lines, cross-checked against exhaustive search in the tests — see
+//! [`boundaries`] for why no graph crate), the Hausdorff distance on sorted frame lists, and the
+//! consensus clustering (a one-pass chain over sorted marks). The fastest-marker speed used by
+//! the consensus stop rule comes from `motionlab_features::speed`, the one definition of V.
+
+// `motionlab_core::Error` is 128 bytes by design (kind + file/line/field location + message);
+// clippy's `result_large_err` fires on every function returning it. Boxing it is a core-wide
+// decision, not this crate's.
+#![allow(clippy::result_large_err)]
+
+pub mod boundaries;
+pub mod boundary_pr;
+pub mod consensus;
+mod sequences;
+pub mod transitions;
+
+pub use boundaries::{BoundaryScores, MatchRule, MatchedPair, PoseRule, evaluate_boundaries, hausdorff_frames};
+pub use consensus::{Consensus, ConsensusParams, ConsensusPoint, cluster_marks};
+pub use transitions::{TransitionOutcome, detect_transitions};

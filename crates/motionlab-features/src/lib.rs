@@ -6,3 +6,10 @@
 pub mod signal;
 pub mod smoothing;
 pub mod speed;
+pub mod joint_angles;
+pub mod gait_cycles;
+pub mod waveform;
+pub mod curvature;
+pub mod hull;
+pub mod virtual_markers;
+pub mod gap_fill;

@@ -7,3 +7,10 @@
 //! dependencies), so both are written here.
 
 pub mod read;
+
+pub mod asf_amc;
+pub mod bvh;
+pub mod labels;
+mod text;
+pub mod c3d;
+pub mod qualisys_tsv;

@@ -6,3 +6,8 @@
 
 pub mod speed_minima;
 pub mod thresholds;
+pub mod fastest_marker_speed;
+pub mod direction_change;
+pub mod hull_volume_change;
+pub mod pca_error_rise;
+pub mod union_merge;

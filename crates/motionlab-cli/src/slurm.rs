@@ -1,0 +1,136 @@
+//! `motionlab slurm`: a Slurm job array of shard tasks plus a merge job that waits for them
+//! (`--dependency=afterok`). motionlab does not schedule anything itself: clusters already run
+//! Slurm, and it is better at it.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use motionlab_core::{Error, ErrorKind, Location, Result};
+
+/// What to put in the job scripts.
+pub struct SlurmJob {
+    pub experiment: PathBuf,
+    pub overrides: Vec<String>,
+    pub shards: usize,
+    pub run_dir: PathBuf,
+    pub partition: Option<String>,
+    pub time: Option<String>,
+    pub mem: Option<String>,
+    pub threads: usize,
+    pub binary: PathBuf,
+}
+
+fn shell_quote(s: &str) -> String {
+    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c)) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+/// `#SBATCH` lines must all come before the first command: sbatch stops reading them there.
+fn header(job: &SlurmJob, name: &str, log: &str, extra: &[String]) -> String {
+    let mut s = String::from("#!/usr/bin/env bash\n");
+    s += &format!("#SBATCH --job-name={name}\n");
+    s += &format!("#SBATCH --output={log}\n");
+    s += &format!("#SBATCH --cpus-per-task={}\n", job.threads);
+    if let Some(p) = &job.partition {
+        s += &format!("#SBATCH --partition={p}\n");
+    }
+    if let Some(t) = &job.time {
+        s += &format!("#SBATCH --time={t}\n");
+    }
+    if let Some(m) = &job.mem {
+        s += &format!("#SBATCH --mem={m}\n");
+    }
+    for e in extra {
+        s += &format!("#SBATCH {e}\n");
+    }
+    s += "set -euo pipefail\n";
+    s
+}
+
+/// The array script (one task per shard) and the merge script.
+pub fn scripts(job: &SlurmJob) -> (String, String) {
+    let dir = job.run_dir.to_string_lossy();
+    let bin = shell_quote(&job.binary.to_string_lossy());
+    let overrides: String = job.overrides.iter().map(|o| format!(" {}", shell_quote(o))).collect();
+    let mut array = header(job, "motionlab-shard", &format!("{dir}/slurm/shard-%a.log"), &[format!("--array=0-{}", job.shards - 1)]);
+    array += &format!(
+        "exec {bin} run {}{overrides} --quiet --threads {} --shard \"$SLURM_ARRAY_TASK_ID/{}\" --run-dir {}\n",
+        shell_quote(&job.experiment.to_string_lossy()),
+        job.threads,
+        job.shards,
+        shell_quote(&dir)
+    );
+    let mut merge = header(job, "motionlab-merge", &format!("{dir}/slurm/merge.log"), &[]);
+    merge += &format!("exec {bin} merge --quiet --threads {} {}\n", job.threads, shell_quote(&dir));
+    (array, merge)
+}
+
+/// Writes both scripts into `<run_dir>/slurm/` and returns their paths.
+pub fn write_scripts(job: &SlurmJob) -> Result<(PathBuf, PathBuf)> {
+    let dir = job.run_dir.join("slurm");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let (array, merge) = scripts(job);
+    let a = dir.join("shards.sbatch");
+    let m = dir.join("merge.sbatch");
+    std::fs::write(&a, array).map_err(|e| Error::io(&a, e))?;
+    std::fs::write(&m, merge).map_err(|e| Error::io(&m, e))?;
+    Ok((a, m))
+}
+
+/// `sbatch --parsable` a script, returning the job id.
+fn sbatch(args: &[&str], script: &Path) -> Result<String> {
+    let out = Command::new("sbatch")
+        .arg("--parsable")
+        .args(args)
+        .arg(script)
+        .output()
+        .map_err(|e| Error::new(ErrorKind::Io, format!("cannot run sbatch (is Slurm installed?): {e}")).with_location(Location::file(script)))?;
+    if !out.status.success() {
+        return Err(Error::new(ErrorKind::Report, format!("sbatch failed: {}", String::from_utf8_lossy(&out.stderr).trim()))
+            .with_location(Location::file(script)));
+    }
+    // `--parsable` prints `jobid` or `jobid;cluster`.
+    let text = String::from_utf8_lossy(&out.stdout);
+    Ok(text.trim().split(';').next().unwrap_or("").to_string())
+}
+
+/// Submits the array, then the merge job with `afterok` on the whole array.
+pub fn submit(array: &Path, merge: &Path) -> Result<(String, String)> {
+    let a = sbatch(&[], array)?;
+    let m = sbatch(&[&format!("--dependency=afterok:{a}")], merge)?;
+    Ok((a, m))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scripts_hold_the_array_the_shard_and_the_merge() {
+        let job = SlurmJob {
+            experiment: "/x/exp.toml".into(),
+            overrides: vec!["a.b=1".into(), "c=two words".into()],
+            shards: 4,
+            run_dir: "/runs/r1".into(),
+            partition: Some("short".into()),
+            time: Some("00:10:00".into()),
+            mem: None,
+            threads: 2,
+            binary: "/bin/motionlab".into(),
+        };
+        let (a, m) = scripts(&job);
+        assert!(a.contains("#SBATCH --array=0-3"));
+        // Every directive precedes the first command, or sbatch ignores it.
+        let first_command = a.lines().position(|l| !l.starts_with('#')).unwrap();
+        let last_directive = a.lines().rposition(|l| l.starts_with("#SBATCH")).unwrap();
+        assert!(last_directive < first_command, "{a}");
+        assert!(a.contains("#SBATCH --partition=short") && a.contains("#SBATCH --time=00:10:00"));
+        assert!(!a.contains("--mem"));
+        assert!(a.contains("--shard \"$SLURM_ARRAY_TASK_ID/4\" --run-dir /runs/r1"), "{a}");
+        assert!(a.contains(" a.b=1 'c=two words' "), "{a}");
+        assert!(m.contains("merge --quiet --threads 2 /runs/r1"), "{m}");
+    }
+}

@@ -1,0 +1,192 @@
+//! Assembling the HTML pages: each run's `index.html` and the reproduction index
+//! `reports/index.html` (every experiment, its latest run, headline numbers, and the papers'
+//! published numbers beside ours, read from the experiment files' `[[published]]` tables).
+
+use std::path::{Path, PathBuf};
+
+use motionlab_core::{ColumnValues, Result, Table};
+use motionlab_report::html::{compare_published, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
+
+use crate::spec::{ExperimentFile, Headline};
+
+/// A figure already rendered into `figures/`, with its title.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct FigureEntry {
+    pub name: String,
+    pub title: String,
+}
+
+/// Writes `<run_dir>/index.html` from the run's tables, figures and provenance.
+pub fn write_run_html(
+    run_dir: &Path,
+    file: &ExperimentFile,
+    config_toml: &str,
+    tables: &[Table],
+    figures: &[FigureEntry],
+    run_id: &str,
+) -> Result<PathBuf> {
+    let prov: serde_json::Value = std::fs::read(run_dir.join("provenance.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or(serde_json::Value::Null);
+    let mut provenance = Vec::new();
+    let mut inputs = Vec::new();
+    if let serde_json::Value::Object(m) = &prov {
+        for (k, v) in m {
+            match (k.as_str(), v) {
+                ("inputs", serde_json::Value::Array(a)) => {
+                    for f in a {
+                        let g = |key: &str| f.get(key).map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).unwrap_or_default();
+                        inputs.push((g("path"), g("bytes"), g("sha256")));
+                    }
+                }
+                ("tables" | "figures", _) => {}
+                (_, serde_json::Value::Array(a)) => {
+                    provenance.push((k.clone(), a.iter().map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).collect::<Vec<_>>().join(" ")))
+                }
+                (_, serde_json::Value::String(s)) => provenance.push((k.clone(), s.clone())),
+                (_, other) => provenance.push((k.clone(), other.to_string())),
+            }
+        }
+    }
+    let html_tables = tables.iter().map(|t| HtmlTable::from_table(t, "tables/")).collect::<Result<Vec<_>>>()?;
+    let html_figures = figures
+        .iter()
+        .map(|f| HtmlFigure { name: f.name.clone(), title: f.title.clone(), svg: format!("figures/{}.svg", f.name), png: format!("figures/{}.png", f.name) })
+        .collect();
+    let comparisons = file
+        .published
+        .iter()
+        .map(|p| compare_published(&p.table, &p.source, &p.note, &p.rows, tables.iter().find(|t| t.name == p.table)))
+        .collect();
+    let page = RunPage {
+        experiment: file.experiment.name.clone(),
+        description: file.experiment.description.clone(),
+        paper: file.experiment.paper.clone().unwrap_or_default(),
+        run_id: run_id.to_string(),
+        config_toml: config_toml.to_string(),
+        provenance,
+        inputs,
+        tables: html_tables,
+        figures: html_figures,
+        comparisons,
+        index_link: "../../index.html".into(),
+        screenshot: None,
+    };
+    write_run_page(run_dir, &page)
+}
+
+/// Reads a result table back from a run's CSV (for the index and `compare`).
+pub fn read_table_csv(path: &Path, name: &str) -> Option<Table> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let mut lines = text.lines();
+    let header = split_csv_line(lines.next()?);
+    let rows: Vec<Vec<String>> = lines.map(split_csv_line).collect();
+    let mut t = Table::new(name, name);
+    for (c, h) in header.iter().enumerate() {
+        let cells: Vec<&str> = rows.iter().map(|r| r.get(c).map(String::as_str).unwrap_or("")).collect();
+        let nums: Option<Vec<f64>> = cells.iter().map(|s| if s.is_empty() { Some(f64::NAN) } else { s.parse::<f64>().ok() }).collect();
+        let values = match nums {
+            Some(v) if cells.iter().any(|s| !s.is_empty()) => ColumnValues::F64(v),
+            _ => ColumnValues::Str(cells.iter().map(|s| Some(s.to_string())).collect()),
+        };
+        t.push_column(h.clone(), values).ok()?;
+    }
+    Some(t)
+}
+
+/// Splits one CSV line (RFC 4180 quoting, as Polars writes it).
+fn split_csv_line(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => out.push(std::mem::take(&mut cur)),
+            (c, _) => cur.push(c),
+        }
+    }
+    out.push(cur);
+    out
+}
+
+/// The value of one headline cell in a run.
+fn headline_value(run: &Path, h: &Headline) -> Option<String> {
+    let t = read_table_csv(&run.join("tables").join(format!("{}.csv", h.table)), &h.table)?;
+    let row = (0..t.n_rows()).find(|&r| h.filter.iter().all(|(k, v)| t.column(k).is_some_and(|c| c.cell(r) == *v)))?;
+    Some(match t.column(&h.column)? {
+        ColumnValues::F64(v) => motionlab_report::figures::fmt_num(v[row]),
+        other => other.cell(row),
+    })
+}
+
+/// Rebuilds `reports/index.html` from the experiment files and the runs under `reports/`.
+pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path) -> Result<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(experiments_dir)
+        .map_err(|e| motionlab_core::Error::io(experiments_dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    let mut entries = Vec::new();
+    for f in files {
+        let Ok(text) = std::fs::read_to_string(&f) else { continue };
+        let Ok(file) = toml::from_str::<ExperimentFile>(&text) else { continue };
+        let exp_dir = reports.join(&file.experiment.name);
+        let latest = std::fs::read_to_string(exp_dir.join("latest")).ok().map(|s| s.trim().to_string()).filter(|s| !s.is_empty());
+        // Fall back to the committed run of record when nothing ran on this machine.
+        let run = latest.clone().map(|l| exp_dir.join(l)).filter(|p| p.is_dir()).or_else(|| Some(exp_dir.join("record")).filter(|p| p.is_dir()));
+        let runs = std::fs::read_dir(&exp_dir)
+            .map(|r| r.filter_map(|e| e.ok()).filter(|e| e.path().is_dir() && !e.file_name().to_string_lossy().starts_with('.')).count())
+            .unwrap_or(0);
+        let (latest_link, latest_id, finished_utc, headline, comparisons) = match &run {
+            Some(run) => {
+                let id = run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                let finished = std::fs::read(run.join("provenance.json"))
+                    .ok()
+                    .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+                    .and_then(|v| v.get("finished_utc").and_then(|x| x.as_str()).map(str::to_string))
+                    .unwrap_or_default();
+                let headline = file.experiment.headline.iter().filter_map(|h| Some((h.label.clone(), headline_value(run, h)?))).collect();
+                let comparisons = file
+                    .published
+                    .iter()
+                    .map(|p| {
+                        let ours = read_table_csv(&run.join("tables").join(format!("{}.csv", p.table)), &p.table);
+                        compare_published(&p.table, &p.source, &p.note, &p.rows, ours.as_ref())
+                    })
+                    .collect();
+                (format!("{}/{id}/index.html", file.experiment.name), id, finished, headline, comparisons)
+            }
+            None => (String::new(), String::new(), String::new(), Vec::new(), Vec::new()),
+        };
+        entries.push(IndexEntry {
+            name: file.experiment.name.clone(),
+            description: file.experiment.description.clone(),
+            paper: file.experiment.paper.clone().unwrap_or_default(),
+            latest_link,
+            latest_id,
+            finished_utc,
+            runs,
+            headline,
+            comparisons,
+        });
+    }
+    write_index(reports, &entries, None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_lines_split_with_quotes() {
+        assert_eq!(split_csv_line(r#"a,"b,c","d""e",,"#), vec!["a", "b,c", "d\"e", "", ""]);
+    }
+}

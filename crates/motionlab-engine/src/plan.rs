@@ -1,0 +1,377 @@
+//! Parsing and validating an experiment before any work (nextest-style: every file, plugin and
+//! parameter is checked first, so a typo fails in milliseconds, not after an hour).
+//!
+//! Steps: read the TOML (syntax errors with line) → apply `a.b=c` overrides → deserialise the
+//! schema (unknown keys and wrong types named by key path and line) → expand the sweep into
+//! combinations → for each combination build every plugin (parameter errors named by key path
+//! and line) and resolve every input file.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use motionlab_core::registry;
+use motionlab_core::{Error, ErrorKind, GroundTruthReader, Loader, Location, Motion, Preprocessor, Result, Segmentation};
+
+use crate::spec::{Cut, DatasetSpec, ExperimentFile, StageSpec, SweepGrid, WorkflowKind};
+use crate::toml_paths::{line_of, parse_override, set_path, syntax_error_line, KeyPath};
+use crate::workflows::{self, Workflow};
+
+/// The experiment file as read.
+#[derive(Clone, Debug)]
+pub struct Source {
+    pub path: PathBuf,
+    pub text: String,
+}
+
+impl Source {
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Ok(Source { path: path.to_path_buf(), text })
+    }
+    /// Folder that relative paths in the experiment are resolved against.
+    pub fn base_dir(&self) -> PathBuf {
+        self.path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+    }
+    /// Attaches this file and the line of `path` (when it is written in the file) to an error.
+    pub fn locate(&self, err: Error, path: &KeyPath, doc: &toml::Table) -> Error {
+        let resolved = path.resolve(doc).unwrap_or_else(|_| path.clone());
+        let mut loc = Location::file(&self.path).field(resolved.to_string());
+        if let Some(line) = line_of(&self.text, &resolved) {
+            loc = loc.line(line);
+        }
+        let kind = err.kind();
+        let msg = err.message().to_string();
+        Error::new(kind, msg).with_location(loc)
+    }
+}
+
+/// One combination of swept parameter values (the only one when there is no sweep).
+#[derive(Clone, Debug)]
+pub struct Combo {
+    pub index: usize,
+    /// The sweep grid's name (`None` without a sweep).
+    pub sweep: Option<String>,
+    pub focus: Option<String>,
+    /// The swept key paths and their values in this combination.
+    pub params: Vec<(String, toml::Value)>,
+    /// The resolved document of this combination.
+    pub doc: toml::Table,
+    pub file: ExperimentFile,
+}
+
+impl Combo {
+    /// `v_low.fraction_of_p90=0.1, c_min=0.2` — the swept values, for table columns.
+    pub fn label(&self) -> String {
+        self.params.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// A dataset with its plugins built and its files resolved.
+pub struct BuiltDataset {
+    pub index: usize,
+    pub spec: DatasetSpec,
+    pub loader: Box<dyn Loader>,
+    pub ground_truth: Option<(Box<dyn GroundTruthReader>, PathBuf)>,
+    pub preprocess: Vec<Box<dyn Preprocessor>>,
+    /// Resolved files (globs expanded, sorted).
+    pub files: Vec<PathBuf>,
+}
+
+impl BuiltDataset {
+    /// The sequence name of file `k`: the dataset's name when it has one file, else the stem.
+    pub fn sequence_name(&self, k: usize) -> String {
+        let stem = motionlab_core::paths::stem(&self.files[k]);
+        match (&self.spec.name, self.files.len()) {
+            (Some(n), 1) => n.clone(),
+            (Some(n), _) => format!("{n}/{stem}"),
+            (None, _) => stem,
+        }
+    }
+    pub fn tag(&self, key: &str) -> Option<&str> {
+        self.spec.tags.get(key).map(String::as_str)
+    }
+}
+
+/// A loaded, cut and preprocessed input.
+pub struct LoadedItem {
+    pub name: String,
+    pub motion: Arc<Motion>,
+    pub truth: Option<Segmentation>,
+}
+
+/// Every dataset of a combination, plus the experiment-wide preprocessors.
+pub struct Datasets {
+    pub datasets: Vec<BuiltDataset>,
+    pub preprocess: Vec<Box<dyn Preprocessor>>,
+}
+
+impl Datasets {
+    /// Loads file `file` of dataset `dataset`: loader → cut → dataset preprocessors →
+    /// experiment preprocessors → ground truth.
+    pub fn load(&self, dataset: usize, file: usize) -> Result<LoadedItem> {
+        let d = &self.datasets[dataset];
+        let path = &d.files[file];
+        let mut motion = d.loader.load(path).map_err(|e| e.in_file(path))?;
+        motion.name = d.sequence_name(file);
+        if let Some(cut) = d.spec.cut {
+            let rate = motion.frame_rate();
+            let (a, b) = match cut {
+                Cut::Frames([a, b]) => (a, b),
+                Cut::Seconds([a, b]) => (rate.seconds_to_frames(motionlab_core::Seconds(a)).round() as usize, rate.seconds_to_frames(motionlab_core::Seconds(b)).round() as usize),
+            };
+            motion = motion.slice_frames(a, b).map_err(|e| e.in_file(path).with_field(format!("dataset[{dataset}].cut")))?;
+        }
+        // Ground truth is read against the motion as loaded (and cut), before preprocessors
+        // that may add points but never change timing.
+        let truth = match &d.ground_truth {
+            Some((reader, gt_path)) => Some(reader.read(gt_path, &motion).map_err(|e| e.in_file(gt_path))?),
+            None => None,
+        };
+        for p in d.preprocess.iter().chain(&self.preprocess) {
+            motion = p.apply(motion).map_err(|e| e.in_file(path))?;
+        }
+        Ok(LoadedItem { name: d.sequence_name(file), motion: Arc::new(motion), truth })
+    }
+    /// The dataset whose tag `key` equals `value`.
+    pub fn find_tagged(&self, key: &str, value: &str) -> Vec<&BuiltDataset> {
+        self.datasets.iter().filter(|d| d.tag(key) == Some(value)).collect()
+    }
+}
+
+/// A validated experiment: every combination with its workflow built.
+pub struct Plan {
+    pub source: Source,
+    pub overrides: Vec<String>,
+    /// The document after overrides (before sweeping).
+    pub doc: toml::Table,
+    pub file: ExperimentFile,
+    pub workflow_kind: WorkflowKind,
+    pub combos: Vec<Combo>,
+    pub built: Vec<BuiltCombo>,
+}
+
+/// One combination's built stages.
+pub struct BuiltCombo {
+    pub data: Datasets,
+    pub workflow: Box<dyn Workflow>,
+}
+
+impl Plan {
+    /// Every input file of every combination, deduplicated (for provenance hashes).
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = self
+            .built
+            .iter()
+            .flat_map(|b| b.data.datasets.iter().flat_map(|d| d.files.iter().cloned().chain(d.ground_truth.iter().map(|g| g.1.clone()))))
+            .collect();
+        v.sort();
+        v.dedup();
+        v
+    }
+}
+
+/// Reads, overrides, deserialises and validates an experiment.
+pub fn plan(path: &Path, overrides: &[String]) -> Result<Plan> {
+    let source = Source::read(path)?;
+    let mut doc: toml::Table = toml::from_str(&source.text).map_err(|e| {
+        let mut loc = Location::file(&source.path);
+        if let Some(l) = syntax_error_line(&source.text, &e) {
+            loc = loc.line(l);
+        }
+        Error::new(ErrorKind::Syntax, e.message().trim().to_string()).with_location(loc)
+    })?;
+    for o in overrides {
+        let (p, v) = parse_override(o)?;
+        set_path(&mut doc, &p, v).map_err(|e| Error::new(e.kind(), format!("override {o:?}: {}", e.message())))?;
+    }
+    let file = deserialize_file(&source, &doc)?;
+    let workflow_kind = file.workflow().map_err(|e| e.with_location(Location::file(&source.path)))?;
+    check_name(&source, &file)?;
+    let combos = expand_sweep(&source, &doc, &file)?;
+    let mut built = Vec::with_capacity(combos.len());
+    for combo in &combos {
+        let data = build_datasets(&source, combo)?;
+        let workflow = workflows::build(workflow_kind, &source, combo, &data)?;
+        built.push(BuiltCombo { data, workflow });
+    }
+    Ok(Plan { source, overrides: overrides.to_vec(), doc, file, workflow_kind, combos, built })
+}
+
+fn deserialize_file(source: &Source, doc: &toml::Table) -> Result<ExperimentFile> {
+    let r: std::result::Result<ExperimentFile, serde_path_to_error::Error<toml::de::Error>> =
+        serde_path_to_error::deserialize(toml::Value::Table(doc.clone()));
+    r.map_err(|e| {
+        let path = KeyPath::from(e.path());
+        let msg = e.inner().message().to_string();
+        let kind = if msg.starts_with("unknown field") {
+            ErrorKind::UnknownKey
+        } else if msg.starts_with("missing field") {
+            ErrorKind::MissingKey
+        } else {
+            ErrorKind::WrongType
+        };
+        source.locate(Error::new(kind, msg), &path, doc)
+    })
+}
+
+fn check_name(source: &Source, file: &ExperimentFile) -> Result<()> {
+    let n = &file.experiment.name;
+    if n.is_empty() || !n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+        let doc = toml::Table::new();
+        return Err(source.locate(
+            Error::new(ErrorKind::OutOfRange, format!("experiment name {n:?} must be non-empty letters, digits, _ or -")),
+            &KeyPath::parse("experiment.name")?,
+            &doc,
+        ));
+    }
+    Ok(())
+}
+
+fn expand_sweep(source: &Source, doc: &toml::Table, file: &ExperimentFile) -> Result<Vec<Combo>> {
+    let Some(sweep) = &file.sweep else {
+        return Ok(vec![Combo { index: 0, sweep: None, focus: None, params: vec![], doc: doc.clone(), file: file.clone() }]);
+    };
+    let mut base = doc.clone();
+    base.remove("sweep");
+    let mut combos = Vec::new();
+    for (g, grid) in sweep.grids().iter().enumerate() {
+        let name = grid.name.clone().unwrap_or_else(|| format!("sweep{g}"));
+        for assignment in cartesian(grid) {
+            let mut d = base.clone();
+            for (k, v) in &assignment {
+                let p = KeyPath::parse(k)?;
+                set_path(&mut d, &p, v.clone()).map_err(|e| {
+                    let sweep_path = KeyPath::parse("sweep").unwrap_or_default();
+                    source.locate(e, &sweep_path, doc)
+                })?;
+            }
+            let f = deserialize_file(source, &d)?;
+            combos.push(Combo { index: combos.len(), sweep: Some(name.clone()), focus: grid.focus.clone(), params: assignment, doc: d, file: f });
+        }
+    }
+    if combos.is_empty() {
+        return Err(Error::new(ErrorKind::EmptySequence, "the sweep has no combinations (an empty value list?)").with_location(Location::file(&source.path).field("sweep")));
+    }
+    Ok(combos)
+}
+
+/// Every combination of a grid's values, keys in sorted order.
+fn cartesian(grid: &SweepGrid) -> Vec<Vec<(String, toml::Value)>> {
+    let mut out: Vec<Vec<(String, toml::Value)>> = vec![vec![]];
+    for (k, values) in &grid.grid {
+        out = out
+            .into_iter()
+            .flat_map(|prefix| {
+                values.iter().map(move |v| {
+                    let mut p = prefix.clone();
+                    p.push((k.clone(), v.clone()));
+                    p
+                })
+            })
+            .collect();
+    }
+    out
+}
+
+/// Builds a plugin, mapping its parameter errors to the stage's key path and line.
+pub fn build_stage<T: ?Sized>(
+    source: &Source,
+    combo: &Combo,
+    spec: &StageSpec,
+    path: &KeyPath,
+    builder: fn(&str, &toml::Value) -> Result<Box<T>>,
+) -> Result<Box<T>> {
+    builder(&spec.kind, &spec.plugin_params()).map_err(|e| {
+        let full = match &e.location().field {
+            Some(f) if e.kind() != ErrorKind::UnknownPlugin => path.join_field(f),
+            _ if e.kind() == ErrorKind::UnknownPlugin => path.key("type"),
+            _ => path.clone(),
+        };
+        source.locate(e, &full, &combo.doc)
+    })
+}
+
+fn build_datasets(source: &Source, combo: &Combo) -> Result<Datasets> {
+    let base = source.base_dir();
+    let mut datasets = Vec::new();
+    let root = KeyPath::parse("dataset")?;
+    if combo.file.datasets.is_empty() {
+        return Err(source.locate(Error::new(ErrorKind::MissingKey, "at least one [[dataset]] is required"), &root, &combo.doc));
+    }
+    for (i, spec) in combo.file.datasets.iter().enumerate() {
+        let dp = root.index(i);
+        let loader = build_stage(source, combo, &spec.loader, &dp.key("loader"), registry::build_loader)?;
+        let ground_truth = match &spec.ground_truth {
+            None => None,
+            Some(gt) => {
+                let gp = dp.key("ground_truth");
+                let file = match gt.params.get("file") {
+                    Some(toml::Value::String(f)) => base.join(f),
+                    _ => {
+                        return Err(source.locate(
+                            Error::new(ErrorKind::MissingKey, "ground_truth needs `file = \"<path>\"`"),
+                            &gp,
+                            &combo.doc,
+                        ));
+                    }
+                };
+                if !file.is_file() {
+                    return Err(source.locate(
+                        Error::new(ErrorKind::Io, format!("ground-truth file {} does not exist", file.display())),
+                        &gp.key("file"),
+                        &combo.doc,
+                    ));
+                }
+                let mut params = gt.clone();
+                params.params.remove("file");
+                let reader = build_stage(source, combo, &params, &gp, registry::build_ground_truth)?;
+                Some((reader, file))
+            }
+        };
+        let preprocess = spec
+            .preprocess
+            .iter()
+            .enumerate()
+            .map(|(k, p)| build_stage(source, combo, p, &dp.key("preprocess").index(k), registry::build_preprocessor))
+            .collect::<Result<Vec<_>>>()?;
+        let files = resolve_files(source, &base, &spec.files).map_err(|e| source.locate(e, &dp.key("files"), &combo.doc))?;
+        datasets.push(BuiltDataset { index: i, spec: spec.clone(), loader, ground_truth, preprocess, files });
+    }
+    let preprocess = combo
+        .file
+        .preprocess
+        .iter()
+        .enumerate()
+        .map(|(k, p)| build_stage(source, combo, p, &KeyPath::parse("preprocess")?.index(k), registry::build_preprocessor))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Datasets { datasets, preprocess })
+}
+
+fn resolve_files(_source: &Source, base: &Path, patterns: &[String]) -> Result<Vec<PathBuf>> {
+    if patterns.is_empty() {
+        return Err(Error::new(ErrorKind::MissingKey, "files = [] lists no file"));
+    }
+    let mut out = Vec::new();
+    for p in patterns {
+        let full = base.join(p);
+        let text = full.to_string_lossy().into_owned();
+        if p.contains(['*', '?', '[']) {
+            let matches: Vec<PathBuf> = glob::glob(&text)
+                .map_err(|e| Error::new(ErrorKind::Syntax, format!("bad glob {p:?}: {e}")))?
+                .filter_map(|r| r.ok())
+                .filter(|f| f.is_file())
+                .collect();
+            if matches.is_empty() {
+                return Err(Error::new(ErrorKind::Io, format!("glob {p:?} matches no file (relative to {})", base.display())));
+            }
+            out.extend(matches);
+        } else if full.is_file() {
+            out.push(full);
+        } else {
+            return Err(Error::new(ErrorKind::Io, format!("{} does not exist (paths are relative to the experiment file's folder)", full.display())));
+        }
+    }
+    out.sort();
+    out.dedup();
+    Ok(out)
+}

@@ -1,0 +1,461 @@
+//! Running a plan: items in parallel (rayon), item results persisted under `items/`, then
+//! `finish` per sweep combination, `summarize` across them, and every table and figure written
+//! into the run directory with its provenance.
+//!
+//! A sharded run (`--shard i/n --run-dir DIR`) computes only the items `k ≡ i (mod n)` of the
+//! deterministic item list and writes `shards/shard-i-of-n.json`; `merge` then finishes from
+//! the persisted items exactly as a single-machine run does.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Instant, SystemTime};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
+use motionlab_report::{figures::render, write_table, Figure};
+
+use crate::pages::{write_run_html, FigureEntry};
+use crate::plan::{plan, Plan};
+use crate::rundir::{sha256_bytes, sha256_file, utc_iso, write_atomic, RunDir};
+use crate::workflows::{ComboOutput, ItemData, Output, WorkItem};
+
+/// Progress reporting, implemented by the CLI (indicatif) or silent.
+pub trait Progress: Send + Sync {
+    fn begin(&self, _label: &str, _total: u64) {}
+    fn advance(&self, _message: &str) {}
+    fn end(&self) {}
+}
+
+/// No progress output.
+pub struct Silent;
+impl Progress for Silent {}
+
+/// How to run.
+#[derive(Clone)]
+pub struct RunOptions {
+    /// Folder holding `<experiment>/<run-id>/` (default `reports`).
+    pub reports_dir: PathBuf,
+    /// Worker threads for items (default: rayon's default, all cores).
+    pub threads: Option<usize>,
+    /// `(i, n)`: compute only shard i of n into `run_dir`.
+    pub shard: Option<(usize, usize)>,
+    /// Shared run directory for sharded runs.
+    pub run_dir: Option<PathBuf>,
+    pub progress: Arc<dyn Progress>,
+    /// The command line, for provenance.
+    pub command: Vec<String>,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            reports_dir: PathBuf::from("reports"),
+            threads: None,
+            shard: None,
+            run_dir: None,
+            progress: Arc::new(Silent),
+            command: std::env::args().collect(),
+        }
+    }
+}
+
+/// What a run produced.
+#[derive(Clone, Debug)]
+pub struct RunSummary {
+    pub run_dir: PathBuf,
+    pub tables: Vec<PathBuf>,
+    pub figures: Vec<PathBuf>,
+    pub items: usize,
+    /// False for a shard that still awaits `merge`.
+    pub complete: bool,
+}
+
+#[derive(Serialize, Deserialize)]
+struct RunManifest {
+    experiment_file: PathBuf,
+    overrides: Vec<String>,
+    config_sha256: String,
+    total_items: usize,
+}
+
+#[derive(Serialize, Deserialize)]
+struct ShardManifest {
+    shard: usize,
+    shards: usize,
+    config_sha256: String,
+    items: Vec<(usize, String)>,
+    finished_utc: String,
+}
+
+#[derive(Serialize)]
+struct InputFile {
+    path: String,
+    bytes: u64,
+    sha256: String,
+}
+
+#[derive(Serialize)]
+struct Provenance {
+    motionlab_version: &'static str,
+    git_revision: String,
+    git_dirty: Option<bool>,
+    experiment: String,
+    experiment_file: String,
+    overrides: Vec<String>,
+    config_sha256: String,
+    command: Vec<String>,
+    started_utc: String,
+    finished_utc: String,
+    duration_s: f64,
+    threads: usize,
+    shards: Option<usize>,
+    combinations: Vec<String>,
+    items: usize,
+    inputs: Vec<InputFile>,
+    tables: Vec<String>,
+    figures: Vec<String>,
+}
+
+/// The canonical text of the resolved configuration (hashed to check shards belong together).
+pub fn config_text(plan: &Plan) -> String {
+    toml::to_string(&plan.doc).unwrap_or_default()
+}
+
+/// Plans and runs an experiment file.
+pub fn run_file(path: &Path, overrides: &[String], opts: &RunOptions) -> Result<RunSummary> {
+    let p = plan(path, overrides)?;
+    run(&p, opts)
+}
+
+/// Every (combination, item) of a plan, in a deterministic order.
+fn all_items(plan: &Plan) -> Vec<(usize, WorkItem)> {
+    plan.built.iter().enumerate().flat_map(|(c, b)| b.workflow.items(&b.data).into_iter().map(move |i| (c, i))).collect()
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        b = b.num_threads(n.max(1));
+    }
+    b.build().map_err(|e| Error::new(ErrorKind::Report, format!("cannot start worker threads: {e}")))
+}
+
+/// Runs a validated plan.
+pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
+    let started = (SystemTime::now(), Instant::now());
+    let config = config_text(plan);
+    let config_hash = sha256_bytes(config.as_bytes());
+    let rundir = match (&opts.shard, &opts.run_dir) {
+        (Some(_), Some(dir)) => RunDir::shared(dir)?,
+        (Some(_), None) => return Err(Error::new(ErrorKind::MissingKey, "--shard needs --run-dir (shared by all shards)")),
+        (None, Some(dir)) => RunDir::shared(dir)?,
+        (None, None) => RunDir::fresh(&opts.reports_dir, &plan.file.experiment.name)?,
+    };
+    let items = all_items(plan);
+    let (shard, shards) = opts.shard.unwrap_or((0, 1));
+    if shards == 0 || shard >= shards {
+        return Err(Error::new(ErrorKind::OutOfRange, format!("shard {shard}/{shards}: expected 0 <= i < n")));
+    }
+    // The manifest is identical for every shard, so concurrent writers agree.
+    let manifest = RunManifest {
+        experiment_file: std::fs::canonicalize(&plan.source.path).unwrap_or_else(|_| plan.source.path.clone()),
+        overrides: plan.overrides.clone(),
+        config_sha256: config_hash.clone(),
+        total_items: items.len(),
+    };
+    write_atomic(&rundir.work.join("run.json"), &json_bytes(&manifest)?)?;
+    write_atomic(&rundir.work.join("config.toml"), config.as_bytes())?;
+    let mine: Vec<(usize, usize, WorkItem)> =
+        items.iter().enumerate().filter(|(k, _)| k % shards == shard).map(|(k, (c, i))| (k, *c, i.clone())).collect();
+    let items_dir = rundir.subdir("items")?;
+    let figures_dir = rundir.subdir("figures")?;
+    opts.progress.begin(&format!("{} items", plan.file.experiment.name), mine.len() as u64);
+    let pool = thread_pool(opts.threads)?;
+    let results: Vec<Result<(usize, usize, WorkItem, ItemData, Vec<PathBuf>)>> = pool.install(|| {
+        mine.par_iter()
+            .map(|(k, c, item)| {
+                let built = &plan.built[*c];
+                // Per-item figures are drawn for the base combination only: a sweep would
+                // otherwise multiply them by its size.
+                let out = built.workflow.run_item(item, &built.data, *c == 0).map_err(|e| e.under_field(format!("item {}", item.id)))?;
+                let path = items_dir.join(format!("c{c}-{}.msgpack", item.id));
+                write_atomic(&path, &out.result.0)?;
+                let mut figs = Vec::new();
+                for f in &out.figures {
+                    figs.extend(render(f, &figures_dir)?);
+                }
+                let entries: Vec<FigureEntry> = out.figures.iter().map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() }).collect();
+                write_atomic(&items_dir.join(format!("c{c}-{}.figures.json", item.id)), &json_bytes(&entries)?)?;
+                opts.progress.advance(&item.id);
+                Ok((*k, *c, item.clone(), out.result, figs))
+            })
+            .collect()
+    });
+    opts.progress.end();
+    let mut done = Vec::with_capacity(results.len());
+    for r in results {
+        done.push(r?);
+    }
+    let mut figure_paths: Vec<PathBuf> = done.iter().flat_map(|d| d.4.clone()).collect();
+    if opts.shard.is_some() {
+        let m = ShardManifest {
+            shard,
+            shards,
+            config_sha256: config_hash,
+            items: done.iter().map(|d| (d.1, d.2.id.clone())).collect(),
+            finished_utc: utc_iso(SystemTime::now()),
+        };
+        let dir = rundir.subdir("shards")?;
+        write_atomic(&dir.join(format!("shard-{shard}-of-{shards}.json")), &json_bytes(&m)?)?;
+        return Ok(RunSummary { run_dir: rundir.target.clone(), tables: vec![], figures: figure_paths, items: done.len(), complete: false });
+    }
+    let by_combo = group_by_combo(plan, done.into_iter().map(|d| (d.1, d.2, d.3)).collect());
+    let finished = finish_all(plan, &rundir, by_combo, opts)?;
+    figure_paths.extend(finished.figure_paths.iter().cloned());
+    write_provenance(plan, opts, &rundir, started, &config, items.len(), None, &finished.table_paths, &figure_paths)?;
+    let figure_entries = all_figure_entries(&rundir.work.join("items"), finished.figures)?;
+    let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    write_run_html(&rundir.work, &plan.file, &config, &finished.tables, &figure_entries, &run_id)?;
+    let target = rundir.finalize()?;
+    Ok(RunSummary { run_dir: target, tables: finished.table_paths, figures: figure_paths, items: items.len(), complete: true })
+}
+
+fn group_by_combo(plan: &Plan, done: Vec<(usize, WorkItem, ItemData)>) -> Vec<Vec<(WorkItem, ItemData)>> {
+    let mut by: Vec<Vec<(WorkItem, ItemData)>> = (0..plan.built.len()).map(|_| Vec::new()).collect();
+    for (c, i, d) in done {
+        by[c].push((i, d));
+    }
+    // Items in their deterministic order, whatever order threads or shards finished in.
+    for (c, v) in by.iter_mut().enumerate() {
+        let order: Vec<String> = plan.built[c].workflow.items(&plan.built[c].data).into_iter().map(|i| i.id).collect();
+        v.sort_by_key(|(i, _)| order.iter().position(|o| *o == i.id).unwrap_or(usize::MAX));
+    }
+    by
+}
+
+/// What [`finish_all`] wrote.
+struct Finished {
+    tables: Vec<Table>,
+    table_paths: Vec<PathBuf>,
+    figures: Vec<FigureEntry>,
+    figure_paths: Vec<PathBuf>,
+}
+
+/// The combination-level figures first, then every item's, in item-file order.
+fn all_figure_entries(items_dir: &Path, mut figures: Vec<FigureEntry>) -> Result<Vec<FigureEntry>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(items_dir)
+        .map_err(|e| Error::io(items_dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.to_string_lossy().ends_with(".figures.json"))
+        .collect();
+    files.sort();
+    for f in files {
+        let entries: Vec<FigureEntry> = read_json(&f)?;
+        figures.extend(entries);
+    }
+    Ok(figures)
+}
+
+/// `finish` per combination, sweep columns, concatenation, `summarize`, and writing.
+fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemData)>>, opts: &RunOptions) -> Result<Finished> {
+    opts.progress.begin("finishing", by_combo.len() as u64);
+    let outputs: Vec<Output> = by_combo
+        .iter()
+        .enumerate()
+        .map(|(c, items)| {
+            let b = &plan.built[c];
+            let o = b.workflow.finish(items, &b.data, c == 0);
+            opts.progress.advance(&format!("combination {c}"));
+            o
+        })
+        .collect::<Result<_>>()?;
+    opts.progress.end();
+    let swept = plan.file.sweep.is_some();
+    let mut tables: Vec<Table> = Vec::new();
+    for (c, out) in outputs.iter().enumerate() {
+        for t in &out.tables {
+            let t = if swept { with_sweep_columns(t.clone(), &plan.combos[c])? } else { t.clone() };
+            match tables.iter_mut().find(|x| x.name == t.name) {
+                Some(existing) => existing.append(t)?,
+                None => tables.push(t),
+            }
+        }
+    }
+    let combos: Vec<ComboOutput<'_>> = outputs.iter().enumerate().map(|(c, o)| ComboOutput { combo: &plan.combos[c], output: o }).collect();
+    let summary = plan.built[0].workflow.summarize(&combos)?;
+    tables.extend(summary.tables);
+    let mut figures: Vec<Figure> = outputs.first().map(|o| o.figures.clone()).unwrap_or_default();
+    figures.extend(summary.figures);
+    let tables_dir = rundir.subdir("tables")?;
+    let figures_dir = rundir.subdir("figures")?;
+    let mut table_paths = Vec::new();
+    for t in &tables {
+        let w = write_table(t, &tables_dir)?;
+        table_paths.extend([w.csv, w.parquet, w.markdown]);
+    }
+    let figure_paths: Vec<PathBuf> =
+        figures.par_iter().map(|f| render(f, &figures_dir)).collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
+    let files: Vec<&(String, Vec<u8>)> = outputs.iter().flat_map(|o| o.files.iter()).chain(summary.files.iter()).collect();
+    if !files.is_empty() {
+        let dir = rundir.subdir("files")?;
+        for (name, bytes) in files {
+            write_atomic(&dir.join(name), bytes)?;
+        }
+    }
+    let figures = figures.iter().map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() }).collect();
+    Ok(Finished { tables, table_paths, figures, figure_paths })
+}
+
+/// Prepends `sweep`, `combination` and `parameters` columns.
+fn with_sweep_columns(mut t: Table, combo: &crate::plan::Combo) -> Result<Table> {
+    let n = t.n_rows();
+    t.columns.insert(0, motionlab_core::Column { name: "parameters".into(), values: ColumnValues::Str(vec![Some(combo.label()); n]) });
+    t.columns.insert(0, motionlab_core::Column { name: "combination".into(), values: ColumnValues::I64(vec![combo.index as i64; n]) });
+    t.columns.insert(0, motionlab_core::Column { name: "sweep".into(), values: ColumnValues::Str(vec![combo.sweep.clone(); n]) });
+    Ok(t)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn write_provenance(
+    plan: &Plan,
+    opts: &RunOptions,
+    rundir: &RunDir,
+    started: (SystemTime, Instant),
+    _config: &str,
+    items: usize,
+    shards: Option<usize>,
+    tables: &[PathBuf],
+    figures: &[PathBuf],
+) -> Result<()> {
+    let inputs = plan
+        .input_files()
+        .iter()
+        .map(|p| {
+            Ok(InputFile {
+                path: p.to_string_lossy().into_owned(),
+                bytes: std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
+                sha256: sha256_file(p)?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let (git_revision, git_dirty) = git_state(&plan.source.base_dir());
+    let rel = |p: &PathBuf| p.strip_prefix(&rundir.work).unwrap_or(p).to_string_lossy().into_owned();
+    let prov = Provenance {
+        motionlab_version: env!("CARGO_PKG_VERSION"),
+        git_revision,
+        git_dirty,
+        experiment: plan.file.experiment.name.clone(),
+        experiment_file: plan.source.path.to_string_lossy().into_owned(),
+        overrides: plan.overrides.clone(),
+        config_sha256: sha256_bytes(config_text(plan).as_bytes()),
+        command: opts.command.clone(),
+        started_utc: utc_iso(started.0),
+        finished_utc: utc_iso(SystemTime::now()),
+        duration_s: started.1.elapsed().as_secs_f64(),
+        threads: opts.threads.unwrap_or_else(rayon::current_num_threads),
+        shards,
+        combinations: plan.combos.iter().map(|c| c.label()).collect(),
+        items,
+        inputs,
+        tables: tables.iter().map(rel).collect(),
+        figures: figures.iter().map(rel).collect(),
+    };
+    write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
+}
+
+fn json_bytes<T: Serialize>(v: &T) -> Result<Vec<u8>> {
+    serde_json::to_vec_pretty(v).map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))
+}
+
+/// The git revision of the checkout holding `dir` and whether it has uncommitted changes.
+fn git_state(dir: &Path) -> (String, Option<bool>) {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    match git(&["rev-parse", "HEAD"]) {
+        Some(rev) => (rev, git(&["status", "--porcelain", "--untracked-files=no"]).map(|s| !s.is_empty())),
+        None => ("unknown (not a git checkout)".into(), None),
+    }
+}
+
+/// Finishes a sharded run: checks every shard is present and was produced by the same
+/// configuration, then writes exactly the tables and figures a single-machine run writes.
+pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
+    let started = (SystemTime::now(), Instant::now());
+    let loc = |p: &Path| Location::file(p);
+    let manifest_path = run_dir.join("run.json");
+    let manifest: RunManifest = read_json(&manifest_path)?;
+    let plan = plan(&manifest.experiment_file, &manifest.overrides)?;
+    let config = config_text(&plan);
+    let hash = sha256_bytes(config.as_bytes());
+    if hash != manifest.config_sha256 {
+        return Err(Error::new(
+            ErrorKind::Mismatch,
+            format!("the experiment changed since the shards ran (config sha256 {} now, {} then); re-run the shards", &hash[..12], &manifest.config_sha256[..12]),
+        )
+        .with_location(loc(&manifest.experiment_file)));
+    }
+    let shard_dir = run_dir.join("shards");
+    let mut shard_files: Vec<PathBuf> = std::fs::read_dir(&shard_dir)
+        .map_err(|e| Error::io(&shard_dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    shard_files.sort();
+    let shards: Vec<ShardManifest> = shard_files.iter().map(|p| read_json(p)).collect::<Result<_>>()?;
+    let n = shards.first().map(|s| s.shards).ok_or_else(|| Error::new(ErrorKind::Report, "no shard has finished").with_location(loc(&shard_dir)))?;
+    for (s, p) in shards.iter().zip(&shard_files) {
+        if s.config_sha256 != manifest.config_sha256 {
+            return Err(Error::new(
+                ErrorKind::Mismatch,
+                format!("shard {}/{} was produced by a different configuration (sha256 {} ≠ {})", s.shard, s.shards, &s.config_sha256[..12], &manifest.config_sha256[..12]),
+            )
+            .with_location(loc(p)));
+        }
+        if s.shards != n {
+            return Err(Error::new(ErrorKind::Mismatch, format!("shard counts differ: {} and {n}", s.shards)).with_location(loc(p)));
+        }
+    }
+    let missing: Vec<usize> = (0..n).filter(|i| !shards.iter().any(|s| s.shard == *i)).collect();
+    if !missing.is_empty() {
+        return Err(Error::new(
+            ErrorKind::Report,
+            format!("shard(s) {} of {n} have not finished; run them (`motionlab run … --shard i/{n} --run-dir {}`) before merging", missing.iter().map(|m| m.to_string()).collect::<Vec<_>>().join(", "), run_dir.display()),
+        )
+        .with_location(loc(&shard_dir)));
+    }
+    let items = all_items(&plan);
+    let items_dir = run_dir.join("items");
+    let mut done = Vec::with_capacity(items.len());
+    for (c, item) in items {
+        let p = items_dir.join(format!("c{c}-{}.msgpack", item.id));
+        let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+        done.push((c, item, ItemData(bytes)));
+    }
+    let total = done.len();
+    let rundir = RunDir::shared(run_dir)?;
+    let by_combo = group_by_combo(&plan, done);
+    let finished = finish_all(&plan, &rundir, by_combo, opts)?;
+    let mut all_figures: Vec<PathBuf> = std::fs::read_dir(run_dir.join("figures"))
+        .map(|r| r.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    all_figures.sort();
+    write_provenance(&plan, opts, &rundir, started, &config, total, Some(n), &finished.table_paths, &all_figures)?;
+    let figure_entries = all_figure_entries(&items_dir, finished.figures)?;
+    let run_id = run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    write_run_html(run_dir, &plan.file, &config, &finished.tables, &figure_entries, &run_id)?;
+    Ok(RunSummary { run_dir: run_dir.to_path_buf(), tables: finished.table_paths, figures: all_figures, items: total, complete: true })
+}
+
+fn read_json<T: for<'de> Deserialize<'de>>(p: &Path) -> Result<T> {
+    let bytes = std::fs::read(p).map_err(|e| Error::io(p, e))?;
+    serde_json::from_slice(&bytes).map_err(|e| Error::new(ErrorKind::Syntax, format!("{e}")).with_location(Location::file(p)))
+}

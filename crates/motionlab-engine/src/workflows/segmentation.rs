@@ -1,0 +1,407 @@
+//! The `[segmentation]` workflow (Sonoda et al.): segmenters → fuser → evaluators, with the
+//! paper's figures per sequence and, for sweeps, precision–recall curves and best operating
+//! points.
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::registry;
+use motionlab_core::{
+    ColumnValues, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
+    Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table,
+};
+use motionlab_report::{BarRow, Chart, Figure, FigureKind, Series};
+
+use super::shared::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_strip, time_axis, traces_chart};
+use super::{ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow};
+use crate::plan::{build_stage, Combo, Datasets, Source};
+use crate::spec::SegmentationSection;
+use crate::toml_paths::KeyPath;
+
+pub struct SegmentationWorkflow {
+    section: SegmentationSection,
+    segmenters: Vec<(String, Box<dyn Segmenter>)>,
+    fuser: Option<(String, Box<dyn Fuser>)>,
+    /// Indices into `segmenters` that the fuser combines.
+    fuse: Vec<usize>,
+    evaluators: Vec<(String, Box<dyn Evaluator>)>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct ItemResult {
+    sequence: String,
+    frame_rate_hz: f64,
+    n_frames: usize,
+    /// Each segmenter, then the fuser.
+    methods: Vec<MethodRecord>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct MethodRecord {
+    method: String,
+    candidates: Vec<usize>,
+    flagged_frames: usize,
+}
+
+#[derive(Serialize)]
+struct CandidateRow {
+    sequence: String,
+    method: String,
+    frame: usize,
+    time_s: f64,
+}
+
+impl SegmentationWorkflow {
+    pub fn build(source: &Source, combo: &Combo, _data: &Datasets) -> Result<Self> {
+        let section = combo.file.segmentation.clone().ok_or_else(|| Error::new(ErrorKind::MissingKey, "[segmentation] is missing"))?;
+        let root = KeyPath::parse("segmentation")?;
+        let mut segmenters = Vec::new();
+        for (k, s) in section.segmenters.iter().enumerate() {
+            let name = s.display_name();
+            if segmenters.iter().any(|(n, _)| n == &name) {
+                return Err(source.locate(
+                    Error::new(ErrorKind::DuplicateName, format!("two segmenters are named {name:?}; give one a `name = \"…\"`")),
+                    &root.key("segmenter").index(k),
+                    &combo.doc,
+                ));
+            }
+            segmenters.push((name, build_stage(source, combo, s, &root.key("segmenter").index(k), registry::build_segmenter)?));
+        }
+        if segmenters.is_empty() {
+            return Err(source.locate(Error::new(ErrorKind::MissingKey, "at least one [[segmentation.segmenter]] is required"), &root, &combo.doc));
+        }
+        let fuse = match &section.fuse {
+            None => (0..segmenters.len()).collect(),
+            Some(names) => names
+                .iter()
+                .map(|n| {
+                    segmenters.iter().position(|(s, _)| s == n).ok_or_else(|| {
+                        source.locate(
+                            Error::new(ErrorKind::UnknownName, format!("fuse names {n:?}, which is not a segmenter of this experiment")),
+                            &root.key("fuse"),
+                            &combo.doc,
+                        )
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?,
+        };
+        let fuser = match &section.fuser {
+            Some(f) => Some((f.display_name(), build_stage(source, combo, f, &root.key("fuser"), registry::build_fuser)?)),
+            None => None,
+        };
+        let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
+        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators })
+    }
+
+    fn method_names(&self) -> Vec<String> {
+        self.segmenters.iter().map(|(n, _)| n.clone()).chain(self.fuser.iter().map(|(n, _)| n.clone())).collect()
+    }
+}
+
+/// Builds `[[evaluate]]` stages, checking each accepts this workflow's results.
+pub fn build_evaluators(source: &Source, combo: &Combo, domain: EvalDomain) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
+    let root = KeyPath::parse("evaluate")?;
+    combo
+        .file
+        .evaluators
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let e = build_stage(source, combo, s, &root.index(k), registry::build_evaluator)?;
+            if e.domain() != domain {
+                return Err(source.locate(
+                    Error::new(
+                        ErrorKind::InvalidParameter,
+                        format!("evaluator {:?} evaluates {:?} results, but this experiment produces {domain:?} results", s.kind, e.domain()),
+                    ),
+                    &root.index(k).key("type"),
+                    &combo.doc,
+                ));
+            }
+            Ok((s.display_name(), e))
+        })
+        .collect()
+}
+
+impl Workflow for SegmentationWorkflow {
+    fn run_item(&self, item: &WorkItem, data: &Datasets, draw: bool) -> Result<ItemOutput> {
+        let loaded = data.load(item.dataset, item.file)?;
+        let motion = &loaded.motion;
+        let file = motion.source.clone().unwrap_or_default();
+        let cache = FeatureCache::new();
+        let mut outputs: Vec<(String, SegmenterOutput)> = Vec::new();
+        for (name, s) in &self.segmenters {
+            let out = s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
+            outputs.push((name.clone(), out));
+        }
+        let mut methods: Vec<MethodRecord> = outputs
+            .iter()
+            .map(|(n, o)| MethodRecord { method: n.clone(), candidates: o.candidates.clone(), flagged_frames: o.flagged_frames.len() })
+            .collect();
+        if let Some((name, fuser)) = &self.fuser {
+            let inputs: Vec<MethodCandidates<'_>> =
+                self.fuse.iter().map(|&i| MethodCandidates { method: &outputs[i].0, frames: &outputs[i].1.candidates }).collect();
+            let fused = fuser.fuse(motion, &inputs).map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
+            methods.push(MethodRecord { method: name.clone(), candidates: fused, flagged_frames: 0 });
+        }
+        let figures = if draw { self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)? } else { Vec::new() };
+        let result = ItemResult { sequence: loaded.name.clone(), frame_rate_hz: motion.frame_rate().hz(), n_frames: motion.n_frames(), methods };
+        Ok(ItemOutput { result: ItemData::encode(&result)?, figures })
+    }
+
+    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, _draw: bool) -> Result<Output> {
+        let mut sequences = Vec::new();
+        let mut rows = Vec::new();
+        for (item, value) in items {
+            let r: ItemResult = value.decode()?;
+            for m in &r.methods {
+                rows.extend(m.candidates.iter().map(|&f| CandidateRow {
+                    sequence: r.sequence.clone(),
+                    method: m.method.clone(),
+                    frame: f,
+                    time_s: f as f64 / r.frame_rate_hz,
+                }));
+            }
+            // Evaluators may compare poses, so they get the motion itself (reloaded: item results
+            // are kept small so shards stay cheap to merge).
+            let loaded = data.load(item.dataset, item.file)?;
+            sequences.push(SequenceResult {
+                sequence: r.sequence,
+                motion: Arc::clone(&loaded.motion),
+                truth: loaded.truth,
+                methods: r.methods.into_iter().map(|m| MethodResult { method: m.method, candidates: m.candidates }).collect(),
+            });
+        }
+        let mut out = Output::default();
+        out.tables.push(Table::from_records("candidates", "Candidate frames per sequence and method", &rows)?);
+        for (name, e) in &self.evaluators {
+            let tables = e.evaluate(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
+            out.tables.extend(tables);
+        }
+        Ok(out)
+    }
+
+    fn summarize(&self, combos: &[ComboOutput<'_>]) -> Result<Output> {
+        if combos.len() < 2 {
+            return Ok(Output::default());
+        }
+        pr_curves(combos, &self.method_names())
+    }
+}
+
+impl SegmentationWorkflow {
+    fn figures(
+        &self,
+        id: &str,
+        name: &str,
+        motion: &motionlab_core::Motion,
+        truth: Option<&Segmentation>,
+        outputs: &[(String, SegmenterOutput)],
+        methods: &[MethodRecord],
+    ) -> Result<Vec<Figure>> {
+        let rate = motion.frame_rate().hz();
+        let time = time_axis(motion);
+        let wants = |f: &str| self.section.figures.iter().any(|x| x == f);
+        let mut figs = Vec::new();
+        if wants("traces") {
+            for (method, out) in outputs {
+                if out.traces.is_empty() {
+                    continue;
+                }
+                let bars = vec![BarRow { label: method.clone(), marks: frames_to_seconds(&out.candidates, rate), bands: vec![] }];
+                let chart = traces_chart(format!("{name} — {method}: candidates (bars)"), &time, &out.traces, &out.thresholds, bars.clone());
+                figs.push(Figure::chart(format!("{id}_{}", super::sanitize(method)), chart.clone()));
+                // The paper's Fig 3: a close-up around one candidate, where the tracked marker's
+                // speed can be read against V.
+                if let Some(&c) = out.candidates.get(out.candidates.len() / 2) {
+                    let t = c as f64 / rate;
+                    let mut zoom = chart;
+                    zoom.title = format!("{name} — {method}: close-up around frame {c}");
+                    zoom.x_range = Some((t - 1.25, t + 1.25));
+                    for l in zoom.lines.iter_mut() {
+                        let keep: Vec<usize> = (0..l.x.len()).filter(|&i| (l.x[i] - t).abs() <= 1.25).collect();
+                        l.x = keep.iter().map(|&i| l.x[i]).collect();
+                        l.y = keep.iter().map(|&i| l.y[i]).collect();
+                    }
+                    for b in zoom.bar_rows.iter_mut() {
+                        b.marks.retain(|m| (m - t).abs() <= 1.25);
+                    }
+                    figs.push(Figure::chart(format!("{id}_{}_zoom", super::sanitize(method)), zoom));
+                }
+            }
+        }
+        let root = motion.point_index(&self.section.root).ok();
+        let fused = methods.last().map(|m| m.candidates.clone()).unwrap_or_default();
+        if wants("root_path")
+            && let Some(k) = root
+        {
+            let path: Vec<[f64; 2]> = motion.trajectory(k).map(|p| motion.horizontal(p)).collect();
+            let [a, b] = motion.up_axis().others();
+            let pts: Vec<usize> = fused.iter().copied().filter(|&f| f < path.len()).collect();
+            let mut cands = Series::new(
+                format!("{} candidates", methods.last().map(|m| m.method.as_str()).unwrap_or("")),
+                pts.iter().map(|&f| path[f][0]).collect(),
+                pts.iter().map(|&f| path[f][1]).collect(),
+            );
+            cands.point_labels = pts.iter().map(|f| f.to_string()).collect();
+            figs.push(Figure::chart(
+                format!("{id}_root_path"),
+                Chart {
+                    title: format!("{name} — root path on the floor with candidates (frame numbers)"),
+                    x_label: format!("{} (mm)", axis_name(a)),
+                    y_label: format!("{} (mm)", axis_name(b)),
+                    lines: vec![Series::new("root", path.iter().map(|p| p[0]).collect(), path.iter().map(|p| p[1]).collect())],
+                    points: vec![cands],
+                    equal_aspect: true,
+                    ..Default::default()
+                },
+            ));
+        }
+        if wants("timeline") {
+            let mut rows = Vec::new();
+            if let Some(t) = truth {
+                rows.push(BarRow {
+                    label: "ground truth".into(),
+                    marks: frames_to_seconds(&t.frames(), rate),
+                    bands: t.boundaries.iter().filter_map(|b| b.window).map(|(a, c)| (a as f64 / rate, c as f64 / rate)).collect(),
+                });
+            }
+            rows.extend(methods.iter().map(|m| BarRow { label: m.method.clone(), marks: frames_to_seconds(&m.candidates, rate), bands: vec![] }));
+            figs.push(Figure::chart(
+                format!("{id}_timeline"),
+                Chart {
+                    title: format!("{name} — ground truth and each method's candidates"),
+                    x_label: "time (s)".into(),
+                    bar_rows: rows,
+                    x_range: Some((0.0, motion.n_frames() as f64 / rate)),
+                    ..Default::default()
+                },
+            ));
+        }
+        if wants("stick_strip")
+            && let Some((a, b)) = pick_segment(&fused, truth, motion.n_frames(), rate)
+        {
+            let bones = bones_for(motion, &self.section.bones)?;
+            let axis = main_floor_axis(motion, root, a, b);
+            let row = stick_row(motion, &format!("frames {a}–{b}"), a, b, 8, axis);
+            figs.push(Figure {
+                name: format!("{id}_segment"),
+                figure: FigureKind::Sticks(stick_strip(
+                    format!("{name} — one segment between two fused candidates"),
+                    bones,
+                    vec![row],
+                    format!("side view: {} horizontal, {} up (mm); each pose centred", axis_name(axis), motion.up_axis()),
+                )),
+            });
+        }
+        Ok(figs)
+    }
+}
+
+/// The segment to show as a stick strip: between consecutive fused candidates, the one that
+/// best matches a ground-truth segment (largest overlap), else the longest ≥ 0.5 s.
+fn pick_segment(fused: &[usize], truth: Option<&Segmentation>, n_frames: usize, rate: f64) -> Option<(usize, usize)> {
+    let pairs: Vec<(usize, usize)> = fused.windows(2).map(|w| (w[0], w[1])).filter(|(a, b)| (b - a) as f64 >= 0.5 * rate && *b < n_frames).collect();
+    let score = |(a, b): &(usize, usize)| -> f64 {
+        match truth {
+            Some(t) if !t.segments.is_empty() => t
+                .segments
+                .iter()
+                .map(|s: &Segment| {
+                    let inter = (s.end.min(*b) as f64 - s.start.max(*a) as f64).max(0.0);
+                    let union = (s.end.max(*b) - s.start.min(*a)) as f64;
+                    inter / union
+                })
+                .fold(0.0, f64::max),
+            _ => (b - a) as f64,
+        }
+    };
+    pairs.into_iter().max_by(|x, y| score(x).total_cmp(&score(y)))
+}
+
+/// Precision–recall curves across a sweep and the best-F1 operating point of each method.
+///
+/// Reads the pooled rows (`sequence = "pooled"`) of every table that has `method`,
+/// `precision`, `recall` and `f1` columns. Each sweep grid contributes the curve of its focus
+/// method (or of every method when the grid has no focus).
+fn pr_curves(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Output> {
+    #[derive(Serialize)]
+    struct Best {
+        method: String,
+        sweep: String,
+        combination: usize,
+        parameters: String,
+        precision: f64,
+        recall: f64,
+        f1: f64,
+    }
+    let mut curves: Vec<(String, Vec<(f64, f64, f64, usize, String)>)> = Vec::new();
+    for co in combos {
+        let Some(t) = co.output.tables.iter().find(|t| ["method", "precision", "recall", "f1", "sequence"].iter().all(|c| t.column(c).is_some()))
+        else {
+            continue;
+        };
+        let (Some(ColumnValues::Str(seq)), Some(ColumnValues::Str(meth))) = (t.column("sequence"), t.column("method")) else { continue };
+        let num = |c: &str| match t.column(c) {
+            Some(ColumnValues::F64(v)) => v.clone(),
+            Some(ColumnValues::I64(v)) => v.iter().map(|x| *x as f64).collect(),
+            _ => vec![f64::NAN; t.n_rows()],
+        };
+        let (p, r, f) = (num("precision"), num("recall"), num("f1"));
+        for i in 0..t.n_rows() {
+            let (Some(s), Some(m)) = (&seq[i], &meth[i]) else { continue };
+            if s != "pooled" || co.combo.focus.as_ref().is_some_and(|fm| fm != m) {
+                continue;
+            }
+            let key = format!("{m} ({})", co.combo.sweep.clone().unwrap_or_default());
+            let entry = match curves.iter_mut().find(|(k, _)| *k == key) {
+                Some(e) => e,
+                None => {
+                    curves.push((key, Vec::new()));
+                    curves.last_mut().expect("just pushed")
+                }
+            };
+            entry.1.push((r[i], p[i], f[i], co.combo.index, co.combo.label()));
+        }
+    }
+    let mut out = Output::default();
+    if curves.is_empty() {
+        return Ok(out);
+    }
+    let mut best = Vec::new();
+    for (key, pts) in &curves {
+        if let Some(b) = pts.iter().filter(|p| p.2.is_finite()).max_by(|a, b| a.2.total_cmp(&b.2)) {
+            let (method, sweep) = key.split_once(" (").map(|(m, s)| (m.to_string(), s.trim_end_matches(')').to_string())).unwrap_or((key.clone(), String::new()));
+            best.push(Best { method, sweep, combination: b.3, parameters: b.4.clone(), precision: b.1, recall: b.0, f1: b.2 });
+        }
+    }
+    best.sort_by_key(|b| methods.iter().position(|m| *m == b.method).unwrap_or(usize::MAX));
+    out.tables.push(Table::from_records("best_f1", "Best-F1 operating point per method (pooled over sequences)", &best)?);
+    let mut lines = Vec::new();
+    for (key, pts) in curves {
+        let mut pts = pts;
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        lines.push(Series::new(key, pts.iter().map(|p| p.0).collect(), pts.iter().map(|p| p.1).collect()));
+    }
+    let points = vec![Series {
+        label: "best F1".into(),
+        x: best.iter().map(|b| b.recall).collect(),
+        y: best.iter().map(|b| b.precision).collect(),
+        point_labels: best.iter().map(|b| b.method.clone()).collect(),
+    }];
+    out.figures.push(Figure::chart(
+        "precision_recall",
+        Chart {
+            title: "Precision–recall over each method's threshold sweep (pooled)".into(),
+            x_label: "recall".into(),
+            y_label: "precision".into(),
+            lines,
+            points,
+            x_range: Some((0.0, 1.02)),
+            y_range: Some((0.0, 1.02)),
+            ..Default::default()
+        },
+    ));
+    Ok(out)
+}

@@ -1,0 +1,84 @@
+//! Figure and table helpers shared by workflows.
+
+use motionlab_core::{Motion, Point3, Result, Threshold, Trace};
+use motionlab_report::{BarRow, Chart, Pose, RefLine, Series, StickRow, StickStrip};
+
+/// Seconds of each frame of a motion.
+pub fn time_axis(motion: &Motion) -> Vec<f64> {
+    let rate = motion.frame_rate();
+    (0..motion.n_frames()).map(|i| rate.frame_to_seconds(i).value()).collect()
+}
+
+/// Frames to seconds at `rate_hz`.
+pub fn frames_to_seconds(frames: &[usize], rate_hz: f64) -> Vec<f64> {
+    frames.iter().map(|f| *f as f64 / rate_hz).collect()
+}
+
+/// A chart of a stage's traces against time with its thresholds and candidate bars (the
+/// papers' "graph with vertical bars below it"). Traces in other units than the first are
+/// left out (they get their own chart).
+pub fn traces_chart(title: String, time: &[f64], traces: &[Trace], thresholds: &[Threshold], bars: Vec<BarRow>) -> Chart {
+    let unit = traces.first().map(|t| t.unit.clone()).unwrap_or_default();
+    let lines: Vec<Series> = traces
+        .iter()
+        .filter(|t| t.unit == unit)
+        .map(|t| Series::new(t.name.clone(), time[..t.values.len().min(time.len())].to_vec(), t.values.clone()))
+        .collect();
+    let names: Vec<&str> = traces.iter().filter(|t| t.unit == unit).map(|t| t.name.as_str()).collect();
+    let hlines = thresholds
+        .iter()
+        .filter(|h| names.contains(&h.trace.as_str()))
+        .map(|h| RefLine { label: h.name.clone(), value: h.value })
+        .collect();
+    let first = traces.first().map(|t| t.name.clone()).unwrap_or_default();
+    let y_label = if unit.is_empty() { first } else { format!("{first} ({unit})") };
+    Chart { title, x_label: "time (s)".into(), y_label, lines, hlines, bar_rows: bars, ..Default::default() }
+}
+
+/// A side-view stick strip of `n` evenly spaced frames of `[start, end]`: each pose drawn in
+/// the plane of the floor axis along which the root travels most and the up axis.
+pub fn stick_row(motion: &Motion, label: &str, start: usize, end: usize, n: usize, horizontal_axis: usize) -> StickRow {
+    let up = motion.up_axis().index();
+    let n = n.max(2);
+    let frames: Vec<usize> = (0..n).map(|k| start + (end.saturating_sub(start)) * k / (n - 1)).collect();
+    let rate = motion.frame_rate().hz();
+    let poses = frames
+        .iter()
+        .map(|&f| Pose {
+            label: format!("{f} ({:.2} s)", f as f64 / rate),
+            points: motion.frame(f.min(motion.n_frames() - 1)).iter().map(|p: &Point3| [p[horizontal_axis], p[up]]).collect(),
+        })
+        .collect();
+    StickRow { label: label.to_string(), poses }
+}
+
+/// The floor axis along which a point moves most over `[start, end]` (for side views).
+pub fn main_floor_axis(motion: &Motion, point: Option<usize>, start: usize, end: usize) -> usize {
+    let [a, b] = motion.up_axis().others();
+    let Some(k) = point else { return a };
+    let range = |axis: usize| {
+        let vals: Vec<f64> = (start..=end.min(motion.n_frames() - 1)).map(|f| motion.position(f, k)[axis]).filter(|v| v.is_finite()).collect();
+        let lo = vals.iter().cloned().fold(f64::INFINITY, f64::min);
+        let hi = vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        if hi > lo { hi - lo } else { 0.0 }
+    };
+    if range(b) > range(a) { b } else { a }
+}
+
+/// Bones for stick figures: from the skeleton when there is one, else from name pairs.
+pub fn bones_for(motion: &Motion, pairs: &[[String; 2]]) -> Result<Vec<(usize, usize)>> {
+    if !pairs.is_empty() {
+        return pairs.iter().map(|[a, b]| Ok((motion.point_index(a)?, motion.point_index(b)?))).collect();
+    }
+    Ok(motion.skeleton.as_ref().map(|s| s.skeleton.bones()).unwrap_or_default())
+}
+
+/// A stick strip figure spec.
+pub fn stick_strip(title: String, bones: Vec<(usize, usize)>, rows: Vec<StickRow>, caption: String) -> StickStrip {
+    StickStrip { title, bones, rows, caption }
+}
+
+/// Axis letter for captions.
+pub fn axis_name(i: usize) -> &'static str {
+    ["x", "y", "z"][i.min(2)]
+}

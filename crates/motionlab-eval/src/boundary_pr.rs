@@ -1,0 +1,476 @@
+//! Evaluator plugin `boundary_pr`: the paper's Table 1 / Table 2 — precision, recall and F1 of
+//! every method on every sequence, and pooled over sequences.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{
+    Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Millimetres, Result, Table, TimeSpan,
+};
+
+use crate::boundaries::{MatchRule, PoseRule, default_tolerance, evaluate_boundaries, ratios, tolerance_frames};
+use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
+
+/// Precision, recall and F1 of each method against the ground truth, per sequence and pooled
+/// (Sonoda et al. §3, Tables 1 and 2).
+///
+/// A found frame `a` and a truth `r` may match when `|a − r| ≤ tolerance` (and, with
+/// `use_windows`, anywhere in the truth's annotated transition window widened by the
+/// tolerance); with `pose_mm`, also when the root-aligned mean marker distance between the two
+/// frames is below `pose_mm` (optionally only within `pose_max_gap`). Each truth and each found
+/// frame is used at most once, in a **maximum** one-to-one matching (greedy nearest-first can
+/// miss pairs). `precision = matched / found`, `recall = matched / truth`,
+/// `F1 = 2·matched / (found + truth)`.
+///
+/// Empty sets: precision is NaN (empty cell) when a method found nothing, recall is NaN when a
+/// sequence has no truth boundaries; F1 is NaN only when both are empty. The Hausdorff distance
+/// between found and truth frames is 0 when both are empty and infinite (empty cell) when one is.
+///
+/// Output tables:
+/// - `table1_precision_recall`: one row per (sequence, method) in experiment order, then one
+///   `pooled` row per method over all sequences with ground truth — ratios of the summed counts
+///   (not means of ratios); its `hausdorff_s` is the largest per-sequence value (the Hausdorff
+///   distance of the sequences laid end to end infinitely far apart).
+/// - `boundary_matches`: every truth (matched, matched_by_pose or missed) and every unmatched
+///   found frame (extra), with the offset found − truth in seconds.
+/// - `claim_fused_recall` (when there are ≥ 2 methods): does the last method — the fuser's
+///   output, which the engine appends after the segmenters — reach a higher pooled recall than
+///   every other method? (The paper's central claim.)
+///
+/// Sequences without ground truth are skipped; it is an error when none has any.
+/// Missing samples: only the pose rule reads positions — markers missing at either frame are
+/// left out of the mean distance, and a missing root means no pose match.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryPrParams {
+    /// Largest offset between a found frame and a truth that still matches, in frames or
+    /// seconds (resolved at each motion's rate). Default `{ seconds = 0.0833… }` = 1/12 s: the
+    /// paper's 5 frames (ballet) and 10 frames (street dance) read as 60 Hz and 120 Hz captures.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: TimeSpan,
+    /// Also accept a found frame anywhere in the truth's annotated transition window (CMU-86
+    /// labels give one per boundary), widened by `tolerance`. Default false (points only, as in
+    /// the paper).
+    #[serde(default)]
+    pub use_windows: bool,
+    /// Second match rule: two frames also match when their root-aligned mean marker distance is
+    /// below this many mm. Default: none (time rule only).
+    #[serde(default)]
+    pub pose_mm: Option<Millimetres>,
+    /// Limit the pose rule to frames at most this far apart (the paper sets no limit, which in
+    /// repetitive motion lets a pose match a truth far away). Default: none (no limit).
+    #[serde(default)]
+    pub pose_max_gap: Option<TimeSpan>,
+    /// The point subtracted before comparing poses. Default `"root"` (the CMU skeletons' root
+    /// joint; marker sets without one can add it with the `add_centroid` preprocessor).
+    #[serde(default = "default_root")]
+    pub root: String,
+}
+
+fn default_root() -> String {
+    "root".into()
+}
+
+/// The validated evaluator.
+#[derive(Clone, Debug)]
+pub struct BoundaryPr {
+    tolerance: TimeSpan,
+    use_windows: bool,
+    pose_mm: Option<f64>,
+    pose_max_gap: Option<TimeSpan>,
+    root: String,
+}
+
+impl ParamGuard for BoundaryPrParams {
+    type Checked = BoundaryPr;
+    fn check(self) -> Result<BoundaryPr> {
+        let tolerance = self.tolerance.check("tolerance", false)?;
+        let pose_max_gap = self.pose_max_gap.map(|g| g.check("pose_max_gap", false)).transpose()?;
+        let pose_mm = match self.pose_mm {
+            None => None,
+            Some(Millimetres(v)) if v.is_finite() && v > 0.0 => Some(v),
+            Some(Millimetres(v)) => {
+                return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite distance > 0 mm, found {v}"))
+                    .with_field("pose_mm"));
+            }
+        };
+        if pose_max_gap.is_some() && pose_mm.is_none() {
+            return Err(Error::new(ErrorKind::InvalidParameter, "pose_max_gap limits the pose rule, which is off: set pose_mm too")
+                .with_field("pose_max_gap"));
+        }
+        if self.root.trim().is_empty() {
+            return Err(Error::new(ErrorKind::OutOfRange, "must name a marker or joint, found an empty name").with_field("root"));
+        }
+        Ok(BoundaryPr { tolerance, use_windows: self.use_windows, pose_mm, pose_max_gap, root: self.root })
+    }
+}
+
+/// A row of `table1_precision_recall`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PrecisionRecallRow {
+    /// Sequence name, or `pooled`.
+    pub sequence: String,
+    pub method: String,
+    pub n_truth: usize,
+    pub n_found: usize,
+    pub n_matched: usize,
+    /// Pairs only the pose rule allowed.
+    pub n_matched_by_pose: usize,
+    pub precision: f64,
+    pub recall: f64,
+    pub f1: f64,
+    /// None when infinite, and on pooled rows (frames at different rates do not compare).
+    pub hausdorff_frames: Option<f64>,
+    /// None when infinite.
+    pub hausdorff_s: Option<f64>,
+    /// The tolerance at this sequence's rate; None on pooled rows.
+    pub tolerance_frames: Option<f64>,
+}
+
+/// A row of `boundary_matches`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BoundaryMatchRow {
+    pub sequence: String,
+    pub method: String,
+    /// `matched`, `matched_by_pose`, `missed` (a truth nobody matched) or `extra` (a found frame
+    /// that matched no truth).
+    pub outcome: &'static str,
+    pub truth_frame: Option<usize>,
+    pub found_frame: Option<usize>,
+    /// found − truth, seconds (matched rows only).
+    pub offset_s: Option<f64>,
+}
+
+/// The one row of `claim_fused_recall`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FusedRecallClaim {
+    /// The last method (the fuser's output).
+    pub fused_method: String,
+    pub fused_recall: f64,
+    /// The other method with the highest pooled recall.
+    pub best_other_method: String,
+    pub best_other_recall: f64,
+    /// fused_recall > every other method's pooled recall (false when any recall is NaN).
+    pub fused_exceeds_all: bool,
+    pub n_sequences: usize,
+}
+
+#[derive(Default)]
+struct Pool {
+    n_truth: usize,
+    n_found: usize,
+    n_matched: usize,
+    n_by_pose: usize,
+    hausdorff_s: f64,
+}
+
+impl Evaluator for BoundaryPr {
+    fn domain(&self) -> EvalDomain {
+        EvalDomain::Segmentation
+    }
+
+    fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
+        let sequences = segmentation_input(input, "boundary_pr")?;
+        let mut rows = Vec::new();
+        let mut match_rows = Vec::new();
+        // Per method, in order of first appearance.
+        let mut pools: Vec<(String, Pool)> = Vec::new();
+        let mut n_evaluated = 0;
+        for seq in sequences {
+            let Some(truth) = truth_of(seq)? else { continue };
+            n_evaluated += 1;
+            let rate = seq.motion.frame_rate();
+            let period_s = rate.frame_period().value();
+            let pose = match self.pose_mm {
+                None => None,
+                Some(mm) => Some(PoseRule::new(&seq.motion, &self.root, mm, self.pose_max_gap).map_err(|e| {
+                    if e.location().file.is_none() { e.with_location(location_of(seq).field("root")) } else { e }
+                })?),
+            };
+            let rule = MatchRule { tolerance_frames: tolerance_frames(self.tolerance, rate), use_windows: self.use_windows, pose };
+            for m in &seq.methods {
+                let s = evaluate_boundaries(&m.candidates, &truth.boundaries, &rule);
+                let n_by_pose = s.pairs.iter().filter(|p| p.by_pose).count();
+                let hausdorff_s = s.hausdorff_frames * period_s;
+                rows.push(PrecisionRecallRow {
+                    sequence: seq.sequence.clone(),
+                    method: m.method.clone(),
+                    n_truth: s.n_truth,
+                    n_found: s.n_found,
+                    n_matched: s.n_matched,
+                    n_matched_by_pose: n_by_pose,
+                    precision: s.precision,
+                    recall: s.recall,
+                    f1: s.f1,
+                    hausdorff_frames: s.hausdorff_frames.is_finite().then_some(s.hausdorff_frames),
+                    hausdorff_s: hausdorff_s.is_finite().then_some(hausdorff_s),
+                    tolerance_frames: Some(self.tolerance.frames_at(rate)),
+                });
+                let at = match pools.iter().position(|(name, _)| *name == m.method) {
+                    Some(i) => i,
+                    None => {
+                        pools.push((m.method.clone(), Pool::default()));
+                        pools.len() - 1
+                    }
+                };
+                let pool = &mut pools[at].1;
+                pool.n_truth += s.n_truth;
+                pool.n_found += s.n_found;
+                pool.n_matched += s.n_matched;
+                pool.n_by_pose += n_by_pose;
+                pool.hausdorff_s = pool.hausdorff_s.max(hausdorff_s);
+
+                match_rows.extend(match_rows_of(&seq.sequence, &m.method, &m.candidates, &truth.frames(), &s, period_s));
+            }
+        }
+        if n_evaluated == 0 {
+            return Err(nothing_to_evaluate("boundary_pr", "ground truth", sequences.len()));
+        }
+        for (method, p) in &pools {
+            let (precision, recall, f1) = ratios(p.n_found, p.n_truth, p.n_matched);
+            rows.push(PrecisionRecallRow {
+                sequence: "pooled".into(),
+                method: method.clone(),
+                n_truth: p.n_truth,
+                n_found: p.n_found,
+                n_matched: p.n_matched,
+                n_matched_by_pose: p.n_by_pose,
+                precision,
+                recall,
+                f1,
+                hausdorff_frames: None,
+                hausdorff_s: p.hausdorff_s.is_finite().then_some(p.hausdorff_s),
+                tolerance_frames: None,
+            });
+        }
+        let pose_text = match self.pose_mm {
+            Some(mm) => format!(", or pose within {mm} mm"),
+            None => String::new(),
+        };
+        let mut tables = vec![
+            Table::from_records(
+                "table1_precision_recall",
+                format!("Table 1: precision, recall and F1 per method (tolerance {}{pose_text}; maximum one-to-one matching)", self.tolerance),
+                &rows,
+            )?,
+            Table::from_records("boundary_matches", "Matched, missed and extra boundaries per method", &match_rows)?,
+        ];
+        if let Some(claim) = fused_recall_claim(&rows, n_evaluated) {
+            tables.push(Table::from_records(
+                "claim_fused_recall",
+                "Does the fused method's pooled recall exceed every single method's?",
+                &[claim],
+            )?);
+        }
+        Ok(tables)
+    }
+}
+
+/// Rows of `boundary_matches` for one method on one sequence, in frame order.
+fn match_rows_of(
+    sequence: &str,
+    method: &str,
+    found: &[usize],
+    truth: &[usize],
+    s: &crate::boundaries::BoundaryScores,
+    period_s: f64,
+) -> Vec<BoundaryMatchRow> {
+    let row = |outcome, truth_frame: Option<usize>, found_frame: Option<usize>| BoundaryMatchRow {
+        sequence: sequence.into(),
+        method: method.into(),
+        outcome,
+        truth_frame,
+        found_frame,
+        offset_s: truth_frame.zip(found_frame).map(|(t, f)| (f as f64 - t as f64) * period_s),
+    };
+    let mut out: Vec<(usize, BoundaryMatchRow)> = Vec::new();
+    // Duplicated frames are counted: remove one occurrence per pair.
+    let mut unmatched_truth = truth.to_vec();
+    let mut unmatched_found = found.to_vec();
+    for p in &s.pairs {
+        if let Some(i) = unmatched_truth.iter().position(|&t| t == p.truth) {
+            unmatched_truth.swap_remove(i);
+        }
+        if let Some(i) = unmatched_found.iter().position(|&f| f == p.found) {
+            unmatched_found.swap_remove(i);
+        }
+        let outcome = if p.by_pose { "matched_by_pose" } else { "matched" };
+        out.push((p.truth, row(outcome, Some(p.truth), Some(p.found))));
+    }
+    out.extend(unmatched_truth.into_iter().map(|t| (t, row("missed", Some(t), None))));
+    out.extend(unmatched_found.into_iter().map(|f| (f, row("extra", None, Some(f)))));
+    out.sort_by_key(|(frame, r)| (*frame, r.found_frame));
+    out.into_iter().map(|(_, r)| r).collect()
+}
+
+/// The paper's central claim on the pooled rows: the last method's recall against the others'.
+fn fused_recall_claim(rows: &[PrecisionRecallRow], n_sequences: usize) -> Option<FusedRecallClaim> {
+    let pooled: Vec<&PrecisionRecallRow> = rows.iter().filter(|r| r.sequence == "pooled").collect();
+    let (fused, others) = pooled.split_last()?;
+    let best = others.iter().max_by(|a, b| a.recall.total_cmp(&b.recall))?;
+    Some(FusedRecallClaim {
+        fused_method: fused.method.clone(),
+        fused_recall: fused.recall,
+        best_other_method: best.method.clone(),
+        best_other_recall: best.recall,
+        fused_exceeds_all: others.iter().all(|o| fused.recall > o.recall),
+        n_sequences,
+    })
+}
+
+motionlab_core::register_plugin!(Evaluator, BoundaryPrParams, "boundary_pr");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequences::fixtures::sequence;
+    use motionlab_core::ColumnValues;
+    use motionlab_core::registry::{build_evaluator, parse_params};
+
+    fn evaluator(toml_text: &str) -> Box<dyn Evaluator> {
+        let v: toml::Value = toml::from_str(toml_text).unwrap();
+        build_evaluator("boundary_pr", &v).unwrap()
+    }
+
+    fn f64s(t: &Table, name: &str) -> Vec<f64> {
+        match t.column(name) {
+            Some(ColumnValues::F64(v)) => v.clone(),
+            Some(ColumnValues::I64(v)) => v.iter().map(|&x| x as f64).collect(),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+
+    fn strs(t: &Table, name: &str) -> Vec<String> {
+        (0..t.n_rows()).map(|i| t.column(name).unwrap().cell(i)).collect()
+    }
+
+    #[test]
+    fn table1_rows_per_sequence_and_pooled_ratios_of_sums() {
+        // Sequence a (100 Hz, tol 10 frames at 1/10 s): truth 100, 200, 300.
+        //   speed: 105, 290, 500 → 2 matched of 3 found, 3 truths.
+        //   fused: 100, 200, 300, 400 → 3 of 4.
+        // Sequence b (50 Hz, tol 5 frames): truth 50.
+        //   speed: nothing → precision NaN, recall 0.
+        //   fused: 52 → 1 of 1.
+        // Pooled speed: 2 matched / 3 found, 2 / 4 truths; fused: 4 / 5 found, 4 / 4 truths.
+        let seqs = vec![
+            sequence(
+                "a",
+                600,
+                100.0,
+                Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 300, "x"), (300, 600, "z")]),
+                &[("speed", &[105, 290, 500]), ("fused", &[100, 200, 300, 400])],
+            ),
+            sequence("b", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("speed", &[]), ("fused", &[52])]),
+            sequence("no_truth", 100, 50.0, None, &[("speed", &[3]), ("fused", &[3])]),
+        ];
+        let tables = evaluator("tolerance = { seconds = 0.1 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let t = &tables[0];
+        assert_eq!(t.name, "table1_precision_recall");
+        assert_eq!(strs(t, "sequence"), ["a", "a", "b", "b", "pooled", "pooled"]);
+        assert_eq!(strs(t, "method"), ["speed", "fused", "speed", "fused", "speed", "fused"]);
+        assert_eq!(f64s(t, "n_matched"), [2.0, 3.0, 0.0, 1.0, 2.0, 4.0]);
+        let p = f64s(t, "precision");
+        assert!((p[0] - 2.0 / 3.0).abs() < 1e-15 && p[1] == 0.75 && p[2].is_nan() && p[3] == 1.0);
+        assert!((p[4] - 2.0 / 3.0).abs() < 1e-15 && p[5] == 0.8);
+        assert_eq!(f64s(t, "recall")[4..], [0.5, 1.0]);
+        // F1 pooled speed = 2·2 / (3 + 4) = 4/7.
+        assert!((f64s(t, "f1")[4] - 4.0 / 7.0).abs() < 1e-15);
+        // Hausdorff: a/speed: 500→300 = 200 frames = 2 s; b/speed: empty found → infinite.
+        let h = f64s(t, "hausdorff_s");
+        assert!((h[0] - 2.0).abs() < 1e-12 && h[2].is_nan());
+        assert!(h[4].is_nan(), "pooled Hausdorff is infinite when one sequence's is");
+        assert!((h[5] - 1.0).abs() < 1e-12, "fused: a 400→300 = 1 s; b 52→50 = 0.04 s");
+        assert_eq!(f64s(t, "tolerance_frames")[..4], [10.0, 10.0, 5.0, 5.0]);
+
+        let claim = &tables[2];
+        assert_eq!(claim.name, "claim_fused_recall");
+        assert_eq!(strs(claim, "fused_method"), ["fused"]);
+        assert_eq!(claim.column("fused_exceeds_all"), Some(&ColumnValues::Bool(vec![true])));
+        assert_eq!(f64s(claim, "n_sequences"), [2.0]);
+    }
+
+    #[test]
+    fn boundary_matches_lists_matched_missed_and_extra() {
+        let seqs = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 600, "x")]), &[("m", &[103, 400])])];
+        let tables = evaluator("tolerance = { frames = 5 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let t = &tables[1];
+        assert_eq!(strs(t, "outcome"), ["matched", "missed", "extra"]);
+        // Absent frames are nulls, which a number column holds as NaN.
+        assert_eq!(strs(t, "truth_frame"), ["100", "200", "NaN"]);
+        assert_eq!(strs(t, "found_frame"), ["103", "NaN", "400"]);
+        assert!((t.column("offset_s").unwrap().cell(0).parse::<f64>().unwrap() - 0.03).abs() < 1e-12);
+        assert_eq!(tables.len(), 2, "one method: no claim table");
+    }
+
+    #[test]
+    fn the_pose_rule_counts_pairs_outside_the_time_window() {
+        // Root m0 still; marker m1 at height 100 except frames 40–59 (300). Truth at 20; a
+        // method finding 70 matches by pose (same pose as 20), one finding 50 does not.
+        let mut seq = sequence("p", 100, 10.0, Some(vec![(0, 20, "x"), (20, 100, "y")]), &[("m", &[70]), ("n", &[50])]);
+        let motion = motionlab_testkit::named_motion(100, 10.0, &["root", "hand"], |i, k| {
+            if k == 0 { [0.0; 3] } else { [0.0, 0.0, if (40..60).contains(&i) { 300.0 } else { 100.0 }] }
+        });
+        seq.motion = std::sync::Arc::new(motion);
+        let tables = evaluator("tolerance = { frames = 2 }\npose_mm = 10.0").evaluate(EvalInput::Segmentation(&[seq.clone()])).unwrap();
+        assert_eq!(f64s(&tables[0], "n_matched")[..2], [1.0, 0.0]);
+        assert_eq!(f64s(&tables[0], "n_matched_by_pose")[..2], [1.0, 0.0]);
+        assert_eq!(strs(&tables[1], "outcome")[0], "matched_by_pose");
+        // Without pose_mm the same input matches nothing.
+        let tables = evaluator("tolerance = { frames = 2 }").evaluate(EvalInput::Segmentation(&[seq.clone()])).unwrap();
+        assert_eq!(f64s(&tables[0], "n_matched")[..2], [0.0, 0.0]);
+        // A root that does not exist is an error naming the field.
+        let e = evaluator("pose_mm = 10.0\nroot = \"pelvis\"").evaluate(EvalInput::Segmentation(&[seq])).unwrap_err();
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::UnknownName, Some("root")));
+    }
+
+    #[test]
+    fn no_ground_truth_anywhere_and_wrong_inputs_are_errors() {
+        let seqs = vec![sequence("x", 100, 50.0, None, &[("m", &[3])])];
+        let e = evaluator("").evaluate(EvalInput::Segmentation(&seqs)).unwrap_err();
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::MissingKey, Some("truth")));
+        let e = evaluator("").evaluate(EvalInput::Matching(&[])).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::Mismatch);
+        // Ground truth at another rate than its motion.
+        let mut s = sequence("r", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("m", &[3])]);
+        s.truth.as_mut().unwrap().frame_rate = motionlab_core::FrameRate::new(120.0).unwrap();
+        let e = evaluator("").evaluate(EvalInput::Segmentation(&[s])).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::Mismatch);
+    }
+
+    #[test]
+    fn registry_invariants_hold_for_this_crates_plugins() {
+        for name in ["boundary_pr", "transitions"] {
+            let entry = motionlab_core::registry::find(name).unwrap();
+            assert_eq!(entry.kind, motionlab_core::StageKind::Evaluator);
+            assert!(entry.doc().contains("Missing samples"), "{name} documents missing samples");
+            for p in entry.params() {
+                assert!(!p.description.is_empty() && (p.required || p.default.is_some()), "{name}.{}: {p:?}", p.name);
+            }
+        }
+        let problems: Vec<String> = motionlab_core::registry::check_registry()
+            .into_iter()
+            .filter(|p| p.contains("\"boundary_pr\"") || p.contains("\"transitions\""))
+            .collect();
+        assert!(problems.is_empty(), "{problems:?}");
+    }
+
+    #[test]
+    fn parameters_are_validated_naming_the_field() {
+        let field = |t: &str| {
+            let v: toml::Value = toml::from_str(t).unwrap();
+            build_evaluator("boundary_pr", &v).err().map(|e| (e.kind(), e.location().field.clone().unwrap_or_default()))
+        };
+        assert_eq!(field("tolerance = { frames = -1 }"), Some((ErrorKind::OutOfRange, "tolerance".into())));
+        assert_eq!(field("pose_mm = 0.0"), Some((ErrorKind::OutOfRange, "pose_mm".into())));
+        assert_eq!(field("pose_max_gap = { seconds = 1.0 }"), Some((ErrorKind::InvalidParameter, "pose_max_gap".into())));
+        assert_eq!(field("root = \" \""), Some((ErrorKind::OutOfRange, "root".into())));
+        assert_eq!(field("tolerance = 5"), Some((ErrorKind::WrongType, "tolerance".into())));
+        assert_eq!(field("tolerence = { frames = 5 }").map(|f| f.0), Some(ErrorKind::UnknownKey));
+        assert_eq!(field(""), None);
+        let p: BoundaryPrParams = parse_params(&motionlab_core::registry::default_params()).unwrap();
+        assert_eq!(p.tolerance, TimeSpan::Seconds(1.0 / 12.0));
+        assert_eq!(evaluator("").domain(), EvalDomain::Segmentation);
+    }
+}

@@ -1,0 +1,647 @@
+//! The C3D container, below the level of markers and events: the 512-byte header, the
+//! parameter section (groups and typed, multi-dimensional parameters), the three processor
+//! number formats, and the layout of the data section (point and analog words per frame).
+//!
+//! Every read is bounds-checked and every failure is an [`Error`] naming the file, the byte
+//! offset and, where there is one, the parameter (`POINT:SCALE`) — so a fuzzed or truncated
+//! file gives a one-line error, never a panic.
+//!
+//! Reference: *The C3D File Format User Guide* (Motion Lab Systems, 2008), chapters 2–3.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use motionlab_core::{Error, ErrorKind, Location, Result};
+
+/// The bytes of one 512-byte block; block numbers in C3D are 1-based.
+pub const BLOCK: usize = 512;
+/// Second byte of every C3D file.
+pub const KEY_BYTE: u8 = 0x50;
+
+/// How numbers are stored, from the fourth byte of the parameter section (83 + n).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Processor {
+    /// 84: little-endian integers, IEEE-754 floats.
+    Intel,
+    /// 85: little-endian integers, VAX F_floating floats.
+    Dec,
+    /// 86: big-endian integers and IEEE-754 floats (SGI/MIPS).
+    Mips,
+}
+
+impl Processor {
+    pub fn from_byte(b: u8) -> Option<Self> {
+        match b {
+            84 => Some(Processor::Intel),
+            85 => Some(Processor::Dec),
+            86 => Some(Processor::Mips),
+            _ => None,
+        }
+    }
+    pub fn i16(self, b: [u8; 2]) -> i16 {
+        match self {
+            Processor::Mips => i16::from_be_bytes(b),
+            _ => i16::from_le_bytes(b),
+        }
+    }
+    pub fn u16(self, b: [u8; 2]) -> u16 {
+        self.i16(b) as u16
+    }
+    /// A 4-byte float widened (exactly) to f64.
+    pub fn f32(self, b: [u8; 4]) -> f64 {
+        match self {
+            Processor::Intel => f64::from(f32::from_le_bytes(b)),
+            Processor::Mips => f64::from(f32::from_be_bytes(b)),
+            Processor::Dec => dec_f32(b),
+        }
+    }
+}
+
+/// Decodes a VAX F_floating number as DEC processors wrote it: two little-endian 16-bit words,
+/// the first holding sign (bit 15), an 8-bit exponent with bias 128 (bits 14–7) and the top 7
+/// fraction bits, the second the low 16 fraction bits. The value is `0.1f × 2^(e−128)` with a
+/// hidden leading 1, i.e. `(1 + f/2²³) × 2^(e−129)` — a quarter of the IEEE value of the same
+/// bits with the words swapped. Computed in f64, so exact. Exponent 0 is zero, or with the sign
+/// set the VAX "reserved operand", returned as NaN.
+pub fn dec_f32(b: [u8; 4]) -> f64 {
+    let hi = u16::from_le_bytes([b[0], b[1]]);
+    let lo = u16::from_le_bytes([b[2], b[3]]);
+    let negative = hi & 0x8000 != 0;
+    let exponent = i32::from((hi >> 7) & 0xFF);
+    if exponent == 0 {
+        return if negative { f64::NAN } else { 0.0 };
+    }
+    let fraction = (u32::from(hi & 0x7F) << 16) | u32::from(lo);
+    let magnitude = (1.0 + f64::from(fraction) / f64::from(1u32 << 23)) * 2f64.powi(exponent - 129);
+    if negative { -magnitude } else { magnitude }
+}
+
+/// Where errors point: the file and the byte offset (and the parameter, when there is one).
+#[derive(Clone, Copy)]
+pub struct Ctx<'a> {
+    pub origin: &'a Path,
+}
+
+impl Ctx<'_> {
+    pub fn err(&self, kind: ErrorKind, offset: usize, message: impl Into<String>) -> Error {
+        Error::new(kind, message).with_location(Location::file(self.origin).byte_offset(offset as u64))
+    }
+    pub fn param_err(&self, kind: ErrorKind, param: &Param<'_>, message: impl Into<String>) -> Error {
+        self.err(kind, param.data_offset, message).with_field(param.key())
+    }
+}
+
+/// The fixed header in block 1 (words are 16-bit, numbered from 1 in the C3D guide).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Header {
+    /// Word 1, low byte: the block the parameter section starts at.
+    pub parameter_block: u8,
+    /// Word 2: number of 3-D points per frame.
+    pub point_count: u16,
+    /// Word 3: analog measurements per 3-D frame (channels × samples per frame).
+    pub analog_per_frame: u16,
+    /// Word 4: number of the first frame (1-based).
+    pub first_frame: u16,
+    /// Word 5: number of the last frame.
+    pub last_frame: u16,
+    /// Words 7–8: point scale factor; negative means float storage.
+    pub scale: f64,
+    /// Word 9: the block the data section starts at.
+    pub data_start_block: u16,
+    /// Word 10: analog samples per 3-D frame.
+    pub analog_samples_per_frame: u16,
+    /// Words 11–12: 3-D frame rate, Hz.
+    pub frame_rate: f64,
+}
+
+/// Byte offsets of header fields, for error locations.
+pub mod header_offset {
+    pub const PARAMETER_BLOCK: usize = 0;
+    pub const KEY: usize = 1;
+    pub const POINT_COUNT: usize = 2;
+    pub const ANALOG_PER_FRAME: usize = 4;
+    pub const FIRST_FRAME: usize = 6;
+    pub const LAST_FRAME: usize = 8;
+    pub const SCALE: usize = 12;
+    pub const DATA_START: usize = 16;
+    pub const FRAME_RATE: usize = 20;
+}
+
+/// A parameter's storage type (the signed type byte of its record).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamType {
+    Char,
+    Byte,
+    Int16,
+    Float,
+}
+
+impl ParamType {
+    fn from_byte(b: i8) -> Option<Self> {
+        match b {
+            -1 => Some(ParamType::Char),
+            1 => Some(ParamType::Byte),
+            2 => Some(ParamType::Int16),
+            4 => Some(ParamType::Float),
+            _ => None,
+        }
+    }
+    pub fn size(self) -> usize {
+        match self {
+            ParamType::Char | ParamType::Byte => 1,
+            ParamType::Int16 => 2,
+            ParamType::Float => 4,
+        }
+    }
+}
+
+/// One parameter: its raw data, decoded on access so a malformed parameter nobody reads
+/// cannot fail a load.
+#[derive(Clone, Debug)]
+pub struct Param<'a> {
+    pub group: String,
+    pub name: String,
+    pub kind: ParamType,
+    /// Dimensions, first varying fastest (a 2 × N `EVENT:TIMES` holds minutes then seconds of
+    /// event 0, then of event 1, …). Empty for a scalar.
+    pub dims: Vec<usize>,
+    pub data: &'a [u8],
+    /// File offset of `data`.
+    pub data_offset: usize,
+    processor: Processor,
+}
+
+impl Param<'_> {
+    /// `GROUP:NAME`, as errors name it.
+    pub fn key(&self) -> String {
+        format!("{}:{}", self.group, self.name)
+    }
+    /// Number of elements (1 for a scalar).
+    pub fn len(&self) -> usize {
+        self.data.len() / self.kind.size()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.data.is_empty()
+    }
+    /// Numeric values as f64 (any numeric type; int16 read as signed).
+    pub fn floats(&self, ctx: Ctx<'_>) -> Result<Vec<f64>> {
+        match self.kind {
+            ParamType::Float => Ok(self.data.chunks_exact(4).map(|c| self.processor.f32([c[0], c[1], c[2], c[3]])).collect()),
+            ParamType::Int16 => Ok(self.data.chunks_exact(2).map(|c| f64::from(self.processor.i16([c[0], c[1]]))).collect()),
+            ParamType::Byte => Ok(self.data.iter().map(|b| f64::from(*b)).collect()),
+            ParamType::Char => Err(ctx.param_err(ErrorKind::WrongType, self, "expected a numeric parameter, found characters")),
+        }
+    }
+    /// Integer values. Int16 is read **unsigned**: the counts and frame numbers C3D stores in
+    /// int16 words (`POINT:USED`, `POINT:DATA_START`, `TRIAL:ACTUAL_START_FIELD`) go to 65535
+    /// and writers store them that way. A float parameter is accepted when it holds integers.
+    pub fn unsigned(&self, ctx: Ctx<'_>) -> Result<Vec<u32>> {
+        match self.kind {
+            ParamType::Int16 => Ok(self.data.chunks_exact(2).map(|c| u32::from(self.processor.u16([c[0], c[1]]))).collect()),
+            ParamType::Byte => Ok(self.data.iter().map(|b| u32::from(*b)).collect()),
+            ParamType::Float => self
+                .floats(ctx)?
+                .into_iter()
+                .map(|v| {
+                    if v.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&v) {
+                        Ok(v as u32)
+                    } else {
+                        Err(ctx.param_err(ErrorKind::WrongType, self, format!("expected a non-negative integer, found {v}")))
+                    }
+                })
+                .collect(),
+            ParamType::Char => Err(ctx.param_err(ErrorKind::WrongType, self, "expected an integer parameter, found characters")),
+        }
+    }
+    /// The first value of a numeric parameter.
+    pub fn first_float(&self, ctx: Ctx<'_>) -> Result<f64> {
+        self.floats(ctx)?
+            .first()
+            .copied()
+            .ok_or_else(|| ctx.param_err(ErrorKind::WrongValueCount, self, "expected a value, found an empty array"))
+    }
+    pub fn first_unsigned(&self, ctx: Ctx<'_>) -> Result<u32> {
+        self.unsigned(ctx)?
+            .first()
+            .copied()
+            .ok_or_else(|| ctx.param_err(ErrorKind::WrongValueCount, self, "expected a value, found an empty array"))
+    }
+    /// The strings of a character parameter: the first dimension is the string length, the
+    /// others multiply to the number of strings (a 0-D or 1-D array is one string). Each is
+    /// trimmed of spaces and NULs at both ends. Non-UTF-8 bytes are an error at their offset.
+    pub fn strings(&self, ctx: Ctx<'_>) -> Result<Vec<String>> {
+        if self.kind != ParamType::Char {
+            return Err(ctx.param_err(ErrorKind::WrongType, self, "expected a character parameter, found numbers"));
+        }
+        let width = self.dims.first().copied().unwrap_or(1);
+        if width == 0 {
+            // dims like [0, 7]: seven empty strings (Vicon writes EVENT:DESCRIPTIONS so).
+            let count = self.dims.iter().skip(1).product::<usize>();
+            return Ok(vec![String::new(); count]);
+        }
+        let blank = |c: char| c == ' ' || c == '\0';
+        self.data
+            .chunks(width)
+            .enumerate()
+            .map(|(i, chunk)| match std::str::from_utf8(chunk) {
+                Ok(s) => Ok(s.trim_matches(blank).to_string()),
+                Err(e) => Err(ctx
+                    .err(
+                        ErrorKind::Syntax,
+                        self.data_offset + i * width + e.valid_up_to(),
+                        format!("string {} is not valid UTF-8; expected text", i + 1),
+                    )
+                    .with_field(self.key())),
+            })
+            .collect()
+    }
+}
+
+/// A parsed C3D file: header and parameters, with the data section still as bytes.
+pub struct C3dFile<'a> {
+    pub bytes: &'a [u8],
+    pub processor: Processor,
+    pub header: Header,
+    params: HashMap<(String, String), Param<'a>>,
+    pub ctx: Ctx<'a>,
+}
+
+fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
+    bytes.get(at..at.checked_add(N)?)?.try_into().ok()
+}
+
+impl<'a> C3dFile<'a> {
+    /// Parses the header and the whole parameter section.
+    pub fn parse(bytes: &'a [u8], origin: &'a Path) -> Result<Self> {
+        let ctx = Ctx { origin };
+        if bytes.len() < BLOCK {
+            return Err(ctx.err(
+                ErrorKind::Truncated,
+                bytes.len(),
+                format!("file is {} bytes; a C3D file starts with a {BLOCK}-byte header block", bytes.len()),
+            ));
+        }
+        if bytes[header_offset::KEY] != KEY_BYTE {
+            return Err(ctx.err(
+                ErrorKind::Syntax,
+                header_offset::KEY,
+                format!("header key byte is 0x{:02X}; expected 0x50 (not a C3D file, or a corrupt header)", bytes[1]),
+            ));
+        }
+        let parameter_block = bytes[header_offset::PARAMETER_BLOCK];
+        let param_start = (usize::from(parameter_block).max(1) - 1) * BLOCK;
+        if parameter_block < 2 || param_start + 4 > bytes.len() {
+            return Err(ctx
+                .err(
+                    ErrorKind::OutOfRange,
+                    header_offset::PARAMETER_BLOCK,
+                    format!(
+                        "parameter block pointer is {parameter_block}; expected a block from 2 to {} (block 1 is the header, the file has {} blocks)",
+                        bytes.len().div_ceil(BLOCK),
+                        bytes.len().div_ceil(BLOCK)
+                    ),
+                )
+                .with_field("header.parameter_block"));
+        }
+        let processor_byte = bytes[param_start + 3];
+        let processor = Processor::from_byte(processor_byte).ok_or_else(|| {
+            ctx.err(
+                ErrorKind::Syntax,
+                param_start + 3,
+                format!("processor type is {processor_byte}; expected 84 (Intel), 85 (DEC) or 86 (MIPS)"),
+            )
+            .with_field("parameters.processor")
+        })?;
+        // The header is 512 bytes long (checked above), so these reads cannot fail; `take`
+        // keeps them panic-free regardless.
+        let w = |at: usize| take::<2>(bytes, at).map(|b| processor.u16(b)).unwrap_or(0);
+        let f = |at: usize| take::<4>(bytes, at).map(|b| processor.f32(b)).unwrap_or(f64::NAN);
+        let header = Header {
+            parameter_block,
+            point_count: w(header_offset::POINT_COUNT),
+            analog_per_frame: w(header_offset::ANALOG_PER_FRAME),
+            first_frame: w(header_offset::FIRST_FRAME),
+            last_frame: w(header_offset::LAST_FRAME),
+            scale: f(header_offset::SCALE),
+            data_start_block: w(header_offset::DATA_START),
+            analog_samples_per_frame: w(18),
+            frame_rate: f(header_offset::FRAME_RATE),
+        };
+        let params = parse_parameters(bytes, param_start, processor, ctx)?;
+        Ok(C3dFile { bytes, processor, header, params, ctx })
+    }
+
+    /// A parameter by group and name (case-insensitive, as C3D names are).
+    pub fn param(&self, group: &str, name: &str) -> Option<&Param<'a>> {
+        self.params.get(&(group.to_ascii_uppercase(), name.to_ascii_uppercase()))
+    }
+
+    /// Every parameter, sorted by group then name.
+    pub fn params(&self) -> Vec<&Param<'a>> {
+        let mut v: Vec<&Param<'a>> = self.params.values().collect();
+        v.sort_by(|a, b| (&a.group, &a.name).cmp(&(&b.group, &b.name)));
+        v
+    }
+
+    /// Points are stored as floats when the scale factor is negative (`POINT:SCALE`, else the
+    /// header's). Zero or non-finite cannot say which, so it is an error.
+    pub fn point_scale(&self) -> Result<f64> {
+        let (scale, located) = match self.param("POINT", "SCALE") {
+            Some(p) => (p.first_float(self.ctx)?, Some(p)),
+            None => (self.header.scale, None),
+        };
+        if scale.is_finite() && scale != 0.0 {
+            return Ok(scale);
+        }
+        let msg = format!("point scale factor is {scale}; expected a finite non-zero number (negative = float storage)");
+        Err(match located {
+            Some(p) => self.ctx.param_err(ErrorKind::OutOfRange, p, msg),
+            None => self.ctx.err(ErrorKind::OutOfRange, header_offset::SCALE, msg).with_field("header.scale"),
+        })
+    }
+
+    /// Byte offset of the data section (`header` word 9, else `POINT:DATA_START`).
+    pub fn data_offset(&self) -> Result<usize> {
+        let block = match self.header.data_start_block {
+            0 => match self.param("POINT", "DATA_START") {
+                Some(p) => p.first_unsigned(self.ctx)? as usize,
+                None => 0,
+            },
+            b => usize::from(b),
+        };
+        if block < 2 {
+            return Err(self
+                .ctx
+                .err(ErrorKind::OutOfRange, header_offset::DATA_START, format!("data start block is {block}; expected 2 or more"))
+                .with_field("header.data_start"));
+        }
+        Ok((block - 1) * BLOCK)
+    }
+
+    /// First and last frame numbers: `TRIAL:ACTUAL_START_FIELD` / `ACTUAL_END_FIELD` (two
+    /// 16-bit words, low then high, so files past 65535 frames work) when present, else the
+    /// header's words 4 and 5.
+    pub fn frame_range(&self) -> Result<(u64, u64)> {
+        let field = |name: &str, header_value: u16| -> Result<u64> {
+            match self.param("TRIAL", name) {
+                Some(p) => {
+                    let words = p.unsigned(self.ctx)?;
+                    match words.as_slice() {
+                        [lo, hi, ..] => Ok(u64::from(*lo) + (u64::from(*hi) << 16)),
+                        [lo] => Ok(u64::from(*lo)),
+                        [] => Err(self.ctx.param_err(ErrorKind::WrongValueCount, p, "expected two 16-bit words, found none")),
+                    }
+                }
+                None => Ok(u64::from(header_value)),
+            }
+        };
+        let first = field("ACTUAL_START_FIELD", self.header.first_frame)?;
+        let last = field("ACTUAL_END_FIELD", self.header.last_frame)?;
+        if last < first {
+            let msg = format!("last frame {last} is before first frame {first}: a negative frame count");
+            return Err(match self.param("TRIAL", "ACTUAL_END_FIELD") {
+                Some(p) => self.ctx.param_err(ErrorKind::OutOfRange, p, msg),
+                None => self.ctx.err(ErrorKind::OutOfRange, header_offset::LAST_FRAME, msg).with_field("header.last_frame"),
+            });
+        }
+        Ok((first, last))
+    }
+
+    /// The layout of the data section, checked against the file length.
+    pub fn data_layout(&self) -> Result<DataLayout> {
+        let scale = self.point_scale()?;
+        let float = scale < 0.0;
+        let word = if float { 4 } else { 2 };
+        let (first, last) = self.frame_range()?;
+        let n_frames = last - first + 1;
+        let points = usize::from(self.header.point_count);
+        let analog_words = usize::from(self.header.analog_per_frame);
+        let frame_bytes = (4 * points + analog_words) * word;
+        let start = self.data_offset()?;
+        let need = (frame_bytes as u64).checked_mul(n_frames).and_then(|b| b.checked_add(start as u64));
+        let have = self.bytes.len() as u64;
+        match need {
+            Some(need) if need <= have => {}
+            _ => {
+                // Point at the first frame that does not fit.
+                let whole = if frame_bytes == 0 { 0 } else { have.saturating_sub(start as u64) / frame_bytes as u64 };
+                let at = start as u64 + whole * frame_bytes as u64;
+                let need_text = need.map_or_else(|| "more than 2^64".to_string(), |n| n.to_string());
+                return Err(Error::new(
+                    ErrorKind::Truncated,
+                    format!(
+                        "file ends at byte {have} inside frame {} of {n_frames}: {n_frames} frames of {points} points and {analog_words} analog values ({frame_bytes} bytes each) from byte {start} need {need_text} bytes",
+                        whole + 1
+                    ),
+                )
+                .with_location(Location::file(self.ctx.origin).byte_offset(at)));
+            }
+        }
+        // `need` fits in the (in-memory) file, so these are usize-safe.
+        Ok(DataLayout {
+            start,
+            float,
+            scale,
+            n_frames: n_frames as usize,
+            first_frame: first,
+            points,
+            analog_words,
+            frame_bytes,
+        })
+    }
+
+    /// Analog channel `channel` (0-based) over the whole file, in physical units:
+    /// `(stored − ANALOG:OFFSET) × ANALOG:SCALE × ANALOG:GEN_SCALE`. Samples are stored
+    /// sample-major within each frame (all channels of sample 1, then of sample 2, …).
+    pub fn analog_channel(&self, layout: &DataLayout, channel: usize) -> Result<Vec<f64>> {
+        let used = match self.param("ANALOG", "USED") {
+            Some(p) => p.first_unsigned(self.ctx)? as usize,
+            None => 0,
+        };
+        if channel >= used || used == 0 || !layout.analog_words.is_multiple_of(used) {
+            return Err(self.ctx.err(
+                ErrorKind::OutOfRange,
+                header_offset::ANALOG_PER_FRAME,
+                format!("analog channel {channel} requested; the file has {used} channels and {} analog values per frame", layout.analog_words),
+            ));
+        }
+        let per_frame = layout.analog_words / used;
+        let pick = |name: &str, default: f64| -> Result<f64> {
+            match self.param("ANALOG", name) {
+                Some(p) => {
+                    let v = p.floats(self.ctx)?;
+                    Ok(v.get(channel).or(v.first()).copied().unwrap_or(default))
+                }
+                None => Ok(default),
+            }
+        };
+        let offset = pick("OFFSET", 0.0)?;
+        let scale = pick("SCALE", 1.0)?;
+        let gen_scale = match self.param("ANALOG", "GEN_SCALE") {
+            Some(p) => p.first_float(self.ctx)?,
+            None => 1.0,
+        };
+        let unsigned = match self.param("ANALOG", "FORMAT") {
+            Some(p) => p.strings(self.ctx)?.first().is_some_and(|s| s.eq_ignore_ascii_case("UNSIGNED")),
+            None => false,
+        };
+        let word = if layout.float { 4 } else { 2 };
+        let mut out = Vec::with_capacity(layout.n_frames * per_frame);
+        for frame in 0..layout.n_frames {
+            let analog_start = layout.start + frame * layout.frame_bytes + 4 * layout.points * word;
+            for s in 0..per_frame {
+                let at = analog_start + (s * used + channel) * word;
+                let raw = if layout.float {
+                    take::<4>(self.bytes, at).map(|b| self.processor.f32(b))
+                } else if unsigned {
+                    take::<2>(self.bytes, at).map(|b| f64::from(self.processor.u16(b)))
+                } else {
+                    take::<2>(self.bytes, at).map(|b| f64::from(self.processor.i16(b)))
+                };
+                let raw = raw.ok_or_else(|| self.ctx.err(ErrorKind::Truncated, at, "analog sample past the end of the file"))?;
+                out.push((raw - offset) * scale * gen_scale);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Where the frames are and how they are stored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DataLayout {
+    /// Byte offset of frame 0.
+    pub start: usize,
+    /// Float storage (scale < 0) or 16-bit integers.
+    pub float: bool,
+    /// The point scale factor (multiplies integer coordinates and, as |scale|, residuals).
+    pub scale: f64,
+    pub n_frames: usize,
+    /// Frame number of the first stored frame.
+    pub first_frame: u64,
+    pub points: usize,
+    /// Analog words per frame (they follow the points of each frame and are skipped).
+    pub analog_words: usize,
+    pub frame_bytes: usize,
+}
+
+/// Parses the parameter section starting at byte `start` (the 4-byte block header, then
+/// group and parameter records chained by "offset to next" words until a zero name length or
+/// a zero offset).
+fn parse_parameters<'a>(bytes: &'a [u8], start: usize, processor: Processor, ctx: Ctx<'_>) -> Result<HashMap<(String, String), Param<'a>>> {
+    let truncated = |at: usize, what: &str| {
+        ctx.err(ErrorKind::Truncated, at, format!("parameter section ends inside {what}; expected a complete record or an end marker"))
+    };
+    let mut groups: HashMap<u8, String> = HashMap::new();
+    // (group id, param) with the group name filled in once every group record is seen:
+    // C3D allows a parameter before its group.
+    let mut pending: Vec<(u8, Param<'a>)> = Vec::new();
+    let mut pos = start + 4;
+    loop {
+        let [name_len, group_id] = take::<2>(bytes, pos).ok_or_else(|| truncated(pos, "a record header"))?;
+        let name_len = usize::from((name_len as i8).unsigned_abs());
+        let group_id = group_id as i8;
+        if name_len == 0 {
+            break;
+        }
+        let name_bytes = bytes.get(pos + 2..pos + 2 + name_len).ok_or_else(|| truncated(pos + 2, "a name"))?;
+        let name = std::str::from_utf8(name_bytes)
+            .ok()
+            .filter(|n| n.bytes().all(|b| b.is_ascii_graphic()))
+            .ok_or_else(|| ctx.err(ErrorKind::Syntax, pos + 2, "group or parameter name is not printable ASCII; expected a name like POINT"))?
+            .to_ascii_uppercase();
+        let next_at = pos + 2 + name_len;
+        let next = take::<2>(bytes, next_at).map(|b| processor.i16(b)).ok_or_else(|| truncated(next_at, "an offset word"))?;
+        let body = next_at + 2;
+        let record_end = if group_id < 0 {
+            let desc_len = usize::from(*bytes.get(body).ok_or_else(|| truncated(body, "a group description"))?);
+            let id = group_id.unsigned_abs();
+            if let Some(old) = groups.insert(id, name.clone()) {
+                return Err(ctx.err(ErrorKind::DuplicateName, pos, format!("group id {id} is defined twice ({old} and {name})")));
+            }
+            body + 1 + desc_len
+        } else if group_id > 0 {
+            let [type_byte, n_dims] = take::<2>(bytes, body).ok_or_else(|| truncated(body, "a parameter type"))?;
+            let kind = ParamType::from_byte(type_byte as i8).ok_or_else(|| {
+                ctx.err(ErrorKind::Syntax, body, format!("parameter {name}: type byte is {}; expected -1, 1, 2 or 4", type_byte as i8))
+            })?;
+            let n_dims = usize::from(n_dims);
+            let dims: Vec<usize> =
+                bytes.get(body + 2..body + 2 + n_dims).ok_or_else(|| truncated(body + 2, "parameter dimensions"))?.iter().map(|d| usize::from(*d)).collect();
+            // At most 7 dimensions of at most 255: the product fits in u64, and in usize on
+            // 64-bit targets; checked anyway.
+            let size = dims.iter().try_fold(kind.size(), |acc, d| acc.checked_mul(*d));
+            let data_offset = body + 2 + n_dims;
+            let data = size
+                .and_then(|s| bytes.get(data_offset..data_offset.checked_add(s)?))
+                .ok_or_else(|| truncated(data_offset, &format!("the data of parameter {name}")))?;
+            let desc_at = data_offset + data.len();
+            let desc_len = usize::from(*bytes.get(desc_at).ok_or_else(|| truncated(desc_at, "a parameter description"))?);
+            pending.push((
+                group_id.unsigned_abs(),
+                Param { group: String::new(), name: name.clone(), kind, dims, data, data_offset, processor },
+            ));
+            desc_at + 1 + desc_len
+        } else {
+            return Err(ctx.err(ErrorKind::Syntax, pos + 1, format!("record {name} has group id 0; expected a group (< 0) or parameter (> 0) id")));
+        };
+        if next == 0 {
+            break;
+        }
+        let next_pos = usize::try_from(next).ok().map(|n| next_at + n);
+        match next_pos {
+            // The chain must move forward past this record, or a corrupt file could loop.
+            Some(p) if p >= record_end => pos = p,
+            _ => {
+                return Err(ctx.err(
+                    ErrorKind::Syntax,
+                    next_at,
+                    format!("record {name}: offset to next record is {next}; expected 0 or a forward offset past the record"),
+                ))
+            }
+        }
+    }
+    let mut params = HashMap::with_capacity(pending.len());
+    for (id, mut p) in pending {
+        p.group = groups.get(&id).cloned().unwrap_or_else(|| format!("GROUP{id}"));
+        let key = (p.group.clone(), p.name.clone());
+        if params.contains_key(&key) {
+            return Err(ctx.err(ErrorKind::DuplicateName, p.data_offset, "parameter is defined twice").with_field(p.key()));
+        }
+        params.insert(key, p);
+    }
+    Ok(params)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dec_floats_decode_known_values() {
+        // VAX F_floating 1.0 is stored 80 40 00 00 (exponent 129, fraction 0).
+        assert_eq!(dec_f32([0x80, 0x40, 0x00, 0x00]), 1.0);
+        // −2.5 = −1.25 × 2^1: sign 1, exponent 130 (0x82), fraction 0.25 × 2^23 = 0x200000.
+        // hi word = 0x8000 | 0x82 << 7 | 0x20 = 0xC120, lo word 0.
+        assert_eq!(dec_f32([0x20, 0xC1, 0x00, 0x00]), -2.5);
+        assert_eq!(dec_f32([0, 0, 0, 0]), 0.0);
+        assert!(dec_f32([0, 0x80, 0, 0]).is_nan());
+        // The known relation: DEC value = IEEE value of the word-swapped bits / 4.
+        for v in [0.1f32, 123.456, -9876.5, 1.0e-3, 3.0e7] {
+            let ieee = v.to_le_bytes();
+            let mut dec = [ieee[2], ieee[3], ieee[0], ieee[1]];
+            // Multiply by 4 = add 2 to the exponent (bits 7.. of the first word).
+            let hi = u16::from_le_bytes([dec[0], dec[1]]) + (2 << 7);
+            dec[0..2].copy_from_slice(&hi.to_le_bytes());
+            assert_eq!(dec_f32(dec), f64::from(v), "{v}");
+        }
+    }
+
+    #[test]
+    fn mips_and_intel_byte_orders() {
+        assert_eq!(Processor::Mips.f32([0x3F, 0x80, 0, 0]), 1.0);
+        assert_eq!(Processor::Intel.f32([0, 0, 0x80, 0x3F]), 1.0);
+        assert_eq!(Processor::Mips.i16([0xFF, 0xFE]), -2);
+        assert_eq!(Processor::Intel.i16([0xFE, 0xFF]), -2);
+        assert_eq!(Processor::Intel.u16([0xFF, 0xFF]), 65535);
+    }
+}

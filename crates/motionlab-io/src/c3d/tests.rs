@@ -1,0 +1,398 @@
+//! Unit tests on hand-made C3D files (see `testfile.rs`); real-data tests are in
+//! `tests/binary_formats.rs`.
+
+use std::path::Path;
+
+use motionlab_core::registry::{build_loader, parse_params};
+use motionlab_core::{Axis, ErrorKind};
+
+use super::raw::{C3dFile, Processor, BLOCK};
+use super::testfile::C3dSpec;
+use super::*;
+
+const ORIGIN: &str = "hand/made.c3d";
+
+fn parse(bytes: &[u8]) -> Result<Motion> {
+    parse_c3d(bytes, Path::new(ORIGIN), &C3dOptions::default())
+}
+
+fn err(bytes: &[u8]) -> motionlab_core::Error {
+    match parse(bytes) {
+        Ok(m) => panic!("expected an error, loaded {} frames", m.n_frames()),
+        Err(e) => {
+            assert!(e.to_string().contains(ORIGIN), "message must name the file: {e}");
+            assert!(!e.to_string().contains('\n'), "one line: {e}");
+            e
+        }
+    }
+}
+
+fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol)
+}
+
+#[test]
+fn float_storage_reads_positions_labels_rate_and_missing() {
+    let m = parse(&C3dSpec::small().build()).unwrap();
+    assert_eq!((m.n_frames(), m.n_points()), (3, 2));
+    assert_eq!(m.point_names(), ["a", "b"]);
+    assert_eq!(m.frame_rate().hz(), 100.0);
+    assert_eq!(m.up_axis(), Axis::Z);
+    assert_eq!(m.name, "made");
+    assert_eq!(m.format, "c3d");
+    // f32 values widened exactly.
+    assert_eq!(m.position(1, 0), [1.5, 2.5, 3.5]);
+    assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+    // Residual −1 at (frame 1, b): missing and NaN although the file holds 11, 21, 31.
+    assert!(m.is_missing(1, 1) && m.position(1, 1)[0].is_nan());
+    // Residual 0 (frame 1, a) is a valid, interpolated sample in C3D.
+    assert!(!m.is_missing(1, 0));
+    assert_eq!(m.missing_count(), 1);
+}
+
+#[test]
+fn integer_storage_multiplies_by_the_scale_and_skips_analog_words() {
+    let mut spec = C3dSpec::small();
+    spec.scale = 0.5;
+    spec.analog_per_frame = 3;
+    let m = parse(&spec.build()).unwrap();
+    // 1.5 / 0.5 = 3 stored → 1.5 mm; every frame is exact at 0.5 mm resolution.
+    assert_eq!(m.position(1, 0), [1.5, 2.5, 3.5]);
+    assert_eq!(m.position(2, 0), [2.0, 3.0, 4.0]);
+    assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+    assert!(m.is_missing(1, 1));
+    assert_eq!(m.missing_count(), 1);
+    // The analog filler (9999 / 32000) never leaks into positions.
+    assert!(m.positions().iter().flatten().all(|v| v.is_nan() || v.abs() < 100.0));
+}
+
+#[test]
+fn float_storage_also_skips_analog_words() {
+    let mut spec = C3dSpec::small();
+    spec.analog_per_frame = 5;
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+}
+
+#[test]
+fn dec_mips_and_intel_files_with_the_same_content_load_identically() {
+    let intel = parse(&C3dSpec::small().build()).unwrap();
+    for processor in [Processor::Dec, Processor::Mips] {
+        for scale in [-0.1, 0.5] {
+            let mut spec = C3dSpec::small();
+            spec.processor = processor;
+            spec.scale = scale;
+            spec.events = vec![("Foot Strike", "Left", 0.0, 0.02)];
+            let m = parse(&spec.build()).unwrap();
+            assert_eq!(m.frame_rate().hz(), 100.0, "{processor:?}");
+            for f in 0..3 {
+                for p in 0..2 {
+                    let (a, b) = (intel.position(f, p), m.position(f, p));
+                    assert!(a == b || (a[0].is_nan() && b[0].is_nan()), "{processor:?} {scale} ({f},{p}): {a:?} vs {b:?}");
+                }
+            }
+            assert!((m.events[0].time.0 - 0.02).abs() < 1e-7, "{processor:?}");
+        }
+    }
+    // The processor byte really differs (the test is not reading three Intel files).
+    let mut dec = C3dSpec::small();
+    dec.processor = Processor::Dec;
+    let bytes = dec.build();
+    assert_eq!(C3dFile::parse(&bytes, Path::new(ORIGIN)).unwrap().processor, Processor::Dec);
+    assert_eq!(bytes[BLOCK + 3], 85);
+}
+
+#[test]
+fn units_are_converted_to_millimetres() {
+    let mut spec = C3dSpec::small();
+    spec.units = Some("m");
+    let m = parse(&spec.build()).unwrap();
+    assert!(close(m.position(0, 1), [10_000.0, 20_000.0, 30_000.0], 1e-9));
+    spec.units = Some("cm");
+    assert!(close(parse(&spec.build()).unwrap().position(0, 0), [10.0, 20.0, 30.0], 1e-9));
+    spec.units = None;
+    assert_eq!(parse(&spec.build()).unwrap().position(0, 0), [1.0, 2.0, 3.0]);
+    spec.units = Some("furlong");
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:UNITS")));
+}
+
+#[test]
+fn events_combine_minutes_and_seconds_and_are_sorted_with_frame_offsets() {
+    let mut spec = C3dSpec::small();
+    spec.first_frame = 11;
+    spec.events = vec![("Foot Off", "Right", 1.0, 2.5), ("Foot Strike", "Left", 0.0, 0.13), ("Event", "General", 0.0, 0.1)];
+    let m = parse(&spec.build()).unwrap();
+    let got: Vec<(&str, &str)> = m.events.iter().map(|e| (e.label.as_str(), e.context.as_str())).collect();
+    assert_eq!(got, [("Event", "General"), ("Foot Strike", "Left"), ("Foot Off", "Right")]);
+    let f32_time = |t: f32| f64::from(t);
+    assert_eq!(m.events[0].time.0, f32_time(0.1));
+    assert_eq!(m.events[2].time.0, 60.0 + 2.5);
+    // time 0 is frame number 1; the first stored frame is number 11 → index = t·rate + 1 − 11.
+    assert!((m.events[1].frame - (13.0 + 1.0 - 11.0)).abs() < 1e-4, "{}", m.events[1].frame);
+    assert!((m.events[0].frame - 0.0).abs() < 1e-4);
+    assert!((m.events[2].frame - (6250.0 - 10.0)).abs() < 1e-3);
+}
+
+#[test]
+fn events_outside_the_stored_frames_are_kept_with_their_frame_index() {
+    let mut spec = C3dSpec::small();
+    spec.events = vec![("Before", "General", 0.0, -0.05), ("After", "General", 0.0, 0.5)];
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.events.len(), 2);
+    assert!((m.events[0].frame + 5.0).abs() < 1e-4 && (m.events[1].frame - 50.0).abs() < 1e-4);
+    // Slicing the motion drops them, as it drops any event outside the slice.
+    assert!(m.slice_frames(0, 3).unwrap().events.is_empty());
+}
+
+#[test]
+fn trial_start_field_overrides_the_header_first_frame() {
+    let mut spec = C3dSpec::small();
+    spec.events = vec![("Foot Strike", "Left", 0.0, 0.5)];
+    // Header says frame 1 first; TRIAL says 70001 … 70003 (two words: 70001 = 4465 + 65536).
+    spec.extra = vec![spec.raw_ints("TRIAL", "ACTUAL_START_FIELD", &[4465, 1]), spec.raw_ints("TRIAL", "ACTUAL_END_FIELD", &[4467, 1])];
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.n_frames(), 3);
+    assert!((m.events[0].frame - (50.0 + 1.0 - 70001.0)).abs() < 1e-6);
+}
+
+#[test]
+fn labels_continue_in_labels2_are_trimmed_and_blank_ones_numbered() {
+    let mut spec = C3dSpec::small();
+    spec.frames = vec![vec![[1.0, 1.0, 1.0, 0.0]; 4]; 2];
+    spec.labels = vec![];
+    spec.extra = vec![
+        C3dSpec::raw_chars("POINT", "LABELS", 6, &["  LASI", "    "]),
+        C3dSpec::raw_chars("POINT", "LABELS2", 6, &["RASI\0\0", "extra1", "extra2"]),
+    ];
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.point_names(), ["LASI", "P2", "RASI", "extra1"]);
+}
+
+#[test]
+fn zero_means_missing_is_opt_in() {
+    let mut spec = C3dSpec::small();
+    spec.frames[0][0] = [0.0, 0.0, 0.0, 1.0];
+    assert!(!parse(&spec.build()).unwrap().is_missing(0, 0));
+    let options = C3dOptions { zero_means_missing: true, ..C3dOptions::default() };
+    let m = parse_c3d(&spec.build(), Path::new(ORIGIN), &options).unwrap();
+    assert!(m.is_missing(0, 0));
+    assert_eq!(m.missing_count(), 2);
+}
+
+#[test]
+fn multi_dimensional_char_arrays_and_all_numeric_types_parse() {
+    let mut spec = C3dSpec::small();
+    let mut chars3 = C3dSpec::raw_chars("SUBJECT", "GRID", 2, &["ab", "cd", "ef", "gh", "ij", "kl"]);
+    chars3.dims = vec![2, 3, 2];
+    let bytes_param = super::testfile::RawParam { group: "SUBJECT", name: "FLAGS".into(), type_byte: 1, dims: vec![3], data: vec![1, 200, 7] };
+    let mut empty = C3dSpec::raw_chars("SUBJECT", "NOTES", 1, &[""]);
+    empty.dims = vec![0, 4];
+    empty.data.clear();
+    spec.extra = vec![chars3, bytes_param, empty, spec.raw_floats("SUBJECT", "MASS", vec![2], &[70.5, -1.25])];
+    let bytes = spec.build();
+    let file = C3dFile::parse(&bytes, Path::new(ORIGIN)).unwrap();
+    let ctx = file.ctx;
+    assert_eq!(file.param("subject", "grid").unwrap().strings(ctx).unwrap(), ["ab", "cd", "ef", "gh", "ij", "kl"]);
+    assert_eq!(file.param("SUBJECT", "FLAGS").unwrap().unsigned(ctx).unwrap(), [1, 200, 7]);
+    assert_eq!(file.param("SUBJECT", "NOTES").unwrap().strings(ctx).unwrap(), ["", "", "", ""]);
+    assert_eq!(file.param("SUBJECT", "MASS").unwrap().floats(ctx).unwrap(), [70.5, -1.25]);
+    assert!(file.param("SUBJECT", "MASS").unwrap().strings(ctx).is_err());
+}
+
+// ---- malformed files: exact kind, file and byte offset / parameter -------------------------
+
+#[test]
+fn wrong_key_byte_is_a_syntax_error_at_byte_1() {
+    let mut bytes = C3dSpec::small().build();
+    bytes[1] = 0x51;
+    let e = err(&bytes);
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Syntax, Some(1)));
+    assert!(e.message().contains("0x50"), "{e}");
+}
+
+#[test]
+fn parameter_block_pointer_out_of_range_is_an_error_at_byte_0() {
+    for pointer in [0u8, 1, 200] {
+        let mut bytes = C3dSpec::small().build();
+        bytes[0] = pointer;
+        let e = err(&bytes);
+        assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::OutOfRange, Some(0)), "{pointer}: {e}");
+        assert!(e.message().contains(&format!("pointer is {pointer}")), "{e}");
+    }
+}
+
+#[test]
+fn unknown_processor_byte_is_a_syntax_error() {
+    let mut bytes = C3dSpec::small().build();
+    bytes[BLOCK + 3] = 99;
+    let e = err(&bytes);
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Syntax, Some(BLOCK as u64 + 3)));
+}
+
+#[test]
+fn file_shorter_than_its_frames_is_truncated_at_the_first_incomplete_frame() {
+    let bytes = C3dSpec::small().build();
+    let frame_bytes = 2 * 16;
+    let data_start = bytes.len() - 3 * frame_bytes;
+    let cut = &bytes[..bytes.len() - 5];
+    let e = err(cut);
+    assert_eq!(e.kind(), ErrorKind::Truncated);
+    assert_eq!(e.location().byte_offset, Some((data_start + 2 * frame_bytes) as u64));
+    assert!(e.message().contains("frame 3 of 3"), "{e}");
+    // Cut inside the header block.
+    let e = err(&bytes[..100]);
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Truncated, Some(100)));
+}
+
+#[test]
+fn zero_or_nan_scale_factor_is_out_of_range_naming_point_scale() {
+    for scale in [0.0f32, f32::NAN] {
+        let mut spec = C3dSpec::small();
+        spec.scale = scale;
+        let e = err(&spec.build());
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:SCALE")), "{e}");
+        assert!(e.location().byte_offset.is_some());
+    }
+    // Without POINT:SCALE the header's word 7–8 is used and named.
+    let mut spec = C3dSpec::small();
+    spec.scale = 0.0;
+    spec.omit = vec!["POINT:SCALE"];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::OutOfRange, Some(12)));
+}
+
+#[test]
+fn zero_or_nan_rate_is_out_of_range_naming_point_rate() {
+    for rate in [0.0f32, f32::NAN, -60.0] {
+        let mut spec = C3dSpec::small();
+        spec.rate = rate;
+        let e = err(&spec.build());
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:RATE")), "{e}");
+    }
+    let mut spec = C3dSpec::small();
+    spec.rate = 0.0;
+    spec.omit = vec!["POINT:RATE"];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::OutOfRange, Some(20)));
+}
+
+#[test]
+fn last_frame_before_first_is_a_negative_frame_count() {
+    let mut spec = C3dSpec::small();
+    spec.extra = vec![spec.raw_ints("TRIAL", "ACTUAL_START_FIELD", &[10, 0]), spec.raw_ints("TRIAL", "ACTUAL_END_FIELD", &[5, 0])];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("TRIAL:ACTUAL_END_FIELD")));
+    assert!(e.message().contains("negative frame count"), "{e}");
+    // Same through the header when there is no TRIAL group.
+    let mut spec = C3dSpec::small();
+    spec.omit = vec!["TRIAL:ACTUAL_START_FIELD", "TRIAL:ACTUAL_END_FIELD"];
+    let mut bytes = spec.build();
+    bytes[6..8].copy_from_slice(&9u16.to_le_bytes());
+    let e = err(&bytes);
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::OutOfRange, Some(8)));
+}
+
+#[test]
+fn fewer_labels_than_points_is_an_error_naming_point_labels() {
+    let mut spec = C3dSpec::small();
+    spec.labels = vec!["only_one".into()];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:LABELS")));
+    assert!(e.message().contains("1 labels") && e.message().contains("2 points"), "{e}");
+    spec.omit = vec!["POINT:LABELS"];
+    assert_eq!(err(&spec.build()).kind(), ErrorKind::MissingKey);
+}
+
+#[test]
+fn duplicate_labels_are_an_error() {
+    let mut spec = C3dSpec::small();
+    spec.labels = vec!["a".into(), "a".into()];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::DuplicateName, Some("POINT:LABELS")));
+}
+
+#[test]
+fn non_utf8_labels_are_a_syntax_error_at_the_bad_byte() {
+    let mut spec = C3dSpec::small();
+    spec.labels = vec!["ok".into(), "b\u{e9}".into()]; // placeholder, bytes replaced below
+    let mut labels = C3dSpec::raw_chars("POINT", "LABELS", 3, &["ok", "bx"]);
+    labels.data[4] = 0xE9; // Latin-1 é
+    spec.extra = vec![labels];
+    let bytes = spec.build();
+    let e = err(&bytes);
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::Syntax, Some("POINT:LABELS")));
+    let at = e.location().byte_offset.unwrap() as usize;
+    assert_eq!(bytes[at], 0xE9);
+}
+
+#[test]
+fn point_used_disagreeing_with_the_header_is_an_error() {
+    let mut spec = C3dSpec::small();
+    spec.extra = vec![spec.raw_ints("POINT", "USED", &[3])];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:USED")));
+}
+
+#[test]
+fn event_arrays_shorter_than_event_used_are_errors() {
+    let mut spec = C3dSpec::small();
+    spec.events = vec![("Foot Strike", "Left", 0.0, 0.01), ("Foot Off", "Left", 0.0, 0.02)];
+    spec.extra = vec![spec.raw_ints("EVENT", "USED", &[3])];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("EVENT:TIMES")));
+    let mut spec = C3dSpec::small();
+    spec.events = vec![("Foot Strike", "Left", 0.0, f32::INFINITY)];
+    let e = err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::NonFinite, Some("EVENT:TIMES")));
+}
+
+#[test]
+fn a_backward_parameter_chain_is_an_error_not_a_loop() {
+    let bytes = C3dSpec::small().build();
+    // First record (a group) starts at BLOCK + 4: len, id, name, then its offset word.
+    let name_len = usize::from(bytes[BLOCK + 4]);
+    let mut bad = bytes.clone();
+    let at = BLOCK + 4 + 2 + name_len;
+    bad[at..at + 2].copy_from_slice(&(-6i16).to_le_bytes());
+    let e = err(&bad);
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Syntax, Some(at as u64)));
+}
+
+#[test]
+fn no_prefix_or_corruption_of_a_valid_file_panics() {
+    let mut spec = C3dSpec::small();
+    spec.events = vec![("Foot Strike", "Left", 0.0, 0.01)];
+    spec.analog_per_frame = 2;
+    let bytes = spec.build();
+    for len in 0..bytes.len() {
+        let _ = parse(&bytes[..len]);
+    }
+    let mut rng = motionlab_testkit::Rng::new(0xC3D);
+    let mut below = |n: usize| (rng.next_u64() % n as u64) as usize;
+    let mut errors = 0;
+    for _ in 0..4000 {
+        let mut b = bytes.clone();
+        for _ in 0..1 + below(4) {
+            let i = below(b.len());
+            b[i] = below(256) as u8;
+        }
+        errors += usize::from(parse(&b).is_err());
+    }
+    // Many flips land in unused padding; but the header and parameters are small targets,
+    // so some must have been caught.
+    assert!(errors > 0);
+}
+
+#[test]
+fn registered_with_defaults_and_rejects_unknown_keys() {
+    let loader = build_loader("c3d", &motionlab_core::registry::default_params()).unwrap();
+    assert_eq!(loader.extensions(), ["c3d"]);
+    let v: toml::Value = toml::from_str("up_axis = \"y\"").unwrap();
+    let p: C3dParams = parse_params(&v).unwrap();
+    assert_eq!(p.up_axis, Axis::Y);
+    let typo: toml::Value = toml::from_str("up = \"y\"").unwrap();
+    assert_eq!(parse_params::<C3dParams>(&typo).unwrap_err().kind(), ErrorKind::UnknownKey);
+    let entry = motionlab_core::registry::find("c3d").unwrap();
+    assert!(entry.params().iter().all(|p| p.default.is_some() && !p.description.is_empty()));
+}

@@ -1,0 +1,490 @@
+//! Figures: plain data specs ([`Figure`]) rendered with plotters to PNG and SVG.
+//!
+//! Workflows describe *what* to draw (series, candidate bars, thresholds, stick figures); this
+//! module is the only place that knows plotters. Every figure has a title and axis labels with
+//! units. Text uses the bundled DejaVu Sans (plotters' `ttf` feature would need the system's
+//! fontconfig), registered once per process.
+
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::{FontStyle, register_font};
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::{Error, ErrorKind, Location, Result};
+
+static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn ensure_font() {
+    REGISTER.call_once(|| {
+        // Registration only fails for an unparsable font; the bundled one parses (tested).
+        let _ = register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// A data series: `x[i], y[i]` pairs, optionally with a label per point.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Series {
+    pub label: String,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    /// Per-point annotations (scatter plots); empty for none.
+    #[serde(default)]
+    pub point_labels: Vec<String>,
+}
+
+impl Series {
+    pub fn new(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Series { label: label.into(), x, y, point_labels: Vec::new() }
+    }
+}
+
+/// A horizontal reference line (a threshold).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RefLine {
+    pub label: String,
+    pub value: f64,
+}
+
+/// One row of vertical bars under a chart (candidate frames of a method), optionally with
+/// shaded bands (ground-truth windows).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BarRow {
+    pub label: String,
+    pub marks: Vec<f64>,
+    #[serde(default)]
+    pub bands: Vec<(f64, f64)>,
+}
+
+/// A 2-D chart: lines, scatter points, thresholds, and rows of candidate bars beneath it.
+/// With no lines and no points it is a pure timeline of bar rows.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Chart {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub lines: Vec<Series>,
+    pub points: Vec<Series>,
+    pub hlines: Vec<RefLine>,
+    pub bar_rows: Vec<BarRow>,
+    /// Same scale on both axes (floor-plane paths).
+    #[serde(default)]
+    pub equal_aspect: bool,
+    /// Optional fixed x range.
+    #[serde(default)]
+    pub x_range: Option<(f64, f64)>,
+    /// Optional fixed y range.
+    #[serde(default)]
+    pub y_range: Option<(f64, f64)>,
+}
+
+/// A stick figure: 2-D projected points and the bones joining them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    pub label: String,
+    pub points: Vec<[f64; 2]>,
+}
+
+/// One row of poses drawn side by side (a strip of snapshots).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StickRow {
+    pub label: String,
+    pub poses: Vec<Pose>,
+}
+
+/// Strips of stick figures (the papers' snapshot figures), all rows at one scale.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StickStrip {
+    pub title: String,
+    /// Index pairs into each pose's points.
+    pub bones: Vec<(usize, usize)>,
+    pub rows: Vec<StickRow>,
+    /// What the drawing's axes are (`side view, x–z, mm`).
+    pub caption: String,
+}
+
+/// Something to draw.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FigureKind {
+    Chart(Chart),
+    Sticks(StickStrip),
+}
+
+/// A named figure; `name` becomes the file stem.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Figure {
+    pub name: String,
+    pub figure: FigureKind,
+}
+
+impl Figure {
+    pub fn chart(name: impl Into<String>, chart: Chart) -> Self {
+        Figure { name: name.into(), figure: FigureKind::Chart(chart) }
+    }
+    pub fn sticks(name: impl Into<String>, strip: StickStrip) -> Self {
+        Figure { name: name.into(), figure: FigureKind::Sticks(strip) }
+    }
+    pub fn title(&self) -> &str {
+        match &self.figure {
+            FigureKind::Chart(c) => &c.title,
+            FigureKind::Sticks(s) => &s.title,
+        }
+    }
+}
+
+/// Pixel size of rendered figures.
+const SIZE: (u32, u32) = (1100, 560);
+
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
+
+fn color(i: usize) -> RGBColor {
+    PALETTE[i % PALETTE.len()]
+}
+
+/// Renders a figure to `<dir>/<name>.png` and `<dir>/<name>.svg`; returns both paths.
+pub fn render(figure: &Figure, dir: &Path) -> Result<Vec<PathBuf>> {
+    ensure_font();
+    let png = dir.join(format!("{}.png", figure.name));
+    let svg = dir.join(format!("{}.svg", figure.name));
+    let size = match &figure.figure {
+        FigureKind::Chart(c) if c.lines.is_empty() && c.points.is_empty() => {
+            (SIZE.0, (90 + 34 * c.bar_rows.len() as u32).max(160))
+        }
+        FigureKind::Sticks(s) => (SIZE.0, 90 + 230 * s.rows.len().max(1) as u32),
+        _ => SIZE,
+    };
+    {
+        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        draw(figure, &root).map_err(|e| draw_error(&png, e))?;
+        root.present().map_err(|e| draw_error(&png, e))?;
+    }
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw(figure, &root).map_err(|e| draw_error(&svg, e))?;
+        root.present().map_err(|e| draw_error(&svg, e))?;
+    }
+    Ok(vec![png, svg])
+}
+
+fn draw_error(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::new(ErrorKind::Report, format!("cannot draw figure: {e}")).with_location(Location::file(path))
+}
+
+type DrawResult<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+fn draw<DB: DrawingBackend>(figure: &Figure, root: &DrawingArea<DB, Shift>) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    match &figure.figure {
+        FigureKind::Chart(c) => draw_chart(c, root),
+        FigureKind::Sticks(s) => draw_sticks(s, root),
+    }
+}
+
+/// Finite min/max over many slices, padded; a fallback range when nothing is finite.
+fn range_of<'a>(values: impl Iterator<Item = &'a f64>, pad_frac: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 {
+        let d = if lo.abs() > 1e-12 { lo.abs() * 0.1 } else { 1.0 };
+        return (lo - d, hi + d);
+    }
+    let pad = (hi - lo) * pad_frac;
+    (lo - pad, hi + pad)
+}
+
+fn draw_chart<DB: DrawingBackend>(c: &Chart, root: &DrawingArea<DB, Shift>) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let has_plot = !(c.lines.is_empty() && c.points.is_empty());
+    let xs = c
+        .lines
+        .iter()
+        .chain(&c.points)
+        .flat_map(|s| s.x.iter())
+        .chain(c.bar_rows.iter().flat_map(|b| b.marks.iter().chain(b.bands.iter().flat_map(|(a, z)| [a, z]))));
+    let (mut x0, mut x1) = c.x_range.unwrap_or_else(|| range_of(xs, 0.01));
+    let root = root.titled(&c.title, ("sans-serif", 22))?;
+    let rows = c.bar_rows.len();
+    let (plot_area, bar_area) = if !has_plot {
+        (None, root.clone())
+    } else if rows > 0 {
+        let h = root.dim_in_pixel().1 as i32;
+        let (a, b) = root.split_vertically(h - (26 * rows as i32 + 40));
+        (Some(a), b)
+    } else {
+        (Some(root.clone()), root.clone())
+    };
+    let label_area = 150;
+    if let Some(area) = plot_area {
+        let ys = c.lines.iter().chain(&c.points).flat_map(|s| s.y.iter()).chain(c.hlines.iter().map(|h| &h.value));
+        let (mut y0, mut y1) = c.y_range.unwrap_or_else(|| range_of(ys, 0.05));
+        if c.equal_aspect {
+            // Widen the narrower axis so one mm is the same length on both.
+            let (w, h) = area.dim_in_pixel();
+            let (pw, ph) = ((w as f64 - label_area as f64).max(1.0), (h as f64 - 60.0).max(1.0));
+            let scale = ((x1 - x0) / pw).max((y1 - y0) / ph);
+            let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+            (x0, x1) = (cx - scale * pw / 2.0, cx + scale * pw / 2.0);
+            (y0, y1) = (cy - scale * ph / 2.0, cy + scale * ph / 2.0);
+        }
+        let mut chart = ChartBuilder::on(&area)
+            .margin(8)
+            .margin_left(label_area as i32 - 70)
+            .x_label_area_size(if rows > 0 { 20 } else { 42 })
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        let mut mesh = chart.configure_mesh();
+        mesh.y_desc(c.y_label.as_str()).label_style(("sans-serif", 14)).axis_desc_style(("sans-serif", 16));
+        if rows == 0 {
+            mesh.x_desc(c.x_label.as_str());
+        }
+        mesh.draw()?;
+        let mut legend = false;
+        for (i, s) in c.lines.iter().enumerate() {
+            let col = color(i);
+            // plotters joins thick polylines with unbounded miters: on dense, spiky signals
+            // they shoot across the figure. Dense series are drawn 1 px wide.
+            let width = if s.x.len() > 300 { 1 } else { 2 };
+            // Split at non-finite values so undefined stretches are gaps, not zeros.
+            let mut segment: Vec<(f64, f64)> = Vec::new();
+            let mut first = true;
+            for (x, y) in s.x.iter().zip(&s.y).chain(std::iter::once((&f64::NAN, &f64::NAN))) {
+                if x.is_finite() && y.is_finite() {
+                    segment.push((*x, *y));
+                } else if !segment.is_empty() {
+                    let series = chart.draw_series(LineSeries::new(std::mem::take(&mut segment), col.stroke_width(width)))?;
+                    if first && !s.label.is_empty() {
+                        series.label(s.label.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], col.stroke_width(2)));
+                        legend = true;
+                    }
+                    first = false;
+                }
+            }
+        }
+        for (i, s) in c.points.iter().enumerate() {
+            let col = color(i + c.lines.len());
+            let pts: Vec<(f64, f64)> = s.x.iter().zip(&s.y).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(x, y)| (*x, *y)).collect();
+            let series = chart.draw_series(pts.iter().map(|p| Circle::new(*p, 5, col.filled())))?;
+            if !s.label.is_empty() {
+                series.label(s.label.clone()).legend(move |(x, y)| Circle::new((x + 9, y), 5, col.filled()));
+                legend = true;
+            }
+            for ((x, y), l) in s.x.iter().zip(&s.y).zip(&s.point_labels) {
+                if x.is_finite() && y.is_finite() && !l.is_empty() {
+                    chart.draw_series(std::iter::once(Text::new(l.clone(), (*x, *y), ("sans-serif", 13))))?;
+                }
+            }
+        }
+        for (i, h) in c.hlines.iter().enumerate() {
+            let col = RGBColor(90, 90, 90);
+            let style = ShapeStyle { color: col.to_rgba(), filled: false, stroke_width: 1 };
+            let series = chart.draw_series(DashedLineSeries::new(vec![(x0, h.value), (x1, h.value)], 8, 5, style))?;
+            if !h.label.is_empty() {
+                let lbl = format!("{} = {}", h.label, fmt_num(h.value));
+                series.label(lbl).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], col));
+                legend = true;
+            }
+            let _ = i;
+        }
+        if legend {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.3))
+                .label_font(("sans-serif", 14))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()?;
+        }
+    }
+    if rows > 0 {
+        draw_bar_rows(c, &bar_area, (x0, x1), has_plot, label_area)?;
+    }
+    Ok(())
+}
+
+fn draw_bar_rows<DB: DrawingBackend>(
+    c: &Chart,
+    area: &DrawingArea<DB, Shift>,
+    (x0, x1): (f64, f64),
+    has_plot: bool,
+    label_area: u32,
+) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let rows = c.bar_rows.len();
+    let mut chart = ChartBuilder::on(area)
+        .margin(8)
+        .margin_left(if has_plot { label_area as i32 - 70 } else { 8 })
+        .x_label_area_size(40)
+        .y_label_area_size(if has_plot { 70 } else { label_area })
+        .build_cartesian_2d(x0..x1, 0.0..rows as f64)?;
+    let labels: Vec<String> = c.bar_rows.iter().map(|b| b.label.clone()).collect();
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .x_desc(c.x_label.as_str())
+        .y_labels(rows * 2 + 1)
+        .y_label_formatter(&|y: &f64| {
+            // Label each row at its centre (rows are drawn top to bottom).
+            let r = rows as f64 - y - 0.5;
+            if (r - r.round()).abs() < 1e-6 && r >= 0.0 && (r.round() as usize) < rows {
+                labels[r.round() as usize].clone()
+            } else {
+                String::new()
+            }
+        })
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()?;
+    for (r, row) in c.bar_rows.iter().enumerate() {
+        let top = (rows - r) as f64 - 0.1;
+        let bottom = (rows - r - 1) as f64 + 0.1;
+        let col = color(r);
+        chart.draw_series(row.bands.iter().map(|(a, b)| Rectangle::new([(*a, bottom), (*b, top)], RGBColor(0, 0, 0).mix(0.18).filled())))?;
+        chart.draw_series(
+            row.marks.iter().filter(|m| m.is_finite()).map(|m| PathElement::new(vec![(*m, bottom), (*m, top)], col.stroke_width(2))),
+        )?;
+    }
+    Ok(())
+}
+
+fn draw_sticks<DB: DrawingBackend>(s: &StickStrip, root: &DrawingArea<DB, Shift>) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let root = root.titled(&s.title, ("sans-serif", 22))?;
+    let (body, caption) = root.split_vertically(root.dim_in_pixel().1 as i32 - 24);
+    caption.draw(&Text::new(s.caption.clone(), (10, 4), ("sans-serif", 14)))?;
+    let rows = body.split_evenly((s.rows.len().max(1), 1));
+    // One scale for every pose of every row: the largest pose extent.
+    let mut extent: f64 = 1.0;
+    for row in &s.rows {
+        for p in &row.poses {
+            let (xl, xh) = range_of(p.points.iter().map(|q| &q[0]), 0.0);
+            let (yl, yh) = range_of(p.points.iter().map(|q| &q[1]), 0.0);
+            extent = extent.max(xh - xl).max(yh - yl);
+        }
+    }
+    for (row, area) in s.rows.iter().zip(rows) {
+        let (label_area, poses_area) = area.split_horizontally(150);
+        label_area.draw(&Text::new(row.label.clone(), (6, (area.dim_in_pixel().1 / 2) as i32), ("sans-serif", 15)))?;
+        let cells = poses_area.split_evenly((1, row.poses.len().max(1)));
+        for (pose, cell) in row.poses.iter().zip(cells) {
+            let (cx, cy) = {
+                let (xl, xh) = range_of(pose.points.iter().map(|q| &q[0]), 0.0);
+                let (yl, yh) = range_of(pose.points.iter().map(|q| &q[1]), 0.0);
+                ((xl + xh) / 2.0, (yl + yh) / 2.0)
+            };
+            let half = extent * 0.55;
+            let (body, lbl) = cell.split_vertically(cell.dim_in_pixel().1 as i32 - 20);
+            let mut chart = ChartBuilder::on(&body).margin(4).build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)?;
+            let pts = &pose.points;
+            chart.draw_series(s.bones.iter().filter_map(|(a, b)| {
+                let (p, q) = (pts.get(*a)?, pts.get(*b)?);
+                (p.iter().chain(q).all(|v| v.is_finite()))
+                    .then(|| PathElement::new(vec![(p[0], p[1]), (q[0], q[1])], BLACK.stroke_width(2)))
+            }))?;
+            chart.draw_series(pts.iter().filter(|p| p[0].is_finite() && p[1].is_finite()).map(|p| Circle::new((p[0], p[1]), 2, color(0).filled())))?;
+            lbl.draw(&Text::new(pose.label.clone(), (4, 2), ("sans-serif", 13)))?;
+        }
+    }
+    Ok(())
+}
+
+/// Compact number formatting for labels and tables: up to 4 significant digits, no
+/// scientific notation for everyday magnitudes.
+pub fn fmt_num(v: f64) -> String {
+    if !v.is_finite() {
+        return if v.is_nan() { "–".into() } else if v > 0.0 { "∞".into() } else { "−∞".into() };
+    }
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e7).contains(&a) {
+        return format!("{v:.3e}");
+    }
+    let decimals = if a >= 1000.0 { 0 } else if a >= 100.0 { 1 } else if a >= 10.0 { 2 } else { 3 };
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn renders_png_and_svg_for_every_kind() {
+        let dir = std::env::temp_dir().join(format!("mlab-fig-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let x: Vec<f64> = (0..100).map(|i| i as f64 / 10.0).collect();
+        let y: Vec<f64> = x.iter().map(|v| if (3.0..3.5).contains(v) { f64::NAN } else { v.sin() }).collect();
+        let chart = Chart {
+            title: "V with candidates".into(),
+            x_label: "time (s)".into(),
+            y_label: "speed (mm/s)".into(),
+            lines: vec![Series::new("V", x.clone(), y)],
+            hlines: vec![RefLine { label: "v_low".into(), value: 0.2 }],
+            bar_rows: vec![BarRow { label: "speed".into(), marks: vec![1.0, 4.0], bands: vec![] }],
+            ..Default::default()
+        };
+        let timeline = Chart {
+            title: "timeline".into(),
+            x_label: "time (s)".into(),
+            bar_rows: vec![
+                BarRow { label: "truth".into(), marks: vec![2.0], bands: vec![(1.8, 2.2)] },
+                BarRow { label: "fused".into(), marks: vec![2.1], bands: vec![] },
+            ],
+            ..Default::default()
+        };
+        let sticks = StickStrip {
+            title: "poses".into(),
+            bones: vec![(0, 1), (1, 2)],
+            rows: vec![StickRow {
+                label: "recorded".into(),
+                poses: vec![Pose { label: "f0".into(), points: vec![[0.0, 0.0], [0.0, 500.0], [200.0, 800.0]] }],
+            }],
+            caption: "side view (x–z, mm)".into(),
+        };
+        for f in [Figure::chart("a", chart), Figure::chart("b", timeline), Figure::sticks("c", sticks)] {
+            let paths = render(&f, &dir).unwrap();
+            for p in paths {
+                let len = std::fs::metadata(&p).unwrap().len();
+                assert!(len > 1000, "{} is only {len} bytes", p.display());
+            }
+        }
+        let svg = std::fs::read_to_string(dir.join("a.svg")).unwrap();
+        assert!(svg.contains("V with candidates") && svg.contains("speed (mm/s)"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn number_formatting() {
+        assert_eq!(fmt_num(0.5), "0.5");
+        assert_eq!(fmt_num(12.3456), "12.35");
+        assert_eq!(fmt_num(1234.6), "1235");
+        assert_eq!(fmt_num(f64::NAN), "–");
+        assert_eq!(fmt_num(2.5e-5), "2.500e-5");
+    }
+}

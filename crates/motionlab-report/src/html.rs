@@ -1,0 +1,353 @@
+//! Static HTML: one page per run, an index of every experiment with the papers' published
+//! numbers beside ours, and run comparisons.
+//!
+//! Pages are rendered with minijinja templates (HTML-escaped automatically) from the same
+//! Polars DataFrames the CSV files come from. No JavaScript, no network: figures are the run's
+//! own SVG files, styles are inline, links are relative.
+
+use std::path::{Path, PathBuf};
+
+use minijinja::value::Serde;
+use minijinja::{context, Environment, Value};
+use polars::prelude::DataFrame;
+use serde::Serialize;
+
+use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
+
+use crate::tables::{formatted_rows, to_dataframe};
+
+const RUN_TEMPLATE: &str = include_str!("../templates/run.html");
+const INDEX_TEMPLATE: &str = include_str!("../templates/index.html");
+const COMPARE_TEMPLATE: &str = include_str!("../templates/compare.html");
+const STYLE: &str = include_str!("../templates/style.css");
+
+fn env() -> Result<Environment<'static>> {
+    let mut env = Environment::new();
+    for (name, src) in [("run.html", RUN_TEMPLATE), ("index.html", INDEX_TEMPLATE), ("compare.html", COMPARE_TEMPLATE)] {
+        env.add_template(name, src).map_err(template_error)?;
+    }
+    Ok(env)
+}
+
+fn template_error(e: minijinja::Error) -> Error {
+    Error::new(ErrorKind::Report, format!("HTML template: {e}"))
+}
+
+/// A column header split into name and unit (`speed_mm_per_s` → `speed`, `mm/s`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Header {
+    pub name: String,
+    pub unit: String,
+    pub numeric: bool,
+}
+
+/// Unit suffixes used in column names, longest first.
+const UNITS: &[(&str, &str)] = &[
+    ("_mm3_per_frame", "mm³/frame"),
+    ("_mm3_per_s", "mm³/s"),
+    ("_mm_per_frame", "mm/frame"),
+    ("_mm_per_s", "mm/s"),
+    ("_steps_per_min", "steps/min"),
+    ("_mm3", "mm³"),
+    ("_mm", "mm"),
+    ("_deg", "°"),
+    ("_pct", "%"),
+    ("_hz", "Hz"),
+    ("_ms", "ms"),
+    ("_s", "s"),
+];
+
+/// Splits a unit suffix off a column name.
+pub fn split_unit(column: &str) -> (String, String) {
+    for (suffix, unit) in UNITS {
+        if let Some(base) = column.strip_suffix(suffix)
+            && !base.is_empty()
+        {
+            return (base.replace('_', " "), unit.to_string());
+        }
+    }
+    (column.replace('_', " "), String::new())
+}
+
+/// A table ready for HTML.
+#[derive(Clone, Debug, Serialize)]
+pub struct HtmlTable {
+    pub name: String,
+    pub title: String,
+    pub headers: Vec<Header>,
+    pub rows: Vec<Vec<String>>,
+    /// Relative links to the CSV / Parquet / Markdown files.
+    pub csv: String,
+    pub parquet: String,
+    pub markdown: String,
+    /// Rows omitted from the page (long per-frame tables are linked, not printed).
+    pub omitted_rows: usize,
+}
+
+/// Most rows printed in a page; longer tables are summarised by their first rows and linked.
+pub const MAX_HTML_ROWS: usize = 25;
+
+impl HtmlTable {
+    pub fn from_table(table: &Table, dir_prefix: &str) -> Result<Self> {
+        let df = to_dataframe(table)?;
+        Ok(Self::from_dataframe(&df, &table.name, &table.title, dir_prefix))
+    }
+    pub fn from_dataframe(df: &DataFrame, name: &str, title: &str, dir_prefix: &str) -> Self {
+        let headers = df
+            .columns()
+            .iter()
+            .map(|c| {
+                let (n, u) = split_unit(c.name());
+                Header { name: n, unit: u, numeric: c.dtype().is_primitive_numeric() }
+            })
+            .collect();
+        let mut rows = formatted_rows(df);
+        let omitted_rows = rows.len().saturating_sub(MAX_HTML_ROWS);
+        rows.truncate(MAX_HTML_ROWS);
+        HtmlTable {
+            name: name.to_string(),
+            title: title.to_string(),
+            headers,
+            rows,
+            csv: format!("{dir_prefix}{name}.csv"),
+            parquet: format!("{dir_prefix}{name}.parquet"),
+            markdown: format!("{dir_prefix}{name}.md"),
+            omitted_rows,
+        }
+    }
+}
+
+/// A figure reference for HTML (relative paths).
+#[derive(Clone, Debug, Serialize)]
+pub struct HtmlFigure {
+    pub name: String,
+    pub title: String,
+    pub svg: String,
+    pub png: String,
+}
+
+/// Published numbers beside ours: one row per published row.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    pub table: String,
+    pub source: String,
+    pub note: String,
+    /// Key columns (text values that identify a row) then, per number, `published` and `ours`.
+    pub key_columns: Vec<String>,
+    pub value_columns: Vec<String>,
+    pub rows: Vec<ComparisonRow>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ComparisonRow {
+    pub keys: Vec<String>,
+    /// (published, ours) per value column; `ours` empty when no row of ours matches.
+    pub values: Vec<(String, String)>,
+}
+
+/// Matches published rows to rows of our table: a row matches when every text value of the
+/// published row equals our row's cell in that column. Numbers are then shown side by side.
+pub fn compare_published(table_name: &str, source: &str, note: &str, published: &[toml::Table], ours: Option<&Table>) -> Comparison {
+    let mut key_columns: Vec<String> = Vec::new();
+    let mut value_columns: Vec<String> = Vec::new();
+    for row in published {
+        for (k, v) in row {
+            let list = if v.is_str() { &mut key_columns } else { &mut value_columns };
+            if !list.contains(k) {
+                list.push(k.clone());
+            }
+        }
+    }
+    let rows = published
+        .iter()
+        .map(|p| {
+            let keys: Vec<String> = key_columns.iter().map(|k| p.get(k).and_then(|v| v.as_str()).unwrap_or("").to_string()).collect();
+            let found = ours.and_then(|t| {
+                (0..t.n_rows()).find(|&r| {
+                    key_columns.iter().zip(&keys).all(|(k, want)| match t.column(k) {
+                        Some(ColumnValues::Str(v)) => v[r].as_deref() == Some(want.as_str()),
+                        Some(other) => other.cell(r) == *want,
+                        None => want.is_empty(),
+                    })
+                })
+            });
+            let values = value_columns
+                .iter()
+                .map(|k| {
+                    let published = p.get(k).map(toml_number).unwrap_or_default();
+                    let ours = match (found, ours.and_then(|t| t.column(k))) {
+                        (Some(r), Some(ColumnValues::F64(v))) => crate::figures::fmt_num(v[r]),
+                        (Some(r), Some(c)) => c.cell(r),
+                        _ => String::new(),
+                    };
+                    (published, ours)
+                })
+                .collect();
+            ComparisonRow { keys, values }
+        })
+        .collect();
+    Comparison { table: table_name.to_string(), source: source.to_string(), note: note.to_string(), key_columns, value_columns, rows }
+}
+
+fn toml_number(v: &toml::Value) -> String {
+    match v {
+        toml::Value::Float(f) => crate::figures::fmt_num(*f),
+        toml::Value::Integer(i) => i.to_string(),
+        other => other.to_string(),
+    }
+}
+
+/// Everything on a run's page.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunPage {
+    pub experiment: String,
+    pub description: String,
+    pub paper: String,
+    pub run_id: String,
+    pub config_toml: String,
+    /// Provenance as key → value text, in file order.
+    pub provenance: Vec<(String, String)>,
+    pub inputs: Vec<(String, String, String)>,
+    pub tables: Vec<HtmlTable>,
+    pub figures: Vec<HtmlFigure>,
+    pub comparisons: Vec<Comparison>,
+    /// Link back to the reproduction index, relative to the run directory.
+    pub index_link: String,
+    pub screenshot: Option<String>,
+}
+
+/// Writes `<run_dir>/index.html`.
+pub fn write_run_page(run_dir: &Path, page: &RunPage) -> Result<PathBuf> {
+    let html = env()?
+        .get_template("run.html")
+        .and_then(|t| t.render(context! { page => Value::from(Serde(page)), style => STYLE }))
+        .map_err(template_error)?;
+    let path = run_dir.join("index.html");
+    std::fs::write(&path, html).map_err(|e| Error::io(&path, e))?;
+    Ok(path)
+}
+
+/// One experiment on the reproduction index.
+#[derive(Clone, Debug, Serialize)]
+pub struct IndexEntry {
+    pub name: String,
+    pub description: String,
+    pub paper: String,
+    /// Relative link to the latest run's page (empty when never run).
+    pub latest_link: String,
+    pub latest_id: String,
+    pub finished_utc: String,
+    pub runs: usize,
+    /// A few headline numbers (label, value).
+    pub headline: Vec<(String, String)>,
+    pub comparisons: Vec<Comparison>,
+}
+
+/// Writes `<reports>/index.html`.
+pub fn write_index(reports: &Path, entries: &[IndexEntry], screenshot: Option<&str>) -> Result<PathBuf> {
+    let html = env()?
+        .get_template("index.html")
+        .and_then(|t| t.render(context! { entries => Value::from(Serde(entries)), style => STYLE, screenshot => screenshot }))
+        .map_err(template_error)?;
+    let path = reports.join("index.html");
+    std::fs::write(&path, html).map_err(|e| Error::io(&path, e))?;
+    Ok(path)
+}
+
+/// A comparison of two runs of one experiment.
+#[derive(Clone, Debug, Serialize)]
+pub struct ComparePage {
+    pub experiment: String,
+    pub run_a: String,
+    pub run_b: String,
+    /// (key path, value in A, value in B).
+    pub parameters: Vec<(String, String, String)>,
+    pub metrics: Vec<MetricDiff>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct MetricDiff {
+    pub table: String,
+    pub row: String,
+    pub column: String,
+    pub a: String,
+    pub b: String,
+    pub delta: String,
+}
+
+pub fn write_compare_page(path: &Path, page: &ComparePage) -> Result<()> {
+    let html = env()?
+        .get_template("compare.html")
+        .and_then(|t| t.render(context! { page => Value::from(Serde(page)), style => STYLE }))
+        .map_err(template_error)?;
+    std::fs::write(path, html).map_err(|e| Error::io(path, e).with_location(Location::file(path)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn units_are_split_from_column_names() {
+        assert_eq!(split_unit("V_mm_per_s"), ("V".into(), "mm/s".into()));
+        assert_eq!(split_unit("hausdorff_s"), ("hausdorff".into(), "s".into()));
+        assert_eq!(split_unit("volume_mm3"), ("volume".into(), "mm³".into()));
+        assert_eq!(split_unit("precision"), ("precision".into(), "".into()));
+        assert_eq!(split_unit("_s"), (" s".into(), "".into()));
+    }
+
+    #[derive(serde::Serialize)]
+    struct Row {
+        method: &'static str,
+        precision: f64,
+        recall: f64,
+    }
+
+    #[test]
+    fn published_rows_match_ours_by_text_columns() {
+        let ours = Table::from_records(
+            "table1",
+            "",
+            &[Row { method: "speed", precision: 0.5, recall: 0.25 }, Row { method: "fused", precision: 0.7, recall: 0.9 }],
+        )
+        .unwrap();
+        let published: Vec<toml::Table> = vec![
+            toml::from_str("method = \"fused\"\nprecision = 0.72\nrecall = 0.85").unwrap(),
+            toml::from_str("method = \"hull\"\nprecision = 0.74\nrecall = 0.52").unwrap(),
+        ];
+        let c = compare_published("table1", "Table 1", "", &published, Some(&ours));
+        assert_eq!(c.key_columns, vec!["method"]);
+        assert_eq!(c.value_columns, vec!["precision", "recall"]);
+        assert_eq!(c.rows[0].values, vec![("0.72".into(), "0.7".into()), ("0.85".into(), "0.9".into())]);
+        assert_eq!(c.rows[1].values[0].1, "");
+    }
+
+    #[test]
+    fn run_page_escapes_text_and_links_files() {
+        let t = Table::from_records("t1", "A <b>table</b>", &[Row { method: "x<y", precision: 1.0, recall: 0.0 }]).unwrap();
+        let page = RunPage {
+            experiment: "e".into(),
+            description: "d & e".into(),
+            paper: String::new(),
+            run_id: "r".into(),
+            config_toml: "[experiment]\nname = \"e\"".into(),
+            provenance: vec![("git_revision".into(), "abc".into())],
+            inputs: vec![],
+            tables: vec![HtmlTable::from_table(&t, "tables/").unwrap()],
+            figures: vec![HtmlFigure { name: "f".into(), title: "F".into(), svg: "figures/f.svg".into(), png: "figures/f.png".into() }],
+            comparisons: vec![],
+            index_link: "../../index.html".into(),
+            screenshot: None,
+        };
+        let dir = std::env::temp_dir().join(format!("mlab-html-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = write_run_page(&dir, &page).unwrap();
+        let html = std::fs::read_to_string(p).unwrap();
+        assert!(html.contains("x&lt;y") && html.contains("d &amp; e"), "escaping");
+        // minijinja escapes `/` as `&#x2f;` in attributes; browsers decode it back.
+        let unescaped = html.replace("&#x2f;", "/");
+        assert!(unescaped.contains("href=\"tables/t1.csv\"") && unescaped.contains("src=\"figures/f.svg\""), "{html}");
+        assert!(!html.contains("http://") && !html.contains("https://"), "no network references");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -1,0 +1,12 @@
+//! # motionlab-report
+//!
+//! The only crate that knows polars and plotters: result [`Table`](motionlab_core::Table)s
+//! become Polars DataFrames written as CSV, Parquet and Markdown ([`tables`]); figure specs
+//! become PNG and SVG ([`figures`]).
+
+pub mod figures;
+pub mod html;
+pub mod tables;
+
+pub use figures::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip};
+pub use tables::{to_dataframe, write_table, WrittenTable};

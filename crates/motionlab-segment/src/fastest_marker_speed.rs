@@ -1,0 +1,274 @@
+//! Sonoda et al. §2.1: candidates where the whole body stops, found by following the fastest
+//! marker from each burst of speed down to its own next minimum.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{Error, ErrorKind, FeatureCache, Motion, Result, SegmenterOutput, Segmenter, Threshold, TimeSpan, Trace};
+use motionlab_features::signal::is_local_max;
+use motionlab_features::speed::{MarkerSpeeds, cached_marker_speeds};
+
+use crate::thresholds::SpeedThreshold;
+
+/// What the tracker found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tracking {
+    /// Candidate frames `j` (sorted).
+    pub candidates: Vec<usize>,
+    /// At each frame `i..=j` of each followed stretch, the followed marker's own speed
+    /// `v[f][k]` (mm/s); NaN where no marker was being followed.
+    pub tracked_speed: Vec<f64>,
+    /// The followed marker at each frame (None where none was).
+    pub tracked_marker: Vec<Option<usize>>,
+}
+
+/// The tracking algorithm of Sonoda et al. §2.1, steps 1–3, on precomputed speeds:
+///
+/// 1. scanning forward from `s`, find the next frame `i` that is a local maximum of V with
+///    `V[i] ≥ v_high`; let `k` be the marker giving `V[i]`;
+/// 2. find the nearest `j > i` that is a local minimum of `v[·][k]` (that marker's own speed);
+/// 3. if `V[j] ≤ v_low`, `j` is a candidate and scanning resumes at `j + 1`; otherwise the
+///    motion goes on and scanning resumes at `j` (the next qualifying maximum at or after `j`).
+///
+/// Local extrema are strict, and false where a neighbour is NaN, so missing samples never
+/// produce one.
+pub fn track_fastest_marker(speeds: &MarkerSpeeds, v_high: f64, v_low: f64) -> Tracking {
+    let v = &speeds.fastest;
+    let n = v.len();
+    let mut out = Tracking { candidates: Vec::new(), tracked_speed: vec![f64::NAN; n], tracked_marker: vec![None; n] };
+    let mut s = 1;
+    while s + 1 < n {
+        let Some(i) = (s..n - 1).find(|&i| v[i] >= v_high && is_local_max(v, i)) else { break };
+        // A finite local maximum always has a fastest marker.
+        let Some(k) = speeds.fastest_marker[i] else {
+            s = i + 1;
+            continue;
+        };
+        let vk = |f: usize| speeds.speed(f, k);
+        let is_min = |f: usize| {
+            let (a, b, c) = (vk(f - 1), vk(f), vk(f + 1));
+            a > b && b < c
+        };
+        let j = (i + 1..n - 1).find(|&f| is_min(f));
+        let end = j.unwrap_or(n - 1);
+        for f in i..=end {
+            out.tracked_speed[f] = vk(f);
+            out.tracked_marker[f] = Some(k);
+        }
+        let Some(j) = j else { break };
+        if v[j] <= v_low {
+            out.candidates.push(j);
+            s = j + 1;
+        } else {
+            s = j;
+        }
+    }
+    out
+}
+
+/// Candidates where the whole body has stopped, found by tracking the fastest marker
+/// (Sonoda et al. §2.1, steps 1–3 — not plain minima of V; compare `speed_minima`).
+///
+/// `v[i][k] = |p[i+1][k] − p[i][k]| · fps` (mm/s), `V[i] = max_k v[i][k]`.
+/// 1. Scanning forward, find the next local maximum `i` of V with `V[i] ≥ v_high`; let `k` be
+///    the marker giving it. 2. Find the nearest `j > i` that is a local minimum of `v[·][k]`.
+/// 3. If `V[j] ≤ v_low`, `j` is a candidate (the followed marker has stopped and so has every
+///    other); continue after `j`. Otherwise the motion goes on: continue from `j`.
+///
+/// Because the followed marker stays fixed until its own minimum, frames where the fastest
+/// marker merely changes hands (V dips while one part slows and another speeds up) are not
+/// candidates — the spurious candidates that plain V minima produce.
+///
+/// Outputs traces `V_mm_per_s` and `tracked_speed_mm_per_s` (the followed marker's own speed,
+/// NaN where nothing is followed: the paper's Fig. 2/3) and thresholds `v_high`, `v_low`.
+///
+/// Missing samples: a marker missing at frame `i` or `i+1` has no speed there and is skipped
+/// when V is taken; a followed marker's missing speed is never a local minimum, so the search
+/// for `j` continues past the gap. Nothing is interpolated.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FastestMarkerSpeedParams {
+    /// A local maximum of V starts a followed stretch when V ≥ this ("sufficiently large").
+    /// Default `{ fraction_of_p90 = 0.5 }`: half the speed the body exceeds only 10 % of the
+    /// time, i.e. a real movement whatever the dancer's overall tempo.
+    #[serde(default = "default_v_high")]
+    pub v_high: SpeedThreshold,
+    /// The followed marker's minimum `j` is a candidate when V[j] ≤ this ("sufficiently small").
+    /// Default `{ fraction_of_p90 = 0.15 }` (the same as `speed_minima`, for a fair comparison).
+    #[serde(default = "default_v_low")]
+    pub v_low: SpeedThreshold,
+    /// Centred moving-average window on positions before differentiating. Default: none.
+    #[serde(default)]
+    pub smoothing: Option<TimeSpan>,
+}
+
+fn default_v_high() -> SpeedThreshold {
+    SpeedThreshold::FractionOfP90(0.5)
+}
+fn default_v_low() -> SpeedThreshold {
+    SpeedThreshold::FractionOfP90(0.15)
+}
+
+/// The validated stage.
+#[derive(Clone, Debug)]
+pub struct FastestMarkerSpeed {
+    v_high: SpeedThreshold,
+    v_low: SpeedThreshold,
+    smoothing: Option<TimeSpan>,
+}
+
+impl ParamGuard for FastestMarkerSpeedParams {
+    type Checked = FastestMarkerSpeed;
+    fn check(self) -> Result<FastestMarkerSpeed> {
+        let (v_high, v_low) = (self.v_high.check("v_high")?, self.v_low.check("v_low")?);
+        let inverted = match (v_low, v_high) {
+            (SpeedThreshold::MmPerS(lo), SpeedThreshold::MmPerS(hi))
+            | (SpeedThreshold::FractionOfP90(lo), SpeedThreshold::FractionOfP90(hi)) => lo >= hi,
+            _ => false, // mixed kinds are compared once resolved, in `segment`
+        };
+        if inverted {
+            return Err(Error::new(ErrorKind::InvalidParameter, format!("v_low ({v_low:?}) must be below v_high ({v_high:?})"))
+                .with_field("v_low"));
+        }
+        let smoothing = self.smoothing.map(|s| s.check("smoothing", false)).transpose()?;
+        Ok(FastestMarkerSpeed { v_high, v_low, smoothing })
+    }
+}
+
+impl Segmenter for FastestMarkerSpeed {
+    fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput> {
+        motion.require_frames(3, "fastest_marker_speed")?;
+        let smoothing = self.smoothing.map(|s| s.whole_frames_at(motion.frame_rate())).unwrap_or(0);
+        let speeds = cached_marker_speeds(motion, cache, smoothing)?;
+        let v = &speeds.fastest;
+        let (v_high, v_low) = (self.v_high.resolve(v)?, self.v_low.resolve(v)?);
+        if v_low >= v_high {
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                format!("on {} v_low resolves to {v_low:.1} mm/s, not below v_high = {v_high:.1} mm/s", motion.name),
+            )
+            .with_field("v_low"));
+        }
+        let t = track_fastest_marker(&speeds, v_high, v_low);
+        Ok(SegmenterOutput {
+            candidates: t.candidates,
+            traces: vec![
+                Trace::new("V_mm_per_s", "mm/s", v.clone()),
+                Trace::new("tracked_speed_mm_per_s", "mm/s", t.tracked_speed),
+            ],
+            thresholds: vec![
+                Threshold { name: "v_high".into(), trace: "V_mm_per_s".into(), value: v_high },
+                Threshold { name: "v_low".into(), trace: "V_mm_per_s".into(), value: v_low },
+            ],
+            flagged_frames: Vec::new(),
+        })
+    }
+}
+
+motionlab_core::register_plugin!(Segmenter, FastestMarkerSpeedParams, "fastest_marker_speed");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::speed_minima::SpeedMinimaParams;
+    use motionlab_core::registry::build_segmenter;
+    use motionlab_features::signal::is_local_min;
+    use motionlab_features::speed::marker_speeds;
+    use motionlab_testkit::motion_from_fn;
+
+    /// Two markers at 100 Hz whose speeds are prescribed (mm/s): marker A (0) moves along x,
+    /// B (1) along y. A bursts at frames 60 and 230; B bursts at 100, overlapping A's
+    /// deceleration so the fastest marker changes hands at frame ~76 with V dipping to ~36 mm/s;
+    /// A's own speed has its next minimum at ~85, where B is fast. Both slow to 5 mm/s together
+    /// at frames 160 and 280: the two real stops.
+    fn stop_go() -> Motion {
+        let bump = |t: f64, c: f64, w: f64| (-((t - c) / w).powi(2)).exp();
+        let base = |t: f64| 5.0 + 10.0 * (1.0 - (2.0 * std::f64::consts::PI * (t - 160.0) / 120.0).cos());
+        let speed = |k: usize, t: f64| {
+            if k == 0 {
+                1000.0 * bump(t, 60.0, 8.0) + 100.0 * bump(t, 97.0, 4.0) + 1000.0 * bump(t, 230.0, 12.0) + base(t)
+            } else {
+                1000.0 * bump(t, 100.0, 12.0) + base(t)
+            }
+        };
+        let fps = 100.0;
+        let mut pos = [0.0f64; 2];
+        let mut traj = vec![[[0.0; 3]; 2]; 320];
+        for (i, frame) in traj.iter_mut().enumerate() {
+            *frame = [[pos[0], 0.0, 0.0], [0.0, pos[1], 0.0]];
+            for (k, p) in pos.iter_mut().enumerate() {
+                *p += speed(k, i as f64) / fps;
+            }
+        }
+        motion_from_fn(320, fps, 2, |i, k| traj[i][k])
+    }
+
+    fn run(params: &str, m: &Motion) -> SegmenterOutput {
+        let v: toml::Value = toml::from_str(params).unwrap();
+        build_segmenter("fastest_marker_speed", &v).unwrap().segment(m, &FeatureCache::new()).unwrap()
+    }
+
+    #[test]
+    fn finds_exactly_the_stops_and_not_the_fastest_marker_switch() {
+        let m = stop_go();
+        let thresholds = "v_high = { mm_per_s = 500.0 }\nv_low = { mm_per_s = 100.0 }";
+        let out = run(thresholds, &m);
+        assert_eq!(out.candidates, vec![160, 280]);
+
+        // The plain rule does fire at the switch: V has a local minimum under v_low at 76, where
+        // the fastest marker changes from A to B.
+        let s = marker_speeds(&m, 0);
+        assert!(is_local_min(&s.fastest, 76) && s.fastest[76] <= 100.0, "V[76] = {}", s.fastest[76]);
+        assert_eq!((s.fastest_marker[76], s.fastest_marker[77]), (Some(0), Some(1)));
+        let plain = SpeedMinimaParams { v_low: SpeedThreshold::MmPerS(100.0), smoothing: None }.check().unwrap();
+        let plain = plain.segment(&m, &FeatureCache::new()).unwrap();
+        assert!(plain.candidates.contains(&76), "{:?}", plain.candidates);
+        assert!(plain.candidates.contains(&160) && plain.candidates.contains(&280));
+
+        // The followed marker's trace: A from its peak at 60 to its own minimum (~85, not a
+        // candidate: B is fast there), B from 100 to the stop at 160, A from 230 to 280.
+        let t = track_fastest_marker(&s, 500.0, 100.0);
+        assert_eq!(t.tracked_marker[60], Some(0));
+        assert_eq!(t.tracked_marker[120], Some(1));
+        assert_eq!(t.tracked_marker[250], Some(0));
+        assert!(t.tracked_speed[10].is_nan() && t.tracked_speed[200].is_nan());
+        assert_eq!(t.tracked_speed[120], s.speed(120, 1));
+        let a_min = (61..100).find(|&f| t.tracked_marker[f + 1] != Some(0)).unwrap();
+        assert!(is_local_min(&s.marker_speed(0), a_min) && s.fastest[a_min] > 100.0, "A's minimum at {a_min}");
+        // Outputs carry V, the followed speed and both thresholds.
+        assert_eq!(out.traces[1].name, "tracked_speed_mm_per_s");
+        assert_eq!(out.thresholds.iter().map(|t| t.value).collect::<Vec<_>>(), vec![500.0, 100.0]);
+    }
+
+    #[test]
+    fn a_gap_in_the_followed_marker_is_skipped_not_a_stop() {
+        // Marker B missing around its minimum at 160: its speed is NaN there, so no minimum is
+        // found in the gap and the search runs on to the next minimum of B (the one at 280).
+        let m = stop_go();
+        let mut pos = m.positions().to_vec();
+        for f in 158..=162 {
+            pos[f * 2 + 1] = [f64::NAN; 3];
+        }
+        let gappy = motion_from_fn(320, 100.0, 2, |i, k| pos[i * 2 + k]);
+        let out = run("v_high = { mm_per_s = 500.0 }\nv_low = { mm_per_s = 100.0 }", &gappy);
+        assert!(!out.candidates.iter().any(|c| (157..=163).contains(c)), "{:?}", out.candidates);
+        assert!(out.candidates.contains(&280));
+    }
+
+    #[test]
+    fn defaults_are_fractions_of_p90_and_inverted_thresholds_are_rejected() {
+        let m = stop_go();
+        let out = run("", &m);
+        let p90 = motionlab_features::signal::percentile(&marker_speeds(&m, 0).fastest, 90.0).unwrap();
+        assert!((out.thresholds[0].value - 0.5 * p90).abs() < 1e-9);
+        assert!((out.thresholds[1].value - 0.15 * p90).abs() < 1e-9);
+        let bad: toml::Value = toml::from_str("v_high = { mm_per_s = 50.0 }\nv_low = { mm_per_s = 100.0 }").unwrap();
+        let e = build_segmenter("fastest_marker_speed", &bad).err().unwrap();
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, Some("v_low")));
+        // Mixed kinds are compared once resolved.
+        let mixed: toml::Value = toml::from_str("v_high = { mm_per_s = 1.0 }\nv_low = { fraction_of_p90 = 0.15 }").unwrap();
+        let e = build_segmenter("fastest_marker_speed", &mixed).unwrap().segment(&m, &FeatureCache::new()).unwrap_err();
+        assert_eq!(e.location().field.as_deref(), Some("v_low"));
+    }
+}

@@ -1,0 +1,29 @@
+# motionlab tasks. `just` is optional: every recipe is a plain cargo/script command (see README).
+
+export CARGO_TARGET_DIR := env_var_or_default("CARGO_TARGET_DIR", env_var("HOME") + "/.cache/motionlab-target")
+
+# Run the test suite (README's test command).
+test:
+    cargo test --workspace
+
+# Reproduce every experiment in experiments/ into reports/.
+reproduce:
+    cargo run --release -p motionlab-cli -- reproduce
+
+# Reproduce and refresh the committed runs of record (reports/<experiment>/record/).
+record:
+    cargo run --release -p motionlab-cli -- reproduce --record
+
+# Benchmarks: Rust (divan) and the side-by-side scripts against the Python peers.
+bench:
+    cargo bench -p motionlab-io
+    cargo bench -p motionlab-features
+    cargo bench -p motionlab-segment
+    cargo bench -p motionlab-match
+    bench/hull_vs_scipy.py
+    bench/multistream_vs_peers.py
+    bench/dtw_crosscheck.py
+
+# Fuzz every parser for the given number of seconds each (needs nightly-free cargo-fuzz setup, see fuzz/README.md).
+fuzz seconds="600":
+    fuzz/run_all.sh {{seconds}}

@@ -1,0 +1,36 @@
+//! The plugin registry: every expected plugin is linked into the binary's crates and
+//! documented (a plugin crate the CLI forgets to name would vanish silently).
+
+use motionlab_core::registry::{self, StageKind};
+
+// The same plugin crates the CLI names.
+use motionlab_eval as _;
+use motionlab_features as _;
+use motionlab_gait as _;
+use motionlab_io as _;
+use motionlab_match as _;
+use motionlab_segment as _;
+
+/// Every plugin the project ships, by kind. Adding a plugin means adding it here.
+const EXPECTED: &[(StageKind, &str)] = &[
+    (StageKind::FeatureExtractor, "marker_speed"),
+    (StageKind::Segmenter, "speed_minima"),
+];
+
+#[test]
+fn every_expected_plugin_is_registered_with_its_kind() {
+    let all = registry::plugins();
+    for (kind, name) in EXPECTED {
+        let p = all.iter().find(|p| p.name == *name).unwrap_or_else(|| panic!("plugin {name:?} is not registered (crate not linked?)"));
+        assert_eq!(p.kind, *kind, "{name}");
+    }
+}
+
+#[test]
+fn every_registered_plugin_is_expected_and_documented() {
+    let problems = registry::check_registry();
+    assert!(problems.is_empty(), "{problems:#?}");
+    for p in registry::plugins() {
+        assert!(EXPECTED.iter().any(|(_, n)| *n == p.name), "plugin {:?} is registered but missing from EXPECTED", p.name);
+    }
+}
