@@ -13,8 +13,38 @@ use motionlab_segment as _;
 
 /// Every plugin the project ships, by kind. Adding a plugin means adding it here.
 const EXPECTED: &[(StageKind, &str)] = &[
+    (StageKind::Loader, "asf_amc"),
+    (StageKind::Loader, "bvh"),
+    (StageKind::Loader, "c3d"),
+    (StageKind::Loader, "qualisys_tsv"),
+    (StageKind::GroundTruth, "cmu86_labels"),
+    (StageKind::GroundTruth, "mocap6_labels"),
+    (StageKind::Preprocessor, "add_centroid"),
+    (StageKind::Preprocessor, "fill_gaps"),
+    (StageKind::Preprocessor, "initial_pose_normalisation"),
+    (StageKind::FeatureExtractor, "hull_volume"),
+    (StageKind::FeatureExtractor, "isb_joint_angles"),
     (StageKind::FeatureExtractor, "marker_speed"),
+    (StageKind::FeatureExtractor, "root_curvature"),
+    (StageKind::FeatureExtractor, "skeleton_joint_angles"),
+    (StageKind::Segmenter, "direction_change"),
+    (StageKind::Segmenter, "fastest_marker_speed"),
+    (StageKind::Segmenter, "hull_volume_change"),
+    (StageKind::Segmenter, "pca_error_rise"),
     (StageKind::Segmenter, "speed_minima"),
+    (StageKind::Fuser, "union_merge"),
+    (StageKind::PointDetector, "velocity_peaks"),
+    (StageKind::Matcher, "multistream_two_stage"),
+    (StageKind::Matcher, "subsequence_dp"),
+    (StageKind::Synchroniser, "synchronisation"),
+    (StageKind::GaitCycleDetector, "c3d_events"),
+    (StageKind::GaitCycleDetector, "heel_height"),
+    (StageKind::WaveformAnalyzer, "waveform_parameters"),
+    (StageKind::WalkSynthesizer, "feature_channel_control"),
+    (StageKind::Evaluator, "boundary_pr"),
+    (StageKind::Evaluator, "change_rates"),
+    (StageKind::Evaluator, "judgement"),
+    (StageKind::Evaluator, "transitions"),
 ];
 
 #[test]

@@ -113,8 +113,13 @@ impl fmt::Display for Location {
 }
 
 /// A motionlab error: kind + location + a message that says what was found and what was expected.
+///
+/// Boxed so `Result<T, Error>` stays one pointer wide on the happy path.
 #[derive(Debug)]
-pub struct Error {
+pub struct Error(Box<Inner>);
+
+#[derive(Debug)]
+struct Inner {
     kind: ErrorKind,
     location: Location,
     message: String,
@@ -125,7 +130,7 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
     pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
-        Error { kind, location: Location::default(), message: message.into(), source: None }
+        Error(Box::new(Inner { kind, location: Location::default(), message: message.into(), source: None }))
     }
     /// Shorthand for the most common case: a text format problem at `file:line`.
     pub fn at_line(kind: ErrorKind, file: impl AsRef<Path>, line: usize, message: impl Into<String>) -> Self {
@@ -133,65 +138,65 @@ impl Error {
     }
     pub fn io(file: impl AsRef<Path>, err: std::io::Error) -> Self {
         let message = err.to_string();
-        Error { kind: ErrorKind::Io, location: Location::file(file), message, source: Some(Box::new(err)) }
+        Error(Box::new(Inner { kind: ErrorKind::Io, location: Location::file(file), message, source: Some(Box::new(err)) }))
     }
     pub fn with_location(mut self, location: Location) -> Self {
-        self.location = location;
+        self.0.location = location;
         self
     }
     /// Fill in the file when the code that raised the error did not know it (a parser working
     /// on a byte buffer); an already-known file is kept.
     pub fn in_file(mut self, file: impl AsRef<Path>) -> Self {
-        if self.location.file.is_none() {
-            self.location.file = Some(file.as_ref().to_path_buf());
+        if self.0.location.file.is_none() {
+            self.0.location.file = Some(file.as_ref().to_path_buf());
         }
         self
     }
     pub fn with_line(mut self, line: usize) -> Self {
-        self.location.line = Some(line);
+        self.0.location.line = Some(line);
         self
     }
     pub fn with_field(mut self, field: impl Into<String>) -> Self {
-        self.location.field = Some(field.into());
+        self.0.location.field = Some(field.into());
         self
     }
     /// Prefix the field path (`v_high` inside `segmenter[0]` becomes `segmenter[0].v_high`).
     pub fn under_field(mut self, prefix: impl AsRef<str>) -> Self {
         let prefix = prefix.as_ref();
-        self.location.field = Some(match self.location.field.take() {
+        self.0.location.field = Some(match self.0.location.field.take() {
             Some(f) if !f.is_empty() => format!("{prefix}.{f}"),
             _ => prefix.to_string(),
         });
         self
     }
     pub fn with_source(mut self, source: impl std::error::Error + Send + Sync + 'static) -> Self {
-        self.source = Some(Box::new(source));
+        self.0.source = Some(Box::new(source));
         self
     }
     pub fn kind(&self) -> ErrorKind {
-        self.kind
+        self.0.kind
     }
     pub fn location(&self) -> &Location {
-        &self.location
+        &self.0.location
     }
     pub fn message(&self) -> &str {
-        &self.message
+        &self.0.message
     }
 }
 
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.location.is_empty() {
-            write!(f, "{}", self.message)
+        if self.0.location.is_empty() {
+            write!(f, "{}", self.0.message)
         } else {
-            write!(f, "{}: {}", self.location, self.message)
+            write!(f, "{}: {}", self.0.location, self.0.message)
         }
     }
 }
 
 impl std::error::Error for Error {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        self.source.as_deref().map(|e| e as &(dyn std::error::Error + 'static))
+        self.0.source.as_deref().map(|e| e as &(dyn std::error::Error + 'static))
     }
 }
 

@@ -71,6 +71,8 @@ pub struct BuiltDataset {
     pub index: usize,
     pub spec: DatasetSpec,
     pub loader: Box<dyn Loader>,
+    /// The reader and the ground-truth path, which may hold `{stem}` (replaced by each motion
+    /// file's stem, so one dataset can list several sequences with a label file each).
     pub ground_truth: Option<(Box<dyn GroundTruthReader>, PathBuf)>,
     pub preprocess: Vec<Box<dyn Preprocessor>>,
     /// Resolved files (globs expanded, sorted).
@@ -89,6 +91,12 @@ impl BuiltDataset {
     }
     pub fn tag(&self, key: &str) -> Option<&str> {
         self.spec.tags.get(key).map(String::as_str)
+    }
+    /// The ground-truth file of motion file `k` (`{stem}` substituted).
+    pub fn ground_truth_path(&self, k: usize) -> Option<PathBuf> {
+        let (_, template) = self.ground_truth.as_ref()?;
+        let stem = motionlab_core::paths::stem(&self.files[k]);
+        Some(PathBuf::from(template.to_string_lossy().replace("{stem}", &stem)))
     }
 }
 
@@ -123,9 +131,9 @@ impl Datasets {
         }
         // Ground truth is read against the motion as loaded (and cut), before preprocessors
         // that may add points but never change timing.
-        let truth = match &d.ground_truth {
-            Some((reader, gt_path)) => Some(reader.read(gt_path, &motion).map_err(|e| e.in_file(gt_path))?),
-            None => None,
+        let truth = match (&d.ground_truth, d.ground_truth_path(file)) {
+            (Some((reader, _)), Some(gt_path)) => Some(reader.read(&gt_path, &motion).map_err(|e| e.in_file(&gt_path))?),
+            _ => None,
         };
         for p in d.preprocess.iter().chain(&self.preprocess) {
             motion = p.apply(motion).map_err(|e| e.in_file(path))?;
@@ -162,7 +170,7 @@ impl Plan {
         let mut v: Vec<PathBuf> = self
             .built
             .iter()
-            .flat_map(|b| b.data.datasets.iter().flat_map(|d| d.files.iter().cloned().chain(d.ground_truth.iter().map(|g| g.1.clone()))))
+            .flat_map(|b| b.data.datasets.iter().flat_map(|d| d.files.iter().cloned().chain((0..d.files.len()).filter_map(|k| d.ground_truth_path(k)))))
             .collect();
         v.sort();
         v.dedup();
@@ -315,13 +323,6 @@ fn build_datasets(source: &Source, combo: &Combo) -> Result<Datasets> {
                         ));
                     }
                 };
-                if !file.is_file() {
-                    return Err(source.locate(
-                        Error::new(ErrorKind::Io, format!("ground-truth file {} does not exist", file.display())),
-                        &gp.key("file"),
-                        &combo.doc,
-                    ));
-                }
                 let mut params = gt.clone();
                 params.params.remove("file");
                 let reader = build_stage(source, combo, &params, &gp, registry::build_ground_truth)?;
@@ -335,7 +336,19 @@ fn build_datasets(source: &Source, combo: &Combo) -> Result<Datasets> {
             .map(|(k, p)| build_stage(source, combo, p, &dp.key("preprocess").index(k), registry::build_preprocessor))
             .collect::<Result<Vec<_>>>()?;
         let files = resolve_files(source, &base, &spec.files).map_err(|e| source.locate(e, &dp.key("files"), &combo.doc))?;
-        datasets.push(BuiltDataset { index: i, spec: spec.clone(), loader, ground_truth, preprocess, files });
+        let built = BuiltDataset { index: i, spec: spec.clone(), loader, ground_truth, preprocess, files };
+        for k in 0..built.files.len() {
+            if let Some(gt) = built.ground_truth_path(k)
+                && !gt.is_file()
+            {
+                return Err(source.locate(
+                    Error::new(ErrorKind::Io, format!("ground-truth file {} does not exist", gt.display())),
+                    &dp.key("ground_truth").key("file"),
+                    &combo.doc,
+                ));
+            }
+        }
+        datasets.push(built);
     }
     let preprocess = combo
         .file

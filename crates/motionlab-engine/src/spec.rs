@@ -36,11 +36,14 @@ pub struct StageSpec {
 }
 
 impl StageSpec {
-    /// The parameter table with `name` removed (a display name is the engine's, not the
-    /// plugin's).
+    /// The plugin's parameter table: every key but `type`, and but `name` — a display name
+    /// for the engine — unless the plugin itself has a `name` parameter (`add_centroid`).
     pub fn plugin_params(&self) -> toml::Value {
         let mut p = self.params.clone();
-        p.remove("name");
+        let plugin_has_name = motionlab_core::registry::find(&self.kind).is_ok_and(|e| e.params().iter().any(|d| d.name == "name"));
+        if !plugin_has_name {
+            p.remove("name");
+        }
         toml::Value::Table(p)
     }
     /// Display name: the `name` key when given, else the plugin type.
@@ -99,7 +102,8 @@ pub struct DatasetSpec {
     /// Paths or glob patterns, relative to the experiment file's folder.
     pub files: Vec<String>,
     pub loader: StageSpec,
-    /// `{ type = "<reader>", file = "<path>", …params }`.
+    /// `{ type = "<reader>", file = "<path>", …params }`; `{stem}` in the path stands for each
+    /// motion file's stem (`file = "labels/{stem}.txt"`).
     #[serde(default)]
     pub ground_truth: Option<StageSpec>,
     /// Preprocessors applied to this dataset only, before the experiment-wide ones.

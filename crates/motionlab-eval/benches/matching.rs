@@ -9,7 +9,9 @@ use divan::counter::ItemsCount;
 use divan::{Bencher, black_box};
 use motionlab_core::registry::{build_evaluator, default_params};
 use motionlab_core::{Boundary, EvalInput, FrameRate, MethodResult, Segment, Segmentation, SequenceResult};
-use motionlab_eval::boundaries::{TruthWindow, evaluate_boundaries, hausdorff_frames, max_matching_graph, max_matching_windows, MatchRule};
+use motionlab_eval::boundaries::{
+    MatchRule, TruthWindow, evaluate_boundaries, hausdorff_frames, max_matching_graph, max_matching_windows,
+};
 use motionlab_testkit::{Rng, motion_from_fn};
 
 fn main() {
@@ -44,7 +46,9 @@ fn adjacency(found: &[usize], windows: &[TruthWindow]) -> Vec<Vec<usize>> {
 #[divan::bench(args = [1_000, 10_000, 100_000])]
 fn window_sweep(bencher: Bencher, n: usize) {
     let (found, windows) = instance(n);
-    bencher.counter(ItemsCount::new(2 * n)).bench(|| max_matching_windows(black_box(&found), black_box(&windows)).len());
+    bencher
+        .counter(ItemsCount::new(2 * n))
+        .bench(|| max_matching_windows(black_box(&found), black_box(&windows)).len());
 }
 
 #[divan::bench(args = [1_000, 10_000, 100_000])]
@@ -65,7 +69,8 @@ fn hausdorff(bencher: Bencher, n: usize) {
 #[divan::bench]
 fn evaluate_one_method(bencher: Bencher) {
     let mut rng = Rng::new(1);
-    let truth: Vec<Boundary> = [549, 1149, 1979, 2499, 3199, 4064].iter().map(|&frame| Boundary { frame, window: None }).collect();
+    let truth: Vec<Boundary> =
+        [549, 1149, 1979, 2499, 3199, 4064].iter().map(|&frame| Boundary { frame, window: None }).collect();
     let mut found: Vec<usize> = (0..120).map(|_| (rng.uniform() * 4579.0) as usize).collect();
     found.sort_unstable();
     bencher.bench(|| evaluate_boundaries(black_box(&found), black_box(&truth), &MatchRule::time(10.0)).n_matched);
@@ -81,7 +86,8 @@ fn boundary_pr_table1(bencher: Bencher) {
         .map(|s| {
             let n = 4600;
             let cuts = [0, 549, 1149, 1979, 2499, 3199, 4064, n];
-            let segments = cuts.windows(2).map(|w| Segment { start: w[0], end: w[1], label: format!("a{}", w[0]) }).collect();
+            let segments =
+                cuts.windows(2).map(|w| Segment { start: w[0], end: w[1], label: format!("a{}", w[0]) }).collect();
             let methods = ["speed", "direction", "hull", "fused"]
                 .iter()
                 .map(|m| {

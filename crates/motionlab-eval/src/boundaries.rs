@@ -19,16 +19,18 @@
 //! # Algorithms (written here; why no crate)
 //!
 //! - Time rule only: every truth accepts a closed *interval* of frames, every found frame is a
-//!   point, so the graph is a point–interval graph and an exact O((|A|+|R|) log |R|) sweep
+//!   point, so the graph is a point–interval graph and an exact O((|A|+|R|) log(|A|+|R|)) sweep
 //!   exists ([`max_matching_windows`], proof in its doc comment).
 //! - With the pose rule the graph has no such structure: Hopcroft–Karp
 //!   ([`max_matching_graph`], O(E √V)), iterative so deep augmenting paths cannot overflow the
 //!   stack.
 //!
-//! Both are ~60 lines; the crates that offer bipartite matching (`petgraph` has only a greedy
-//! and a general-graph matching, `pathfinding`'s Kuhn–Munkres solves the weighted assignment
-//! problem in O(n³) and wants a square or wide matrix) would add a dependency for less. Both
-//! are cross-checked against exhaustive search on random small cases in the tests.
+//! Both are short; the crates that offer matchings would add a dependency for less:
+//! `petgraph::algo::maximum_matching` is Gabow's O(V³) general-graph algorithm on a petgraph
+//! graph built first, `pathfinding`'s Kuhn–Munkres solves the weighted assignment problem in
+//! O(n³). The two algorithms here are cross-checked against exhaustive search on random small
+//! cases in the tests, and against scipy's Hopcroft–Karp on graphs of up to 10⁵ vertices
+//! (`bench/matching_vs_scipy.py`).
 //!
 //! # Empty sets (documented choice)
 //!
@@ -283,8 +285,11 @@ impl<'m> PoseRule<'m> {
     /// `max_gap`, when given, limits the rule to frames at most that far apart.
     pub fn new(motion: &'m Motion, root: &str, pose_mm: f64, max_gap: Option<TimeSpan>) -> Result<Self> {
         if !(pose_mm.is_finite() && pose_mm > 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite distance > 0 mm, found {pose_mm}"))
-                .with_field("pose_mm"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a finite distance > 0 mm, found {pose_mm}"),
+            )
+            .with_field("pose_mm"));
         }
         let root = motion.point_index(root).map_err(|e| e.with_field("root"))?;
         let max_gap_frames = max_gap.map(|g| tolerance_frames(g, motion.frame_rate()));
@@ -394,7 +399,9 @@ pub fn evaluate_boundaries(found: &[usize], truth: &[Boundary], rule: &MatchRule
             let adjacency: Vec<Vec<usize>> = found
                 .iter()
                 .map(|&a| {
-                    (0..windows.len()).filter(|&j| windows[j].contains(a) || pose.matches(a, windows[j].frame)).collect()
+                    (0..windows.len())
+                        .filter(|&j| windows[j].contains(a) || pose.matches(a, windows[j].frame))
+                        .collect()
                 })
                 .collect();
             max_matching_graph(windows.len(), &adjacency)
@@ -530,7 +537,10 @@ mod tests {
         assert_eq!(s.n_matched, 2);
         assert_eq!(
             s.pairs,
-            vec![MatchedPair { found: 4, truth: 0, by_pose: false }, MatchedPair { found: 10, truth: 6, by_pose: false }]
+            vec![
+                MatchedPair { found: 4, truth: 0, by_pose: false },
+                MatchedPair { found: 10, truth: 6, by_pose: false }
+            ]
         );
         assert_eq!((s.precision, s.recall, s.f1), (1.0, 1.0, 1.0));
         // Hausdorff: 4→6 is 2, 10→6 is 4; 0→4 is 4, 6→4 is 2: H = 4.
@@ -542,7 +552,8 @@ mod tests {
         // Truth at 100, 200, 300, 400; found at 103, 196, 250, 309, 500, 505; tol 5.
         // 103↔100 (3), 196↔200 (4); 250, 309 (9 from 300), 500, 505 unmatched; 300, 400 missed.
         // precision 2/6, recall 2/4, F1 = 2·2/(6+4) = 0.4 (= 2·(1/3)(1/2)/(1/3 + 1/2)).
-        let s = evaluate_boundaries(&[103, 196, 250, 309, 500, 505], &points(&[100, 200, 300, 400]), &MatchRule::time(5.0));
+        let s =
+            evaluate_boundaries(&[103, 196, 250, 309, 500, 505], &points(&[100, 200, 300, 400]), &MatchRule::time(5.0));
         assert_eq!((s.n_found, s.n_truth, s.n_matched), (6, 4, 2));
         assert!((s.precision - 1.0 / 3.0).abs() < 1e-15);
         assert_eq!(s.recall, 0.5);
@@ -595,8 +606,11 @@ mod tests {
         let truth = vec![Boundary { frame: 549, window: Some((499, 599)) }];
         let plain = evaluate_boundaries(&[510], &truth, &MatchRule::time(10.0));
         assert_eq!(plain.n_matched, 0);
-        let windowed =
-            evaluate_boundaries(&[510, 489, 488], &truth, &MatchRule { tolerance_frames: 10.0, use_windows: true, pose: None });
+        let windowed = evaluate_boundaries(
+            &[510, 489, 488],
+            &truth,
+            &MatchRule { tolerance_frames: 10.0, use_windows: true, pose: None },
+        );
         assert_eq!(windowed.n_matched, 1);
         // 489 is exactly tol before the window, 510 inside: either may take it, never both.
         let w = TruthWindow::from_boundary(&truth[0], 10.0, true);
@@ -616,8 +630,9 @@ mod tests {
             let truth: Vec<Boundary> = (0..n_truth)
                 .map(|_| {
                     let frame = (rng.uniform() * span) as usize;
-                    let window = (rng.uniform() < 0.4)
-                        .then(|| (frame.saturating_sub((rng.uniform() * 6.0) as usize), frame + (rng.uniform() * 6.0) as usize));
+                    let window = (rng.uniform() < 0.4).then(|| {
+                        (frame.saturating_sub((rng.uniform() * 6.0) as usize), frame + (rng.uniform() * 6.0) as usize)
+                    });
                     Boundary { frame, window }
                 })
                 .collect();
@@ -704,8 +719,10 @@ mod tests {
     fn hausdorff_is_symmetric_and_zero_only_for_equal_sets() {
         let mut rng = Rng::new(3);
         for _ in 0..500 {
-            let a: Vec<usize> = (0..1 + (rng.uniform() * 6.0) as usize).map(|_| (rng.uniform() * 100.0) as usize).collect();
-            let b: Vec<usize> = (0..1 + (rng.uniform() * 6.0) as usize).map(|_| (rng.uniform() * 100.0) as usize).collect();
+            let a: Vec<usize> =
+                (0..1 + (rng.uniform() * 6.0) as usize).map(|_| (rng.uniform() * 100.0) as usize).collect();
+            let b: Vec<usize> =
+                (0..1 + (rng.uniform() * 6.0) as usize).map(|_| (rng.uniform() * 100.0) as usize).collect();
             // Independent O(n·m) definition.
             let d = |x: &[usize], y: &[usize]| {
                 x.iter().map(|&p| y.iter().map(|&q| p.abs_diff(q)).min().unwrap()).max().unwrap() as f64

@@ -5,9 +5,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{
-    Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Millimetres, Result, Table, TimeSpan,
-};
+use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Millimetres, Result, Table, TimeSpan};
 
 use crate::boundaries::{MatchRule, PoseRule, default_tolerance, evaluate_boundaries, ratios, tolerance_frames};
 use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
@@ -66,6 +64,11 @@ pub struct BoundaryPrParams {
     /// joint; marker sets without one can add it with the `add_centroid` preprocessor).
     #[serde(default = "default_root")]
     pub root: String,
+    /// The single methods the fused method's recall is compared with in `claim_fused_recall`
+    /// (the paper compares its fusion with the methods it fuses, not with baselines).
+    /// Default: none = every other method.
+    #[serde(default)]
+    pub claim_against: Option<Vec<String>>,
 }
 
 fn default_root() -> String {
@@ -80,6 +83,7 @@ pub struct BoundaryPr {
     pose_mm: Option<f64>,
     pose_max_gap: Option<TimeSpan>,
     root: String,
+    claim_against: Option<Vec<String>>,
 }
 
 impl ParamGuard for BoundaryPrParams {
@@ -96,13 +100,20 @@ impl ParamGuard for BoundaryPrParams {
             }
         };
         if pose_max_gap.is_some() && pose_mm.is_none() {
-            return Err(Error::new(ErrorKind::InvalidParameter, "pose_max_gap limits the pose rule, which is off: set pose_mm too")
-                .with_field("pose_max_gap"));
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                "pose_max_gap limits the pose rule, which is off: set pose_mm too",
+            )
+            .with_field("pose_max_gap"));
         }
         if self.root.trim().is_empty() {
-            return Err(Error::new(ErrorKind::OutOfRange, "must name a marker or joint, found an empty name").with_field("root"));
+            return Err(Error::new(ErrorKind::OutOfRange, "must name a marker or joint, found an empty name")
+                .with_field("root"));
         }
-        Ok(BoundaryPr { tolerance, use_windows: self.use_windows, pose_mm, pose_max_gap, root: self.root })
+        if self.claim_against.as_ref().is_some_and(|v| v.is_empty()) {
+            return Err(Error::new(ErrorKind::OutOfRange, "must name at least one method").with_field("claim_against"));
+        }
+        Ok(BoundaryPr { tolerance, use_windows: self.use_windows, pose_mm, pose_max_gap, root: self.root, claim_against: self.claim_against })
     }
 }
 
@@ -188,7 +199,11 @@ impl Evaluator for BoundaryPr {
                     if e.location().file.is_none() { e.with_location(location_of(seq).field("root")) } else { e }
                 })?),
             };
-            let rule = MatchRule { tolerance_frames: tolerance_frames(self.tolerance, rate), use_windows: self.use_windows, pose };
+            let rule = MatchRule {
+                tolerance_frames: tolerance_frames(self.tolerance, rate),
+                use_windows: self.use_windows,
+                pose,
+            };
             for m in &seq.methods {
                 let s = evaluate_boundaries(&m.candidates, &truth.boundaries, &rule);
                 let n_by_pose = s.pairs.iter().filter(|p| p.by_pose).count();
@@ -221,7 +236,14 @@ impl Evaluator for BoundaryPr {
                 pool.n_by_pose += n_by_pose;
                 pool.hausdorff_s = pool.hausdorff_s.max(hausdorff_s);
 
-                match_rows.extend(match_rows_of(&seq.sequence, &m.method, &m.candidates, &truth.frames(), &s, period_s));
+                match_rows.extend(match_rows_of(
+                    &seq.sequence,
+                    &m.method,
+                    &m.candidates,
+                    &truth.frames(),
+                    &s,
+                    period_s,
+                ));
             }
         }
         if n_evaluated == 0 {
@@ -251,12 +273,15 @@ impl Evaluator for BoundaryPr {
         let mut tables = vec![
             Table::from_records(
                 "table1_precision_recall",
-                format!("Table 1: precision, recall and F1 per method (tolerance {}{pose_text}; maximum one-to-one matching)", self.tolerance),
+                format!(
+                    "Table 1: precision, recall and F1 per method (tolerance {}{pose_text}; maximum one-to-one matching)",
+                    self.tolerance
+                ),
                 &rows,
             )?,
             Table::from_records("boundary_matches", "Matched, missed and extra boundaries per method", &match_rows)?,
         ];
-        if let Some(claim) = fused_recall_claim(&rows, n_evaluated) {
+        if let Some(claim) = fused_recall_claim(&rows, n_evaluated, self.claim_against.as_deref())? {
             tables.push(Table::from_records(
                 "claim_fused_recall",
                 "Does the fused method's pooled recall exceed every single method's?",
@@ -304,19 +329,32 @@ fn match_rows_of(
     out.into_iter().map(|(_, r)| r).collect()
 }
 
-/// The paper's central claim on the pooled rows: the last method's recall against the others'.
-fn fused_recall_claim(rows: &[PrecisionRecallRow], n_sequences: usize) -> Option<FusedRecallClaim> {
+/// The paper's central claim on the pooled rows: the last method's recall against the others'
+/// (or against the named ones).
+fn fused_recall_claim(rows: &[PrecisionRecallRow], n_sequences: usize, against: Option<&[String]>) -> Result<Option<FusedRecallClaim>> {
     let pooled: Vec<&PrecisionRecallRow> = rows.iter().filter(|r| r.sequence == "pooled").collect();
-    let (fused, others) = pooled.split_last()?;
-    let best = others.iter().max_by(|a, b| a.recall.total_cmp(&b.recall))?;
-    Some(FusedRecallClaim {
+    let Some((fused, others)) = pooled.split_last() else { return Ok(None) };
+    let others: Vec<&&PrecisionRecallRow> = match against {
+        None => others.iter().collect(),
+        Some(names) => {
+            for n in names {
+                if !others.iter().any(|o| &o.method == n) {
+                    return Err(Error::new(ErrorKind::UnknownName, format!("claim_against names {n:?}, which is not a method of this experiment"))
+                        .with_field("claim_against"));
+                }
+            }
+            others.iter().filter(|o| names.contains(&o.method)).collect()
+        }
+    };
+    let Some(best) = others.iter().max_by(|a, b| a.recall.total_cmp(&b.recall)) else { return Ok(None) };
+    Ok(Some(FusedRecallClaim {
         fused_method: fused.method.clone(),
         fused_recall: fused.recall,
         best_other_method: best.method.clone(),
         best_other_recall: best.recall,
         fused_exceeds_all: others.iter().all(|o| fused.recall > o.recall),
         n_sequences,
-    })
+    }))
 }
 
 motionlab_core::register_plugin!(Evaluator, BoundaryPrParams, "boundary_pr");
@@ -392,8 +430,36 @@ mod tests {
     }
 
     #[test]
+    fn the_claim_compares_with_the_named_methods_only() {
+        // Truths 100, 200, 300 at 100 Hz, tolerance 5 frames. Recall: a 1/3, b 3/3 (a baseline),
+        // fused 2/3. Against every method fusion loses to b; against the fused inputs (a) it wins.
+        let seqs = vec![sequence(
+            "s",
+            600,
+            100.0,
+            Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 300, "x"), (300, 600, "z")]),
+            &[("a", &[100]), ("b", &[100, 200, 300]), ("fused", &[100, 300])],
+        )];
+        let claim = |params: &str| {
+            let tables = evaluator(params).evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+            let t = tables.into_iter().find(|t| t.name == "claim_fused_recall").unwrap();
+            (strs(&t, "best_other_method")[0].clone(), t.column("fused_exceeds_all").cloned())
+        };
+        assert_eq!(claim("tolerance = { frames = 5 }"), ("b".to_string(), Some(ColumnValues::Bool(vec![false]))));
+        assert_eq!(claim("tolerance = { frames = 5 }\nclaim_against = [\"a\"]"), ("a".to_string(), Some(ColumnValues::Bool(vec![true]))));
+        let bad = evaluator("claim_against = [\"zz\"]").evaluate(EvalInput::Segmentation(&seqs)).unwrap_err();
+        assert_eq!(bad.location().field.as_deref(), Some("claim_against"));
+    }
+
+    #[test]
     fn boundary_matches_lists_matched_missed_and_extra() {
-        let seqs = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 600, "x")]), &[("m", &[103, 400])])];
+        let seqs = vec![sequence(
+            "a",
+            600,
+            100.0,
+            Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 600, "x")]),
+            &[("m", &[103, 400])],
+        )];
         let tables = evaluator("tolerance = { frames = 5 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
         let t = &tables[1];
         assert_eq!(strs(t, "outcome"), ["matched", "missed", "extra"]);
@@ -413,7 +479,9 @@ mod tests {
             if k == 0 { [0.0; 3] } else { [0.0, 0.0, if (40..60).contains(&i) { 300.0 } else { 100.0 }] }
         });
         seq.motion = std::sync::Arc::new(motion);
-        let tables = evaluator("tolerance = { frames = 2 }\npose_mm = 10.0").evaluate(EvalInput::Segmentation(&[seq.clone()])).unwrap();
+        let tables = evaluator("tolerance = { frames = 2 }\npose_mm = 10.0")
+            .evaluate(EvalInput::Segmentation(&[seq.clone()]))
+            .unwrap();
         assert_eq!(f64s(&tables[0], "n_matched")[..2], [1.0, 0.0]);
         assert_eq!(f64s(&tables[0], "n_matched_by_pose")[..2], [1.0, 0.0]);
         assert_eq!(strs(&tables[1], "outcome")[0], "matched_by_pose");
@@ -464,7 +532,10 @@ mod tests {
         };
         assert_eq!(field("tolerance = { frames = -1 }"), Some((ErrorKind::OutOfRange, "tolerance".into())));
         assert_eq!(field("pose_mm = 0.0"), Some((ErrorKind::OutOfRange, "pose_mm".into())));
-        assert_eq!(field("pose_max_gap = { seconds = 1.0 }"), Some((ErrorKind::InvalidParameter, "pose_max_gap".into())));
+        assert_eq!(
+            field("pose_max_gap = { seconds = 1.0 }"),
+            Some((ErrorKind::InvalidParameter, "pose_max_gap".into()))
+        );
         assert_eq!(field("root = \" \""), Some((ErrorKind::OutOfRange, "root".into())));
         assert_eq!(field("tolerance = 5"), Some((ErrorKind::WrongType, "tolerance".into())));
         assert_eq!(field("tolerence = { frames = 5 }").map(|f| f.0), Some(ErrorKind::UnknownKey));

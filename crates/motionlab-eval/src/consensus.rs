@@ -26,9 +26,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{
-    Boundary, Error, ErrorKind, Motion, MillimetresPerSecond, Result, Segmentation, TimeSpan,
-};
+use motionlab_core::{Boundary, Error, ErrorKind, MillimetresPerSecond, Motion, Result, Segmentation, TimeSpan};
 use motionlab_features::speed::marker_speeds;
 
 use crate::boundaries::tolerance_frames;
@@ -98,15 +96,20 @@ impl ParamGuard for ConsensusParams {
     fn check(self) -> Result<Consensus> {
         let tolerance = self.tolerance.check("tolerance", false)?;
         if self.min_votes == Some(0) {
-            return Err(Error::new(ErrorKind::OutOfRange, "must be at least 1 annotator, found 0").with_field("min_votes"));
+            return Err(
+                Error::new(ErrorKind::OutOfRange, "must be at least 1 annotator, found 0").with_field("min_votes")
+            );
         }
         let stop_rule = match self.stop_rule {
             None => None,
             Some(s) => {
                 let v = s.max_speed.value();
                 if !(v.is_finite() && v >= 0.0) {
-                    return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite speed >= 0 mm/s, found {v}"))
-                        .with_field("stop_rule.max_speed"));
+                    return Err(Error::new(
+                        ErrorKind::OutOfRange,
+                        format!("must be a finite speed >= 0 mm/s, found {v}"),
+                    )
+                    .with_field("stop_rule.max_speed"));
                 }
                 if s.min_votes == 0 {
                     return Err(Error::new(ErrorKind::OutOfRange, "must be at least 1 annotator, found 0")
@@ -315,14 +318,16 @@ mod tests {
         let strict = rule("tolerance = { frames = 0 }\nmin_votes = 3\nstop_rule = { max_speed = 50.0, min_votes = 2 }");
         assert!(strict.run(&marks, &m).unwrap().is_empty());
         // A marker missing everywhere near the mark: V is NaN there, which is never a stop.
-        let gone = motion_from_fn(200, 100.0, 1, |i, _| if (40..60).contains(&i) { [f64::NAN; 3] } else { [x(i), 0.0, 0.0] });
+        let gone =
+            motion_from_fn(200, 100.0, 1, |i, _| if (40..60).contains(&i) { [f64::NAN; 3] } else { [x(i), 0.0, 0.0] });
         assert!(c.run(&marks, &gone).unwrap().is_empty());
     }
 
     #[test]
     fn segmentation_carries_the_cluster_span_as_window() {
         let m = motion_from_fn(300, 120.0, 1, |_, _| [0.0; 3]);
-        let s = rule("tolerance = { frames = 5 }\nmin_votes = 2").segmentation(&[vec![100, 200], vec![104]], &m).unwrap();
+        let s =
+            rule("tolerance = { frames = 5 }\nmin_votes = 2").segmentation(&[vec![100, 200], vec![104]], &m).unwrap();
         assert_eq!(s.boundaries, vec![Boundary { frame: 102, window: Some((100, 104)) }]);
         assert!(s.segments.is_empty());
     }

@@ -22,7 +22,10 @@ pub(crate) fn truth_of(seq: &SequenceResult) -> Result<Option<&Segmentation>> {
     if (a - b).abs() > 1e-9 * b {
         return Err(Error::new(
             ErrorKind::Mismatch,
-            format!("ground truth of {} is at {a} Hz but its motion is at {b} Hz; frames would not compare", seq.sequence),
+            format!(
+                "ground truth of {} is at {a} Hz but its motion is at {b} Hz; frames would not compare",
+                seq.sequence
+            ),
         )
         .with_location(location_of(seq)));
     }
@@ -73,7 +76,10 @@ pub(crate) mod fixtures {
             sequence: name.into(),
             motion: Arc::new(motion),
             truth,
-            methods: methods.iter().map(|(m, c)| MethodResult { method: m.to_string(), candidates: c.to_vec() }).collect(),
+            methods: methods
+                .iter()
+                .map(|(m, c)| MethodResult { method: m.to_string(), candidates: c.to_vec() })
+                .collect(),
         }
     }
 }

@@ -31,7 +31,12 @@ pub struct TransitionOutcome {
 /// with `use_windows` and an annotated window `[w₀, w₁]` on the boundary at `t` — in
 /// `[min(t, w₀) − tol, max(t, w₁) + tol]`. Each transition is judged on its own (as in the
 /// paper's table): one candidate may serve two transitions closer than 2·tol.
-pub fn detect_transitions(truth: &Segmentation, candidates: &[usize], tol_frames: f64, use_windows: bool) -> Vec<TransitionOutcome> {
+pub fn detect_transitions(
+    truth: &Segmentation,
+    candidates: &[usize],
+    tol_frames: f64,
+    use_windows: bool,
+) -> Vec<TransitionOutcome> {
     let mut sorted = candidates.to_vec();
     sorted.sort_unstable();
     truth
@@ -47,7 +52,12 @@ pub fn detect_transitions(truth: &Segmentation, candidates: &[usize], tol_frames
             let first = sorted.partition_point(|&c| (c as f64) < window.lo);
             let detected = sorted.get(first).is_some_and(|&c| window.contains(c));
             let nearest = nearest_frame(&sorted, transition.frame);
-            TransitionOutcome { detected, nearest, distance_frames: nearest.map(|c| c.abs_diff(transition.frame)), transition }
+            TransitionOutcome {
+                detected,
+                nearest,
+                distance_frames: nearest.map(|c| c.abs_diff(transition.frame)),
+                transition,
+            }
         })
         .collect()
 }
@@ -93,7 +103,9 @@ impl ParamGuard for TransitionsParams {
     fn check(self) -> Result<Transitions> {
         let tolerance = self.tolerance.check("tolerance", false)?;
         if self.method.as_deref().is_some_and(|m| m.trim().is_empty()) {
-            return Err(Error::new(ErrorKind::OutOfRange, "must name a method, found an empty name").with_field("method"));
+            return Err(
+                Error::new(ErrorKind::OutOfRange, "must name a method, found an empty name").with_field("method")
+            );
         }
         Ok(Transitions { tolerance, method: self.method, use_windows: self.use_windows })
     }
@@ -172,7 +184,10 @@ impl Evaluator for Transitions {
         }
         let table = Table::from_records(
             "table3_transitions",
-            format!("Table 3: transitions between labelled steps detected (○) or not (×), tolerance {}", self.tolerance),
+            format!(
+                "Table 3: transitions between labelled steps detected (○) or not (×), tolerance {}",
+                self.tolerance
+            ),
             &rows,
         )?;
         Ok(vec![table])
@@ -213,7 +228,10 @@ mod tests {
         let out = detect_transitions(&steps(), &[399, 96, 262], 10.0, false);
         let summary: Vec<(usize, bool, Option<usize>, Option<usize>)> =
             out.iter().map(|o| (o.transition.frame, o.detected, o.nearest, o.distance_frames)).collect();
-        assert_eq!(summary, vec![(100, true, Some(96), Some(4)), (250, false, Some(262), Some(12)), (400, true, Some(399), Some(1))]);
+        assert_eq!(
+            summary,
+            vec![(100, true, Some(96), Some(4)), (250, false, Some(262), Some(12)), (400, true, Some(399), Some(1))]
+        );
         assert_eq!((out[1].transition.from.as_str(), out[1].transition.to.as_str()), ("bronx", "entry"));
         // Exactly at the tolerance counts.
         assert!(detect_transitions(&steps(), &[262], 12.0, false)[1].detected);

@@ -96,7 +96,10 @@ fn cmu86_table1_and_table3_from_the_real_labels() {
     assert_eq!(cells(&t3, "from"), ["walk", "jump", "walk", "punch", "walk", "leg_kick"]);
     assert_eq!(cells(&t3, "to"), ["jump", "walk", "punch", "walk", "leg_kick", "punch"]);
     assert_eq!(cells(&t3, "detected"), ["○"; 6]);
-    let t3 = evaluator("transitions", "method = \"window_start\"").evaluate(EvalInput::Segmentation(&seqs)).unwrap().remove(0);
+    let t3 = evaluator("transitions", "method = \"window_start\"")
+        .evaluate(EvalInput::Segmentation(&seqs))
+        .unwrap()
+        .remove(0);
     assert_eq!(cells(&t3, "detected"), ["×"; 6]);
     assert!(column_f64(&t3, "distance_s").iter().all(|d| (d - 50.0 / 120.0).abs() < 1e-12));
 }
@@ -179,4 +182,72 @@ fn mocap6_pooled_over_three_sequences() {
     let t3 = evaluator("transitions", "").evaluate(EvalInput::Segmentation(&seqs)).unwrap().remove(0);
     assert_eq!(t3.n_rows(), n_truth);
     assert!(cells(&t3, "detected").iter().all(|d| d == "○"));
+}
+
+/// mct/walk1 has 27 real missing samples (Head_FR frames 199–209, Shoulder_R 304–319). The pose
+/// rule leaves missing markers out of its mean and refuses a missing root; the consensus stop
+/// rule reads V, which skips missing markers.
+#[test]
+fn walk1_missing_samples_in_the_pose_and_stop_rules() {
+    let walk = build_loader("qualisys_tsv", &default_params()).unwrap().load(&data_path("mct/walk1.tsv.gz")).unwrap();
+    assert_eq!(walk.missing_count(), 27);
+    let head_fr = walk.point_index("Head_FR").unwrap();
+    let sternum = walk.point_index("Sternum").unwrap();
+    assert!(walk.is_missing(200, head_fr) && !walk.is_missing(150, head_fr));
+    // Independent computation over the 26 markers that are neither the root nor missing.
+    let (a, b) = (200, 150);
+    let others: Vec<usize> = (0..walk.n_points()).filter(|&k| k != sternum && k != head_fr).collect();
+    assert_eq!(others.len(), 26);
+    let expected = others
+        .iter()
+        .map(|&k| {
+            let d: Vec<f64> = (0..3)
+                .map(|c| {
+                    (walk.position(a, k)[c] - walk.position(a, sternum)[c])
+                        - (walk.position(b, k)[c] - walk.position(b, sternum)[c])
+                })
+                .collect();
+            d.iter().map(|x| x * x).sum::<f64>().sqrt()
+        })
+        .sum::<f64>()
+        / 26.0;
+    let got = root_aligned_pose_distance(&walk, sternum, a, b).unwrap();
+    assert!(got.is_finite() && (got - expected).abs() < 1e-9, "{got} vs {expected}");
+    assert_eq!(root_aligned_pose_distance(&walk, head_fr, a, b), None, "missing root: undefined");
+
+    // Through the evaluator: a found frame 50 frames from the truth matches by pose only when
+    // the root is present at both frames.
+    let segments = vec![
+        motionlab_core::Segment { start: 0, end: 200, label: "a".into() },
+        motionlab_core::Segment { start: 200, end: walk.n_frames(), label: "b".into() },
+    ];
+    let seq = SequenceResult {
+        sequence: "walk1".into(),
+        truth: Some(Segmentation::from_segments(walk.frame_rate(), segments).unwrap()),
+        motion: Arc::new(walk.clone()),
+        methods: vec![MethodResult { method: "m".into(), candidates: vec![150] }],
+    };
+    let by_pose = |root: &str| {
+        let params = format!("pose_mm = {}\nroot = \"{root}\"", expected * 1.01);
+        let t =
+            evaluator("boundary_pr", &params).evaluate(EvalInput::Segmentation(std::slice::from_ref(&seq))).unwrap();
+        column_f64(&t[0], "n_matched_by_pose")[0]
+    };
+    assert_eq!(by_pose("Sternum"), 1.0);
+    assert_eq!(by_pose("Head_FR"), 0.0);
+
+    // Consensus stop rule: V at frames 199–209 is still defined (the other 27 markers), so a
+    // lone mark there is kept exactly when V drops to max_speed somewhere within ±tol.
+    let v = motionlab_features::speed::marker_speeds(&walk, 0).fastest;
+    assert!(v[199..210].iter().all(|x| x.is_finite()));
+    let slowest = v[199..=209].iter().copied().fold(f64::INFINITY, f64::min);
+    let rule = |max_speed: f64| {
+        let text = format!("tolerance = {{ frames = 5 }}\nmin_votes = 2\nstop_rule = {{ max_speed = {max_speed} }}");
+        let v: toml::Value = toml::from_str(&text).unwrap();
+        use motionlab_core::registry::ParamGuard;
+        motionlab_core::registry::parse_params::<motionlab_eval::ConsensusParams>(&v).unwrap().check().unwrap()
+    };
+    let marks = vec![vec![204], vec![]];
+    assert_eq!(rule(slowest).run(&marks, &walk).unwrap().len(), 1);
+    assert!(rule(slowest * 0.999).run(&marks, &walk).unwrap().is_empty());
 }

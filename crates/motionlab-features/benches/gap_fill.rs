@@ -34,7 +34,8 @@ fn damaged_dance() -> Motion {
 
 fn bench_method(bencher: Bencher, method: GapFillMethod) {
     let motion = damaged_dance();
-    let stage = FillGapsParams { max_gap: TimeSpan::Seconds(0.2), method, support: 4, edges: EdgeFill::Leave }.check().unwrap();
+    let stage =
+        FillGapsParams { max_gap: TimeSpan::Seconds(0.2), method, support: 4, edges: EdgeFill::Leave }.check().unwrap();
     bencher
         .counter(ItemsCount::new(motion.n_frames() * motion.n_points()))
         .bench(|| stage.fill(black_box(&motion)).len());
@@ -55,8 +56,15 @@ fn linear(bencher: Bencher) {
 fn complete_recording(bencher: Bencher) {
     let loader = QualisysTsvParams { up_axis: motionlab_core::Axis::Z }.check().unwrap();
     let motion = loader.load(&motionlab_testkit::data_path("mct/dance1.tsv.gz")).unwrap();
-    let stage = FillGapsParams { max_gap: TimeSpan::Seconds(0.2), method: GapFillMethod::Cubic, support: 4, edges: EdgeFill::Leave }
-        .check()
-        .unwrap();
-    bencher.counter(ItemsCount::new(motion.n_frames() * motion.n_points())).bench(|| stage.fill(black_box(&motion)).len());
+    let stage = FillGapsParams {
+        max_gap: TimeSpan::Seconds(0.2),
+        method: GapFillMethod::Cubic,
+        support: 4,
+        edges: EdgeFill::Leave,
+    }
+    .check()
+    .unwrap();
+    bencher
+        .counter(ItemsCount::new(motion.n_frames() * motion.n_points()))
+        .bench(|| stage.fill(black_box(&motion)).len());
 }

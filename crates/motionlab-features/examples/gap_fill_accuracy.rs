@@ -43,8 +43,13 @@ fn main() -> motionlab_core::Result<()> {
         for len in [3, 6, 12, 18, 30] {
             let (damaged, removed) = inject(&motion, len, 4 * len + 20);
             for method in [GapFillMethod::Linear, GapFillMethod::Cubic] {
-                let stage = FillGapsParams { max_gap: TimeSpan::Frames(len as f64), method, support: 4, edges: EdgeFill::Leave }
-                    .check()?;
+                let stage = FillGapsParams {
+                    max_gap: TimeSpan::Frames(len as f64),
+                    method,
+                    support: 4,
+                    edges: EdgeFill::Leave,
+                }
+                .check()?;
                 let filled = stage.apply(damaged.clone())?;
                 let mut errors: Vec<f64> = removed
                     .iter()

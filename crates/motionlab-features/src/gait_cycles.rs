@@ -71,7 +71,7 @@ fn location_of(motion: &Motion) -> Location {
 /// An event is a foot strike when its label, trimmed, equals `strike_label` (case-insensitive)
 /// or is `strike_label` followed by digits only (this dataset's Vicon export numbers them:
 /// `Foot Strike1`, `Foot Strike2`); its side comes from its context (`left_context` /
-/// `right_context`). Events outside the recorded frames are ignored. With `side = "both"` a
+/// `right_context`). Events that do not round to a recorded frame are ignored. With `side = "both"` a
 /// foot with fewer than two strikes contributes no cycle; the stage fails only when no cycle
 /// is found at all (then use `heel_height`). Missing marker samples play no part.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
@@ -149,7 +149,8 @@ impl GaitCycleDetector for C3dEventsParams {
                 .iter()
                 .filter(|e| self.is_strike(&e.label) && e.context.trim().eq_ignore_ascii_case(contexts[k]))
                 .map(|e| e.frame)
-                .filter(|f| f.is_finite() && *f >= -0.5 && *f <= last + 0.5)
+                // Rounded to a recorded frame, so a cycle never ends after the last frame.
+                .filter(|f| f.is_finite() && f.round() >= 0.0 && f.round() <= last)
                 .collect();
             cycles.extend(cycles_from_strikes(&mut strikes, side));
         }
@@ -514,6 +515,7 @@ mod tests {
             event("Foot Strike2", "Right", 100.2),
             event("Foot Strike2", " left ", 149.0),
             event("Foot Strike", "Left", 400.0), // after the last frame: ignored
+            event("Foot Strike", "Right", 159.5), // rounds to 160, one past the last frame: ignored
         ]);
         let c = C3dEventsParams::default().cycles(&m).unwrap();
         assert_eq!(

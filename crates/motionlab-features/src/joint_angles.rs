@@ -281,6 +281,10 @@ pub enum HipCentre {
 /// | elbow | `flexion`, `abduction`, `pronation` | α, ∓β, ±γ |
 /// | wrist | `flexion` (palmar), `abduction` (radial deviation), `rotation` | α, ∓β, ±γ |
 ///
+/// One sequence serves every joint: the ISB's Y-X-Y for the shoulder is singular with the arms
+/// hanging (elevation 0°), which is how they are while walking. Zero is the anatomical pose
+/// (palms forward): forearms hanging in the usual half-pronated way read ~90–130° pronation.
+///
 /// Channels are named `<joint>.<axis>` (`knee_l.flexion`); the feature traces add the unit,
 /// `knee_l.flexion_deg` ([`angle_curves_from_features`] turns them back into curves).
 ///
@@ -438,21 +442,103 @@ enum Segment {
     Hand(Side),
 }
 
+/// The markers the segment frames read (without side prefix).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mk {
+    Ias,
+    Ips,
+    Fle,
+    Fme,
+    Fal,
+    Tam,
+    Fcc,
+    Fm1,
+    Fm2,
+    Fm5,
+    Cv7,
+    Tv10,
+    Sxs,
+    Sjn,
+    Sae,
+    Hle,
+    Hme,
+    Rsp,
+    Uhe,
+    Hm2,
+    Hm5,
+}
+
+impl Mk {
+    const COUNT: usize = 21;
+    fn label(self) -> &'static str {
+        match self {
+            Mk::Ias => "IAS",
+            Mk::Ips => "IPS",
+            Mk::Fle => "FLE",
+            Mk::Fme => "FME",
+            Mk::Fal => "FAL",
+            Mk::Tam => "TAM",
+            Mk::Fcc => "FCC",
+            Mk::Fm1 => "FM1",
+            Mk::Fm2 => "FM2",
+            Mk::Fm5 => "FM5",
+            Mk::Cv7 => "CV7",
+            Mk::Tv10 => "TV10",
+            Mk::Sxs => "SXS",
+            Mk::Sjn => "SJN",
+            Mk::Sae => "SAE",
+            Mk::Hle => "HLE",
+            Mk::Hme => "HME",
+            Mk::Rsp => "RSP",
+            Mk::Uhe => "UHE",
+            Mk::Hm2 => "HM2",
+            Mk::Hm5 => "HM5",
+        }
+    }
+    /// Slot in a dense (marker, side) table: no hashing in the per-frame loop.
+    fn slot(self, side: Option<Side>) -> usize {
+        self as usize * 3
+            + match side {
+                None => 0,
+                Some(Side::Left) => 1,
+                Some(Side::Right) => 2,
+            }
+    }
+}
+
+impl Segment {
+    const COUNT: usize = 15;
+    fn id(self) -> usize {
+        let side = |s: Side| usize::from(s == Side::Right);
+        match self {
+            Segment::Lab => 0,
+            Segment::Pelvis => 1,
+            Segment::Thorax => 2,
+            Segment::Thigh(s) => 3 + side(s),
+            Segment::Shank(s) => 5 + side(s),
+            Segment::Foot(s) => 7 + side(s),
+            Segment::UpperArm(s) => 9 + side(s),
+            Segment::Forearm(s) => 11 + side(s),
+            Segment::Hand(s) => 13 + side(s),
+        }
+    }
+}
+
 /// Marker labels (without side prefix) a segment frame reads: `(name, sided)`.
-fn segment_markers(seg: Segment) -> Vec<(&'static str, Option<Side>)> {
-    let pelvis = vec![("IAS", Some(Side::Left)), ("IAS", Some(Side::Right)), ("IPS", Some(Side::Left)), ("IPS", Some(Side::Right))];
-    let thorax = vec![("CV7", None), ("TV10", None), ("SXS", None), ("SJN", None)];
-    let sided = |s: Side, names: &[&'static str]| names.iter().map(|n| (*n, Some(s))).collect::<Vec<_>>();
+fn segment_markers(seg: Segment) -> Vec<(Mk, Option<Side>)> {
+    let pelvis = vec![(Mk::Ias, Some(Side::Left)), (Mk::Ias, Some(Side::Right)), (Mk::Ips, Some(Side::Left)), (Mk::Ips, Some(Side::Right))];
+    let thorax = vec![(Mk::Cv7, None), (Mk::Tv10, None), (Mk::Sxs, None), (Mk::Sjn, None)];
+    let sided = |s: Side, names: &[Mk]| names.iter().map(|n| (*n, Some(s))).collect::<Vec<_>>();
     match seg {
         Segment::Lab => Vec::new(),
         Segment::Pelvis => pelvis,
         Segment::Thorax => thorax,
-        Segment::Thigh(s) => [pelvis, sided(s, &["FLE", "FME"])].concat(),
-        Segment::Shank(s) => sided(s, &["FLE", "FME", "FAL", "TAM"]),
-        Segment::Foot(s) => sided(s, &["FCC", "FM1", "FM2", "FM5"]),
-        Segment::UpperArm(s) => [thorax, vec![("SAE", Some(Side::Left)), ("SAE", Some(Side::Right))], sided(s, &["HLE", "HME"])].concat(),
-        Segment::Forearm(s) => sided(s, &["HLE", "HME", "RSP", "UHE"]),
-        Segment::Hand(s) => sided(s, &["RSP", "UHE", "HM2", "HM5"]),
+        Segment::Thigh(s) => [pelvis, sided(s, &[Mk::Fle, Mk::Fme])].concat(),
+        Segment::Shank(s) => sided(s, &[Mk::Fle, Mk::Fme, Mk::Fal, Mk::Tam]),
+        Segment::Foot(s) => sided(s, &[Mk::Fcc, Mk::Fm1, Mk::Fm2, Mk::Fm5]),
+        Segment::UpperArm(s) => [thorax, vec![(Mk::Sae, Some(Side::Left)), (Mk::Sae, Some(Side::Right))], sided(s, &[Mk::Hle, Mk::Hme])].concat(),
+        Segment::Forearm(s) => sided(s, &[Mk::Hle, Mk::Hme, Mk::Rsp, Mk::Uhe]),
+        Segment::Hand(s) => sided(s, &[Mk::Rsp, Mk::Uhe, Mk::Hm2, Mk::Hm5]),
     }
 }
 
@@ -510,15 +596,16 @@ fn joint_defs(joint: JointName) -> Vec<JointDef> {
 struct FrameMarkers<'a> {
     positions: &'a [[f64; 3]],
     missing: &'a [bool],
-    index: &'a std::collections::HashMap<(&'static str, Option<Side>), usize>,
+    /// Point index of each (marker, side) slot ([`Mk::slot`]); None when not in the file.
+    index: &'a [Option<usize>],
 }
 
 impl FrameMarkers<'_> {
-    fn get(&self, name: &'static str, side: Option<Side>) -> Option<V3> {
-        let &k = self.index.get(&(name, side))?;
+    fn get(&self, name: Mk, side: Option<Side>) -> Option<V3> {
+        let k = self.index[name.slot(side)]?;
         (!self.missing[k]).then(|| V3::from(self.positions[k]))
     }
-    fn s(&self, side: Side, name: &'static str) -> Option<V3> {
+    fn s(&self, side: Side, name: Mk) -> Option<V3> {
         self.get(name, Some(side))
     }
 }
@@ -529,7 +616,8 @@ impl IsbJointAngles {
         self.joints.iter().flat_map(|j| joint_defs(*j)).flat_map(|d| d.channels).collect()
     }
 
-    fn label(&self, name: &str, side: Option<Side>) -> String {
+    fn label(&self, name: Mk, side: Option<Side>) -> String {
+        let name = name.label();
         match side {
             None => name.to_string(),
             Some(Side::Left) => format!("{}{name}", self.prefixes[0]),
@@ -542,11 +630,11 @@ impl IsbJointAngles {
         motion.require_frames(1, "isb_joint_angles")?;
         let defs: Vec<JointDef> = self.joints.iter().flat_map(|j| joint_defs(*j)).collect();
         // Resolve every label the requested joints need, naming the joint when one is absent.
-        let mut index = std::collections::HashMap::new();
+        let mut index: Vec<Option<usize>> = vec![None; Mk::COUNT * 3];
         for (joint, def) in self.joints.iter().flat_map(|j| joint_defs(*j).into_iter().map(move |d| (*j, d))) {
             for seg in [def.proximal, def.distal] {
                 for (name, side) in segment_markers(seg) {
-                    if index.contains_key(&(name, side)) {
+                    if index[name.slot(side)].is_some() {
                         continue;
                     }
                     let label = self.label(name, side);
@@ -561,7 +649,7 @@ impl IsbJointAngles {
                         )
                         .with_location(loc.field(label.clone()))
                     })?;
-                    index.insert((name, side), k);
+                    index[name.slot(side)] = Some(k);
                 }
             }
         }
@@ -572,15 +660,11 @@ impl IsbJointAngles {
         #[allow(clippy::needless_range_loop)]
         for f in 0..n {
             let markers = FrameMarkers { positions: motion.frame(f), missing: motion.frame_missing(f), index: &index };
-            let mut cache: Vec<(Segment, Option<Matrix3<f64>>)> = Vec::new();
+            // Each segment frame is built once per frame, whatever number of joints use it.
+            let mut cache: [Option<Option<Matrix3<f64>>>; Segment::COUNT] = [None; Segment::COUNT];
             for (d, def) in defs.iter().enumerate() {
                 let mut frame_of = |seg: Segment| -> Option<Matrix3<f64>> {
-                    if let Some((_, r)) = cache.iter().find(|(s, _)| *s == seg) {
-                        return *r;
-                    }
-                    let r = if seg == Segment::Lab { Some(lab) } else { self.segment_frame(seg, &markers) };
-                    cache.push((seg, r));
-                    r
+                    *cache[seg.id()].get_or_insert_with(|| if seg == Segment::Lab { Some(lab) } else { self.segment_frame(seg, &markers) })
                 };
                 let (Some(p), Some(q)) = (frame_of(def.proximal), frame_of(def.distal)) else { continue };
                 let angles = angles_by_axis(&(p.transpose() * q), self.sequence);
@@ -593,8 +677,8 @@ impl IsbJointAngles {
     }
 
     fn pelvis(&self, m: &FrameMarkers) -> Option<(Matrix3<f64>, V3, f64, f64)> {
-        let (lias, rias) = (m.s(Side::Left, "IAS")?, m.s(Side::Right, "IAS")?);
-        let (lips, rips) = (m.s(Side::Left, "IPS")?, m.s(Side::Right, "IPS")?);
+        let (lias, rias) = (m.s(Side::Left, Mk::Ias)?, m.s(Side::Right, Mk::Ias)?);
+        let (lips, rips) = (m.s(Side::Left, Mk::Ips)?, m.s(Side::Right, Mk::Ips)?);
         let (mid_ias, mid_ips) = (mid(lias, rias), mid(lips, rips));
         let r = frame_from_z_x(rias - lias, mid_ias - mid_ips)?;
         Some((r, mid_ias, (rias - lias).norm(), (mid_ias - mid_ips).norm()))
@@ -610,7 +694,7 @@ impl IsbJointAngles {
     }
 
     fn thorax(&self, m: &FrameMarkers) -> Option<Matrix3<f64>> {
-        let (c7, t10, sxs, sjn) = (m.get("CV7", None)?, m.get("TV10", None)?, m.get("SXS", None)?, m.get("SJN", None)?);
+        let (c7, t10, sxs, sjn) = (m.get(Mk::Cv7, None)?, m.get(Mk::Tv10, None)?, m.get(Mk::Sxs, None)?, m.get(Mk::Sjn, None)?);
         frame_from_y_x(mid(sjn, c7) - mid(sxs, t10), sjn - c7)
     }
 
@@ -620,31 +704,31 @@ impl IsbJointAngles {
             Segment::Pelvis => self.pelvis(m).map(|p| p.0),
             Segment::Thorax => self.thorax(m),
             Segment::Thigh(s) => {
-                let (fle, fme) = (m.s(s, "FLE")?, m.s(s, "FME")?);
+                let (fle, fme) = (m.s(s, Mk::Fle)?, m.s(s, Mk::Fme)?);
                 frame_from_y_z(self.hip_centre(m, s)? - mid(fle, fme), (fle - fme) * s.sign())
             }
             Segment::Shank(s) => {
-                let (fle, fme, fal, tam) = (m.s(s, "FLE")?, m.s(s, "FME")?, m.s(s, "FAL")?, m.s(s, "TAM")?);
+                let (fle, fme, fal, tam) = (m.s(s, Mk::Fle)?, m.s(s, Mk::Fme)?, m.s(s, Mk::Fal)?, m.s(s, Mk::Tam)?);
                 frame_from_y_z(mid(fle, fme) - mid(fal, tam), (fal - tam) * s.sign())
             }
             Segment::Foot(s) => {
-                let (fcc, fm1, fm2, fm5) = (m.s(s, "FCC")?, m.s(s, "FM1")?, m.s(s, "FM2")?, m.s(s, "FM5")?);
+                let (fcc, fm1, fm2, fm5) = (m.s(s, Mk::Fcc)?, m.s(s, Mk::Fm1)?, m.s(s, Mk::Fm2)?, m.s(s, Mk::Fm5)?);
                 frame_from_x_z(fm2 - fcc, (fm5 - fm1) * s.sign())
             }
             Segment::UpperArm(s) => {
                 let thorax = self.thorax(m)?;
-                let (lsae, rsae) = (m.s(Side::Left, "SAE")?, m.s(Side::Right, "SAE")?);
+                let (lsae, rsae) = (m.s(Side::Left, Mk::Sae)?, m.s(Side::Right, Mk::Sae)?);
                 let sae = if s == Side::Left { lsae } else { rsae };
                 let gh = sae - thorax.column(1) * (self.shoulder_centre_drop * (rsae - lsae).norm());
-                let (hle, hme) = (m.s(s, "HLE")?, m.s(s, "HME")?);
+                let (hle, hme) = (m.s(s, Mk::Hle)?, m.s(s, Mk::Hme)?);
                 frame_from_y_z(gh - mid(hle, hme), (hle - hme) * s.sign())
             }
             Segment::Forearm(s) => {
-                let (hle, hme, rsp, uhe) = (m.s(s, "HLE")?, m.s(s, "HME")?, m.s(s, "RSP")?, m.s(s, "UHE")?);
+                let (hle, hme, rsp, uhe) = (m.s(s, Mk::Hle)?, m.s(s, Mk::Hme)?, m.s(s, Mk::Rsp)?, m.s(s, Mk::Uhe)?);
                 frame_from_y_z(mid(hle, hme) - uhe, (rsp - uhe) * s.sign())
             }
             Segment::Hand(s) => {
-                let (rsp, uhe, hm2, hm5) = (m.s(s, "RSP")?, m.s(s, "UHE")?, m.s(s, "HM2")?, m.s(s, "HM5")?);
+                let (rsp, uhe, hm2, hm5) = (m.s(s, Mk::Rsp)?, m.s(s, Mk::Uhe)?, m.s(s, Mk::Hm2)?, m.s(s, Mk::Hm5)?);
                 frame_from_y_z(mid(rsp, uhe) - mid(hm2, hm5), (hm2 - hm5) * s.sign())
             }
         }

@@ -138,13 +138,30 @@ pub fn cycle_amplitude(mean_cycle: &[f64], definition: AmplitudeDefinition) -> f
     }
 }
 
+/// Point-by-point mean of the time-normalised spans `(start, end)` (fractional frames) that are
+/// complete (no NaN); `None` when none is.
+pub fn mean_cycle_between(values: &[f64], spans: &[(f64, f64)], points: usize) -> Option<Vec<f64>> {
+    let normalised: Vec<Vec<f64>> = spans.iter().filter_map(|&(a, b)| time_normalise(values, a, b, points)).collect();
+    let n = normalised.len();
+    (n > 0).then(|| (0..points).map(|k| normalised.iter().map(|c| c[k]).sum::<f64>() / n as f64).collect())
+}
+
 /// Point-by-point mean of the time-normalised cycles (all complete) of one side; `None` when
 /// no cycle is complete.
 pub fn mean_gait_cycle(values: &[f64], cycles: &[&GaitCycle], points: usize) -> Option<Vec<f64>> {
-    let normalised: Vec<Vec<f64>> =
-        cycles.iter().filter_map(|c| time_normalise(values, c.start as f64, c.end as f64, points)).collect();
-    let n = normalised.len();
-    (n > 0).then(|| (0..points).map(|k| normalised.iter().map(|c| c[k]).sum::<f64>() / n as f64).collect())
+    let spans: Vec<(f64, f64)> = cycles.iter().map(|c| (c.start as f64, c.end as f64)).collect();
+    mean_cycle_between(values, &spans, points)
+}
+
+/// DC of a channel: the mean over its complete cycles (no NaN in frames `start..=end`) of the
+/// per-cycle mean of frames `start..end`; NaN when no cycle is complete.
+pub fn channel_dc(values: &[f64], cycles: &[GaitCycle]) -> f64 {
+    let dcs: Vec<f64> = cycles
+        .iter()
+        .filter(|c| values.get(c.start..=c.end).is_some_and(|s| s.iter().all(|v| v.is_finite())))
+        .filter_map(|c| cycle_mean(values, c.start, c.end))
+        .collect();
+    if dcs.is_empty() { f64::NAN } else { dcs.iter().sum::<f64>() / dcs.len() as f64 }
 }
 
 /// The cycles grouped by side, in order of first appearance.
@@ -184,12 +201,7 @@ pub fn check_cycles(cycles: &[GaitCycle], n_frames: usize) -> Result<()> {
 impl WaveformParametersStage {
     /// DC and amplitude of one channel over the cycles (NaN when no cycle is complete).
     pub fn channel_parameters(&self, values: &[f64], cycles: &[GaitCycle]) -> (f64, f64) {
-        let dcs: Vec<f64> = cycles
-            .iter()
-            .filter(|c| values.get(c.start..=c.end).is_some_and(|s| s.iter().all(|v| v.is_finite())))
-            .filter_map(|c| cycle_mean(values, c.start, c.end))
-            .collect();
-        let dc = if dcs.is_empty() { f64::NAN } else { dcs.iter().sum::<f64>() / dcs.len() as f64 };
+        let dc = channel_dc(values, cycles);
         let amplitudes: Vec<f64> = cycles_by_side(cycles)
             .iter()
             .filter_map(|(_, group)| mean_gait_cycle(values, group, self.points))

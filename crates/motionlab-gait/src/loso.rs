@@ -28,7 +28,7 @@
 use serde::Serialize;
 
 use motionlab_core::{Error, ErrorKind, Result, Table, WalkChanges, WalkSynthesizer};
-use motionlab_features::waveform::{cycles_by_side, mean_gait_cycle, time_normalise};
+use motionlab_features::waveform::{cycles_by_side, mean_cycle_between};
 use motionlab_match::dp::dtw_full_1d;
 
 use crate::change_rates::ChangeRates;
@@ -117,20 +117,14 @@ fn mean_finite(v: impl IntoIterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { s / n as f64 }
 }
 
-/// Per-foot mean gait cycles of one channel, keyed by side.
+/// Per-foot mean gait cycles of one channel, keyed by side; the walk's cycles are divided by
+/// `scale` (the synthesised walk plays `scale` times faster than the walk its cycles came from).
 fn side_cycles(values: &[f64], walk: &Walk, scale: f64, points: usize) -> Vec<(String, Vec<f64>)> {
     cycles_by_side(&walk.cycles)
         .into_iter()
         .filter_map(|(side, group)| {
-            let mean = if scale == 1.0 {
-                mean_gait_cycle(values, &group, points)
-            } else {
-                let normalised: Vec<Vec<f64>> =
-                    group.iter().filter_map(|c| time_normalise(values, c.start as f64 / scale, c.end as f64 / scale, points)).collect();
-                let n = normalised.len();
-                (n > 0).then(|| (0..points).map(|k| normalised.iter().map(|c| c[k]).sum::<f64>() / n as f64).collect())
-            };
-            mean.map(|m| (side.to_string(), m))
+            let spans: Vec<(f64, f64)> = group.iter().map(|c| (c.start as f64 / scale, c.end as f64 / scale)).collect();
+            mean_cycle_between(values, &spans, points).map(|m| (side.to_string(), m))
         })
         .collect()
 }

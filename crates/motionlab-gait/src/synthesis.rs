@@ -16,7 +16,7 @@ use motionlab_core::{
     AngleCurves, ChannelKind, Error, ErrorKind, FrameRate, GaitCycle, Result, Skeleton, SkeletonMotion, WalkChanges,
     WalkSynthesizer,
 };
-use motionlab_features::waveform::{check_cycles, cycle_mean};
+use motionlab_features::waveform::{channel_dc, check_cycles};
 
 /// How the walk is resampled in time.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
@@ -175,19 +175,14 @@ pub fn resample(x: &[f64], s: f64, interpolation: Interpolation) -> Vec<f64> {
         .collect()
 }
 
-/// DC of a channel as `waveform_parameters` measures it: mean over complete cycles of the
-/// per-cycle mean; the mean of all finite frames when no cycle is given.
+/// DC of a channel as `waveform_parameters` measures it ([`channel_dc`]); the mean of all
+/// finite frames when no cycle is given.
 fn walk_dc(values: &[f64], cycles: &[GaitCycle]) -> f64 {
     if cycles.is_empty() {
         let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
         return if finite.is_empty() { f64::NAN } else { finite.iter().sum::<f64>() / finite.len() as f64 };
     }
-    let dcs: Vec<f64> = cycles
-        .iter()
-        .filter(|c| values.get(c.start..=c.end).is_some_and(|s| s.iter().all(|v| v.is_finite())))
-        .filter_map(|c| cycle_mean(values, c.start, c.end))
-        .collect();
-    if dcs.is_empty() { f64::NAN } else { dcs.iter().sum::<f64>() / dcs.len() as f64 }
+    channel_dc(values, cycles)
 }
 
 impl FeatureChannelControl {
@@ -328,11 +323,6 @@ fn bvh_channel_names(skeleton: &Skeleton) -> Vec<(String, bool)> {
 /// [`FeatureChannelControl::synthesize_skeleton`] changes (and `channel_map` targets).
 pub fn skeleton_rotation_channels(skeleton: &Skeleton) -> Vec<String> {
     bvh_channel_names(skeleton).into_iter().filter(|(_, r)| *r).map(|(n, _)| n).collect()
-}
-
-/// Cycles of a walk after resampling by the time factor `s`: `start/s .. end/s` (fractional).
-pub fn scaled_cycles(cycles: &[GaitCycle], s: f64) -> Vec<(String, f64, f64)> {
-    cycles.iter().map(|c| (c.side.clone(), c.start as f64 / s, c.end as f64 / s)).collect()
 }
 
 #[cfg(test)]

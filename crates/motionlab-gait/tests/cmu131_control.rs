@@ -75,3 +75,19 @@ fn a_bvh_walk_is_changed_resampled_written_and_read_back() {
     // The skeleton (bone offsets) is unchanged.
     assert_eq!(reread.skeleton.as_ref().unwrap().skeleton.joints.len(), data.motion.skeleton.joints.len());
 }
+
+#[test]
+fn osafune_plugins_are_registered_and_documented() {
+    // Linking the crates registers their plugins; the registry's own invariants must hold for ours.
+    let ours = ["isb_joint_angles", "skeleton_joint_angles", "c3d_events", "heel_height", "waveform_parameters", "change_rates", "feature_channel_control"];
+    for name in ours {
+        let p = motionlab_core::registry::find(name).unwrap_or_else(|e| panic!("{e}"));
+        assert!(p.doc().len() > 200, "{name}: {}", p.doc());
+        for param in p.params() {
+            assert!(!param.description.is_empty(), "{name}.{}", param.name);
+        }
+    }
+    let problems: Vec<String> =
+        motionlab_core::registry::check_registry().into_iter().filter(|p| ours.iter().any(|n| p.contains(&format!("{n:?}")))).collect();
+    assert!(problems.is_empty(), "{problems:?}");
+}

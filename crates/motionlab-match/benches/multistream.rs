@@ -11,8 +11,10 @@
 
 use divan::counter::ItemsCount;
 use divan::{Bencher, black_box};
-use motionlab_match::dp::{Euclidean3, Trajectory3, Workspace, anchored_costs_into, anchored_path, subsequence_costs_into};
-use motionlab_match::multistream::two_stage;
+use motionlab_match::dp::{
+    Euclidean3, Euclidean3x4, Trajectory3, Trajectory3x4, Workspace, anchored_costs_into, anchored_path, subsequence_costs_into,
+};
+use motionlab_match::multistream::{end_costs, two_stage};
 
 const MARKERS: usize = 31;
 const MODEL: usize = 120;
@@ -21,16 +23,15 @@ const WINDOW: usize = 600;
 /// Position of marker `l` at (fractional) frame `j` (mm) — the formula the peer script uses.
 fn position(j: f64, l: usize) -> [f64; 3] {
     let l = l as f64;
-    [
-        300.0 * (0.05 * j + 0.3 * l).sin() + 20.0 * l,
-        200.0 * (0.037 * j + 0.7 * l).cos(),
-        150.0 * (0.021 * j - l).sin() + 900.0,
-    ]
+    [300.0 * (0.05 * j + 0.3 * l).sin() + 20.0 * l, 200.0 * (0.037 * j + 0.7 * l).cos(), 150.0 * (0.021 * j - l).sin() + 900.0]
 }
 
 fn data() -> (Vec<Trajectory3>, Vec<Trajectory3>) {
-    let model = (0..MARKERS).map(|l| Trajectory3::from_points(&(0..MODEL).map(|i| position(240.0 + 1.1 * i as f64, l)).collect::<Vec<_>>())).collect();
-    let target = (0..MARKERS).map(|l| Trajectory3::from_points(&(0..WINDOW).map(|j| position(j as f64, l)).collect::<Vec<_>>())).collect();
+    let model = (0..MARKERS)
+        .map(|l| Trajectory3::from_points(&(0..MODEL).map(|i| position(240.0 + 1.1 * i as f64, l)).collect::<Vec<_>>()))
+        .collect();
+    let target =
+        (0..MARKERS).map(|l| Trajectory3::from_points(&(0..WINDOW).map(|j| position(j as f64, l)).collect::<Vec<_>>())).collect();
     (model, target)
 }
 
@@ -58,9 +59,16 @@ fn two_stage_without_paths(bencher: Bencher) {
     bencher.counter(ItemsCount::new(cells)).bench(|| two_stage(black_box(&model), black_box(&target), false));
 }
 
-/// Stage 1 alone: 31 forward subsequence passes (h_l(j) for every j), O(m) memory.
+/// Stage 1 as `two_stage` runs it: markers four to a DP cell (SIMD lanes), summed into G(j).
 #[divan::bench]
-fn forward_pass_31_markers(bencher: Bencher) {
+fn forward_pass_31_markers_in_lanes(bencher: Bencher) {
+    let (model, target) = data();
+    bencher.counter(ItemsCount::new(MARKERS * MODEL * WINDOW)).bench(|| end_costs(black_box(&model), black_box(&target)));
+}
+
+/// Stage 1 one marker at a time (the scalar kernel), to show what the lanes buy.
+#[divan::bench]
+fn forward_pass_31_markers_one_by_one(bencher: Bencher) {
     let (model, target) = data();
     let mut ws = Workspace::new();
     let mut h = Vec::new();
@@ -72,9 +80,29 @@ fn forward_pass_31_markers(bencher: Bencher) {
     });
 }
 
-/// Stage 2 alone: 31 backward passes anchored at the last window frame (b = 599).
+fn groups(model: &[Trajectory3], target: &[Trajectory3]) -> Vec<(Trajectory3x4, Trajectory3x4)> {
+    let gather = |g: &[Trajectory3]| Trajectory3x4::gather(&g.iter().collect::<Vec<_>>()).expect("1..=4 equal lengths");
+    model.chunks(4).zip(target.chunks(4)).map(|(s, t)| (gather(s), gather(t))).collect()
+}
+
+/// Stage 2 in lanes: backward passes anchored at the last window frame (b = 599).
 #[divan::bench]
-fn backward_pass_31_markers(bencher: Bencher) {
+fn backward_pass_31_markers_in_lanes(bencher: Bencher) {
+    let (model, target) = data();
+    let g = groups(&model, &target);
+    let mut ws = Workspace::new();
+    let mut c = Vec::new();
+    bencher.counter(ItemsCount::new(MARKERS * MODEL * WINDOW)).bench_local(|| {
+        for (s, t) in &g {
+            anchored_costs_into(&Euclidean3x4 { model: s, target: t }, WINDOW - 1, &mut c, &mut ws).expect("finite");
+            black_box(&c);
+        }
+    });
+}
+
+/// Stage 2 one marker at a time.
+#[divan::bench]
+fn backward_pass_31_markers_one_by_one(bencher: Bencher) {
     let (model, target) = data();
     let mut ws = Workspace::new();
     let mut c = Vec::new();
@@ -86,7 +114,8 @@ fn backward_pass_31_markers(bencher: Bencher) {
     });
 }
 
-/// Paths alone: 31 matrices over the whole window (a = 0, b = 599) and their walks.
+/// Paths alone, one marker at a time: 31 matrices over the whole window (a = 0, b = 599) and
+/// their walks.
 #[divan::bench]
 fn paths_31_markers_full_window(bencher: Bencher) {
     let (model, target) = data();

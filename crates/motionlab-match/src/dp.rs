@@ -20,9 +20,10 @@
 //!   (B); `g[i][j] = d(i, j) + min(g[i−1][j], g[i−1][j−1], g[i][j−1])` (C); `h(j) = g[n−1][j]`.
 //!   `h(j)` is the least cost of matching the whole model to a stretch of the target that ends
 //!   at `j`; it equals `min over a ≤ j` of [`dtw_full`] of the model against `T[a..=j]`.
-//! - backward pass (§3.1.3): the paper reverses both sequences from `b` (`i' = n − i`,
-//!   `j' = b − j`, which read 1-based means `i' = n−1−i`, `j' = b−j` here) and makes the first
-//!   reversed row cumulative. We run the same recurrence without copying reversed arrays: cell
+//! - backward pass (§3.1.3): the paper reverses both sequences from `b` (reversed element 1 is
+//!   `s_n` and `t_b`; the paper writes `i' = n − i`, `j' = b − j`, one off in 1-based indexing)
+//!   and makes the first reversed row cumulative. We run the same recurrence without copying
+//!   reversed arrays: cell
 //!   `G[i][j]` (original indices, `i` from `n−1` down to `0`, `j` from `b` down to `0`) is the
 //!   paper's reversed `g(n−i, b−j+1)`, with `G[n−1][b] = d(n−1, b)`,
 //!   `G[n−1][j] = d(n−1, j) + G[n−1][j+1]` (the cumulative first reversed row),
@@ -34,8 +35,9 @@
 //!
 //! ## Ties
 //!
-//! - Ends and starts chosen by argmin take the **earliest** index among equal costs
-//!   ([`argmin_first`]); callers that want another rule scan the returned cost vectors.
+//! - [`subsequence_match`] takes the **earliest** end among equal costs ([`argmin_first`]);
+//!   callers that want another rule scan the returned cost vectors (the two-stage matcher takes
+//!   the latest start, see `multistream`).
 //! - Paths: when several predecessors (or successors) hold the same accumulated cost, the
 //!   diagonal step wins, then the step that advances the model (`i`), then the step that
 //!   advances the target (`j`).
@@ -50,9 +52,11 @@
 //!
 //! The distance is computed a row at a time into a contiguous buffer ([`LocalDistance::row`]),
 //! which for [`Euclidean3`] (structure-of-arrays coordinates) is a branch-free loop the compiler
-//! vectorises, square roots included. The recurrence then runs over contiguous `f64` slices with
+//! vectorises, square roots included. The recurrence then runs over contiguous slices with
 //! iterators (no bounds checks) and one rolling row updated in place, so no pass allocates per
-//! cell and the cost-only passes keep O(m) memory.
+//! cell and the cost-only passes keep O(m) memory. The cost-only kernels are also generic over
+//! the cell type ([`Cost`]): with [`Euclidean3x4`] four markers share each cell's dependency
+//! chain in SIMD lanes (1.35–1.45× faster, `benches/README.md`), with bit-identical results.
 
 use motionlab_core::{Error, ErrorKind, Point3, Result};
 
@@ -60,9 +64,48 @@ use motionlab_core::{Error, ErrorKind, Point3, Result};
 // Local distances
 // ---------------------------------------------------------------------------------------------
 
+/// What a DP cell holds: one cost (`f64`), or the costs of four independent matches advanced
+/// in lock-step, one per lane (`[f64; 4]`).
+///
+/// Lanes exist for speed. The recurrence's only serial dependency is `g(i, j−1) → g(i, j)`
+/// (an add and a min, ≈ 4 cycles); four markers in the lanes of one cell share that latency,
+/// and the compiler turns the lane-wise arithmetic into packed SIMD instructions. Each lane
+/// performs exactly the operations the scalar kernel would, in the same order, so the results
+/// are bit-for-bit those of four scalar runs.
+pub trait Cost: Copy + Default + PartialEq + std::fmt::Debug {
+    /// `self + other`, lane-wise.
+    fn plus(self, other: Self) -> Self;
+    /// `min(self, other)`, lane-wise.
+    fn least(self, other: Self) -> Self;
+}
+
+impl Cost for f64 {
+    #[inline(always)]
+    fn plus(self, other: f64) -> f64 {
+        self + other
+    }
+    #[inline(always)]
+    fn least(self, other: f64) -> f64 {
+        min2(self, other)
+    }
+}
+
+impl Cost for [f64; 4] {
+    #[inline(always)]
+    fn plus(self, o: Self) -> Self {
+        [self[0] + o[0], self[1] + o[1], self[2] + o[2], self[3] + o[3]]
+    }
+    #[inline(always)]
+    fn least(self, o: Self) -> Self {
+        [min2(self[0], o[0]), min2(self[1], o[1]), min2(self[2], o[2]), min2(self[3], o[3])]
+    }
+}
+
 /// A local distance `d(i, j) ≥ 0` between model frame `i` and target frame `j`, produced a row
 /// at a time so the kernels' inner loops run over contiguous memory.
 pub trait LocalDistance {
+    /// `f64`, or `[f64; 4]` for four matches computed together ([`Euclidean3x4`]).
+    type Cost: Cost;
     /// `n`: number of model frames.
     fn model_len(&self) -> usize;
     /// `m`: number of target frames.
@@ -70,7 +113,7 @@ pub trait LocalDistance {
     /// Writes `d(i, j0 + k)` into `out[k]` for `k in 0..out.len()`.
     ///
     /// Callers guarantee `i < model_len()` and `j0 + out.len() <= target_len()`.
-    fn row(&self, i: usize, j0: usize, out: &mut [f64]);
+    fn row(&self, i: usize, j0: usize, out: &mut [Self::Cost]);
 }
 
 /// Any `Fn(i, j) -> f64` as a [`LocalDistance`] over an `n × m` grid.
@@ -88,6 +131,7 @@ impl<F: Fn(usize, usize) -> f64> FnDistance<F> {
 }
 
 impl<F: Fn(usize, usize) -> f64> LocalDistance for FnDistance<F> {
+    type Cost = f64;
     fn model_len(&self) -> usize {
         self.n
     }
@@ -153,6 +197,7 @@ impl<'a> Euclidean3<'a> {
 }
 
 impl LocalDistance for Euclidean3<'_> {
+    type Cost = f64;
     fn model_len(&self) -> usize {
         self.model.len()
     }
@@ -173,6 +218,70 @@ impl LocalDistance for Euclidean3<'_> {
     }
 }
 
+/// Up to four markers' trajectories interleaved lane by lane: `x[j][l]` is marker `l`'s x at
+/// frame `j` (mm). A group of fewer than four repeats its first marker in the spare lanes
+/// (finite numbers whose results the caller ignores).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trajectory3x4 {
+    pub x: Vec<[f64; 4]>,
+    pub y: Vec<[f64; 4]>,
+    pub z: Vec<[f64; 4]>,
+    /// How many lanes hold real markers (1..=4).
+    pub used: usize,
+}
+
+impl Trajectory3x4 {
+    /// Interleaves 1 to 4 trajectories of equal length; None for an empty group, more than four,
+    /// or unequal lengths.
+    pub fn gather(group: &[&Trajectory3]) -> Option<Self> {
+        let first = group.first()?;
+        if group.len() > 4 || group.iter().any(|t| t.len() != first.len()) {
+            return None;
+        }
+        let lane = |l: usize| group.get(l).unwrap_or(first);
+        let interleave = |axis: fn(&Trajectory3) -> &[f64]| -> Vec<[f64; 4]> {
+            let (a, b, c, d) = (axis(lane(0)), axis(lane(1)), axis(lane(2)), axis(lane(3)));
+            a.iter().zip(b).zip(c).zip(d).map(|(((&a, &b), &c), &d)| [a, b, c, d]).collect()
+        };
+        Some(Trajectory3x4 { x: interleave(|t| &t.x), y: interleave(|t| &t.y), z: interleave(|t| &t.z), used: group.len() })
+    }
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+}
+
+/// [`Euclidean3`] for four markers at once: lane `l` of `d(i, j)` is `|s_i − t_j|` of marker `l`.
+#[derive(Clone, Copy, Debug)]
+pub struct Euclidean3x4<'a> {
+    pub model: &'a Trajectory3x4,
+    pub target: &'a Trajectory3x4,
+}
+
+impl LocalDistance for Euclidean3x4<'_> {
+    type Cost = [f64; 4];
+    fn model_len(&self) -> usize {
+        self.model.len()
+    }
+    fn target_len(&self) -> usize {
+        self.target.len()
+    }
+    #[inline]
+    fn row(&self, i: usize, j0: usize, out: &mut [[f64; 4]]) {
+        let (sx, sy, sz) = (self.model.x[i], self.model.y[i], self.model.z[i]);
+        let end = j0 + out.len();
+        let (tx, ty, tz) = (&self.target.x[j0..end], &self.target.y[j0..end], &self.target.z[j0..end]);
+        for (((o, x), y), z) in out.iter_mut().zip(tx).zip(ty).zip(tz) {
+            for l in 0..4 {
+                let (dx, dy, dz) = (sx[l] - x[l], sy[l] - y[l], sz[l] - z[l]);
+                o[l] = (dx * dx + dy * dy + dz * dz).sqrt();
+            }
+        }
+    }
+}
+
 /// `|a_i − b_j|` between two 1-D series (a joint-angle curve, a speed profile).
 #[derive(Clone, Copy, Debug)]
 pub struct Absolute1<'a> {
@@ -181,6 +290,7 @@ pub struct Absolute1<'a> {
 }
 
 impl LocalDistance for Absolute1<'_> {
+    type Cost = f64;
     fn model_len(&self) -> usize {
         self.model.len()
     }
@@ -236,18 +346,18 @@ fn require_nonempty(d: &impl LocalDistance) -> Result<(usize, usize)> {
 /// Scratch buffers reused across calls so repeated matching (one call per marker) does not
 /// reallocate; every kernel also has a convenience form that allocates its own.
 #[derive(Clone, Debug, Default)]
-pub struct Workspace {
-    dist_row: Vec<f64>,
-    matrix: Vec<f64>,
+pub struct Workspace<C = f64> {
+    dist_row: Vec<C>,
+    matrix: Vec<C>,
 }
 
-impl Workspace {
+impl<C: Cost> Workspace<C> {
     pub fn new() -> Self {
-        Self::default()
+        Workspace { dist_row: Vec::new(), matrix: Vec::new() }
     }
-    fn row(&mut self, len: usize) -> &mut [f64] {
+    fn row(&mut self, len: usize) -> &mut [C] {
         if self.dist_row.len() < len {
-            self.dist_row.resize(len, 0.0);
+            self.dist_row.resize(len, C::default());
         }
         &mut self.dist_row[..len]
     }
@@ -259,10 +369,10 @@ impl Workspace {
 
 /// The paper's forward pass: writes `h(j) = g(n−1, j)` for every target frame into `h`
 /// (resized to `m`), keeping one rolling row (O(m) memory besides `h` itself).
-pub fn subsequence_costs_into(d: &impl LocalDistance, h: &mut Vec<f64>, ws: &mut Workspace) -> Result<()> {
+pub fn subsequence_costs_into<D: LocalDistance>(d: &D, h: &mut Vec<D::Cost>, ws: &mut Workspace<D::Cost>) -> Result<()> {
     let (n, m) = require_nonempty(d)?;
     h.clear();
-    h.resize(m, 0.0);
+    h.resize(m, D::Cost::default());
     // Row 0 (A): g[0][j] = d(0, j) — the model may start at any target frame.
     d.row(0, 0, h);
     let drow = ws.row(m);
@@ -275,17 +385,17 @@ pub fn subsequence_costs_into(d: &impl LocalDistance, h: &mut Vec<f64>, ws: &mut
 
 /// One row of the forward recurrence, in place: on entry `g` holds row `i−1`, on exit row `i`.
 #[inline(always)]
-fn forward_row_update(g: &mut [f64], drow: &[f64]) {
+fn forward_row_update<C: Cost>(g: &mut [C], drow: &[C]) {
     let Some((g0, rest)) = g.split_first_mut() else { return };
     let Some((&d0, drest)) = drow.split_first() else { return };
     // (B): the first column accumulates down the model.
     let mut diag = *g0;
-    let mut left = d0 + diag;
+    let mut left = d0.plus(diag);
     *g0 = left;
     // (C): `up` and `diag` come from row i−1 (off the critical path); only `left` chains.
     for (gj, &dj) in rest.iter_mut().zip(drest) {
         let up = *gj;
-        let v = dj + min2(min2(up, diag), left);
+        let v = dj.plus(up.least(diag).least(left));
         diag = up;
         *gj = v;
         left = v;
@@ -293,7 +403,7 @@ fn forward_row_update(g: &mut [f64], drow: &[f64]) {
 }
 
 /// [`subsequence_costs_into`] with its own buffers.
-pub fn subsequence_costs(d: &impl LocalDistance) -> Result<Vec<f64>> {
+pub fn subsequence_costs<D: LocalDistance>(d: &D) -> Result<Vec<D::Cost>> {
     let mut h = Vec::new();
     subsequence_costs_into(d, &mut h, &mut Workspace::new())?;
     Ok(h)
@@ -316,7 +426,7 @@ pub struct SubsequenceMatch {
 
 /// The forward pass keeping the whole `n × m` matrix (O(n·m) memory), then the path by
 /// backtracking from `(n−1, b)` until it reaches model frame 0 (the free start).
-pub fn subsequence_match(d: &impl LocalDistance, ws: &mut Workspace) -> Result<SubsequenceMatch> {
+pub fn subsequence_match(d: &impl LocalDistance<Cost = f64>, ws: &mut Workspace) -> Result<SubsequenceMatch> {
     let (n, m) = require_nonempty(d)?;
     let mut g = std::mem::take(&mut ws.matrix);
     g.clear();
@@ -380,18 +490,19 @@ fn check_end(d: &impl LocalDistance, end: usize) -> Result<(usize, usize)> {
 /// The paper's backward pass anchored at `end = b`: writes into `costs` (resized to `b+1`) the
 /// cost `G[0][a]` of matching the whole model to `T[a..=b]` for every start `a ≤ b`, keeping one
 /// rolling row (O(b) memory).
-pub fn anchored_costs_into(d: &impl LocalDistance, end: usize, costs: &mut Vec<f64>, ws: &mut Workspace) -> Result<()> {
+pub fn anchored_costs_into<D: LocalDistance>(
+    d: &D,
+    end: usize,
+    costs: &mut Vec<D::Cost>,
+    ws: &mut Workspace<D::Cost>,
+) -> Result<()> {
     let (n, _) = check_end(d, end)?;
     let w = end + 1;
     costs.clear();
-    costs.resize(w, 0.0);
+    costs.resize(w, D::Cost::default());
     // The model's last frame (the paper's first reversed row) accumulates leftwards from b.
     d.row(n - 1, 0, costs);
-    let mut acc = 0.0;
-    for c in costs.iter_mut().rev() {
-        acc += *c;
-        *c = acc;
-    }
+    accumulate(costs.iter_mut().rev());
     let drow = ws.row(w);
     for i in (0..n - 1).rev() {
         d.row(i, 0, drow);
@@ -402,23 +513,32 @@ pub fn anchored_costs_into(d: &impl LocalDistance, end: usize, costs: &mut Vec<f
 
 /// One row of the backward recurrence, in place: on entry `g` holds row `i+1`, on exit row `i`.
 #[inline(always)]
-fn backward_row_update(g: &mut [f64], drow: &[f64]) {
+fn backward_row_update<C: Cost>(g: &mut [C], drow: &[C]) {
     let Some((gb, rest)) = g.split_last_mut() else { return };
     let Some((&db, drest)) = drow.split_last() else { return };
     let mut diag = *gb;
-    let mut right = db + diag;
+    let mut right = db.plus(diag);
     *gb = right;
     for (gj, &dj) in rest.iter_mut().rev().zip(drest.iter().rev()) {
         let down = *gj;
-        let v = dj + min2(min2(down, diag), right);
+        let v = dj.plus(down.least(diag).least(right));
         diag = down;
         *gj = v;
         right = v;
     }
 }
 
+/// Running sums in iteration order: `c_k ← c_0 + … + c_k` (the cumulative first row).
+fn accumulate<'a, C: Cost + 'a>(cells: impl Iterator<Item = &'a mut C>) {
+    let mut acc = C::default();
+    for c in cells {
+        acc = acc.plus(*c);
+        *c = acc;
+    }
+}
+
 /// [`anchored_costs_into`] with its own buffers.
-pub fn anchored_costs(d: &impl LocalDistance, end: usize) -> Result<Vec<f64>> {
+pub fn anchored_costs<D: LocalDistance>(d: &D, end: usize) -> Result<Vec<D::Cost>> {
     let mut c = Vec::new();
     anchored_costs_into(d, end, &mut c, &mut Workspace::new())?;
     Ok(c)
@@ -431,7 +551,12 @@ pub fn anchored_costs(d: &impl LocalDistance, end: usize) -> Result<Vec<f64>> {
 /// The returned cost is bit-for-bit `anchored_costs(d, end)[start]`: the cells of columns
 /// `≥ start` never read columns `< start`, and each is computed by the same operations in the
 /// same order.
-pub fn anchored_path(d: &impl LocalDistance, start: usize, end: usize, ws: &mut Workspace) -> Result<(f64, Vec<(usize, usize)>)> {
+pub fn anchored_path(
+    d: &impl LocalDistance<Cost = f64>,
+    start: usize,
+    end: usize,
+    ws: &mut Workspace,
+) -> Result<(f64, Vec<(usize, usize)>)> {
     let (n, _) = check_end(d, end)?;
     if start > end {
         return Err(Error::new(ErrorKind::OutOfRange, format!("the start a = {start} is after the end b = {end}")));
@@ -443,11 +568,7 @@ pub fn anchored_path(d: &impl LocalDistance, start: usize, end: usize, ws: &mut 
     {
         let last = &mut g[(n - 1) * w..];
         d.row(n - 1, start, last);
-        let mut acc = 0.0;
-        for c in last.iter_mut().rev() {
-            acc += *c;
-            *c = acc;
-        }
+        accumulate(last.iter_mut().rev());
     }
     let drow = ws.row(w);
     for i in (0..n - 1).rev() {
@@ -488,11 +609,11 @@ pub fn anchored_path(d: &impl LocalDistance, start: usize, end: usize, ws: &mut 
 // ---------------------------------------------------------------------------------------------
 
 /// Full DTW cost, both ends anchored (`(0,0)` to `(n−1, m−1)`), same steps, O(m) memory.
-pub fn dtw_full_cost_with(d: &impl LocalDistance, ws: &mut Workspace) -> Result<f64> {
+pub fn dtw_full_cost_with<D: LocalDistance>(d: &D, ws: &mut Workspace<D::Cost>) -> Result<D::Cost> {
     let (n, m) = require_nonempty(d)?;
     let mut g = std::mem::take(&mut ws.matrix);
     g.clear();
-    g.resize(m, 0.0);
+    g.resize(m, D::Cost::default());
     first_row_cumulative(d, &mut g);
     let drow = ws.row(m);
     for i in 1..n {
@@ -504,17 +625,13 @@ pub fn dtw_full_cost_with(d: &impl LocalDistance, ws: &mut Workspace) -> Result<
     Ok(cost)
 }
 
-fn first_row_cumulative(d: &impl LocalDistance, g: &mut [f64]) {
+fn first_row_cumulative<D: LocalDistance>(d: &D, g: &mut [D::Cost]) {
     d.row(0, 0, g);
-    let mut acc = 0.0;
-    for c in g.iter_mut() {
-        acc += *c;
-        *c = acc;
-    }
+    accumulate(g.iter_mut());
 }
 
 /// Full DTW keeping the `n × m` matrix; the path by backtracking from `(n−1, m−1)` to `(0, 0)`.
-pub fn dtw_full_with(d: &impl LocalDistance, ws: &mut Workspace) -> Result<(f64, Vec<(usize, usize)>)> {
+pub fn dtw_full_with(d: &impl LocalDistance<Cost = f64>, ws: &mut Workspace) -> Result<(f64, Vec<(usize, usize)>)> {
     let (n, m) = require_nonempty(d)?;
     let mut g = std::mem::take(&mut ws.matrix);
     g.clear();
@@ -692,9 +809,8 @@ mod tests {
             for j in 0..m {
                 assert!((h[j] - free[n][j + 1]).abs() <= 1e-9 * free[n][j + 1].max(1.0), "case {case} j {j}");
                 // h(j) = min over starts of a full DTW against T[a..=j].
-                let brute = (0..=j)
-                    .map(|a| dtw_full_cost(n, j - a + 1, |i, k| f(i, a + k)).unwrap())
-                    .fold(f64::INFINITY, f64::min);
+                let brute =
+                    (0..=j).map(|a| dtw_full_cost(n, j - a + 1, |i, k| f(i, a + k)).unwrap()).fold(f64::INFINITY, f64::min);
                 assert!((h[j] - brute).abs() <= 1e-9 * brute.max(1.0), "case {case} j {j}: {} vs {brute}", h[j]);
             }
             let full = reference_dp(n, m, f, false)[n][m];
@@ -725,6 +841,36 @@ mod tests {
                 assert!((path_cost(&p, f) - c).abs() <= 1e-9 * c.max(1.0));
             }
         }
+    }
+
+    #[test]
+    fn four_lanes_equal_four_scalar_runs_bit_for_bit() {
+        let mut rng = Rng::new(9);
+        for used in 1..=4 {
+            let (n, m) = (3 + used * 2, 17 + used);
+            let model: Vec<Trajectory3> = (0..used).map(|_| random_traj(&mut rng, n)).collect();
+            let target: Vec<Trajectory3> = (0..used).map(|_| random_traj(&mut rng, m)).collect();
+            let s4 = Trajectory3x4::gather(&model.iter().collect::<Vec<_>>()).unwrap();
+            let t4 = Trajectory3x4::gather(&target.iter().collect::<Vec<_>>()).unwrap();
+            assert_eq!(s4.used, used);
+            let d4 = Euclidean3x4 { model: &s4, target: &t4 };
+            let h4 = subsequence_costs(&d4).unwrap();
+            let b = m - 3;
+            let a4 = anchored_costs(&d4, b).unwrap();
+            let f4 = dtw_full_cost_with(&d4, &mut Workspace::new()).unwrap();
+            for l in 0..4 {
+                // Spare lanes repeat marker 0.
+                let k = if l < used { l } else { 0 };
+                let d = Euclidean3::new(&model[k], &target[k]);
+                assert_eq!(h4.iter().map(|c| c[l]).collect::<Vec<_>>(), subsequence_costs(&d).unwrap());
+                assert_eq!(a4.iter().map(|c| c[l]).collect::<Vec<_>>(), anchored_costs(&d, b).unwrap());
+                assert_eq!(f4[l], dtw_full_cost_with(&d, &mut Workspace::new()).unwrap());
+            }
+        }
+        let (a, b) = (Trajectory3::from_points(&[[0.0; 3]; 3]), Trajectory3::from_points(&[[0.0; 3]; 4]));
+        assert!(Trajectory3x4::gather(&[&a, &b]).is_none());
+        assert!(Trajectory3x4::gather(&[]).is_none());
+        assert!(Trajectory3x4::gather(&[&a; 5]).is_none());
     }
 
     #[test]

@@ -6,7 +6,8 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Motion, Preprocessor, Result};
 
-/// Subtracts each marker's initial position from all of its frames (Yabe & Tanaka §5.2.1):
+/// Subtracts each marker's initial position from all of its frames (Yabe & Tanaka §5.2.1).
+///
 /// `p'[i][k] = p[i][k] − p[f_k][k]`, where `f_k` is frame 0 when marker `k` is present there.
 ///
 /// Absolute capture coordinates carry the performer's build, height and place in the room;

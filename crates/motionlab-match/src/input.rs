@@ -43,8 +43,9 @@ pub fn trajectories(motion: &Motion, names: &[String], role: &str, stage: &str) 
 /// Checks a list of point names from parameters: not empty, no blank or repeated name.
 pub fn check_names(names: &[String], field: &str) -> Result<()> {
     if names.is_empty() {
-        return Err(Error::new(ErrorKind::InvalidParameter, "expected at least one marker name, found an empty list")
-            .with_field(field));
+        return Err(
+            Error::new(ErrorKind::InvalidParameter, "expected at least one marker name, found an empty list").with_field(field)
+        );
     }
     let mut seen = std::collections::HashSet::new();
     for n in names {

@@ -4,10 +4,11 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{EvalDomain, EvalInput, Error, ErrorKind, Evaluator, MatchingResult, Result, Table};
+use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, MatchingResult, Result, Table};
 
-/// Similar / dissimilar judgement of each repetition and the user's tendencies
-/// (Yabe & Tanaka §4.1–4.2), one set of rows per user take.
+/// Similar/dissimilar judgement of each repetition, and the user's tendencies (§4.1–4.2).
+///
+/// One set of rows per user take (Yabe & Tanaka §4).
 ///
 /// Judgement (§4.1), over the N repetitions of one take: `H' = H / mean(H)`,
 /// `R' = R / mean(R)`, `score = sqrt(H'² + R'²)`; the least score is the most similar
@@ -113,8 +114,11 @@ fn require_finite(v: f64, what: &str, take: &str, rep: &str) -> Result<f64> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(Error::new(ErrorKind::NonFinite, format!("{what} of repetition {rep:?} in take {take:?} is {v}; expected a finite number"))
-            .with_field(rep.to_string()))
+        Err(Error::new(
+            ErrorKind::NonFinite,
+            format!("{what} of repetition {rep:?} in take {take:?} is {v}; expected a finite number"),
+        )
+        .with_field(rep.to_string()))
     }
 }
 
@@ -241,9 +245,21 @@ impl Evaluator for Judgement {
         };
         let rec = judge(results)?;
         Ok(vec![
-            Table::from_records("judgement", "Similar/dissimilar judgement per repetition (H', R', score; Yabe & Tanaka §4.1, Fig. 6)", &rec.repetitions)?,
-            Table::from_records("tendency_parts", "Per-part tendency h'_l: mean distance of each marker over the repetitions (§4.2)", &rec.parts)?,
-            Table::from_records("tendency_sections", "Per-section tendency r'_q: mean synchronisation value over the repetitions (§4.2)", &rec.sections)?,
+            Table::from_records(
+                "judgement",
+                "Similar/dissimilar judgement per repetition (H', R', score; Yabe & Tanaka §4.1, Fig. 6)",
+                &rec.repetitions,
+            )?,
+            Table::from_records(
+                "tendency_parts",
+                "Per-part tendency h'_l: mean distance of each marker over the repetitions (§4.2)",
+                &rec.parts,
+            )?,
+            Table::from_records(
+                "tendency_sections",
+                "Per-section tendency r'_q: mean synchronisation value over the repetitions (§4.2)",
+                &rec.sections,
+            )?,
         ])
     }
 }
@@ -260,7 +276,13 @@ mod tests {
         RepetitionResult {
             repetition: label.into(),
             window_start: 100,
-            alignment: Alignment { start: 3, end: 40, point_distances: h.to_vec(), total_distance: h.iter().sum(), paths: vec![] },
+            alignment: Alignment {
+                start: 3,
+                end: 40,
+                point_distances: h.to_vec(),
+                total_distance: h.iter().sum(),
+                paths: vec![],
+            },
             synchronisation: Synchronisation { model_frames: vec![10, 20], section_values: r.to_vec(), total: r.iter().sum() },
         }
     }

@@ -6,11 +6,16 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Alignment, Error, ErrorKind, Matcher, Motion, Result};
 
-use crate::dp::{Euclidean3, Trajectory3, Workspace, anchored_costs_into, anchored_path, argmin_first, subsequence_costs_into};
+use crate::dp::{
+    Euclidean3, Euclidean3x4, Trajectory3, Trajectory3x4, Workspace, anchored_costs_into, anchored_path, argmin_first,
+    subsequence_costs_into,
+};
 use crate::input::{check_names, trajectories};
 
-/// Two-stage DP matching of a model motion against a stretch of a target motion, all markers
-/// aligned over one common stretch `[a, b]` (Yabe & Tanaka §3.1.3).
+/// Two-stage DP matching over all markers with one common stretch `[a, b]` (Yabe & Tanaka §3.1.3).
+///
+/// Matches a model motion against a stretch of a target motion, every marker aligned over the
+/// same stretch.
 ///
 /// 1. Forward pass per marker `l` (the paper's subsequence DP, §3.1.2, free start and end,
 ///    `d(i, j) = |s_i − t_j|` in mm): `h_l(j) = g(n−1, j)`.
@@ -30,9 +35,9 @@ use crate::input::{check_names, trajectories};
 /// Frame indices are 0-based into the target given to the matcher (a cut window); the points
 /// are matched by name, so model and target may list them in different orders.
 ///
-/// Memory: the forward pass keeps one rolling row per marker in turn (O(m)) plus `G` (O(m));
-/// the backward pass one rolling row per marker plus each marker's cost per start (O(L·b));
-/// only the paths need a matrix, one marker at a time, O(n·(b−a+1)).
+/// Memory: the forward pass keeps one rolling row (O(m)) for each group of four markers in
+/// turn, plus `G` (O(m)); the backward pass likewise one rolling row, plus each marker's cost
+/// per start (O(L·b)); only the paths need a matrix, one marker at a time, O(n·(b−a+1)).
 ///
 /// Missing samples: **refused**. A missing sample has no distance to anything, so the run stops
 /// with an error naming the marker and the first missing frame; fill gaps first (preprocessor
@@ -81,43 +86,82 @@ pub struct TwoStageMatch {
     pub alignment: Alignment,
 }
 
-/// The two-stage match of per-marker model trajectories against the same markers' target
-/// trajectories (`model[l]` pairs with `target[l]`). Samples must be finite.
-pub fn two_stage(model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
-    if model.is_empty() || model.len() != target.len() {
+type Group = (Trajectory3x4, Trajectory3x4);
+
+/// Checks the per-marker trajectories and interleaves them four markers to a group.
+fn groups_of_four(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<Group>> {
+    let (Some(s0), Some(t0)) = (model.first(), target.first()) else {
+        return Err(Error::new(ErrorKind::EmptySequence, "two-stage matching needs at least one marker"));
+    };
+    let (n, m) = (s0.len(), t0.len());
+    if model.len() != target.len() || model.iter().any(|s| s.len() != n) || target.iter().any(|t| t.len() != m) {
         return Err(Error::new(
             ErrorKind::WrongValueCount,
-            format!("two-stage matching needs the same markers on both sides, at least one: {} vs {}", model.len(), target.len()),
+            format!(
+                "two-stage matching needs the same markers on both sides ({} model, {} target trajectories), \
+                 all model trajectories {n} frames long and all target trajectories {m} frames long",
+                model.len(),
+                target.len()
+            ),
         ));
     }
-    let mut ws = Workspace::new();
-    let m = target[0].len();
-    // Stage 1: G(j), accumulating each marker's h_l(j) as it is produced.
+    let gather = |group: &[Trajectory3]| {
+        let refs: Vec<&Trajectory3> = group.iter().collect();
+        Trajectory3x4::gather(&refs)
+            .ok_or_else(|| Error::new(ErrorKind::WrongValueCount, "a marker group must hold 1 to 4 equal-length trajectories"))
+    };
+    model.chunks(4).zip(target.chunks(4)).map(|(s, t)| Ok((gather(s)?, gather(t)?))).collect()
+}
+
+/// Stage 1 over marker groups: `G(j) = Σ_l h_l(j)`, markers added in order.
+fn summed_end_costs(groups: &[Group], ws4: &mut Workspace<[f64; 4]>, cells: &mut Vec<[f64; 4]>) -> Result<Vec<f64>> {
+    let m = groups.first().map(|(_, t)| t.len()).unwrap_or(0);
     let mut end_costs = vec![0.0; m];
-    let mut h = Vec::with_capacity(m);
-    for (s, t) in model.iter().zip(target) {
-        subsequence_costs_into(&Euclidean3::new(s, t), &mut h, &mut ws)?;
-        if h.len() != m {
-            return Err(Error::new(ErrorKind::WrongValueCount, "every target trajectory must have the same number of frames"));
-        }
-        for (g, v) in end_costs.iter_mut().zip(&h) {
-            *g += v;
+    for (s, t) in groups {
+        subsequence_costs_into(&Euclidean3x4 { model: s, target: t }, cells, ws4)?;
+        for (g, h) in end_costs.iter_mut().zip(cells.iter()) {
+            for v in &h[..s.used] {
+                *g += v;
+            }
         }
     }
+    Ok(end_costs)
+}
+
+/// Stage 1 alone: `G(j)` for every target frame (mm), O(m) memory.
+pub fn end_costs(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<f64>> {
+    summed_end_costs(&groups_of_four(model, target)?, &mut Workspace::new(), &mut Vec::new())
+}
+
+/// The two-stage match of per-marker model trajectories against the same markers' target
+/// trajectories (`model[l]` pairs with `target[l]`). Samples must be finite.
+///
+/// The two cost passes run four markers at a time in the lanes of one DP cell (see
+/// [`crate::dp::Cost`]); the numbers are bit-for-bit those of one marker at a time.
+pub fn two_stage(model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
+    let groups = groups_of_four(model, target)?;
+    let mut ws4 = Workspace::<[f64; 4]>::new();
+    let mut cells = Vec::new();
+    let end_costs = summed_end_costs(&groups, &mut ws4, &mut cells)?;
     let end = argmin_first(&end_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "G(j) is NaN everywhere"))?;
-    // Stage 2: backward from b per marker; each marker's costs are kept to read h_l at a.
-    let mut per_marker = vec![Vec::new(); model.len()];
+    // Stage 2: backward from b; each marker's cost per start is kept to read h_l at a.
+    let mut per_marker: Vec<Vec<f64>> = Vec::with_capacity(model.len());
+    for (s, t) in &groups {
+        anchored_costs_into(&Euclidean3x4 { model: s, target: t }, end, &mut cells, &mut ws4)?;
+        per_marker.extend((0..s.used).map(|l| cells.iter().map(|c| c[l]).collect::<Vec<f64>>()));
+    }
     let mut start_costs = vec![0.0; end + 1];
-    for ((s, t), costs) in model.iter().zip(target).zip(per_marker.iter_mut()) {
-        anchored_costs_into(&Euclidean3::new(s, t), end, costs, &mut ws)?;
-        for (acc, v) in start_costs.iter_mut().zip(costs.iter()) {
+    for costs in &per_marker {
+        for (acc, v) in start_costs.iter_mut().zip(costs) {
             *acc += v;
         }
     }
-    let start = argmin_last(&start_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "the backward costs are NaN everywhere"))?;
+    let start =
+        argmin_last(&start_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "the backward costs are NaN everywhere"))?;
     let point_distances: Vec<f64> = per_marker.iter().map(|c| c[start]).collect();
     let total_distance = point_distances.iter().sum();
     let paths = if keep_paths {
+        let mut ws = Workspace::new();
         model
             .iter()
             .zip(target)
@@ -126,11 +170,7 @@ pub fn two_stage(model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool
     } else {
         Vec::new()
     };
-    Ok(TwoStageMatch {
-        end_costs,
-        start_costs,
-        alignment: Alignment { start, end, point_distances, total_distance, paths },
-    })
+    Ok(TwoStageMatch { end_costs, start_costs, alignment: Alignment { start, end, point_distances, total_distance, paths } })
 }
 
 /// Index of the least value, the latest among equal values (NaN skipped).
@@ -199,7 +239,8 @@ mod tests {
         let mut rng = Rng::new(3);
         let (n, offset, stretched) = (60usize, 70usize, 75usize);
         let model = motion_from_fn(n, 60.0, 5, movement);
-        let noise: Vec<[f64; 3]> = (0..200 * 5).map(|_| [rng.normal() * 40.0, rng.normal() * 40.0, rng.normal() * 40.0]).collect();
+        let noise: Vec<[f64; 3]> =
+            (0..200 * 5).map(|_| [rng.normal() * 40.0, rng.normal() * 40.0, rng.normal() * 40.0]).collect();
         let target = motion_from_fn(200, 60.0, 5, |j, k| {
             if (offset..offset + stretched).contains(&j) {
                 // Linear resampling of the model onto 75 frames, plus 1 mm jitter.
@@ -207,7 +248,11 @@ mod tests {
                 let (i0, f) = (x.floor() as usize, x.fract());
                 let (p, q) = (movement(i0, k), movement((i0 + 1).min(n - 1), k));
                 let e = noise[j * 5 + k];
-                [p[0] + f * (q[0] - p[0]) + e[0] / 40.0, p[1] + f * (q[1] - p[1]) + e[1] / 40.0, p[2] + f * (q[2] - p[2]) + e[2] / 40.0]
+                [
+                    p[0] + f * (q[0] - p[0]) + e[0] / 40.0,
+                    p[1] + f * (q[1] - p[1]) + e[1] / 40.0,
+                    p[2] + f * (q[2] - p[2]) + e[2] / 40.0,
+                ]
             } else {
                 let e = noise[j * 5 + k];
                 [e[0] + 500.0, e[1] - 400.0, e[2] + 300.0]
@@ -231,9 +276,39 @@ mod tests {
         }
         assert!((a.total_distance - sum).abs() < 1e-9 * sum);
         // G(j) is the sum of each marker's own subsequence costs.
-        let h0 = subsequence_costs(&Euclidean3::new(&trajectories(&model, &["m0".into()], "", "").unwrap()[0], &trajectories(&target, &["m0".into()], "", "").unwrap()[0])).unwrap();
+        let h0 = subsequence_costs(&Euclidean3::new(
+            &trajectories(&model, &["m0".into()], "", "").unwrap()[0],
+            &trajectories(&target, &["m0".into()], "", "").unwrap()[0],
+        ))
+        .unwrap();
         assert!(r.end_costs.iter().zip(&h0).all(|(g, h)| g >= h));
         assert_eq!(r.start_costs[a.start], r.start_costs.iter().copied().fold(f64::INFINITY, f64::min));
+    }
+
+    #[test]
+    fn grouped_passes_equal_marker_by_marker_computation_exactly() {
+        // Six markers: one group of four and one of two (spare lanes padded).
+        let mut rng = Rng::new(17);
+        let model = motion_from_fn(30, 60.0, 6, |i, k| movement(i + 3 * k, k));
+        let noise: Vec<f64> = (0..90 * 6 * 3).map(|_| rng.normal()).collect();
+        let target = motion_from_fn(90, 60.0, 6, |j, k| {
+            let (p, e) = (movement(j, k), &noise[(j * 6 + k) * 3..]);
+            [p[0] + e[0], p[1] + e[1], p[2] + e[2]]
+        });
+        let names: Vec<String> = model.point_names().to_vec();
+        let (s, t) = (trajectories(&model, &names, "", "").unwrap(), trajectories(&target, &names, "", "").unwrap());
+        let r = two_stage(&s, &t, true).unwrap();
+        let mut g = vec![0.0; 90];
+        for (sl, tl) in s.iter().zip(&t) {
+            let h = subsequence_costs(&Euclidean3::new(sl, tl)).unwrap();
+            g.iter_mut().zip(&h).for_each(|(a, b)| *a += b);
+        }
+        assert_eq!(r.end_costs, g);
+        let a = &r.alignment;
+        for (l, (sl, tl)) in s.iter().zip(&t).enumerate() {
+            let back = crate::dp::anchored_costs(&Euclidean3::new(sl, tl), a.end).unwrap();
+            assert_eq!(a.point_distances[l], back[a.start]);
+        }
     }
 
     fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {

@@ -10,6 +10,8 @@ use motionlab_features::smoothing::moving_average_positions;
 
 use crate::input::{check_names, trajectories};
 
+/// One point per repetition at the velocity peaks of one marker, a window around each (§3.1.1).
+///
 /// Finds the N repetitions in a continuous take from the velocity function of one marker, and
 /// cuts a window around each (Yabe & Tanaka §3.1.1).
 ///
@@ -70,7 +72,9 @@ impl ParamGuard for VelocityPeaksParams {
     fn check(self) -> Result<VelocityPeaks> {
         check_names(std::slice::from_ref(&self.marker), "marker")?;
         if self.count == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "expected at least one repetition (count >= 1), found 0").with_field("count"));
+            return Err(
+                Error::new(ErrorKind::OutOfRange, "expected at least one repetition (count >= 1), found 0").with_field("count")
+            );
         }
         Ok(VelocityPeaks {
             marker: self.marker,
@@ -175,20 +179,12 @@ impl PointDetector for VelocityPeaks {
         let points = if window > 1 { moving_average_positions(&one, window) } else { one.positions().to_vec() };
         let v = velocity_function(&points);
         let found = peak_regions(&v, self.count)?;
-        let peaks: Vec<usize> = found
-            .regions
-            .iter()
-            .map(|&(s, e)| (s..=e).fold(s, |best, i| if v[i] > v[best] { i } else { best }))
-            .collect();
+        let peaks: Vec<usize> =
+            found.regions.iter().map(|&(s, e)| (s..=e).fold(s, |best, i| if v[i] > v[best] { i } else { best })).collect();
         let f = motion.n_frames();
         let (before, after) = (self.before.whole_frames_at(motion.frame_rate()), self.after.whole_frames_at(motion.frame_rate()));
         let windows = peaks.iter().map(|&p| (p.saturating_sub(before), (p + after + 1).min(f))).collect();
-        Ok(PointDetection {
-            velocity: Trace::new("v_mm_per_frame", "mm/frame", v),
-            threshold: found.threshold,
-            peaks,
-            windows,
-        })
+        Ok(PointDetection { velocity: Trace::new("v_mm_per_frame", "mm/frame", v), threshold: found.threshold, peaks, windows })
     }
 }
 
@@ -285,7 +281,8 @@ mod tests {
         // and 1.5/9 deep; the mountain falls faster than that per frame at the box's edges
         // (16·4.5/225), so no shoulder forms there and one summit remains.
         let speed = |i: usize| {
-            let base = 8.0 * (1.0 - ((i as f64 - 40.0) / 15.0).powi(2)).max(0.0) + 5.0 * (1.0 - ((i as f64 - 100.0) / 15.0).powi(2)).max(0.0);
+            let base = 8.0 * (1.0 - ((i as f64 - 40.0) / 15.0).powi(2)).max(0.0)
+                + 5.0 * (1.0 - ((i as f64 - 100.0) / 15.0).powi(2)).max(0.0);
             if i == 40 { base - 1.5 } else { base }
         };
         let m = motion_with_speed(140, speed);

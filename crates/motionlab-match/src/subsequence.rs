@@ -9,8 +9,9 @@ use motionlab_core::{Alignment, Matcher, Motion, Result};
 use crate::dp::{Euclidean3, Workspace, subsequence_match};
 use crate::input::{check_names, trajectories};
 
-/// Single-stream subsequence DP matching of one marker (Yabe & Tanaka §3.1.2): finds the
-/// stretch of the target that best matches the whole model, for that one marker.
+/// Single-stream subsequence DP of one marker, free start and free end (Yabe & Tanaka §3.1.2).
+///
+/// Finds the stretch of the target that best matches the whole model, for that one marker.
 ///
 /// `d(i, j) = |s_i − t_j|` (3-D euclidean, mm); `g(0, j) = d(0, j)` (free start);
 /// `g(i, 0) = d(i, 0) + g(i−1, 0)`; `g(i, j) = d(i, j) + min(g(i−1, j), g(i−1, j−1), g(i, j−1))`
@@ -81,7 +82,8 @@ mod tests {
     fn finds_the_model_inside_a_longer_take() {
         // The target is the model's movement preceded by 12 and followed by 9 frames far away.
         let model = motion_from_fn(30, 60.0, 2, |i, _| wave(i));
-        let target = motion_from_fn(51, 60.0, 2, |j, k| if (12..42).contains(&j) { wave(j - 12) } else { [5000.0 + k as f64, 0.0, 0.0] });
+        let target =
+            motion_from_fn(51, 60.0, 2, |j, k| if (12..42).contains(&j) { wave(j - 12) } else { [5000.0 + k as f64, 0.0, 0.0] });
         let v: toml::Value = toml::from_str("marker = \"m1\"").unwrap();
         let a = build_matcher("subsequence_dp", &v).unwrap().align(&model, &target).unwrap();
         assert_eq!((a.start, a.end, a.total_distance), (12, 41, 0.0));

@@ -136,15 +136,15 @@ impl Synchroniser for SynchronisationStage {
         if alignment.paths.is_empty() {
             return Err(Error::new(
                 ErrorKind::InvalidParameter,
-                "synchronisation needs the matcher's warping paths, but the alignment has none; set keep_paths = true on the matcher",
+                "synchronisation needs the matcher's warping paths, but the alignment has none; \
+                 set keep_paths = true on the matcher",
             ));
         }
         let frames = division_frames(model_frames, self.k)?;
         let per_marker: Vec<Vec<f64>> =
             alignment.paths.iter().map(|p| matched_target_frames(p, &frames, self.tie)).collect::<Result<_>>()?;
-        let section_values: Vec<f64> = (0..frames.len())
-            .map(|q| population_variance(&per_marker.iter().map(|u| u[q]).collect::<Vec<_>>()))
-            .collect();
+        let section_values: Vec<f64> =
+            (0..frames.len()).map(|q| population_variance(&per_marker.iter().map(|u| u[q]).collect::<Vec<_>>())).collect();
         let total = section_values.iter().sum();
         Ok(Synchronisation { model_frames: frames, section_values, total })
     }

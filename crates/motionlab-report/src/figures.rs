@@ -254,10 +254,14 @@ where
             .margin(8)
             .margin_left(label_area as i32 - 70)
             .x_label_area_size(if rows > 0 { 20 } else { 42 })
-            .y_label_area_size(70)
+            .y_label_area_size(90)
             .build_cartesian_2d(x0..x1, y0..y1)?;
         let mut mesh = chart.configure_mesh();
-        mesh.y_desc(c.y_label.as_str()).label_style(("sans-serif", 14)).axis_desc_style(("sans-serif", 16));
+        mesh.y_desc(c.y_label.as_str())
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .x_label_formatter(&|v| fmt_num(*v))
+            .y_label_formatter(&|v| fmt_num(*v));
         if rows == 0 {
             mesh.x_desc(c.x_label.as_str());
         }
@@ -340,13 +344,14 @@ where
         .margin(8)
         .margin_left(if has_plot { label_area as i32 - 70 } else { 8 })
         .x_label_area_size(40)
-        .y_label_area_size(if has_plot { 70 } else { label_area })
+        .y_label_area_size(if has_plot { 90 } else { label_area })
         .build_cartesian_2d(x0..x1, 0.0..rows as f64)?;
     let labels: Vec<String> = c.bar_rows.iter().map(|b| b.label.clone()).collect();
     chart
         .configure_mesh()
         .disable_y_mesh()
         .x_desc(c.x_label.as_str())
+        .x_label_formatter(&|v| fmt_num(*v))
         .y_labels(rows * 2 + 1)
         .y_label_formatter(&|y: &f64| {
             // Label each row at its centre (rows are drawn top to bottom).

@@ -152,4 +152,30 @@ mod tests {
             assert_eq!(e.location().field.as_deref(), Some(field), "{toml_text}");
         }
     }
+
+    #[test]
+    fn real_straight_walk_has_no_turn_and_gaps_leave_curvature_undefined() {
+        let m = crate::test_data::walk1();
+        let empty = toml::Value::Table(Default::default());
+        let out = build_segmenter("direction_change", &empty).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        // A straight walk: C near −1 wherever defined, so no candidate.
+        let c = &out.traces[0].values;
+        assert!(c.iter().filter(|v| v.is_finite()).count() > 200);
+        assert!(c.iter().filter(|v| v.is_finite()).all(|&v| v < -0.9), "{c:?}");
+        assert!(out.candidates.is_empty());
+        // With a root that has gaps (Shoulder_R, missing at 304–319), C is undefined exactly
+        // where i−L, i or i+L is missing (L = 8 frames at 60 Hz), besides slow stretches and ends.
+        let p: toml::Value = toml::from_str("root = \"Shoulder_R\"").unwrap();
+        let out = build_segmenter("direction_change", &p).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let c = &out.traces[0].values;
+        let k = m.point_index("Shoulder_R").unwrap();
+        for (i, ci) in c.iter().enumerate().take(m.n_frames() - 8).skip(8) {
+            let touches_gap = [i - 8, i, i + 8].iter().any(|&f| m.is_missing(f, k));
+            if touches_gap {
+                assert!(ci.is_nan(), "frame {i}");
+            }
+        }
+        assert!(c[296].is_nan() && c[327].is_nan() && c[295].is_finite() && c[328].is_finite());
+    }
+
 }

@@ -271,4 +271,41 @@ mod tests {
         let e = build_segmenter("fastest_marker_speed", &mixed).unwrap().segment(&m, &FeatureCache::new()).unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("v_low"));
     }
+
+    #[test]
+    fn real_walk_with_missing_samples_obeys_the_rule() {
+        // walk1: Head_FR missing at 199–209, Shoulder_R at 304–319. Thresholds low enough for a
+        // steady walk to produce candidates (the defaults find none in it: nobody stops).
+        let m = crate::test_data::walk1();
+        let s = marker_speeds(&m, 0);
+        let head = m.point_index("Head_FR").unwrap();
+        assert!(s.speed(200, head).is_nan() && s.fastest[200].is_finite());
+        let p90 = motionlab_features::signal::percentile(&s.fastest, 90.0).unwrap();
+        let (hi, lo) = (0.6 * p90, 0.45 * p90);
+        let t = track_fastest_marker(&s, hi, lo);
+        assert!(!t.candidates.is_empty());
+        for &j in &t.candidates {
+            let k = t.tracked_marker[j].expect("a candidate ends a followed stretch");
+            let vk = s.marker_speed(k);
+            assert!(s.fastest[j] <= lo && is_local_min(&vk, j), "frame {j}");
+            assert!(!m.is_missing(j, k) && !m.is_missing(j + 1, k));
+        }
+        // Through the plugin with the same thresholds in mm/s: the same frames.
+        let out = run(&format!("v_high = {{ mm_per_s = {hi} }}\nv_low = {{ mm_per_s = {lo} }}"), &m);
+        assert_eq!(out.candidates, t.candidates);
+    }
+
+    #[test]
+    fn on_cmu_86_01_tracking_removes_most_plain_minima() {
+        // The paper's argument on real data: at the same v_low, plain minima of V fire on every
+        // wobble of a slow stretch; the tracker keeps only ends of followed movements.
+        let m = crate::test_data::load("cmu86/86_01.amc.gz");
+        let cache = FeatureCache::new();
+        let tracked = build_segmenter("fastest_marker_speed", &toml::Value::Table(Default::default())).unwrap().segment(&m, &cache).unwrap();
+        let plain = SpeedMinimaParams { v_low: SpeedThreshold::FractionOfP90(0.15), smoothing: None }.check().unwrap().segment(&m, &cache).unwrap();
+        assert_eq!(tracked.thresholds[1].value, plain.thresholds[0].value);
+        assert!(!tracked.candidates.is_empty());
+        assert!(tracked.candidates.len() * 10 < plain.candidates.len(), "{} vs {}", tracked.candidates.len(), plain.candidates.len());
+    }
+
 }

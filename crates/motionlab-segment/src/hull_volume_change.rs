@@ -160,4 +160,27 @@ mod tests {
             .unwrap();
         assert_eq!(e.location().field.as_deref(), Some("t"));
     }
+
+    #[test]
+    fn real_walk_with_missing_samples_obeys_the_rule() {
+        let m = crate::test_data::walk1();
+        let out = build_segmenter("hull_volume_change", &toml::Value::Table(Default::default()))
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap();
+        let (d, t) = (&out.traces[1].values, out.thresholds[0].value);
+        let p90 = motionlab_features::signal::percentile(d, 90.0).unwrap();
+        assert_eq!(t, p90); // default: t = 1.0 × the 90th percentile of D
+        assert!(out.flagged_frames.is_empty());
+        // D is undefined where the set of valid markers changes (199, 210, 304, 320) …
+        for i in [199, 210, 304, 320] {
+            assert!(d[i].is_nan(), "D[{i}]");
+        }
+        assert_eq!(d.iter().filter(|v| v.is_nan()).count(), 5); // … and at frame 0 only.
+        assert!(!out.candidates.is_empty());
+        for &i in &out.candidates {
+            assert!(d[i - 1] > d[i] && d[i] < d[i + 1] && d[i] < t && t < d[i + 1], "frame {i}");
+        }
+    }
+
 }

@@ -11,3 +11,5 @@ pub mod direction_change;
 pub mod hull_volume_change;
 pub mod pca_error_rise;
 pub mod union_merge;
+#[cfg(test)]
+mod test_data;

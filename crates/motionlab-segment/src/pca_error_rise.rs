@@ -328,4 +328,30 @@ mod tests {
             assert_eq!(build_segmenter("pca_error_rise", &v).err().unwrap().location().field.as_deref(), Some(field));
         }
     }
+
+    #[test]
+    fn real_cmu_86_01_cuts_near_every_labelled_boundary() {
+        // 86_01: walk, jump, walk, punch, walk, kick, punch. Every labelled boundary has a cut
+        // within 2 s, and there are not many more cuts than boundaries.
+        let m = crate::test_data::load("cmu86/86_01.amc.gz");
+        // A coarse step keeps this debug-build test short (one eigen-decomposition per step).
+        let p: toml::Value = toml::from_str("step = { seconds = 0.25 }").unwrap();
+        let out = build_segmenter("pca_error_rise", &p).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let truth = crate::test_data::cmu86_01_boundaries();
+        assert_eq!(truth, vec![549, 1149, 1979, 2499, 3199, 4064]);
+        for b in &truth {
+            assert!(out.candidates.iter().any(|c| c.abs_diff(*b) <= 240), "boundary {b}: cuts {:?}", out.candidates);
+        }
+        assert!(out.candidates.len() <= 2 * truth.len(), "{:?}", out.candidates);
+    }
+
+    #[test]
+    fn real_steady_walk_with_missing_samples_is_one_behaviour() {
+        // walk1 (27 missing samples, left out): one steady walk, so no cut.
+        let m = crate::test_data::walk1();
+        let out = build_segmenter("pca_error_rise", &toml::Value::Table(Default::default())).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        assert!(out.candidates.is_empty(), "{:?}", out.candidates);
+        assert!(out.traces[0].values.iter().filter(|v| v.is_finite()).count() > 20);
+    }
+
 }

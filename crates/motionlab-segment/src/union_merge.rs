@@ -207,4 +207,35 @@ mod tests {
         let neg: toml::Value = toml::from_str("merge_mm = -1.0").unwrap();
         assert_eq!(build_fuser("union_merge", &neg).err().unwrap().location().field.as_deref(), Some("merge_mm"));
     }
+
+    #[test]
+    fn real_fusion_of_the_three_methods_on_86_01_and_walk1() {
+        use motionlab_core::FeatureCache;
+        use motionlab_core::registry::build_segmenter;
+        for (file, expect_some) in [("cmu86/86_01.amc.gz", true), ("mct/walk1.tsv.gz", true)] {
+            let m = crate::test_data::load(file);
+            let cache = FeatureCache::new();
+            let empty = toml::Value::Table(Default::default());
+            let names = ["fastest_marker_speed", "direction_change", "hull_volume_change"];
+            let found: Vec<Vec<usize>> =
+                names.iter().map(|n| build_segmenter(n, &empty).unwrap().segment(&m, &cache).unwrap().candidates).collect();
+            let inputs: Vec<MethodCandidates> = names.iter().zip(&found).map(|(method, f)| MethodCandidates { method, frames: f }).collect();
+            let fused = build_fuser("union_merge", &empty).unwrap().fuse(&m, &inputs).unwrap();
+            let mut union: Vec<usize> = found.concat();
+            union.sort_unstable();
+            union.dedup();
+            assert_eq!(!fused.is_empty(), expect_some, "{file}");
+            // Earliest representatives are union members, and successive groups are at least
+            // merge_mm = 100 mm of root path apart; every union member lies in some group.
+            let cum = cumulative_path_mm(m.trajectory(m.point_index("root").unwrap()));
+            assert!(fused.iter().all(|f| union.contains(f)));
+            assert!(fused.windows(2).all(|w| cum[w[1]] - cum[w[0]] >= 100.0), "{file}: {fused:?}");
+            for c in &union {
+                let g = fused.iter().rev().find(|&&f| f <= *c).expect("a group starts at or before every candidate");
+                let chain: Vec<&usize> = union.iter().filter(|&&u| u >= *g && u <= *c).collect();
+                assert!(chain.windows(2).all(|w| cum[*w[1]] - cum[*w[0]] < 100.0), "{file}: {c} is not chained to {g}");
+            }
+        }
+    }
+
 }

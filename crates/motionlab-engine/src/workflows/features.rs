@@ -69,7 +69,7 @@ impl Workflow for FeaturesWorkflow {
                         .iter()
                         .filter(|t| t.unit == unit)
                         .take(8)
-                        .map(|t| Series::new(t.name.clone(), time.clone(), t.values.clone()))
+                        .map(|t| Series::new(super::shared::label_of(&t.name), time.clone(), t.values.clone()))
                         .collect();
                     let suffix = if unit.is_empty() { String::new() } else { format!(" ({unit})") };
                     figures.push(Figure::chart(

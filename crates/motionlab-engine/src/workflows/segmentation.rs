@@ -13,7 +13,7 @@ use motionlab_core::{
 };
 use motionlab_report::{BarRow, Chart, Figure, FigureKind, Series};
 
-use super::shared::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_strip, time_axis, traces_chart};
+use super::shared::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_strip, time_axis, traces_charts};
 use super::{ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow};
 use crate::plan::{build_stage, Combo, Datasets, Source};
 use crate::spec::SegmentationSection;
@@ -210,8 +210,12 @@ impl SegmentationWorkflow {
                     continue;
                 }
                 let bars = vec![BarRow { label: method.clone(), marks: frames_to_seconds(&out.candidates, rate), bands: vec![] }];
-                let chart = traces_chart(format!("{name} — {method}: candidates (bars)"), &time, &out.traces, &out.thresholds, bars.clone());
-                figs.push(Figure::chart(format!("{id}_{}", super::sanitize(method)), chart.clone()));
+                let charts = traces_charts(&format!("{name} — {method}: candidates (bars)"), &time, &out.traces, &out.thresholds, bars);
+                let Some(chart) = charts.first().cloned() else { continue };
+                for (k, c) in charts.into_iter().enumerate() {
+                    let suffix = if k == 0 { String::new() } else { format!("_{k}") };
+                    figs.push(Figure::chart(format!("{id}_{}{suffix}", super::sanitize(method)), c));
+                }
                 // The paper's Fig 3: a close-up around one candidate, where the tracked marker's
                 // speed can be read against V.
                 if let Some(&c) = out.candidates.get(out.candidates.len() / 2) {

@@ -14,25 +14,41 @@ pub fn frames_to_seconds(frames: &[usize], rate_hz: f64) -> Vec<f64> {
     frames.iter().map(|f| *f as f64 / rate_hz).collect()
 }
 
-/// A chart of a stage's traces against time with its thresholds and candidate bars (the
-/// papers' "graph with vertical bars below it"). Traces in other units than the first are
-/// left out (they get their own chart).
-pub fn traces_chart(title: String, time: &[f64], traces: &[Trace], thresholds: &[Threshold], bars: Vec<BarRow>) -> Chart {
-    let unit = traces.first().map(|t| t.unit.clone()).unwrap_or_default();
-    let lines: Vec<Series> = traces
-        .iter()
-        .filter(|t| t.unit == unit)
-        .map(|t| Series::new(t.name.clone(), time[..t.values.len().min(time.len())].to_vec(), t.values.clone()))
-        .collect();
-    let names: Vec<&str> = traces.iter().filter(|t| t.unit == unit).map(|t| t.name.as_str()).collect();
-    let hlines = thresholds
-        .iter()
-        .filter(|h| names.contains(&h.trace.as_str()))
-        .map(|h| RefLine { label: h.name.clone(), value: h.value })
-        .collect();
-    let first = traces.first().map(|t| t.name.clone()).unwrap_or_default();
-    let y_label = if unit.is_empty() { first } else { format!("{first} ({unit})") };
-    Chart { title, x_label: "time (s)".into(), y_label, lines, hlines, bar_rows: bars, ..Default::default() }
+/// A trace name without its unit suffix, for labels (`V_mm_per_s` → `V`).
+pub fn label_of(name: &str) -> String {
+    motionlab_report::html::split_unit(name).0
+}
+
+/// Charts of a stage's traces against time with its thresholds and candidate bars (the papers'
+/// "graph with vertical bars below it"): one chart per unit, the one whose traces carry the
+/// thresholds first (that is the signal the stage decided on).
+pub fn traces_charts(title: &str, time: &[f64], traces: &[Trace], thresholds: &[Threshold], bars: Vec<BarRow>) -> Vec<Chart> {
+    let mut units: Vec<&str> = Vec::new();
+    for t in traces {
+        if !units.contains(&t.unit.as_str()) {
+            units.push(&t.unit);
+        }
+    }
+    let decides = |u: &str| traces.iter().any(|t| t.unit == u && thresholds.iter().any(|h| h.trace == t.name));
+    units.sort_by_key(|u| !decides(u));
+    units
+        .into_iter()
+        .map(|unit| {
+            let group: Vec<&Trace> = traces.iter().filter(|t| t.unit == unit).collect();
+            let lines: Vec<Series> = group
+                .iter()
+                .map(|t| Series::new(label_of(&t.name), time[..t.values.len().min(time.len())].to_vec(), t.values.clone()))
+                .collect();
+            let hlines = thresholds
+                .iter()
+                .filter(|h| group.iter().any(|t| t.name == h.trace))
+                .map(|h| RefLine { label: h.name.clone(), value: h.value })
+                .collect();
+            let first = group.first().map(|t| label_of(&t.name)).unwrap_or_default();
+            let y_label = if unit.is_empty() { first } else { format!("{first} ({unit})") };
+            Chart { title: title.to_string(), x_label: "time (s)".into(), y_label, lines, hlines, bar_rows: bars.clone(), ..Default::default() }
+        })
+        .collect()
 }
 
 /// A side-view stick strip of `n` evenly spaced frames of `[start, end]`: each pose drawn in
