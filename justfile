@@ -14,15 +14,19 @@ reproduce:
 record:
     cargo run --release -p motionlab-cli -- reproduce --record
 
-# Benchmarks: Rust (divan) and the side-by-side scripts against the Python peers.
+# Benchmarks: Rust (divan) and the side-by-side scripts against the Python peers (scipy,
+# dtaidistance, tslearn), which also cross-check results. Numbers: crates/*/benches/README.md, bench/README.md.
 bench:
     cargo bench -p motionlab-io
     cargo bench -p motionlab-features
     cargo bench -p motionlab-segment
     cargo bench -p motionlab-match
+    cargo bench -p motionlab-eval
+    cargo bench -p motionlab-gait
     bench/hull_vs_scipy.py
     bench/multistream_vs_peers.py
     bench/dtw_crosscheck.py
+    bench/matching_vs_scipy.py
 
 # Fuzz every parser for the given number of seconds each (needs nightly-free cargo-fuzz setup, see fuzz/README.md).
 fuzz seconds="600":

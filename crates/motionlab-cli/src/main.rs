@@ -295,43 +295,11 @@ fn reproduce(dir: &Path, args: &RunArgs, record: bool, only: Option<&str>) -> Re
         print_summary(&summary);
         if record {
             let dest = args.reports.join(&plan.file.experiment.name).join("record");
-            copy_record(&summary.run_dir, &dest)?;
+            motionlab_engine::pages::write_record(&summary.run_dir, &dest, &plan.file)?;
             println!("  recorded into {}", dest.display());
         }
     }
     let index = motionlab_engine::pages::write_reproduction_index(dir, &args.reports)?;
     println!("wrote {}", index.display());
     Ok(ExitCode::SUCCESS)
-}
-
-/// Replaces `dest` with the tables, figures, files and provenance of a run (not its
-/// intermediate item results).
-fn copy_record(run: &Path, dest: &Path) -> Result<()> {
-    if dest.exists() {
-        std::fs::remove_dir_all(dest).map_err(|e| Error::io(dest, e))?;
-    }
-    for sub in ["tables", "figures", "files"] {
-        let from = run.join(sub);
-        if !from.is_dir() {
-            continue;
-        }
-        let to = dest.join(sub);
-        std::fs::create_dir_all(&to).map_err(|e| Error::io(&to, e))?;
-        for entry in std::fs::read_dir(&from).map_err(|e| Error::io(&from, e))? {
-            let p = entry.map_err(|e| Error::io(&from, e))?.path();
-            // Parquet duplicates the CSV; the record keeps what a reader looks at.
-            if p.extension().is_some_and(|e| e == "parquet") {
-                continue;
-            }
-            let target = to.join(p.file_name().unwrap_or_default());
-            std::fs::copy(&p, &target).map_err(|e| Error::io(&target, e))?;
-        }
-    }
-    for f in ["provenance.json", "config.toml", "index.html"] {
-        let p = run.join(f);
-        if p.is_file() {
-            std::fs::copy(&p, dest.join(f)).map_err(|e| Error::io(dest, e))?;
-        }
-    }
-    Ok(())
 }

@@ -125,7 +125,7 @@ mod tests {
         assert!(a.contains("#SBATCH --array=0-3"));
         // Every directive precedes the first command, or sbatch ignores it.
         let first_command = a.lines().position(|l| !l.starts_with('#')).unwrap();
-        let last_directive = a.lines().rposition(|l| l.starts_with("#SBATCH")).unwrap();
+        let last_directive = a.lines().enumerate().filter(|(_, l)| l.starts_with("#SBATCH")).map(|(i, _)| i).max().unwrap();
         assert!(last_directive < first_command, "{a}");
         assert!(a.contains("#SBATCH --partition=short") && a.contains("#SBATCH --time=00:10:00"));
         assert!(!a.contains("--mem"));

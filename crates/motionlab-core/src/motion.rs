@@ -75,7 +75,7 @@ impl Motion {
         if m == 0 {
             return Err(Error::new(ErrorKind::EmptySequence, "a motion needs at least one marker or joint"));
         }
-        if positions.len() % m != 0 {
+        if !positions.len().is_multiple_of(m) {
             return Err(Error::new(
                 ErrorKind::WrongValueCount,
                 format!("{} positions is not a whole number of frames of {m} points", positions.len()),

@@ -159,7 +159,7 @@ impl PluginEntry {
             .map(|(name, p)| ParamDoc {
                 name: name.clone(),
                 type_name: type_name(p, defs),
-                default: p.get("default").map(|d| toml_like(d)),
+                default: p.get("default").map(toml_like),
                 required: required.contains(&name.as_str()),
                 description: p
                     .get("description")

@@ -229,8 +229,8 @@ impl SkeletonMotion {
     pub fn new(skeleton: Skeleton, channel_values: Vec<f64>) -> Result<Self> {
         skeleton.validate()?;
         let c = skeleton.n_channels();
-        let n_frames = if c == 0 { 0 } else { channel_values.len() / c };
-        if c == 0 || channel_values.len() % c != 0 {
+        let n_frames = channel_values.len().checked_div(c).unwrap_or(0);
+        if c == 0 || !channel_values.len().is_multiple_of(c) {
             return Err(Error::new(
                 ErrorKind::WrongValueCount,
                 format!("{} channel values is not a whole number of frames of {c} channels", channel_values.len()),

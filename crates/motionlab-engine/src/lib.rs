@@ -6,7 +6,8 @@
 //! ([`workflows`], [`run`]) into a fresh run directory ([`rundir`]) with provenance.
 //!
 //! Depends on no polars or plotters directly: tables and figures go through
-//! `motionlab-report`.
+//! `motionlab-report`. Workflows call algorithm crates by name where a paper's analysis is more
+//! than one plugin (the gait study, the BVH writer); stages come from the registry.
 
 pub mod compare;
 pub mod pages;

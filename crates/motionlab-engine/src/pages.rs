@@ -25,6 +25,18 @@ pub fn write_run_html(
     figures: &[FigureEntry],
     run_id: &str,
 ) -> Result<PathBuf> {
+    write_page(run_dir, file, config_toml, tables, figures, run_id, false)
+}
+
+fn write_page(
+    run_dir: &Path,
+    file: &ExperimentFile,
+    config_toml: &str,
+    tables: &[Table],
+    figures: &[FigureEntry],
+    run_id: &str,
+    png_only: bool,
+) -> Result<PathBuf> {
     let prov: serde_json::Value = std::fs::read(run_dir.join("provenance.json"))
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok())
@@ -52,7 +64,12 @@ pub fn write_run_html(
     let html_tables = tables.iter().map(|t| HtmlTable::from_table(t, "tables/")).collect::<Result<Vec<_>>>()?;
     let html_figures = figures
         .iter()
-        .map(|f| HtmlFigure { name: f.name.clone(), title: f.title.clone(), svg: format!("figures/{}.svg", f.name), png: format!("figures/{}.png", f.name) })
+        .map(|f| HtmlFigure {
+            name: f.name.clone(),
+            title: f.title.clone(),
+            svg: format!("figures/{}.{}", f.name, if png_only { "png" } else { "svg" }),
+            png: format!("figures/{}.png", f.name),
+        })
         .collect();
     let comparisons = file
         .published
@@ -67,13 +84,96 @@ pub fn write_run_html(
         config_toml: config_toml.to_string(),
         provenance,
         inputs,
-        tables: html_tables,
+        tables: html_tables
+            .into_iter()
+            .map(|mut t| {
+                if png_only {
+                    // The record keeps CSV and Markdown, not Parquet.
+                    t.parquet = None;
+                }
+                t
+            })
+            .collect(),
         figures: html_figures,
         comparisons,
         index_link: "../../index.html".into(),
         screenshot: None,
     };
     write_run_page(run_dir, &page)
+}
+
+/// `*`-wildcard match of a whole name.
+fn wildcard(pattern: &str, name: &str) -> bool {
+    let parts: Vec<&str> = pattern.split('*').collect();
+    if parts.len() == 1 {
+        return pattern == name;
+    }
+    let (first, last) = (parts[0], parts[parts.len() - 1]);
+    if !name.starts_with(first) || !name.ends_with(last) || name.len() < first.len() + last.len() {
+        return false;
+    }
+    let mut rest = &name[first.len()..name.len() - last.len()];
+    for mid in &parts[1..parts.len() - 1] {
+        match rest.find(mid) {
+            Some(i) => rest = &rest[i + mid.len()..],
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Writes the run of record `dest` from a finished run: every table (CSV and Markdown), the
+/// figures the experiment lists in `record_figures` (PNG), the provenance and configuration,
+/// and a page of its own. `dest` is replaced: the record is a deliberate, committed copy.
+pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()> {
+    let io = |p: &Path, e| motionlab_core::Error::io(p, e);
+    if dest.exists() {
+        std::fs::remove_dir_all(dest).map_err(|e| io(dest, e))?;
+    }
+    let tables_dir = dest.join("tables");
+    let figures_dir = dest.join("figures");
+    std::fs::create_dir_all(&tables_dir).map_err(|e| io(&tables_dir, e))?;
+    std::fs::create_dir_all(&figures_dir).map_err(|e| io(&figures_dir, e))?;
+    let mut tables = Vec::new();
+    let mut names: Vec<PathBuf> = std::fs::read_dir(run.join("tables"))
+        .map_err(|e| io(&run.join("tables"), e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+        .collect();
+    names.sort();
+    for csv in names {
+        let stem = csv.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        for ext in ["csv", "md"] {
+            let from = run.join("tables").join(format!("{stem}.{ext}"));
+            std::fs::copy(&from, tables_dir.join(format!("{stem}.{ext}"))).map_err(|e| io(&from, e))?;
+        }
+        if let Some(mut t) = read_table_csv(&csv, &stem) {
+            // The Markdown's heading is the table's title.
+            if let Ok(md) = std::fs::read_to_string(run.join("tables").join(format!("{stem}.md"))) {
+                t.title = md.lines().next().unwrap_or("").trim_start_matches("### ").to_string();
+            }
+            tables.push(t);
+        }
+    }
+    let entries: Vec<FigureEntry> = std::fs::read(run.join("figures").join("index.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .unwrap_or_default();
+    let kept: Vec<FigureEntry> = entries.into_iter().filter(|f| file.experiment.record_figures.iter().any(|p| wildcard(p, &f.name))).collect();
+    for f in &kept {
+        let from = run.join("figures").join(format!("{}.png", f.name));
+        std::fs::copy(&from, figures_dir.join(format!("{}.png", f.name))).map_err(|e| io(&from, e))?;
+    }
+    for name in ["provenance.json", "config.toml"] {
+        let from = run.join(name);
+        if from.is_file() {
+            std::fs::copy(&from, dest.join(name)).map_err(|e| io(&from, e))?;
+        }
+    }
+    let config = std::fs::read_to_string(run.join("config.toml")).unwrap_or_default();
+    let run_id = format!("record of {}", run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+    write_page(dest, file, &config, &tables, &kept, &run_id, true)?;
+    Ok(())
 }
 
 /// Reads a result table back from a run's CSV (for the index and `compare`).
@@ -184,6 +284,16 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wildcards_match_whole_names() {
+        assert!(wildcard("86_01_*", "86_01_speed"));
+        assert!(wildcard("*_timeline", "13_29_timeline"));
+        assert!(wildcard("*speed*", "86_01_speed_zoom"));
+        assert!(!wildcard("86_01_*", "13_29_speed"));
+        assert!(wildcard("precision_recall", "precision_recall"));
+        assert!(!wildcard("a*b", "ab_"));
+    }
 
     #[test]
     fn csv_lines_split_with_quotes() {

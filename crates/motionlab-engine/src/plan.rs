@@ -181,6 +181,31 @@ impl Plan {
 /// Reads, overrides, deserialises and validates an experiment.
 pub fn plan(path: &Path, overrides: &[String]) -> Result<Plan> {
     let source = Source::read(path)?;
+    let ParsedExperiment { doc, file, workflow_kind, combos } = parse_experiment(&source, overrides)?;
+    let mut built = Vec::with_capacity(combos.len());
+    for combo in &combos {
+        let data = build_datasets(&source, combo, Inputs::Resolve)?;
+        let workflow = workflows::build(workflow_kind, &source, combo, &data)?;
+        built.push(BuiltCombo { data, workflow });
+    }
+    Ok(Plan { source, overrides: overrides.to_vec(), doc, file, workflow_kind, combos, built })
+}
+
+/// An experiment parsed, overridden, deserialised and expanded over its sweep, with no plugin
+/// built and no input file touched.
+#[derive(Clone, Debug)]
+pub struct ParsedExperiment {
+    /// The document after overrides (before sweeping).
+    pub doc: toml::Table,
+    pub file: ExperimentFile,
+    pub workflow_kind: WorkflowKind,
+    pub combos: Vec<Combo>,
+}
+
+/// The in-memory first half of [`plan`]: TOML syntax → overrides → schema → experiment name →
+/// sweep expansion, on text already read. Separate so it can be fuzzed
+/// (`fuzz/fuzz_targets/experiment_toml.rs`) without a file system.
+pub fn parse_experiment(source: &Source, overrides: &[String]) -> Result<ParsedExperiment> {
     let mut doc: toml::Table = toml::from_str(&source.text).map_err(|e| {
         let mut loc = Location::file(&source.path);
         if let Some(l) = syntax_error_line(&source.text, &e) {
@@ -192,17 +217,19 @@ pub fn plan(path: &Path, overrides: &[String]) -> Result<Plan> {
         let (p, v) = parse_override(o)?;
         set_path(&mut doc, &p, v).map_err(|e| Error::new(e.kind(), format!("override {o:?}: {}", e.message())))?;
     }
-    let file = deserialize_file(&source, &doc)?;
+    let file = deserialize_file(source, &doc)?;
     let workflow_kind = file.workflow().map_err(|e| e.with_location(Location::file(&source.path)))?;
-    check_name(&source, &file)?;
-    let combos = expand_sweep(&source, &doc, &file)?;
-    let mut built = Vec::with_capacity(combos.len());
-    for combo in &combos {
-        let data = build_datasets(&source, combo)?;
-        let workflow = workflows::build(workflow_kind, &source, combo, &data)?;
-        built.push(BuiltCombo { data, workflow });
-    }
-    Ok(Plan { source, overrides: overrides.to_vec(), doc, file, workflow_kind, combos, built })
+    check_name(source, &file)?;
+    let combos = expand_sweep(source, &doc, &file)?;
+    Ok(ParsedExperiment { doc, file, workflow_kind, combos })
+}
+
+/// Builds every stage of one combination — loaders, ground-truth readers, preprocessors and
+/// the workflow's own stages — through the registry, as [`plan`] does, but resolves no input
+/// file (datasets get no files). For the experiment fuzz target.
+pub fn build_stages_in_memory(source: &Source, workflow_kind: WorkflowKind, combo: &Combo) -> Result<()> {
+    let data = build_datasets(source, combo, Inputs::Skip)?;
+    workflows::build(workflow_kind, source, combo, &data).map(|_| ())
 }
 
 fn deserialize_file(source: &Source, doc: &toml::Table) -> Result<ExperimentFile> {
@@ -235,14 +262,35 @@ fn check_name(source: &Source, file: &ExperimentFile) -> Result<()> {
     Ok(())
 }
 
+/// The most combinations a sweep may have (each one is a full run of the experiment).
+pub const MAX_SWEEP_COMBINATIONS: usize = 10_000;
+
 fn expand_sweep(source: &Source, doc: &toml::Table, file: &ExperimentFile) -> Result<Vec<Combo>> {
     let Some(sweep) = &file.sweep else {
         return Ok(vec![Combo { index: 0, sweep: None, focus: None, params: vec![], doc: doc.clone(), file: file.clone() }]);
     };
+    let grids = sweep.grids();
+    // Counted before expanding: 20 keys of 3 values are 3.5e9 combinations, which would
+    // exhaust memory in `cartesian` long before any work started.
+    let count = grids
+        .iter()
+        .map(|g| g.grid.values().try_fold(1usize, |n, v| n.checked_mul(v.len())))
+        .try_fold(0usize, |total, n| total.checked_add(n?));
+    if count.is_none_or(|n| n > MAX_SWEEP_COMBINATIONS) {
+        let n = count.map_or_else(|| "more than 2^64".to_string(), |n| n.to_string());
+        return Err(source.locate(
+            Error::new(
+                ErrorKind::OutOfRange,
+                format!("the sweep has {n} combinations; expected at most {MAX_SWEEP_COMBINATIONS} (split it into several experiments)"),
+            ),
+            &KeyPath::parse("sweep")?,
+            doc,
+        ));
+    }
     let mut base = doc.clone();
     base.remove("sweep");
     let mut combos = Vec::new();
-    for (g, grid) in sweep.grids().iter().enumerate() {
+    for (g, grid) in grids.iter().enumerate() {
         let name = grid.name.clone().unwrap_or_else(|| format!("sweep{g}"));
         for assignment in cartesian(grid) {
             let mut d = base.clone();
@@ -299,7 +347,14 @@ pub fn build_stage<T: ?Sized>(
     })
 }
 
-fn build_datasets(source: &Source, combo: &Combo) -> Result<Datasets> {
+/// Whether [`build_datasets`] resolves the input files (globs, existence) or leaves them out.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Inputs {
+    Resolve,
+    Skip,
+}
+
+fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs) -> Result<Datasets> {
     let base = source.base_dir();
     let mut datasets = Vec::new();
     let root = KeyPath::parse("dataset")?;
@@ -335,7 +390,10 @@ fn build_datasets(source: &Source, combo: &Combo) -> Result<Datasets> {
             .enumerate()
             .map(|(k, p)| build_stage(source, combo, p, &dp.key("preprocess").index(k), registry::build_preprocessor))
             .collect::<Result<Vec<_>>>()?;
-        let files = resolve_files(source, &base, &spec.files).map_err(|e| source.locate(e, &dp.key("files"), &combo.doc))?;
+        let files = match inputs {
+            Inputs::Resolve => resolve_files(source, &base, &spec.files).map_err(|e| source.locate(e, &dp.key("files"), &combo.doc))?,
+            Inputs::Skip => Vec::new(),
+        };
         let built = BuiltDataset { index: i, spec: spec.clone(), loader, ground_truth, preprocess, files };
         for k in 0..built.files.len() {
             if let Some(gt) = built.ground_truth_path(k)

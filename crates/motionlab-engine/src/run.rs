@@ -142,6 +142,10 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     b.build().map_err(|e| Error::new(ErrorKind::Report, format!("cannot start worker threads: {e}")))
 }
 
+/// One finished item: its index in the full item list, its combination, the item, its result
+/// and the figure files it rendered.
+type DoneItem = (usize, usize, WorkItem, ItemData, Vec<PathBuf>);
+
 /// Runs a validated plan.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let started = (SystemTime::now(), Instant::now());
@@ -173,7 +177,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let figures_dir = rundir.subdir("figures")?;
     opts.progress.begin(&format!("{} items", plan.file.experiment.name), mine.len() as u64);
     let pool = thread_pool(opts.threads)?;
-    let results: Vec<Result<(usize, usize, WorkItem, ItemData, Vec<PathBuf>)>> = pool.install(|| {
+    let results: Vec<Result<DoneItem>> = pool.install(|| {
         mine.par_iter()
             .map(|(k, c, item)| {
                 let built = &plan.built[*c];
@@ -216,6 +220,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     figure_paths.extend(finished.figure_paths.iter().cloned());
     write_provenance(plan, opts, &rundir, started, &config, items.len(), None, &finished.table_paths, &figure_paths)?;
     let figure_entries = all_figure_entries(&rundir.work.join("items"), finished.figures)?;
+    write_atomic(&rundir.work.join("figures").join("index.json"), &json_bytes(&figure_entries)?)?;
     let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     write_run_html(&rundir.work, &plan.file, &config, &finished.tables, &figure_entries, &run_id)?;
     let target = rundir.finalize()?;
@@ -450,6 +455,7 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     all_figures.sort();
     write_provenance(&plan, opts, &rundir, started, &config, total, Some(n), &finished.table_paths, &all_figures)?;
     let figure_entries = all_figure_entries(&items_dir, finished.figures)?;
+    write_atomic(&run_dir.join("figures").join("index.json"), &json_bytes(&figure_entries)?)?;
     let run_id = run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     write_run_html(run_dir, &plan.file, &config, &finished.tables, &figure_entries, &run_id)?;
     Ok(RunSummary { run_dir: run_dir.to_path_buf(), tables: finished.table_paths, figures: all_figures, items: total, complete: true })

@@ -69,6 +69,10 @@ pub struct ExperimentMeta {
     /// Numbers shown for this experiment on the reproduction index.
     #[serde(default)]
     pub headline: Vec<Headline>,
+    /// Figures kept in the committed run of record (`reports/<name>/record/`), by file stem;
+    /// `*` matches any run of characters (`"86_01_*"`). Tables are always kept.
+    #[serde(default)]
+    pub record_figures: Vec<String>,
 }
 
 /// One headline number: a cell of a result table, picked by column and text values.

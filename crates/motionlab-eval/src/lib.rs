@@ -19,11 +19,6 @@
 //! consensus clustering (a one-pass chain over sorted marks). The fastest-marker speed used by
 //! the consensus stop rule comes from `motionlab_features::speed`, the one definition of V.
 
-// `motionlab_core::Error` is 128 bytes by design (kind + file/line/field location + message);
-// clippy's `result_large_err` fires on every function returning it. Boxing it is a core-wide
-// decision, not this crate's.
-#![allow(clippy::result_large_err)]
-
 pub mod boundaries;
 pub mod boundary_pr;
 pub mod consensus;

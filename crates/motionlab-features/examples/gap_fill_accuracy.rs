@@ -5,7 +5,6 @@
 //!
 //! `cargo run --release -p motionlab-features --example gap_fill_accuracy`
 
-#![allow(clippy::result_large_err)] // motionlab_core::Error is large by design
 
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Loader, Motion, Preprocessor, TimeSpan};

@@ -6,9 +6,6 @@
 //! vertical trajectory when a file has no events (BVH, AMC, TSV). Both are small enough that no
 //! crate is warranted (the only gait-event crates are Python: gaitpy, pyomeca).
 
-// `motionlab_core::Error` is 128 bytes (file, field, message); boxing it is a core decision,
-// so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

@@ -6,10 +6,6 @@
 //! not-a-knot spline through a handful of samples around each gap, ~40 lines with a tridiagonal
 //! solve. It is checked against scipy's `CubicSpline` values in the tests.
 
-// `motionlab_core::Error` is 128 bytes by design; clippy's `result_large_err` fires on every
-// function returning it (a core-wide decision, not this module's).
-#![allow(clippy::result_large_err)]
-
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 

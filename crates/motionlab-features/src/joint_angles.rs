@@ -20,9 +20,6 @@
 //! (1983) that the ISB recommends for hip, knee and ankle: flexion about the proximal Z,
 //! ab/adduction about the floating X, axial rotation about the distal Y.
 
-// `motionlab_core::Error` is 128 bytes (file, field, message); boxing it is a core decision,
-// so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use std::sync::Arc;
 

@@ -5,9 +5,6 @@
 //! Written by hand: a mean, a linear resampling and one DFT bin — a signal-processing crate
 //! would add a dependency for three loops.
 
-// `motionlab_core::Error` is 128 bytes (file, field, message); boxing it is a core decision,
-// so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

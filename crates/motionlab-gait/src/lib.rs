@@ -15,10 +15,6 @@
 //! arithmetic over a few hundred numbers per subject, written by hand; the one algorithm with
 //! a shared implementation — DTW — comes from `motionlab_match::dp`.
 
-// `motionlab_core::Error` is 128 bytes (file, field, message); boxing it is a core decision,
-// so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
-
 pub mod change_rates;
 pub mod loso;
 pub mod study;

@@ -24,9 +24,6 @@
 //! The `dof`/`order` lines give the order of the values on the AMC lines, which is the order
 //! the channels are stored in.
 
-// `motionlab_core::Error` is 128 bytes (file path, field, message); boxing it is a core
-// decision, so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -10,9 +10,6 @@
 //! section needs the allocation-free number scanner of `text.rs` to reach the throughput in
 //! `benches/README.md`.
 
-// `motionlab_core::Error` is 128 bytes (file path, field, message); boxing it is a core
-// decision, so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use std::fmt::Write as _;
 use std::io::Write;

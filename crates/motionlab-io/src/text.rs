@@ -10,9 +10,6 @@
 //! Conventions: `\n` ends a line; `\r`, space and tab are blanks (so CRLF and LF files scan
 //! identically); line numbers are 1-based.
 
-// `motionlab_core::Error` is 128 bytes (file path, field, message); boxing it is a core
-// decision, so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use std::path::Path;
 

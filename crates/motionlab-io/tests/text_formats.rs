@@ -4,9 +4,6 @@
 //! Each shipped motion is loaded once per test binary (forward kinematics of a 4600-frame AMC
 //! takes seconds in an unoptimised build).
 
-// `motionlab_core::Error` is 128 bytes (file path, field, message); boxing it is a core
-// decision, so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use std::path::Path;
 use std::sync::LazyLock;

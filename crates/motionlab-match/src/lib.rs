@@ -9,6 +9,7 @@
 //! | step | plugin | kind | module |
 //! |---|---|---|---|
 //! | subtract each marker's initial position | `initial_pose_normalisation` | preprocessor | [`initial_pose`] |
+//! | (timing test) shift one limb's markers later by a known time | `delay_points` | preprocessor | [`delay`] |
 //! | one point per repetition on the user's take, a window around each | `velocity_peaks` | point detector | [`peaks`] |
 //! | model against each window: common `[a, b]`, `h_l`, `H`, paths | `multistream_two_stage` | matcher | [`multistream`] |
 //! | (baseline) one marker, free start and end | `subsequence_dp` | matcher | [`subsequence`] |
@@ -45,6 +46,7 @@
 //! missing frame, and points to the `fill_gaps` preprocessor); the normalisation keeps them
 //! missing; the synchroniser and the judgement only see what the matchers produced.
 
+pub mod delay;
 pub mod dp;
 pub mod initial_pose;
 pub mod input;
@@ -58,8 +60,9 @@ pub mod sync;
 mod tests {
     use motionlab_core::registry::{check_registry, find};
 
-    const PLUGINS: [&str; 6] = [
+    const PLUGINS: [&str; 7] = [
         "initial_pose_normalisation",
+        "delay_points",
         "velocity_peaks",
         "multistream_two_stage",
         "subsequence_dp",

@@ -78,7 +78,8 @@ pub struct HtmlTable {
     pub rows: Vec<Vec<String>>,
     /// Relative links to the CSV / Parquet / Markdown files.
     pub csv: String,
-    pub parquet: String,
+    /// None where only CSV and Markdown are kept (runs of record).
+    pub parquet: Option<String>,
     pub markdown: String,
     /// Rows omitted from the page (long per-frame tables are linked, not printed).
     pub omitted_rows: usize,
@@ -110,7 +111,7 @@ impl HtmlTable {
             headers,
             rows,
             csv: format!("{dir_prefix}{name}.csv"),
-            parquet: format!("{dir_prefix}{name}.parquet"),
+            parquet: Some(format!("{dir_prefix}{name}.parquet")),
             markdown: format!("{dir_prefix}{name}.md"),
             omitted_rows,
         }

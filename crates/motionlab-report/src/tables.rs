@@ -127,4 +127,23 @@ mod tests {
         assert_eq!(back.shape(), (2, 4));
         std::fs::remove_dir_all(&dir).ok();
     }
+
+    /// Independent recomputations (bench/osafune_check.py recomputes K, μ, σ, CV from the CSV
+    /// to 1e-9) need the CSV to hold each double exactly: Polars writes the shortest text that
+    /// parses back to the same bits (zmij), which this pins.
+    #[test]
+    fn csv_floats_parse_back_to_the_same_bits() {
+        let xs = [0.1 + 0.2, 1.0 / 3.0, -123456.789e-300, 2f64.sqrt() * 1e17, 5e-324, f64::MAX, -0.0, 10.258403953060842, f64::NAN, f64::INFINITY];
+        let mut t = Table::new("floats", "floats");
+        t.push_column("x", ColumnValues::F64(xs.to_vec())).unwrap();
+        let dir = std::env::temp_dir().join(format!("mlab-floats-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let csv = std::fs::read_to_string(write_table(&t, &dir).unwrap().csv).unwrap();
+        let back: Vec<f64> = csv.lines().skip(1).map(|l| l.parse::<f64>().unwrap_or_else(|e| panic!("{l:?}: {e}"))).collect();
+        assert_eq!(back.len(), xs.len());
+        for (a, b) in xs.iter().zip(&back) {
+            assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{a:e} written as {b:e}\n{csv}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

@@ -340,7 +340,9 @@ fn pr_curves(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Output> {
         recall: f64,
         f1: f64,
     }
-    let mut curves: Vec<(String, Vec<(f64, f64, f64, usize, String)>)> = Vec::new();
+    /// (recall, precision, F1, combination, parameters) of one sweep point.
+    type Point = (f64, f64, f64, usize, String);
+    let mut curves: Vec<(String, Vec<Point>)> = Vec::new();
     for co in combos {
         let Some(t) = co.output.tables.iter().find(|t| ["method", "precision", "recall", "f1", "sequence"].iter().all(|c| t.column(c).is_some()))
         else {

@@ -24,9 +24,6 @@
 //! files does (checked: no all-zero point in any of them), so exact zeros are data unless
 //! `zero_means_missing = true`.
 
-// `motionlab_core::Error` is 128 bytes (file path, field, message); boxing it is a core
-// decision, so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 pub mod raw;
 
@@ -64,7 +61,9 @@ use raw::{header_offset, C3dFile, DataLayout, Param};
 ///
 /// Missing samples: a negative residual word marks a sample missing (the C3D convention; the
 /// stale coordinates such files keep are discarded); it is flagged in the missing mask and
-/// stored as NaN, never dropped or zero-filled. X = Y = Z = 0 is missing only with
+/// stored as NaN, never dropped or zero-filled. A NaN coordinate in a float file (how some
+/// writers mark a gap) is missing likewise; an infinite one is an error (`NonFinite`, naming
+/// the byte offset, frame and marker). X = Y = Z = 0 is missing only with
 /// `zero_means_missing`.
 ///
 /// Errors name the file, the byte offset and the parameter (`POINT:SCALE`): a wrong key byte
@@ -148,7 +147,7 @@ pub fn parse_c3d(bytes: &[u8], origin: &Path, options: &C3dOptions) -> Result<Mo
     let rate = frame_rate(&file)?;
     let mm_per_unit = units(&file)?;
     let names = point_names(&file, layout.points)?;
-    let positions = decode_points(&file, &layout, mm_per_unit, options.zero_means_missing)?;
+    let positions = decode_points(&file, &layout, mm_per_unit, options.zero_means_missing, &names)?;
     let events = events(&file, &layout, rate)?;
     let mut motion = Motion::new(crate::read::stem(origin), rate, options.up_axis, PointKind::Marker, names, positions)
         .map_err(|e| e.in_file(origin))?
@@ -232,8 +231,15 @@ fn point_names(file: &C3dFile<'_>, n_points: usize) -> Result<Vec<String>> {
 }
 
 /// Reads X, Y, Z and the residual word of every point of every frame; a negative residual
-/// (or, with `zero_means_missing`, X = Y = Z = 0) gives a NaN sample.
-fn decode_points(file: &C3dFile<'_>, layout: &DataLayout, mm_per_unit: f64, zero_means_missing: bool) -> Result<Vec<[f64; 3]>> {
+/// (or, with `zero_means_missing`, X = Y = Z = 0, or a NaN coordinate in float storage) gives
+/// a NaN sample. An infinite coordinate in a sample the residual calls valid is an error.
+fn decode_points(
+    file: &C3dFile<'_>,
+    layout: &DataLayout,
+    mm_per_unit: f64,
+    zero_means_missing: bool,
+    names: &[String],
+) -> Result<Vec<[f64; 3]>> {
     let bytes = file.bytes;
     let proc = file.processor;
     let word = if layout.float { 4 } else { 2 };
@@ -244,7 +250,7 @@ fn decode_points(file: &C3dFile<'_>, layout: &DataLayout, mm_per_unit: f64, zero
     for frame in 0..layout.n_frames {
         let frame_start = layout.start + frame * layout.frame_bytes;
         let frame_bytes = bytes.get(frame_start..frame_start + 4 * layout.points * word).ok_or_else(|| out_of_file(frame_start))?;
-        for point in frame_bytes.chunks_exact(4 * word) {
+        for (k, point) in frame_bytes.chunks_exact(4 * word).enumerate() {
             let (xyz, valid) = if layout.float {
                 let v = |i: usize| proc.f32([point[4 * i], point[4 * i + 1], point[4 * i + 2], point[4 * i + 3]]);
                 // `!(r >= 0)` also treats a NaN residual as missing.
@@ -254,6 +260,26 @@ fn decode_points(file: &C3dFile<'_>, layout: &DataLayout, mm_per_unit: f64, zero
                 let s = layout.scale;
                 ([f64::from(v(0)) * s, f64::from(v(1)) * s, f64::from(v(2)) * s], v(3) >= 0)
             };
+            // Only float storage can hold ±inf. No writer's missing-data convention uses it
+            // (NaN is sometimes written for missing and becomes a missing sample below), so it
+            // is corruption, refused rather than silently dropped.
+            if valid && let Some(axis) = xyz.iter().position(|c| c.is_infinite()) {
+                let at = frame_start + k * 4 * word + axis * word;
+                let label = names.get(k).map_or("?", String::as_str);
+                return Err(file
+                    .ctx
+                    .err(
+                        ErrorKind::NonFinite,
+                        at,
+                        format!(
+                            "frame {} marker {label:?}: {} is {}; expected a finite coordinate (a missing sample has a negative residual)",
+                            frame + 1,
+                            ["X", "Y", "Z"][axis],
+                            xyz[axis]
+                        ),
+                    )
+                    .with_field(label.to_string()));
+            }
             let zero = zero_means_missing && xyz == [0.0; 3];
             positions.push(if valid && !zero {
                 [xyz[0] * mm_per_unit, xyz[1] * mm_per_unit, xyz[2] * mm_per_unit]

@@ -295,11 +295,16 @@ impl<'a> C3dFile<'a> {
                 .err(
                     ErrorKind::OutOfRange,
                     header_offset::PARAMETER_BLOCK,
-                    format!(
-                        "parameter block pointer is {parameter_block}; expected a block from 2 to {} (block 1 is the header, the file has {} blocks)",
-                        bytes.len().div_ceil(BLOCK),
-                        bytes.len().div_ceil(BLOCK)
-                    ),
+                    match bytes.len().div_ceil(BLOCK) {
+                        // A file of the header block alone has no valid pointer to name.
+                        n if n < 2 => format!(
+                            "parameter block pointer is {parameter_block}, but the file is {} bytes and ends after its header block; expected a parameter section from block 2",
+                            bytes.len()
+                        ),
+                        n => format!(
+                            "parameter block pointer is {parameter_block}; expected a block from 2 to {n} (block 1 is the header, the file has {n} blocks)"
+                        ),
+                    },
                 )
                 .with_field("header.parameter_block"));
         }
@@ -398,10 +403,16 @@ impl<'a> C3dFile<'a> {
         let first = field("ACTUAL_START_FIELD", self.header.first_frame)?;
         let last = field("ACTUAL_END_FIELD", self.header.last_frame)?;
         if last < first {
-            let msg = format!("last frame {last} is before first frame {first}: a negative frame count");
+            // last = first − 1 is a file with no frames (a writer's empty trial), not a corrupt
+            // range: reported as an empty sequence.
+            let (kind, msg) = if last + 1 == first {
+                (ErrorKind::EmptySequence, format!("no frames: last frame {last} is just before first frame {first}; expected at least one frame"))
+            } else {
+                (ErrorKind::OutOfRange, format!("last frame {last} is before first frame {first}: a negative frame count"))
+            };
             return Err(match self.param("TRIAL", "ACTUAL_END_FIELD") {
-                Some(p) => self.ctx.param_err(ErrorKind::OutOfRange, p, msg),
-                None => self.ctx.err(ErrorKind::OutOfRange, header_offset::LAST_FRAME, msg).with_field("header.last_frame"),
+                Some(p) => self.ctx.param_err(kind, p, msg),
+                None => self.ctx.err(kind, header_offset::LAST_FRAME, msg).with_field("header.last_frame"),
             });
         }
         Ok((first, last))

@@ -1,8 +1,5 @@
 //! `cmu86_labels`: the CMU subject-86 segment labels (`data/cmu86/mocap.txt`).
 
-// `motionlab_core::Error` is 128 bytes (file path, field, message); boxing it is a core
-// decision, so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use std::path::Path;
 

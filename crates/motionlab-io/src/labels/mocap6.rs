@@ -1,8 +1,5 @@
 //! `mocap6_labels`: the mocap6 exercise labels (`data/mocap6/truelabels/<trial>.txt`).
 
-// `motionlab_core::Error` is 128 bytes (file path, field, message); boxing it is a core
-// decision, so the lint is silenced here rather than worked around per function.
-#![allow(clippy::result_large_err)]
 
 use std::path::Path;
 
@@ -87,13 +84,11 @@ pub fn parse_mocap6_labels(text: &str, origin: &Path) -> Result<Vec<BlockLabel>>
     let mut out = Vec::new();
     for (i, raw) in text.split('\n').enumerate() {
         for w in raw.split_ascii_whitespace() {
+            // A word that is no whole number is a syntax error; a number outside 1–12 is out
+            // of range (tests assert the two apart).
+            let kind = if w.parse::<usize>().is_ok() { ErrorKind::OutOfRange } else { ErrorKind::Syntax };
             let label = w.parse::<usize>().ok().filter(|l| (1..=MOCAP6_ACTIONS.len()).contains(l)).ok_or_else(|| {
-                Error::at_line(
-                    ErrorKind::OutOfRange,
-                    origin,
-                    i + 1,
-                    format!("label {} is {w:?}; expected an action number 1 to 12", out.len() + 1),
-                )
+                Error::at_line(kind, origin, i + 1, format!("label {} is {w:?}; expected an action number 1 to 12", out.len() + 1))
             })?;
             out.push(BlockLabel { label, line: i + 1 });
         }
@@ -183,9 +178,9 @@ mod tests {
 
     #[test]
     fn labels_outside_1_to_12_name_their_line() {
-        for bad in ["1 1\n13", "1 1\n0", "1 1\nx"] {
+        for (bad, kind) in [("1 1\n13", ErrorKind::OutOfRange), ("1 1\n0", ErrorKind::OutOfRange), ("1 1\nx", ErrorKind::Syntax)] {
             let e = parse_mocap6_labels(bad, Path::new("l.txt")).unwrap_err();
-            assert_eq!((e.kind(), e.location().line), (ErrorKind::OutOfRange, Some(2)), "{bad}");
+            assert_eq!((e.kind(), e.location().line), (kind, Some(2)), "{bad}");
         }
         let e = motionlab_core::registry::build_ground_truth("mocap6_labels", &toml::from_str("block_frames = 0").unwrap())
             .err()

@@ -1,0 +1,39 @@
+//! Experiment TOML: the in-memory half of `motionlab_engine::plan` — TOML syntax → an override
+//! → schema deserialisation (serde_path_to_error, key path + line) → sweep expansion → every
+//! stage built through the plugin registry (parameter validation) → the workflow built. No
+//! file is read or globbed: inputs would otherwise make the fuzzer walk the file system.
+#![no_main]
+
+mod common;
+
+use std::path::Path;
+
+use libfuzzer_sys::fuzz_target;
+use motionlab_engine::plan::{Source, parse_experiment, build_stages_in_memory};
+
+// Name the plugin crates so their registrations are linked in.
+use motionlab_eval as _;
+use motionlab_features as _;
+use motionlab_gait as _;
+use motionlab_match as _;
+use motionlab_segment as _;
+
+fuzz_target!(|data: &[u8]| {
+    let Some(text) = common::text(data) else { return };
+    // The first line, when it is `#! key=value`, is used as a command-line override.
+    let overrides: Vec<String> = match text.lines().next().and_then(|l| l.strip_prefix("#! ")) {
+        Some(o) => vec![o.to_string()],
+        None => vec![],
+    };
+    let source = Source { path: Path::new("/nonexistent/fuzz.toml").to_path_buf(), text: text.to_string() };
+    match parse_experiment(&source, &overrides) {
+        Ok(parsed) => {
+            for combo in &parsed.combos {
+                if let Err(e) = build_stages_in_memory(&source, parsed.workflow_kind, combo) {
+                    common::assert_names_file(&e, "/nonexistent/fuzz.toml");
+                }
+            }
+        }
+        Err(e) => common::assert_names_file(&e, "/nonexistent/fuzz.toml"),
+    }
+});

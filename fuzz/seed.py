@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""Builds the fuzz seed corpora in fuzz/corpus/<target>/ from the shipped real files in data/
+and the malformed fixtures in tests/fixtures/ (see README.md). Deterministic; the corpora are
+not committed (.gitignore), so run this (fuzz/seed.sh does) on a fresh clone.
+
+Big files are cut to a few frames *with their frame counts patched*, so the seeds are small
+valid files — the fuzzer then mutates from a file that parses all the way through, instead of
+spending its time on multi-hundred-KB inputs that all fail at the same truncation check.
+"""
+
+import gzip
+import shutil
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "data"
+FIXTURES = ROOT / "tests" / "fixtures"
+sys.path.insert(0, str(FIXTURES))
+from c3d_edit import C3d  # noqa: E402
+
+TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "experiment_toml"]
+
+
+def read(p: Path) -> bytes:
+    return gzip.open(p).read() if p.suffix == ".gz" else p.read_bytes()
+
+
+def bvh_frames(text: str, k: int) -> str:
+    """The BVH cut to its first k frames, `Frames:` patched."""
+    head, motion = text.split("MOTION", 1)
+    lines = motion.lstrip("\r\n").splitlines(keepends=True)
+    # lines[0] = "Frames: N", lines[1] = "Frame Time: t", then frames
+    return head + "MOTION\n" + f"Frames: {k}\n" + lines[1] + "".join(lines[2 : 2 + k])
+
+
+def amc_frames(text: str, k: int) -> str:
+    """The AMC cut before the frame-number line of frame k + 1."""
+    out, frames = [], 0
+    for line in text.splitlines(keepends=True):
+        if line.strip().isdigit():
+            frames += 1
+            if frames > k:
+                break
+        out.append(line)
+    return "".join(out)
+
+
+def tsv_rows(text: str, first: int, k: int) -> str:
+    """Header plus rows first..first+k-1 (0-based), NO_OF_FRAMES patched."""
+    lines = text.splitlines(keepends=True)
+    header = [l for l in lines if l[:1].isalpha()]
+    rows = [l for l in lines if not l[:1].isalpha() and l.strip()]
+    header = [f"NO_OF_FRAMES\t{k}\n" if l.startswith("NO_OF_FRAMES") else l for l in header]
+    return "".join(header + rows[first : first + k])
+
+
+def main() -> None:
+    corpus = ROOT / "fuzz" / "corpus"
+    for t in TARGETS:
+        d = corpus / t
+        d.mkdir(parents=True, exist_ok=True)
+    seeds: dict[str, dict[str, bytes]] = {t: {} for t in TARGETS}
+
+    for p in sorted((DATA / "cmu131").glob("*.bvh.gz")):
+        text = read(p).decode()
+        for k in (1, 8, 60):
+            seeds["bvh"][f"{p.name[:-7]}_{k}f.bvh"] = bvh_frames(text, k).encode()
+        seeds["bvh"][f"{p.name[:-7]}_8f_crlf.bvh"] = bvh_frames(text, 8).replace("\r\n", "\n").replace("\n", "\r\n").encode()
+
+    for p in [DATA / "cmu86/86.asf", DATA / "mocap6/asf/13.asf", DATA / "mocap6/asf/14.asf"]:
+        seeds["asf"][p.name] = read(p)
+    for p, name in [(DATA / "cmu86/86_01.amc.gz", "86_01"), (DATA / "mocap6/amc/13_29.amc.gz", "13_29")]:
+        text = read(p).decode()
+        for k in (1, 6, 40):
+            seeds["amc"][f"{name}_{k}f.amc"] = amc_frames(text, k).encode()
+
+    c3ds = [DATA / "mct/walk1.c3d.gz", DATA / "mct/dance1.c3d.gz"] + sorted(DATA.glob("schreiber2019/*/dynamic/*.c3d.gz"))[:2]
+    for p in c3ds:
+        stem = p.name[:-7]
+        for k in (1, 10):
+            seeds["c3d"][f"{stem}_{k}f.c3d"] = C3d(read(p)).keep_frames(k)
+
+    walk1 = read(DATA / "mct/walk1.tsv.gz").decode()
+    seeds["qualisys_tsv"]["walk1_rows_0_10.tsv"] = tsv_rows(walk1, 0, 10).encode()
+    # walk1's 27 missing samples (NaN) are in rows 201–211 and 306–321 (1-based).
+    seeds["qualisys_tsv"]["walk1_rows_196_20_nan.tsv"] = tsv_rows(walk1, 195, 20).encode()
+    dance1 = read(DATA / "mct/dance1.tsv.gz").decode()
+    seeds["qualisys_tsv"]["dance1_rows_0_5.tsv"] = tsv_rows(dance1, 0, 5).encode()
+
+    seeds["cmu86_labels"]["mocap.txt"] = read(DATA / "cmu86/mocap.txt")
+    for p in sorted((DATA / "mocap6/truelabels").glob("*.txt")):
+        seeds["mocap6_labels"][p.name] = read(p)
+
+    for p in sorted((ROOT / "experiments").glob("*.toml")):
+        seeds["experiment_toml"][p.name] = read(p)
+
+    # The malformed corpus, by extension.
+    by_ext = {".bvh": "bvh", ".asf": "asf", ".amc": "amc", ".c3d": "c3d", ".tsv": "qualisys_tsv", ".toml": "experiment_toml"}
+    for d in [FIXTURES / "malformed", FIXTURES / "fuzz"]:
+        for p in sorted(d.glob("*")) if d.is_dir() else []:
+            name = p.name
+            if name.endswith("_labels.txt") or name.startswith("cmu86_"):
+                target = "cmu86_labels" if "cmu86" in name else "mocap6_labels"
+            else:
+                target = by_ext.get(p.suffix)
+            if target and p.is_file():
+                seeds[target][f"fixture_{name}"] = p.read_bytes()
+
+    for t, files in seeds.items():
+        for name, data in files.items():
+            (corpus / t / name).write_bytes(data)
+        print(f"{t:16} {len(files):3} seeds, {sum(len(b) for b in files.values()) // 1024:5} KiB")
+
+
+if __name__ == "__main__":
+    main()
