@@ -21,10 +21,10 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
-if os.environ.get("MOTIONLAB_BENCH_VENV") != "1":
-    python = subprocess.run([os.path.join(HERE, "setup_venv.sh")], check=True, capture_output=True, text=True).stdout.strip()
-    os.environ["MOTIONLAB_BENCH_VENV"] = "1"
-    os.execv(python, [python, *sys.argv])
+sys.path.insert(0, HERE)
+from bench_env import ensure_venv  # noqa: E402
+
+ensure_venv()
 
 import numpy as np  # noqa: E402
 import scipy  # noqa: E402

@@ -43,11 +43,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def ensure_venv():
-    python = subprocess.run([os.path.join(HERE, "setup_venv.sh")], check=True, capture_output=True, text=True).stdout.strip()
-    if os.path.realpath(sys.prefix) != os.path.realpath(os.path.dirname(os.path.dirname(python))):
-        os.execv(python, [python] + sys.argv)
-
+sys.path.insert(0, HERE)
+from bench_env import ensure_venv  # noqa: E402
 
 ensure_venv()
 

@@ -233,19 +233,18 @@ pub fn build_stages_in_memory(source: &Source, workflow_kind: WorkflowKind, comb
 }
 
 fn deserialize_file(source: &Source, doc: &toml::Table) -> Result<ExperimentFile> {
-    let r: std::result::Result<ExperimentFile, serde_path_to_error::Error<toml::de::Error>> =
-        serde_path_to_error::deserialize(toml::Value::Table(doc.clone()));
-    r.map_err(|e| {
-        let path = KeyPath::from(e.path());
-        let msg = e.inner().message().to_string();
-        let kind = if msg.starts_with("unknown field") {
-            ErrorKind::UnknownKey
-        } else if msg.starts_with("missing field") {
-            ErrorKind::MissingKey
-        } else {
-            ErrorKind::WrongType
+    deserialize_section(source, doc, toml::Value::Table(doc.clone()), &KeyPath::default())
+}
+
+/// Deserialises a table of the document found at `root` (a workflow section, or the whole
+/// document at the empty path), with errors located at `root.<field>` and its line.
+pub fn deserialize_section<T: serde::de::DeserializeOwned>(source: &Source, doc: &toml::Table, value: toml::Value, root: &KeyPath) -> Result<T> {
+    registry::parse_params::<T>(&value).map_err(|e| {
+        let path = match &e.location().field {
+            Some(f) if !f.is_empty() => root.join_field(f),
+            _ => root.clone(),
         };
-        source.locate(Error::new(kind, msg), &path, doc)
+        source.locate(e, &path, doc)
     })
 }
 

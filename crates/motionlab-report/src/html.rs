@@ -19,11 +19,17 @@ use crate::tables::{formatted_rows, to_dataframe};
 const RUN_TEMPLATE: &str = include_str!("../templates/run.html");
 const INDEX_TEMPLATE: &str = include_str!("../templates/index.html");
 const COMPARE_TEMPLATE: &str = include_str!("../templates/compare.html");
+const COMPARISON_PARTIAL: &str = include_str!("../templates/comparison.html");
 const STYLE: &str = include_str!("../templates/style.css");
 
 fn env() -> Result<Environment<'static>> {
     let mut env = Environment::new();
-    for (name, src) in [("run.html", RUN_TEMPLATE), ("index.html", INDEX_TEMPLATE), ("compare.html", COMPARE_TEMPLATE)] {
+    for (name, src) in [
+        ("run.html", RUN_TEMPLATE),
+        ("index.html", INDEX_TEMPLATE),
+        ("compare.html", COMPARE_TEMPLATE),
+        ("comparison.html", COMPARISON_PARTIAL),
+    ] {
         env.add_template(name, src).map_err(template_error)?;
     }
     Ok(env)

@@ -80,7 +80,6 @@ use motionlab_gait::loso::{leave_one_subject_out, LosoResult};
 use motionlab_gait::study::{study_of, AnalysedWalk, SubjectWalk, Walk};
 use motionlab_report::{Chart, Figure, Pose, RefLine, Series, StickRow};
 
-use super::segmentation::build_evaluators;
 use super::shared::{axis_name, main_floor_axis, stick_strip};
 use super::{ItemData, ItemOutput, Output, WorkItem, Workflow};
 use crate::plan::{build_stage, Combo, Datasets, Source};
@@ -284,11 +283,7 @@ fn locate_at(source: &Source, doc: &toml::Table, path: &str, err: Error) -> Erro
 /// Deserialises `[gait]`, errors located at `gait.<field>` and its line.
 fn parse_section(source: &Source, combo: &Combo) -> Result<GaitSection> {
     let table = combo.file.gait.clone().ok_or_else(|| Error::new(ErrorKind::MissingKey, "[gait] is missing"))?;
-    parse_params::<GaitSection>(&toml::Value::Table(table)).map_err(|e| {
-        let field = e.location().field.clone().unwrap_or_default();
-        let path = if field.is_empty() { "gait".to_string() } else { format!("gait.{field}") };
-        locate_at(source, &combo.doc, &path, e)
-    })
+    crate::plan::deserialize_section(source, &combo.doc, toml::Value::Table(table), &KeyPath::parse("gait")?)
 }
 
 fn change_rates_builder(_name: &str, params: &toml::Value) -> Result<Box<ChangeRates>> {
@@ -318,7 +313,7 @@ impl GaitWorkflow {
             }
             None => None,
         };
-        let evaluators = build_evaluators(source, combo, EvalDomain::Gait)?;
+        let evaluators = super::build_evaluators(source, combo, EvalDomain::Gait)?;
         let Some(k) = combo.file.evaluators.iter().position(|e| e.kind == "change_rates") else {
             return Err(here(
                 "gait",

@@ -73,7 +73,6 @@ use motionlab_core::{
 };
 use motionlab_report::{BarRow, Chart, Figure, RefLine, Series};
 
-use super::segmentation::build_evaluators;
 use super::{sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow};
 use crate::plan::{build_stage, BuiltDataset, Combo, Datasets, Source};
 use crate::spec::{Cut, StageSpec};
@@ -253,7 +252,7 @@ impl MatchingWorkflow {
         let matcher = build_stage(source, combo, &section.matcher, &root.key("matcher"), registry::build_matcher)?;
         let synchroniser = build_stage(source, combo, &section.synchroniser, &root.key("synchroniser"), registry::build_synchroniser)?;
         let matcher_points = stage_points(&section.matcher);
-        let evaluators = build_evaluators(source, combo, EvalDomain::Matching)?;
+        let evaluators = super::build_evaluators(source, combo, EvalDomain::Matching)?;
         let takes = build_takes(source, combo, data, &section, model, &root)?;
         if takes.is_empty() {
             return Err(locate(
@@ -315,20 +314,7 @@ impl MatchingWorkflow {
 
 fn parse_section(source: &Source, combo: &Combo, root: &KeyPath) -> Result<MatchingSection> {
     let table = combo.file.matching.clone().ok_or_else(|| Error::new(ErrorKind::MissingKey, "[matching] is missing"))?;
-    let r: std::result::Result<MatchingSection, serde_path_to_error::Error<toml::de::Error>> =
-        serde_path_to_error::deserialize(toml::Value::Table(table));
-    r.map_err(|e| {
-        let path = KeyPath(root.0.iter().cloned().chain(KeyPath::from(e.path()).0).collect());
-        let msg = e.inner().message().to_string();
-        let kind = if msg.starts_with("unknown field") {
-            ErrorKind::UnknownKey
-        } else if msg.starts_with("missing field") {
-            ErrorKind::MissingKey
-        } else {
-            ErrorKind::WrongType
-        };
-        source.locate(Error::new(kind, msg), &path, &combo.doc)
-    })
+    crate::plan::deserialize_section(source, &combo.doc, toml::Value::Table(table), root)
 }
 
 fn check_point_list(points: &[String]) -> Result<()> {

@@ -6,10 +6,12 @@
 //! results of one sweep combination into tables and figures; `summarize` may add tables and
 //! figures across combinations (precision–recall curves of a sweep).
 
-use motionlab_core::{Result, Table};
+use motionlab_core::registry;
+use motionlab_core::{Error, ErrorKind, EvalDomain, Evaluator, Result, Table};
 use motionlab_report::Figure;
 
-use crate::plan::{Combo, Datasets, Source};
+use crate::plan::{build_stage, Combo, Datasets, Source};
+use crate::toml_paths::KeyPath;
 use crate::spec::WorkflowKind;
 
 pub mod features;
@@ -78,6 +80,31 @@ pub trait Workflow: Send + Sync {
     fn summarize(&self, _combos: &[ComboOutput<'_>]) -> Result<Output> {
         Ok(Output::default())
     }
+}
+
+/// Builds `[[evaluate]]` stages, checking each accepts this workflow's results.
+pub fn build_evaluators(source: &Source, combo: &Combo, domain: EvalDomain) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
+    let root = KeyPath::parse("evaluate")?;
+    combo
+        .file
+        .evaluators
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let e = build_stage(source, combo, s, &root.index(k), registry::build_evaluator)?;
+            if e.domain() != domain {
+                return Err(source.locate(
+                    Error::new(
+                        ErrorKind::InvalidParameter,
+                        format!("evaluator {:?} evaluates {:?} results, but this experiment produces {domain:?} results", s.kind, e.domain()),
+                    ),
+                    &root.index(k).key("type"),
+                    &combo.doc,
+                ));
+            }
+            Ok((s.display_name(), e))
+        })
+        .collect()
 }
 
 /// One item per file of every dataset, ids from sequence names (made unique).

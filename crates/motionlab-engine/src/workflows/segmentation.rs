@@ -90,38 +90,13 @@ impl SegmentationWorkflow {
             Some(f) => Some((f.display_name(), build_stage(source, combo, f, &root.key("fuser"), registry::build_fuser)?)),
             None => None,
         };
-        let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
+        let evaluators = super::build_evaluators(source, combo, EvalDomain::Segmentation)?;
         Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators })
     }
 
     fn method_names(&self) -> Vec<String> {
         self.segmenters.iter().map(|(n, _)| n.clone()).chain(self.fuser.iter().map(|(n, _)| n.clone())).collect()
     }
-}
-
-/// Builds `[[evaluate]]` stages, checking each accepts this workflow's results.
-pub fn build_evaluators(source: &Source, combo: &Combo, domain: EvalDomain) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
-    let root = KeyPath::parse("evaluate")?;
-    combo
-        .file
-        .evaluators
-        .iter()
-        .enumerate()
-        .map(|(k, s)| {
-            let e = build_stage(source, combo, s, &root.index(k), registry::build_evaluator)?;
-            if e.domain() != domain {
-                return Err(source.locate(
-                    Error::new(
-                        ErrorKind::InvalidParameter,
-                        format!("evaluator {:?} evaluates {:?} results, but this experiment produces {domain:?} results", s.kind, e.domain()),
-                    ),
-                    &root.index(k).key("type"),
-                    &combo.doc,
-                ));
-            }
-            Ok((s.display_name(), e))
-        })
-        .collect()
 }
 
 impl Workflow for SegmentationWorkflow {
@@ -365,6 +340,7 @@ fn pr_curves(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Output> {
                 Some(e) => e,
                 None => {
                     curves.push((key, Vec::new()));
+                    // Cannot fail: the vector is non-empty, an element was pushed just above.
                     curves.last_mut().expect("just pushed")
                 }
             };

@@ -1,0 +1,16 @@
+"""Shared by the bench scripts: re-run the calling script under bench/.venv, which
+setup_venv.sh (re)creates from the pinned requirements.txt, so every script works on a fresh
+clone with a plain `bench/<script>.py`."""
+import os
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+def ensure_venv():
+    """Re-runs the current script under bench/.venv if it is not already running there."""
+    python = subprocess.run([os.path.join(HERE, "setup_venv.sh")], check=True, capture_output=True, text=True).stdout.strip()
+    if os.path.realpath(sys.prefix) != os.path.realpath(os.path.dirname(os.path.dirname(python))):
+        os.execv(python, [python] + sys.argv)
