@@ -100,8 +100,10 @@ def main() -> None:
     for d in [FIXTURES / "malformed", FIXTURES / "fuzz"]:
         for p in sorted(d.glob("*")) if d.is_dir() else []:
             name = p.name
-            if name.endswith("_labels.txt") or name.startswith("cmu86_"):
-                target = "cmu86_labels" if "cmu86" in name else "mocap6_labels"
+            if name.startswith("cmu86_"):
+                target = "cmu86_labels"
+            elif name.startswith("mocap6_"):
+                target = "mocap6_labels"
             else:
                 target = by_ext.get(p.suffix)
             if target and p.is_file():

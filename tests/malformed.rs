@@ -115,7 +115,7 @@ fn bvh_defects_name_kind_and_line() {
         ("bvh_duplicate_joint.bvh", ErrorKind::DuplicateName, 39, "joint \"LeftHip\" is already declared at line 10"),
         ("bvh_duplicate_channel.bvh", ErrorKind::DuplicateName, 9, "channel Zrotation is listed twice"),
         ("bvh_non_utf8.bvh", ErrorKind::Syntax, 191, "invalid UTF-8"),
-        ("bvh_long_line.bvh", ErrorKind::WrongValueCount, 192, "frame 5: found 100096 values, expected 96"),
+        ("bvh_long_line.bvh", ErrorKind::WrongValueCount, 192, "frame 5: found 30096 values, expected 96"),
         // Older hand-written cases (also run through the CLI in tests/cli.rs).
         ("truncated.bvh", ErrorKind::Truncated, 198, "Frames: 994"),
         ("wrong_value_count.bvh", ErrorKind::WrongValueCount, 191, "found 95 values, expected 96"),
@@ -335,7 +335,7 @@ fn tsv_defects_name_kind_line_and_column() {
         ("tsv_neg_inf.tsv", ErrorKind::NonFinite, 20, Some("BigToe_R Z"), "\"-Infinity\""),
         ("tsv_duplicate_marker.tsv", ErrorKind::DuplicateName, 10, Some("Spine"), "named twice (columns 8 and 9)"),
         ("tsv_non_utf8.tsv", ErrorKind::Syntax, 15, None, "invalid UTF-8"),
-        ("tsv_long_line.tsv", ErrorKind::WrongValueCount, 17, None, "found 100084 values, expected 3 × 28 markers = 84"),
+        ("tsv_long_line.tsv", ErrorKind::WrongValueCount, 17, None, "found 30084 values, expected 3 × 28 markers = 84"),
         ("short_row.tsv", ErrorKind::WrongValueCount, 13, None, "expected 3 × 28 markers = 84"),
     ];
     for (file, kind, line, field, says) in cases {
@@ -429,6 +429,31 @@ fn experiment_defects_name_kind_key_path_and_line() {
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Fuzzer findings (tests/fixtures/fuzz/: the minimised inputs, see fuzz/README.md)
+// ---------------------------------------------------------------------------------------------
+
+fn fuzz_fixture(name: &str) -> PathBuf {
+    motionlab_testkit::repo_root().join("tests/fixtures/fuzz").join(name)
+}
+
+#[test]
+fn fuzz_finding_a_malformed_sweep_key_is_located_at_the_sweep() {
+    // experiment_toml: a grid key that is no key path (`"et["`) was reported without file or line.
+    let file = "experiment_sweep_bad_key.toml";
+    assert_error(motionlab_engine::plan(&fuzz_fixture(file), &[]).map(|_| ()), file, ErrorKind::Syntax, At::LineField(9, "sweep"), "bad key path \"et[\": unclosed [");
+    // The same class through overrides: a bad override names the experiment file (it is not
+    // written in the file, so there is no line) and, when it cannot be set, its key path.
+    let quickstart = motionlab_testkit::repo_root().join("experiments/quickstart.toml");
+    for (o, kind, field) in [("et[=1", ErrorKind::Syntax, None), ("experiment.name[0]=1", ErrorKind::UnknownKey, Some("experiment.name[0]"))] {
+        let e = motionlab_engine::plan(&quickstart, &[o.to_string()]).map(|_| ()).unwrap_err();
+        assert_eq!(e.kind(), kind, "{o}: {e}");
+        assert_eq!(e.location().file.as_deref(), Some(quickstart.as_path()), "{o}: {e}");
+        assert_eq!(e.location().field.as_deref(), field, "{o}: {e}");
+        assert!(e.to_string().contains("quickstart.toml"), "{e}");
+    }
+}
+
 #[test]
 fn the_corpus_has_at_least_thirty_cases_and_make_py_lists_them_all() {
     let dir = motionlab_testkit::repo_root().join("tests/fixtures/malformed");
@@ -442,4 +467,9 @@ fn the_corpus_has_at_least_thirty_cases_and_make_py_lists_them_all() {
     let this = include_str!("malformed.rs");
     let untested: Vec<&String> = fixtures.iter().filter(|f| *f != "86.asf" && !this.contains(&format!("\"{f}\""))).collect();
     assert!(untested.is_empty(), "fixtures no test names: {untested:?}");
+    let fuzz_dir = motionlab_testkit::repo_root().join("tests/fixtures/fuzz");
+    for e in std::fs::read_dir(&fuzz_dir).unwrap() {
+        let f = e.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(this.contains(&format!("\"{f}\"")), "fuzz fixture {f} has no test");
+    }
 }

@@ -123,6 +123,9 @@ enum Command {
         experiments: PathBuf,
         #[arg(long, default_value = "reports")]
         reports: PathBuf,
+        /// Link the committed runs of record rather than the latest runs.
+        #[arg(long)]
+        records: bool,
     },
 }
 
@@ -252,8 +255,8 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             println!("wrote {}", path.display());
             Ok(ExitCode::SUCCESS)
         }
-        Command::Index { experiments, reports } => {
-            let p = motionlab_engine::pages::write_reproduction_index(&experiments, &reports)?;
+        Command::Index { experiments, reports, records } => {
+            let p = motionlab_engine::pages::write_reproduction_index(&experiments, &reports, records)?;
             println!("wrote {}", p.display());
             Ok(ExitCode::SUCCESS)
         }
@@ -299,7 +302,7 @@ fn reproduce(dir: &Path, args: &RunArgs, record: bool, only: Option<&str>) -> Re
             println!("  recorded into {}", dest.display());
         }
     }
-    let index = motionlab_engine::pages::write_reproduction_index(dir, &args.reports)?;
+    let index = motionlab_engine::pages::write_reproduction_index(dir, &args.reports, record)?;
     println!("wrote {}", index.display());
     Ok(ExitCode::SUCCESS)
 }

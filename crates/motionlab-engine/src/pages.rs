@@ -226,8 +226,11 @@ fn headline_value(run: &Path, h: &Headline) -> Option<String> {
     })
 }
 
-/// Rebuilds `reports/index.html` from the experiment files and the runs under `reports/`.
-pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path) -> Result<PathBuf> {
+/// Rebuilds `reports/index.html` from the experiment files and the runs under `reports/`: each
+/// experiment links its latest run, or — with `prefer_record`, or when it never ran here — its
+/// committed run of record (`reports/<name>/record/`), so the committed index works on a fresh
+/// clone.
+pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_record: bool) -> Result<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(experiments_dir)
         .map_err(|e| motionlab_core::Error::io(experiments_dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -241,7 +244,9 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path) -> Resul
         let exp_dir = reports.join(&file.experiment.name);
         let latest = std::fs::read_to_string(exp_dir.join("latest")).ok().map(|s| s.trim().to_string()).filter(|s| !s.is_empty());
         // Fall back to the committed run of record when nothing ran on this machine.
-        let run = latest.clone().map(|l| exp_dir.join(l)).filter(|p| p.is_dir()).or_else(|| Some(exp_dir.join("record")).filter(|p| p.is_dir()));
+        let record = Some(exp_dir.join("record")).filter(|p| p.is_dir());
+        let latest_run = latest.clone().map(|l| exp_dir.join(l)).filter(|p| p.is_dir());
+        let run = if prefer_record { record.or(latest_run) } else { latest_run.or(record) };
         let runs = std::fs::read_dir(&exp_dir)
             .map(|r| r.filter_map(|e| e.ok()).filter(|e| e.path().is_dir() && !e.file_name().to_string_lossy().starts_with('.')).count())
             .unwrap_or(0);

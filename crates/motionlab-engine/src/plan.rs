@@ -214,8 +214,11 @@ pub fn parse_experiment(source: &Source, overrides: &[String]) -> Result<ParsedE
         Error::new(ErrorKind::Syntax, e.message().trim().to_string()).with_location(loc)
     })?;
     for o in overrides {
-        let (p, v) = parse_override(o)?;
-        set_path(&mut doc, &p, v).map_err(|e| Error::new(e.kind(), format!("override {o:?}: {}", e.message())))?;
+        // An override is not written in the file, so its errors name the file but no line.
+        let (p, v) = parse_override(o).map_err(|e| e.with_location(Location::file(&source.path)))?;
+        set_path(&mut doc, &p, v).map_err(|e| {
+            Error::new(e.kind(), format!("override {o:?}: {}", e.message())).with_location(Location::file(&source.path).field(p.to_string()))
+        })?;
     }
     let file = deserialize_file(source, &doc)?;
     let workflow_kind = file.workflow().map_err(|e| e.with_location(Location::file(&source.path)))?;
@@ -294,7 +297,12 @@ fn expand_sweep(source: &Source, doc: &toml::Table, file: &ExperimentFile) -> Re
         for assignment in cartesian(grid) {
             let mut d = base.clone();
             for (k, v) in &assignment {
-                let p = KeyPath::parse(k)?;
+                // A malformed grid key (`"dataset[0.files"`) is located at the sweep (found by
+                // fuzzing: it used to be reported without file or line).
+                let p = KeyPath::parse(k).map_err(|e| {
+                    let sweep_path = KeyPath::parse("sweep").unwrap_or_default();
+                    source.locate(e, &sweep_path, doc)
+                })?;
                 set_path(&mut d, &p, v.clone()).map_err(|e| {
                     let sweep_path = KeyPath::parse("sweep").unwrap_or_default();
                     source.locate(e, &sweep_path, doc)

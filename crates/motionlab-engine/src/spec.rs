@@ -182,6 +182,7 @@ pub struct SegmentationSection {
     #[serde(default = "default_root")]
     pub root: String,
     /// Which figures to draw per sequence (default: all of `traces`, `root_path`, `timeline`,
+    /// `timeline_poses` — the timeline with the pose at each fused boundary underneath —, and
     /// `stick_strip`).
     #[serde(default = "default_seg_figures")]
     pub figures: Vec<String>,
@@ -192,7 +193,7 @@ fn default_root() -> String {
 }
 
 fn default_seg_figures() -> Vec<String> {
-    ["traces", "root_path", "timeline", "stick_strip"].iter().map(|s| s.to_string()).collect()
+    ["traces", "root_path", "timeline", "timeline_poses", "stick_strip"].iter().map(|s| s.to_string()).collect()
 }
 
 /// Published numbers the experiment reproduces, written once here (never typed into HTML):

@@ -112,6 +112,20 @@ pub struct StickStrip {
 pub enum FigureKind {
     Chart(Chart),
     Sticks(StickStrip),
+    TimelinePoses(TimelinePoses),
+}
+
+/// A timeline of bar rows (ground truth, each method) with a stick-figure pose drawn under each
+/// marked instant, on the same time axis (Sonoda et al.'s Figs 10 and 11 in one picture).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimelinePoses {
+    /// The timeline: bar rows only (its lines and points are ignored).
+    pub timeline: Chart,
+    /// Index pairs into each pose's points.
+    pub bones: Vec<(usize, usize)>,
+    /// (time in the timeline's x unit, pose) pairs, in time order.
+    pub poses: Vec<(f64, Pose)>,
+    pub caption: String,
 }
 
 /// A named figure; `name` becomes the file stem.
@@ -132,6 +146,7 @@ impl Figure {
         match &self.figure {
             FigureKind::Chart(c) => &c.title,
             FigureKind::Sticks(s) => &s.title,
+            FigureKind::TimelinePoses(t) => &t.timeline.title,
         }
     }
 }
@@ -164,6 +179,7 @@ pub fn render(figure: &Figure, dir: &Path) -> Result<Vec<PathBuf>> {
             (SIZE.0, (90 + 34 * c.bar_rows.len() as u32).max(160))
         }
         FigureKind::Sticks(s) => (SIZE.0, 90 + 230 * s.rows.len().max(1) as u32),
+        FigureKind::TimelinePoses(t) => (1400, (90 + 34 * t.timeline.bar_rows.len() as u32).max(160) + 2 * POSE_ROW_PX + 30),
         _ => SIZE,
     };
     {
@@ -193,7 +209,72 @@ where
     match &figure.figure {
         FigureKind::Chart(c) => draw_chart(c, root),
         FigureKind::Sticks(s) => draw_sticks(s, root),
+        FigureKind::TimelinePoses(t) => draw_timeline_poses(t, root),
     }
+}
+
+/// Height of one row of poses under a timeline, pixels.
+const POSE_ROW_PX: u32 = 150;
+
+/// The timeline on top; underneath, each pose centred on its instant. Poses that would overlap
+/// their left neighbour drop to a second row, so every one stays readable.
+fn draw_timeline_poses<DB: DrawingBackend>(t: &TimelinePoses, root: &DrawingArea<DB, Shift>) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    let (w, h) = root.dim_in_pixel();
+    let pose_h = 2 * POSE_ROW_PX + 30;
+    let (top, bottom) = root.split_vertically(h as i32 - pose_h as i32);
+    let mut timeline = t.timeline.clone();
+    timeline.lines.clear();
+    timeline.points.clear();
+    let xs = timeline.bar_rows.iter().flat_map(|b| b.marks.iter()).chain(t.poses.iter().map(|p| &p.0));
+    let (x0, x1) = timeline.x_range.unwrap_or_else(|| range_of(xs, 0.01));
+    timeline.x_range = Some((x0, x1));
+    draw_chart(&timeline, &top)?;
+    let (poses_area, caption) = bottom.split_vertically(pose_h as i32 - 24);
+    caption.draw(&Text::new(t.caption.clone(), (10, 4), ("sans-serif", 14)))?;
+    // The bar rows' plot starts after their label column (`draw_bar_rows`: margin 8, label area
+    // 150) and ends 8 px before the right edge: put the poses on the same pixels per second.
+    let (left, right) = (8 + 150, w as i32 - 8);
+    let px_per_x = (right - left) as f64 / (x1 - x0).max(1e-12);
+    let extent = t
+        .poses
+        .iter()
+        .map(|(_, p)| {
+            let (yl, yh) = range_of(p.points.iter().map(|q| &q[1]), 0.0);
+            let (xl, xh) = range_of(p.points.iter().map(|q| &q[0]), 0.0);
+            (yh - yl).max(xh - xl)
+        })
+        .fold(1.0_f64, f64::max);
+    let px_per_mm = (POSE_ROW_PX as f64 - 24.0) / extent;
+    let mut last_right = [f64::NEG_INFINITY; 2];
+    for (time, pose) in &t.poses {
+        let cx = left as f64 + (time - x0) * px_per_x;
+        let (pxl, pxh) = range_of(pose.points.iter().map(|q| &q[0]), 0.0);
+        let (pyl, pyh) = range_of(pose.points.iter().map(|q| &q[1]), 0.0);
+        let half_w = (pxh - pxl) / 2.0 * px_per_mm + 4.0;
+        let row = if cx - half_w > last_right[0] { 0 } else if cx - half_w > last_right[1] { 1 } else { 0 };
+        last_right[row] = cx + half_w;
+        let base = (row as f64 + 1.0) * POSE_ROW_PX as f64 - 18.0;
+        let (mx, my) = ((pxl + pxh) / 2.0, pyl);
+        let to_px = |q: &[f64; 2]| ((cx + (q[0] - mx) * px_per_mm) as i32, (base - (q[1] - my) * px_per_mm) as i32);
+        for (a, b) in &t.bones {
+            if let (Some(p), Some(q)) = (pose.points.get(*a), pose.points.get(*b))
+                && p.iter().chain(q).all(|v| v.is_finite())
+            {
+                poses_area.draw(&PathElement::new(vec![to_px(p), to_px(q)], BLACK.stroke_width(1)))?;
+            }
+        }
+        for p in pose.points.iter().filter(|p| p[0].is_finite() && p[1].is_finite()) {
+            poses_area.draw(&Circle::new(to_px(p), 1, color(0).filled()))?;
+        }
+        poses_area.draw(&Text::new(pose.label.clone(), (cx as i32 - 14, base as i32 + 4), ("sans-serif", 11)))?;
+        // A tick from the pose up to the time axis, so each pose reads against its instant.
+        poses_area.draw(&PathElement::new(vec![(cx as i32, 0), (cx as i32, 6)], RGBColor(120, 120, 120)))?;
+        let _ = pyh;
+    }
+    Ok(())
 }
 
 /// Finite min/max over many slices, padded; a fallback range when nothing is finite.
@@ -472,7 +553,16 @@ mod tests {
             }],
             caption: "side view (x–z, mm)".into(),
         };
-        for f in [Figure::chart("a", chart), Figure::chart("b", timeline), Figure::sticks("c", sticks)] {
+        let combined = Figure {
+            name: "d".into(),
+            figure: FigureKind::TimelinePoses(TimelinePoses {
+                timeline: timeline.clone(),
+                bones: sticks.bones.clone(),
+                poses: vec![(2.1, sticks.rows[0].poses[0].clone()), (2.2, sticks.rows[0].poses[0].clone())],
+                caption: "pose at each fused candidate".into(),
+            }),
+        };
+        for f in [Figure::chart("a", chart), Figure::chart("b", timeline), Figure::sticks("c", sticks), combined] {
             let paths = render(&f, &dir).unwrap();
             for p in paths {
                 let len = std::fs::metadata(&p).unwrap().len();

@@ -8,5 +8,5 @@ pub mod figures;
 pub mod html;
 pub mod tables;
 
-pub use figures::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip};
+pub use figures::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip, TimelinePoses};
 pub use tables::{to_dataframe, write_table, WrittenTable};

@@ -11,9 +11,9 @@ use motionlab_core::{
     ColumnValues, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
     Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table,
 };
-use motionlab_report::{BarRow, Chart, Figure, FigureKind, Series};
+use motionlab_report::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
 
-use super::shared::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_strip, time_axis, traces_charts};
+use super::shared::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip, time_axis, traces_charts};
 use super::{ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow};
 use crate::plan::{build_stage, Combo, Datasets, Source};
 use crate::spec::SegmentationSection;
@@ -237,7 +237,7 @@ impl SegmentationWorkflow {
                 },
             ));
         }
-        if wants("timeline") {
+        if wants("timeline") || wants("timeline_poses") {
             let mut rows = Vec::new();
             if let Some(t) = truth {
                 rows.push(BarRow {
@@ -247,16 +247,30 @@ impl SegmentationWorkflow {
                 });
             }
             rows.extend(methods.iter().map(|m| BarRow { label: m.method.clone(), marks: frames_to_seconds(&m.candidates, rate), bands: vec![] }));
-            figs.push(Figure::chart(
-                format!("{id}_timeline"),
-                Chart {
-                    title: format!("{name} — ground truth and each method's candidates"),
-                    x_label: "time (s)".into(),
-                    bar_rows: rows,
-                    x_range: Some((0.0, motion.n_frames() as f64 / rate)),
-                    ..Default::default()
-                },
-            ));
+            let timeline = Chart {
+                title: format!("{name} — ground truth and each method's candidates"),
+                x_label: "time (s)".into(),
+                bar_rows: rows,
+                x_range: Some((0.0, motion.n_frames() as f64 / rate)),
+                ..Default::default()
+            };
+            if wants("timeline_poses") {
+                let axis = main_floor_axis(motion, root, 0, motion.n_frames().saturating_sub(1));
+                let row = stick_row_at(motion, &fused, axis);
+                let fuser = methods.last().map(|m| m.method.clone()).unwrap_or_default();
+                figs.push(Figure {
+                    name: format!("{id}_timeline_poses"),
+                    figure: FigureKind::TimelinePoses(TimelinePoses {
+                        timeline: Chart { title: format!("{name} — candidates and the pose at each {fuser} boundary"), ..timeline.clone() },
+                        bones: bones_for(motion, &self.section.bones)?,
+                        poses: fused.iter().map(|&f| f as f64 / rate).zip(row.poses).collect(),
+                        caption: format!("poses at the {fuser} candidates (frame numbers), side view: {} horizontal, {} up", axis_name(axis), motion.up_axis()),
+                    }),
+                });
+            }
+            if wants("timeline") {
+                figs.push(Figure::chart(format!("{id}_timeline"), timeline));
+            }
         }
         if wants("stick_strip")
             && let Some((a, b)) = pick_segment(&fused, truth, motion.n_frames(), rate)

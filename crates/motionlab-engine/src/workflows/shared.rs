@@ -68,6 +68,21 @@ pub fn stick_row(motion: &Motion, label: &str, start: usize, end: usize, n: usiz
     StickRow { label: label.to_string(), poses }
 }
 
+/// A stick row of the given frames (labelled by frame number), in the plane of
+/// `horizontal_axis` and the up axis.
+pub fn stick_row_at(motion: &Motion, frames: &[usize], horizontal_axis: usize) -> StickRow {
+    let up = motion.up_axis().index();
+    let last = motion.n_frames().saturating_sub(1);
+    let poses = frames
+        .iter()
+        .map(|&f| Pose {
+            label: f.to_string(),
+            points: motion.frame(f.min(last)).iter().map(|p: &Point3| [p[horizontal_axis], p[up]]).collect(),
+        })
+        .collect();
+    StickRow { label: String::new(), poses }
+}
+
 /// The floor axis along which a point moves most over `[start, end]` (for side views).
 pub fn main_floor_axis(motion: &Motion, point: Option<usize>, start: usize, end: usize) -> usize {
     let [a, b] = motion.up_axis().others();
