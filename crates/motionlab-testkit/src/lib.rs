@@ -47,9 +47,23 @@ pub fn data_path(relative: &str) -> PathBuf {
     repo_root().join("data").join(relative)
 }
 
-/// The repository root (two levels above this crate).
+/// The repository root: two levels above this crate, as compiled. When that path no longer
+/// exists (a build artefact reused from a clone since deleted), the nearest ancestor of the
+/// working directory holding both `Cargo.toml` and `experiments/` — tests run from a crate
+/// folder, so the walk up finds the workspace. Panics when neither is found: a test must not
+/// silently resolve data paths against the wrong folder.
 pub fn repo_root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap_or_else(|_| PathBuf::from("."))
+    let compiled = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    if let Ok(root) = compiled.canonicalize()
+        && root.join("experiments").is_dir()
+    {
+        return root;
+    }
+    let cwd = std::env::current_dir().expect("tests need a working directory");
+    cwd.ancestors()
+        .find(|dir| dir.join("Cargo.toml").is_file() && dir.join("experiments").is_dir())
+        .map(PathBuf::from)
+        .unwrap_or_else(|| panic!("no repository root above {} or {}", compiled.display(), cwd.display()))
 }
 
 /// A tiny deterministic PRNG (xorshift64*) so tests need no extra dependency and stay
