@@ -122,7 +122,8 @@ fn wildcard(pattern: &str, name: &str) -> bool {
     true
 }
 
-/// Writes the run of record `dest` from a finished run: every table (CSV and Markdown), the
+/// Writes the run of record `dest` from a finished run: the tables (CSV and Markdown; all, or
+/// those `record_tables` names), the
 /// figures the experiment lists in `record_figures` (PNG), the provenance and configuration,
 /// and a page of its own. `dest` is replaced: the record is a deliberate, committed copy.
 pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()> {
@@ -141,8 +142,25 @@ pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()
         .filter(|p| p.extension().is_some_and(|e| e == "csv"))
         .collect();
     names.sort();
+    let stem_of = |p: &Path| p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    // A pattern that keeps no table is a typo; dropping tables silently would hide it.
+    if let Some(patterns) = &file.experiment.record_tables {
+        let stems: Vec<String> = names.iter().map(|p| stem_of(p)).collect();
+        if let Some(p) = patterns.iter().find(|p| !stems.iter().any(|s| wildcard(p, s))) {
+            return Err(motionlab_core::Error::new(
+                motionlab_core::ErrorKind::UnknownName,
+                format!("record_tables pattern {p:?} matches no table of the run; its tables are: {}", stems.join(", ")),
+            )
+            .with_field("experiment.record_tables"));
+        }
+    }
     for csv in names {
-        let stem = csv.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let stem = stem_of(&csv);
+        if let Some(patterns) = &file.experiment.record_tables
+            && !patterns.iter().any(|p| wildcard(p, &stem))
+        {
+            continue;
+        }
         for ext in ["csv", "md"] {
             let from = run.join("tables").join(format!("{stem}.{ext}"));
             std::fs::copy(&from, tables_dir.join(format!("{stem}.{ext}"))).map_err(|e| io(&from, e))?;

@@ -70,9 +70,13 @@ pub struct ExperimentMeta {
     #[serde(default)]
     pub headline: Vec<Headline>,
     /// Figures kept in the committed run of record (`reports/<name>/record/`), by file stem;
-    /// `*` matches any run of characters (`"86_01_*"`). Tables are always kept.
+    /// `*` matches any run of characters (`"86_01_*"`).
     #[serde(default)]
     pub record_figures: Vec<String>,
+    /// Tables kept in the run of record, by name with the same wildcards. Unset keeps every
+    /// table; a sweep's per-combination tables (megabytes) are better left to the run itself.
+    #[serde(default)]
+    pub record_tables: Option<Vec<String>>,
 }
 
 /// One headline number: a cell of a result table, picked by column and text values.
