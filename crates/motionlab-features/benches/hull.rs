@@ -61,6 +61,18 @@ fn tracker(bencher: Bencher, take: &str) {
     });
 }
 
+/// The tracker without local repairs (certify unchanged triangles or rebuild: the tracker as it
+/// was before repairs), for comparison in the same run.
+#[divan::bench(args = TAKES)]
+fn tracker_without_repairs(bencher: Bencher, take: &str) {
+    let f = frames(take);
+    let mut t = HullTracker::without_repairs();
+    bencher.counter(ItemsCount::new(f.len())).bench_local(|| {
+        t.reset();
+        f.iter().map(|p| t.frame(p).volume_mm3).sum::<f64>()
+    });
+}
+
 #[divan::bench(args = TAKES, sample_count = 10)]
 fn parry(bencher: Bencher, take: &str) {
     let f: Vec<Vec<parry3d_f64::math::Vector>> =

@@ -7,10 +7,13 @@
 //!
 //! A body has 20–45 markers, and a sequence has thousands of frames. `parry3d-f64` (measured
 //! here at 12 µs per 41-point frame) and `scipy.spatial.ConvexHull` (qhull, 61.5 µs with Python
-//! overhead) are general-purpose and allocate per call. The hull below is a quickhull with
-//! reusable buffers, and [`HullTracker`] exploits temporal coherence: consecutive frames usually
-//! have the same hull combinatorics, which can be *certified* much faster than rebuilt. See
-//! `crates/motionlab-features/benches/README.md` for the measured numbers.
+//! overhead) are general-purpose and allocate per call, and neither can re-use last frame's
+//! hull. The hull below is a quickhull with reusable buffers, and [`HullTracker`] exploits
+//! temporal coherence: consecutive frames usually have the same hull combinatorics, which can be
+//! *certified* much faster than rebuilt, and when they do not, the change is almost always local
+//! (an edge flip, a point coming out, a vertex sinking in) and is *repaired* in place, then
+//! certified, instead of rebuilt. See `crates/motionlab-features/benches/README.md` for the
+//! measured numbers.
 //!
 //! # Robustness
 //!
@@ -33,7 +36,12 @@
 //! set and touches it only at the triangle's three vertices); distinct facets that together form
 //! a closed surface without boundary must be the whole boundary of the hull. The check is a
 //! vectorisable loop of one plane evaluation per (triangle, point) with the same certified error
-//! bound; when it fails (a point pokes out, or a hull vertex sank inward), the hull is rebuilt.
+//! bound. When it fails (a point pokes out, an edge became reflex, or a hull vertex sank inward)
+//! the tracker first tries local repairs of the triangles — edge flips, beneath–beyond insertion
+//! of the point, removal of a degree-3 vertex — that keep the surface closed, and certifies the
+//! result the same way (so the proof covers repaired triangles too); only when no repair applies
+//! is the hull rebuilt. On CMU 86_01 39 % of the frames change combinatorics; all but 38 of
+//! those 1778 frames are repaired.
 //!
 //! **Missing samples:** the hull is taken over the valid markers of the frame only. `D[i]` is
 //! NaN when the set of valid markers differs between frames `i−1` and `i` (a marker dropping out
@@ -521,39 +529,83 @@ pub fn convex_hull_volume(points: &[Point3]) -> HullVolume {
 pub struct TrackerStats {
     /// Frames whose hull was last frame's triangles, certified.
     pub reused: usize,
+    /// Frames whose hull was last frame's triangles after local repairs (edge flips, point
+    /// insertions, vertex removals), then certified.
+    pub repaired: usize,
     /// Frames built from scratch (first frame, changed marker set, or certification failed).
     pub rebuilt: usize,
     /// Degenerate frames (no hull).
     pub degenerate: usize,
+    /// Local repairs made (in repaired frames and in frames whose repair failed).
+    pub repairs: usize,
 }
 
-/// Per-frame hull volumes of a marker sequence, re-using the previous frame's triangles when
-/// they are certified to still be the hull (see the module docs for the proof).
+/// Per-frame hull volumes of a marker sequence, re-using the previous frame's triangles —
+/// unchanged or locally repaired — when they are certified to still be the hull (see the module
+/// docs for the proof), and rebuilding only when no local repair applies.
 ///
 /// Exact duplicates (skeletons put several joints on one spot: CMU's `lthumb` starts where
 /// `lhand` does) are dropped before the hull is built or certified: a duplicate of a hull vertex
 /// lies *on* its triangles' planes and would defeat the strict certification.
+///
+/// # Local repairs
+///
+/// Most changes of the hull's combinatorics between consecutive frames are local: a nearly flat
+/// quadrilateral changes its diagonal, a point comes out through a few triangles, a hull vertex
+/// of degree 3 sinks in. When a triangle fails certification the tracker tries one such change
+/// (edge flip, beneath–beyond insertion, degree-3 vertex removal; see `HullTracker::repair`)
+/// and certifies the triangles it created. Each change keeps the surface closed with every
+/// directed edge matched by its reverse exactly once and no triangle repeated, which is all the
+/// certification's proof needs besides every triangle being certified; how the triangles were
+/// obtained does not matter. The closure is also checked explicitly on every repaired frame
+/// (`HullTracker::is_closed`), so a mistake in the repair code could cost a rebuild but never
+/// give a wrong volume. A point on a plane (exactly), a visible region that is not a disc,
+/// or too many repairs in one frame falls back to the quickhull rebuild. On 86_01 this turns
+/// 1740 of the 1778 rebuilds into repairs (`crates/motionlab-features/benches/README.md`).
 #[derive(Default)]
 pub struct HullTracker {
     builder: HullBuilder,
-    /// Valid points of the current frame, then (after [`HullTracker::dedup`]) the distinct ones.
+    /// The distinct valid points of the current frame.
     compact: Vec<Point3>,
-    /// Distinct valid points, structure of arrays for the certification loop.
+    /// Their indices in the frame (valid, first of each group of exact duplicates).
+    keep: Vec<u32>,
+    /// The distinct valid points, structure of arrays for the certification loop.
     xs: Vec<f64>,
     ys: Vec<f64>,
     zs: Vec<f64>,
-    valid: Vec<bool>,
+    /// Which markers were valid at the last structure change (= last frame).
     prev_valid: Vec<bool>,
-    /// `(k, j)`: valid point `k` equalled valid point `j < k` exactly at the last rebuild.
+    /// `(k, j)`: marker `k` equalled marker `j < k` exactly at the last structure change.
     dups: Vec<(u32, u32)>,
-    /// Last frame's triangles, as indices into the distinct valid points.
+    /// Last frame's triangles, as indices into the distinct valid points. During a repair,
+    /// removed triangles are marked `[NONE; 3]` (and dropped once the frame is certified).
     prev_tris: Vec<[u32; 3]>,
+    /// Triangles still to certify this frame.
+    work: Vec<u32>,
+    /// Repair scratch: triangles visible from an inserted point, and their boundary.
+    visible: Vec<u32>,
+    horizon: Vec<(u32, u32)>,
+    /// Closure check scratch: `edge_seen[u·n + v] == edge_stamp` when directed edge (u, v) is
+    /// present.
+    edge_seen: Vec<u32>,
+    edge_stamp: u32,
+    /// Repairs disabled: certify unchanged triangles or rebuild (for comparison benchmarks).
+    no_repairs: bool,
     stats: TrackerStats,
 }
+
+/// Most local repairs tried in one frame before falling back to a rebuild.
+const MAX_REPAIRS: usize = 16;
 
 impl HullTracker {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A tracker that never repairs: it re-uses last frame's triangles only when they are
+    /// certified unchanged, else rebuilds (the same volumes; for benchmarking the repairs).
+    pub fn without_repairs() -> Self {
+        HullTracker { no_repairs: true, ..Self::default() }
     }
 
     pub fn stats(&self) -> TrackerStats {
@@ -569,30 +621,51 @@ impl HullTracker {
 
     /// Hull volume of the finite points of one frame (non-finite = missing, skipped).
     pub fn frame(&mut self, points: &[Point3]) -> HullVolume {
-        self.valid.clear();
-        self.compact.clear();
-        for p in points {
-            let ok = p.iter().all(|c| c.is_finite());
-            self.valid.push(ok);
-            if ok {
-                self.compact.push(*p);
-            }
-        }
+        // Same markers valid as last frame, and last rebuild's duplicates still duplicates: the
+        // distinct points are gathered by index, no search.
         let same_structure = !self.prev_tris.is_empty()
-            && self.valid == self.prev_valid
-            && self.dups.iter().all(|&(k, j)| self.compact[k as usize] == self.compact[j as usize]);
+            && points.len() == self.prev_valid.len()
+            && points.iter().zip(&self.prev_valid).all(|(p, &v)| p.iter().all(|c| c.is_finite()) == v)
+            && self.dups.iter().all(|&(k, j)| points[k as usize] == points[j as usize]);
         if same_structure {
-            self.drop_known_dups();
-            if self.certify() {
-                self.stats.reused += 1;
+            self.compact.clear();
+            self.compact.extend(self.keep.iter().map(|&i| points[i as usize]));
+            self.fill_soa();
+            let mut repairs = 0;
+            let mut ok = self.certify(&mut repairs);
+            self.stats.repairs += repairs;
+            if ok && repairs > 0 {
+                // The proof needs a closed surface. Every repair keeps it closed by construction;
+                // checking it explicitly (cheap, repaired frames only) makes the volume's
+                // correctness independent of the repair code.
+                self.prev_tris.retain(|t| t[0] != NONE);
+                ok = self.is_closed();
+            }
+            if ok {
+                if repairs == 0 {
+                    self.stats.reused += 1;
+                } else {
+                    self.stats.repaired += 1;
+                }
                 // The mean of the points is inside their hull: a safe apex for the volume sum.
                 let k = self.xs.len() as f64;
                 let o = [self.xs.iter().sum::<f64>() / k, self.ys.iter().sum::<f64>() / k, self.zs.iter().sum::<f64>() / k];
                 return HullVolume { volume_mm3: volume_of_triangles(&self.compact, o, &self.prev_tris), degenerate: None };
             }
         } else {
-            self.find_dups();
-            self.drop_known_dups();
+            self.prev_valid.clear();
+            self.keep.clear();
+            for (i, p) in points.iter().enumerate() {
+                let ok = p.iter().all(|c| c.is_finite());
+                self.prev_valid.push(ok);
+                if ok {
+                    self.keep.push(i as u32);
+                }
+            }
+            self.find_dups(points);
+            self.compact.clear();
+            self.compact.extend(self.keep.iter().map(|&i| points[i as usize]));
+            self.fill_soa();
         }
         let h = self.builder.volume(&self.compact);
         self.prev_tris.clear();
@@ -602,33 +675,29 @@ impl HullTracker {
             self.stats.rebuilt += 1;
             self.prev_tris.extend(self.builder.triangles());
         }
-        std::mem::swap(&mut self.prev_valid, &mut self.valid);
         h
     }
 
-    /// Records every valid point that exactly equals an earlier one (O(n²), rebuilds only).
-    fn find_dups(&mut self) {
+    /// Records every valid point that exactly equals an earlier one, as `(k, j)` indices into
+    /// `points`, and drops the later ones from `keep` (O(n²), on structure changes only).
+    fn find_dups(&mut self, points: &[Point3]) {
         self.dups.clear();
-        for k in 1..self.compact.len() {
-            if let Some(j) = (0..k).find(|&j| self.compact[j] == self.compact[k]) {
-                self.dups.push((k as u32, j as u32));
+        for (x, &k) in self.keep.iter().enumerate().skip(1) {
+            if let Some(&j) = self.keep[..x].iter().find(|&&j| points[j as usize] == points[k as usize]) {
+                self.dups.push((k, j));
             }
         }
+        let dups = &self.dups;
+        let mut d = 0;
+        self.keep.retain(|&k| {
+            let drop = d < dups.len() && dups[d].0 == k;
+            d += drop as usize;
+            !drop
+        });
     }
 
-    /// Removes the recorded duplicates from `compact` (keeping first occurrences, in order) and
-    /// fills the structure-of-arrays copy.
-    fn drop_known_dups(&mut self) {
-        if !self.dups.is_empty() {
-            let mut d = 0;
-            let mut k = 0;
-            self.compact.retain(|_| {
-                let drop = d < self.dups.len() && self.dups[d].0 == k;
-                d += drop as usize;
-                k += 1;
-                !drop
-            });
-        }
+    /// Fills the structure-of-arrays copy of `compact`.
+    fn fill_soa(&mut self) {
         self.xs.clear();
         self.ys.clear();
         self.zs.clear();
@@ -639,26 +708,55 @@ impl HullTracker {
         }
     }
 
-    /// True when every previous triangle has every other current point strictly below its plane.
-    fn certify(&self) -> bool {
+    /// True when the previous triangles, possibly repaired, have every other point strictly
+    /// below their planes. Counts the repairs made in `repairs`. A triangle certified once stays
+    /// certified while others change (its test depends only on the points), so after a repair
+    /// only the triangles it created are queued.
+    fn certify(&mut self, repairs: &mut usize) -> bool {
         let ext = extent(&self.compact);
-        let (xs, ys, zs) = (&self.xs[..], &self.ys[..], &self.zs[..]);
-        for t in &self.prev_tris {
-            let [a, b, c] = t.map(|i| self.compact[i as usize]);
-            let pl = Plane::new(a, b, c, ext);
-            let (nb, o, n) = (-pl.bound, pl.o, pl.n);
-            // Branch-free so it vectorises: count points not certified strictly below. The
-            // triangle's own three vertices always count (their exact value is 0).
-            let mut uncertain = 0u32;
-            for q in 0..xs.len() {
-                let s = (n[0] * (xs[q] - o[0]) + n[1] * (ys[q] - o[1])) + n[2] * (zs[q] - o[2]);
-                uncertain += (s >= nb) as u32;
+        self.work.clear();
+        self.work.extend((0..self.prev_tris.len() as u32).rev());
+        while let Some(ti) = self.work.pop() {
+            let t = self.prev_tris[ti as usize];
+            if t[0] == NONE || self.certify_triangle(&t, ext) {
+                continue;
             }
-            if uncertain != 3 && !self.certify_slow(t, &pl) {
+            if self.no_repairs || *repairs >= MAX_REPAIRS {
                 return false;
             }
+            let before = self.prev_tris.len() as u32;
+            match self.repair(ti, ext) {
+                Repair::Replaced(tj) => {
+                    self.work.push(tj);
+                    self.work.push(ti);
+                }
+                Repair::Appended(tj) => {
+                    // Triangles from `before` on are new, and `tj` was rewritten in place.
+                    self.work.extend(before..self.prev_tris.len() as u32);
+                    self.work.extend(tj);
+                }
+                Repair::Failed => return false,
+            }
+            *repairs += 1;
         }
         true
+    }
+
+    /// Does triangle `t` have every other point strictly below its plane?
+    #[inline]
+    fn certify_triangle(&self, t: &[u32; 3], ext: Point3) -> bool {
+        let (xs, ys, zs) = (&self.xs[..], &self.ys[..], &self.zs[..]);
+        let [a, b, c] = t.map(|i| self.compact[i as usize]);
+        let pl = Plane::new(a, b, c, ext);
+        let (nb, o, n) = (-pl.bound, pl.o, pl.n);
+        // Branch-free so it vectorises: count points not certified strictly below. The
+        // triangle's own three vertices always count (their exact value is 0).
+        let mut uncertain = 0u32;
+        for q in 0..xs.len() {
+            let s = (n[0] * (xs[q] - o[0]) + n[1] * (ys[q] - o[1])) + n[2] * (zs[q] - o[2]);
+            uncertain += (s >= nb) as u32;
+        }
+        uncertain == 3 || self.certify_slow(t, &pl)
     }
 
     /// Exact re-check of the points the fast loop could not certify for one triangle.
@@ -668,6 +766,213 @@ impl HullTracker {
             t.contains(&(q as u32)) || pl.eval(p) < -pl.bound || orient_exact(a, b, c, p) < 0.0
         })
     }
+
+    /// One local change for failed triangle `ti`: flip a reflex edge of it (or, when the flip
+    /// is blocked, remove a degree-3 end of that edge), else insert the non-vertex point
+    /// farthest above it.
+    fn repair(&mut self, ti: u32, ext: Point3) -> Repair {
+        if let Some(r) = self.flip_reflex_edge(ti, ext) {
+            return r;
+        }
+        let t = self.prev_tris[ti as usize];
+        let [a, b, c] = t.map(|i| self.compact[i as usize]);
+        let pl = Plane::new(a, b, c, ext);
+        let mut far = None;
+        let mut far_s = pl.bound;
+        for (q, &p) in self.compact.iter().enumerate() {
+            let s = pl.eval(p);
+            if s > far_s {
+                (far, far_s) = (Some(q as u32), s);
+            }
+        }
+        match far {
+            Some(q) if !self.prev_tris.iter().any(|s| s.contains(&q)) => self.insert_point(q, ext),
+            _ => Repair::Failed,
+        }
+    }
+
+    /// Flips an edge `(u, v)` of triangle `ti = (u, v, w)` whose neighbour `(v, u, d)` has `d`
+    /// strictly above `ti` (exact): the pair becomes `(u, d, w)`, `(d, v, w)`. When edge `wd`
+    /// already exists the flip would not leave a manifold surface; then `u` or `v` has degree 3
+    /// and is removed instead if it is certainly below its neighbours' plane.
+    fn flip_reflex_edge(&mut self, ti: u32, ext: Point3) -> Option<Repair> {
+        let t = self.prev_tris[ti as usize];
+        let [a, b, c] = t.map(|i| self.compact[i as usize]);
+        for e in 0..3 {
+            let (u, v, w) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
+            let Some((tj, d)) = self.neighbour(v, u) else {
+                continue;
+            };
+            if d == w || orient_exact(a, b, c, self.compact[d as usize]) <= 0.0 {
+                continue;
+            }
+            if self.prev_tris.iter().any(|s| s.contains(&w) && s.contains(&d)) {
+                if let Some(r) = self.remove_degree3(u, ext).or_else(|| self.remove_degree3(v, ext)) {
+                    return Some(r);
+                }
+                continue;
+            }
+            self.prev_tris[ti as usize] = [u, d, w];
+            self.prev_tris[tj as usize] = [d, v, w];
+            return Some(Repair::Replaced(tj));
+        }
+        None
+    }
+
+    /// Is every directed edge of the triangles present exactly once, and its reverse too?
+    fn is_closed(&mut self) -> bool {
+        let n = self.compact.len();
+        let key = |u: u32, v: u32| u as usize * n + v as usize;
+        self.edge_stamp = self.edge_stamp.wrapping_add(1);
+        if self.edge_stamp == 0 {
+            // Wrapped: forget every old stamp so none can be mistaken for the new one.
+            self.edge_seen.fill(0);
+            self.edge_stamp = 1;
+        }
+        let stamp = self.edge_stamp;
+        if self.edge_seen.len() < n * n {
+            self.edge_seen.clear();
+            self.edge_seen.resize(n * n, 0);
+        }
+        for t in &self.prev_tris {
+            for e in 0..3 {
+                let Some(slot) = self.edge_seen.get_mut(key(t[e], t[(e + 1) % 3])) else {
+                    return false;
+                };
+                if *slot == stamp {
+                    return false; // directed edge twice
+                }
+                *slot = stamp;
+            }
+        }
+        self.prev_tris.iter().all(|t| (0..3).all(|e| self.edge_seen.get(key(t[(e + 1) % 3], t[e])) == Some(&stamp)))
+    }
+
+    /// The triangle holding directed edge `(u, v)`, and its third vertex.
+    fn neighbour(&self, u: u32, v: u32) -> Option<(u32, u32)> {
+        self.prev_tris.iter().enumerate().find_map(|(j, s)| {
+            (0..3).find(|&k| s[k] == u && s[(k + 1) % 3] == v).map(|k| (j as u32, s[(k + 2) % 3]))
+        })
+    }
+
+    /// Replaces the three triangles around vertex `x` by the one spanned by its neighbours, when
+    /// `x` has exactly three triangles forming a ring, is certainly below the new triangle, and
+    /// the surface has more than four triangles.
+    fn remove_degree3(&mut self, x: u32, ext: Point3) -> Option<Repair> {
+        if self.prev_tris.iter().filter(|t| t[0] != NONE).count() <= 4 {
+            return None;
+        }
+        let mut around = [(0u32, 0u32, 0u32); 3]; // (triangle, ring edge from, to)
+        let mut k = 0;
+        for (j, s) in self.prev_tris.iter().enumerate() {
+            if let Some(i) = s.iter().position(|&y| y == x) {
+                if k == 3 {
+                    return None;
+                }
+                around[k] = (j as u32, s[(i + 1) % 3], s[(i + 2) % 3]);
+                k += 1;
+            }
+        }
+        if k != 3 {
+            return None;
+        }
+        // The ring: p0 → p1 → p2 → p0.
+        let (p0, p1) = (around[0].1, around[0].2);
+        let &(_, _, p2) = around.iter().find(|r| r.1 == p1)?;
+        if p2 == p0 || !around.iter().any(|r| r.1 == p2 && r.2 == p0) {
+            return None;
+        }
+        let new = [p0, p1, p2];
+        if self.prev_tris.iter().any(|s| new.iter().all(|y| s.contains(y))) {
+            return None;
+        }
+        let pl = Plane::new(self.compact[p0 as usize], self.compact[p1 as usize], self.compact[p2 as usize], ext);
+        if pl.eval(self.compact[x as usize]) >= -pl.bound {
+            return None;
+        }
+        self.prev_tris[around[0].0 as usize] = new;
+        self.prev_tris[around[1].0 as usize] = [NONE; 3];
+        self.prev_tris[around[2].0 as usize] = [NONE; 3];
+        Some(Repair::Appended(Some(around[0].0)))
+    }
+
+    /// Beneath–beyond insertion of non-vertex point `q`: the triangles it is strictly above
+    /// (exact) are replaced by the cone from `q` over their boundary, when that boundary is one
+    /// simple cycle.
+    fn insert_point(&mut self, q: u32, ext: Point3) -> Repair {
+        let p = self.compact[q as usize];
+        self.visible.clear();
+        for (j, t) in self.prev_tris.iter().enumerate() {
+            if t[0] == NONE {
+                continue;
+            }
+            let [a, b, c] = t.map(|i| self.compact[i as usize]);
+            let pl = Plane::new(a, b, c, ext);
+            let s = pl.eval(p);
+            let above = if s > pl.bound {
+                true
+            } else if s < -pl.bound {
+                false
+            } else {
+                let o = orient_exact(a, b, c, p);
+                if o == 0.0 {
+                    return Repair::Failed; // on a plane: leave it to a rebuild
+                }
+                o > 0.0
+            };
+            if above {
+                self.visible.push(j as u32);
+            }
+        }
+        self.horizon.clear();
+        for &j in &self.visible {
+            let t = self.prev_tris[j as usize];
+            for e in 0..3 {
+                let (u, v) = (t[e], t[(e + 1) % 3]);
+                match self.neighbour(v, u) {
+                    Some((k, _)) if self.visible.contains(&k) => {}
+                    Some(_) => self.horizon.push((u, v)),
+                    None => return Repair::Failed,
+                }
+            }
+        }
+        // One simple cycle: from every vertex exactly one horizon edge leaves, and walking from
+        // the first edge visits all of them.
+        let h = self.horizon.len();
+        if h < 3 {
+            return Repair::Failed;
+        }
+        let (start, mut at, mut steps) = (self.horizon[0].0, self.horizon[0].1, 1);
+        while at != start {
+            let mut next = self.horizon.iter().filter(|e| e.0 == at);
+            let (Some(&(_, to)), None) = (next.next(), next.next()) else {
+                return Repair::Failed;
+            };
+            at = to;
+            steps += 1;
+            if steps > h {
+                return Repair::Failed;
+            }
+        }
+        if steps != h {
+            return Repair::Failed;
+        }
+        for &j in &self.visible {
+            self.prev_tris[j as usize] = [NONE; 3];
+        }
+        self.prev_tris.extend(self.horizon.iter().map(|&(u, v)| [u, v, q]));
+        Repair::Appended(None)
+    }
+}
+
+/// Outcome of [`HullTracker::repair`].
+enum Repair {
+    /// Edge flipped: the failed triangle and this one were rewritten in place.
+    Replaced(u32),
+    /// Triangles appended (and possibly this one rewritten); removed ones marked `[NONE; 3]`.
+    Appended(Option<u32>),
+    /// No local repair applies: rebuild.
+    Failed,
 }
 
 /// Per-frame hull volumes and their changes for a motion.
@@ -927,7 +1232,7 @@ mod tests {
         }
         assert_eq!(h.flagged_frames(), vec![300]);
         assert!(h.stats.reused > 200, "{:?}", h.stats);
-        assert_eq!(h.stats.reused + h.stats.rebuilt + h.stats.degenerate, 400);
+        assert_eq!(h.stats.reused + h.stats.repaired + h.stats.rebuilt + h.stats.degenerate, 400);
         // D: NaN at 0, where the marker set changes (100 and 120) and next to the flat frame.
         let d = &h.change_mm3_per_frame;
         for i in [0, 100, 120, 300, 301] {
@@ -939,7 +1244,7 @@ mod tests {
     }
 
     #[test]
-    fn a_point_crossing_a_face_forces_a_rebuild() {
+    fn a_point_crossing_a_face_is_caught() {
         // A tetrahedron (all facets triangles, so its triangles are certifiable) with a marker
         // moving from inside out through the face x + y + z = 300: the reused triangles must be
         // rejected the moment the point is above that face, even by 1e-9 mm.
@@ -949,7 +1254,7 @@ mod tests {
         assert_eq!(tracker.frame(&pts).volume_mm3, tet);
         pts[4][2] = 99.5;
         assert_eq!(tracker.frame(&pts).volume_mm3, tet);
-        assert_eq!(tracker.stats(), TrackerStats { reused: 1, rebuilt: 1, degenerate: 0 });
+        assert_eq!(tracker.stats(), TrackerStats { reused: 1, repaired: 0, rebuilt: 1, degenerate: 0, repairs: 0 });
         // On the face: still the tetrahedron, but certification demands *strictly* below, so
         // the hull is rebuilt (same volume).
         pts[4][2] = 100.0;
@@ -960,7 +1265,14 @@ mod tests {
         // The added sliver: det[b−a, c−a, p−a]/6 = 90000 · 1e-9 / 6 = 1.5e-5 mm³.
         assert!(v > tet, "{v}");
         assert!((v - (tet + 1.5e-5)).abs() < 1e-8, "{v}");
-        assert_eq!(tracker.stats().rebuilt, 3);
+        // Repaired by inserting the point into last frame's triangles (not rebuilt), and the
+        // repaired triangles were certified.
+        assert_eq!(tracker.stats().rebuilt, 2);
+        assert_eq!(tracker.stats().repaired, 1);
+        // Back inside: the point (now a hull vertex of degree 3) is removed again.
+        pts[4][2] = 99.0;
+        assert_eq!(tracker.frame(&pts).volume_mm3, tet);
+        assert_eq!((tracker.stats().rebuilt, tracker.stats().repaired), (2, 2));
         // Exactly coplanar facets (a cube's squares) are never certified, always rebuilt.
         let cube = cube_corners([0.0; 3], 100.0);
         let mut t2 = HullTracker::new();
@@ -968,6 +1280,58 @@ mod tests {
             assert_eq!(t2.frame(&cube).volume_mm3, 1e6);
         }
         assert_eq!(t2.stats().reused, 0);
+    }
+
+    #[test]
+    fn repairs_equal_rebuilding_on_jittering_point_clouds() {
+        // Points near a sphere (many flips, points coming out and sinking in every frame),
+        // jitter from tiny to large: every frame equals a from-scratch hull, and most frames
+        // are repaired rather than rebuilt.
+        for (seed, jitter) in [(1u64, 0.5), (2, 3.0), (3, 20.0), (4, 150.0)] {
+            let mut rng = Rng::new(seed);
+            let base: Vec<Point3> = (0..40).map(|_| {
+                let v = [rng.normal(), rng.normal(), rng.normal()];
+                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                let r = 400.0 + 40.0 * rng.uniform();
+                v.map(|c| r * c / n)
+            }).collect();
+            let mut walk = base.clone();
+            let frames: Vec<Vec<Point3>> = (0..300).map(|_| {
+                for p in walk.iter_mut() {
+                    for c in p.iter_mut() {
+                        *c += jitter * rng.normal();
+                    }
+                }
+                walk.clone()
+            }).collect();
+            let m = motion_from_fn(300, 120.0, 40, |i, k| frames[i][k]);
+            let mut t = HullTracker::new();
+            let worst = max_rel_diff_tracker_vs_rebuild(&m, &mut t);
+            assert!(worst <= 1e-12, "seed {seed}: {worst}");
+            let st = t.stats();
+            assert_eq!(st.reused + st.repaired + st.rebuilt + st.degenerate, 300);
+            if jitter < 10.0 {
+                assert!(st.rebuilt < 60, "seed {seed}: {st:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn closure_check_rejects_open_and_doubled_surfaces() {
+        let mut t = HullTracker::new();
+        let pts = [[0.0, 0.0, 0.0], [300.0, 0.0, 0.0], [0.0, 300.0, 0.0], [0.0, 0.0, 300.0]];
+        assert_eq!(t.frame(&pts).volume_mm3, 4.5e6);
+        assert!(t.is_closed());
+        let tri = t.prev_tris.pop().unwrap();
+        assert!(!t.is_closed()); // a hole
+        t.prev_tris.push(tri);
+        t.prev_tris.push(tri);
+        assert!(!t.is_closed()); // a triangle twice
+        t.prev_tris.pop();
+        let [a, b, c] = tri;
+        t.prev_tris.pop();
+        t.prev_tris.push([a, c, b]);
+        assert!(!t.is_closed()); // a triangle turned inside out
     }
 
     fn load(relative: &str) -> Motion {
@@ -1016,6 +1380,72 @@ mod tests {
             assert!(close(ours, p, 1e-9), "{relative} frame {i}: ours {ours}, parry {p}");
         }
         h
+    }
+
+    /// Largest relative difference between the tracker's volume (certification, repairs,
+    /// rebuilds) and a from-scratch quickhull of the frame's valid points, over every frame.
+    fn max_rel_diff_tracker_vs_rebuild(m: &Motion, tracker: &mut HullTracker) -> f64 {
+        let mut builder = HullBuilder::new();
+        let mut worst: f64 = 0.0;
+        for i in 0..m.n_frames() {
+            let fast = tracker.frame(m.frame(i));
+            let valid: Vec<Point3> = m.frame(i).iter().copied().filter(|p| p[0].is_finite()).collect();
+            let want = builder.volume(&valid);
+            assert_eq!(fast.degenerate, want.degenerate, "frame {i}");
+            let rel = (fast.volume_mm3 - want.volume_mm3).abs() / want.volume_mm3.abs().max(f64::MIN_POSITIVE);
+            if want.volume_mm3 != 0.0 || fast.volume_mm3 != 0.0 {
+                worst = worst.max(rel);
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn fast_path_equals_rebuild_every_frame_on_real_takes() {
+        for take in ["cmu86/86_01.amc.gz", "mct/dance1.tsv.gz", "mct/walk1.tsv.gz"] {
+            let m = load(take);
+            let mut fast = HullTracker::new();
+            let worst = max_rel_diff_tracker_vs_rebuild(&m, &mut fast);
+            let mut plain = HullTracker::without_repairs();
+            let worst_plain = max_rel_diff_tracker_vs_rebuild(&m, &mut plain);
+            eprintln!("{take}: max relative volume difference vs rebuild every frame {worst:.3e} (without repairs {worst_plain:.3e}); stats {:?}, without repairs {:?}", fast.stats(), plain.stats());
+            assert!(worst <= 1e-9 && worst_plain <= 1e-9, "{take}: {worst} {worst_plain}");
+        }
+    }
+
+    #[test]
+    fn interior_points_racing_outward_are_caught() {
+        // A fixed outer shell and interior points that move fast, leave the hull, come back and
+        // sit exactly on faces: every frame must equal a from-scratch hull.
+        let mut rng = Rng::new(19);
+        let shell: Vec<Point3> = (0..14).map(|_| {
+            let v = [rng.normal(), rng.normal(), rng.normal()];
+            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            v.map(|c| 500.0 * c / n)
+        }).collect();
+        let inner: Vec<(Point3, Point3)> = (0..12).map(|_| {
+            ([rng.normal() * 60.0, rng.normal() * 60.0, rng.normal() * 60.0], [rng.normal(), rng.normal(), rng.normal()])
+        }).collect();
+        let m = motion_from_fn(600, 120.0, 26, |i, k| {
+            let t = i as f64 / 120.0;
+            if k < 14 {
+                let p = shell[k];
+                let w = 1.0 + 0.05 * (t * (1.0 + k as f64)).sin();
+                [p[0] * w, p[1] * w, p[2] * w]
+            } else {
+                let (c, d) = inner[k - 14];
+                // Speeds up to ~ 1000 mm per frame at the peaks.
+                let s = 700.0 * (t * (2.0 + k as f64 * 0.3)).sin().powi(3);
+                if i % 97 == 0 && k == 14 {
+                    return shell[0]; // a duplicate of a shell vertex for one frame
+                }
+                [c[0] + s * d[0], c[1] + s * d[1], c[2] + s * d[2]]
+            }
+        });
+        let mut t = HullTracker::new();
+        let worst = max_rel_diff_tracker_vs_rebuild(&m, &mut t);
+        assert!(worst <= 1e-12, "{worst}");
+        assert!(t.stats().reused > 0, "{:?}", t.stats());
     }
 
     #[test]

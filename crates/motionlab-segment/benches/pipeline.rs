@@ -12,7 +12,7 @@ use divan::Bencher;
 use divan::counter::ItemsCount;
 use motionlab_core::registry::{build_fuser, build_segmenter};
 use motionlab_core::{FeatureCache, FrameRate, Fuser, MethodCandidates, Motion, Segmenter};
-use motionlab_features::hull::{HullBuilder, hull_volumes};
+use motionlab_features::hull::{HullBuilder, HullTracker, hull_volumes};
 use motionlab_features::speed::marker_speeds;
 
 fn main() {
@@ -78,6 +78,17 @@ fn stage_marker_speeds(bencher: Bencher) {
 #[divan::bench]
 fn stage_hull_volumes(bencher: Bencher) {
     bencher.counter(ItemsCount::new(TAKE.n_frames())).bench(|| hull_volumes(&TAKE));
+}
+
+/// Stage: hull volumes with the tracker as it was before local repairs (certify unchanged
+/// triangles, else rebuild), for comparison in the same run.
+#[divan::bench]
+fn stage_hull_volumes_without_repairs(bencher: Bencher) {
+    let frames: Vec<Vec<[f64; 3]>> = (0..TAKE.n_frames()).map(|i| TAKE.frame(i).to_vec()).collect();
+    bencher.counter(ItemsCount::new(TAKE.n_frames())).bench(|| {
+        let mut t = HullTracker::without_repairs();
+        frames.iter().map(|f| t.frame(f).volume_mm3).sum::<f64>()
+    });
 }
 
 /// Stage: hull volumes, rebuilding every frame (no temporal coherence), for comparison.
