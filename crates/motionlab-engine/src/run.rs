@@ -374,7 +374,9 @@ fn json_bytes<T: Serialize>(v: &T) -> Result<Vec<u8>> {
     serde_json::to_vec_pretty(v).map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))
 }
 
-/// The git revision of the checkout holding `dir` and whether it has uncommitted changes.
+/// The git revision of the checkout holding `dir` and whether it has uncommitted changes —
+/// outside `reports/`: a `reproduce --record` rewrites the committed runs of record as it goes,
+/// which says nothing about the code and configuration that produced the numbers.
 fn git_state(dir: &Path) -> (String, Option<bool>) {
     let git = |args: &[&str]| {
         std::process::Command::new("git")
@@ -386,7 +388,7 @@ fn git_state(dir: &Path) -> (String, Option<bool>) {
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
     };
     match git(&["rev-parse", "HEAD"]) {
-        Some(rev) => (rev, git(&["status", "--porcelain", "--untracked-files=no"]).map(|s| !s.is_empty())),
+        Some(rev) => (rev, git(&["status", "--porcelain", "--untracked-files=no", "--", ":/", ":(exclude,top)reports"]).map(|s| !s.is_empty())),
         None => ("unknown (not a git checkout)".into(), None),
     }
 }
