@@ -266,7 +266,12 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
         let latest_run = latest.clone().map(|l| exp_dir.join(l)).filter(|p| p.is_dir());
         let run = if prefer_record { record.or(latest_run) } else { latest_run.or(record) };
         let runs = std::fs::read_dir(&exp_dir)
-            .map(|r| r.filter_map(|e| e.ok()).filter(|e| e.path().is_dir() && !e.file_name().to_string_lossy().starts_with('.')).count())
+            .map(|r| {
+                // Runs made on this machine: not hidden (in-progress) folders, not the record.
+                r.filter_map(|e| e.ok())
+                    .filter(|e| e.path().is_dir() && !e.file_name().to_string_lossy().starts_with('.') && e.file_name() != "record")
+                    .count()
+            })
             .unwrap_or(0);
         let (latest_link, latest_id, finished_utc, headline, comparisons) = match &run {
             Some(run) => {

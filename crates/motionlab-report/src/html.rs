@@ -240,10 +240,12 @@ pub struct IndexEntry {
     pub name: String,
     pub description: String,
     pub paper: String,
-    /// Relative link to the latest run's page (empty when never run).
+    /// Relative link to the page of the run shown — the latest, or the run of record (its id is
+    /// then `record`); empty when never run.
     pub latest_link: String,
     pub latest_id: String,
     pub finished_utc: String,
+    /// Runs made on this machine (the run of record not counted).
     pub runs: usize,
     /// A few headline numbers (label, value).
     pub headline: Vec<(String, String)>,
