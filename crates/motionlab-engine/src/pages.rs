@@ -123,9 +123,8 @@ fn wildcard(pattern: &str, name: &str) -> bool {
 }
 
 /// Writes the run of record `dest` from a finished run: the tables (CSV and Markdown; all, or
-/// those `record_tables` names), the
-/// figures the experiment lists in `record_figures` (PNG), the provenance and configuration,
-/// and a page of its own. `dest` is replaced: the record is a deliberate, committed copy.
+/// those `record_tables` names), the figures the experiment lists in `record_figures` (PNG), the
+/// provenance and configuration, and a page of its own. `dest` is replaced: the record is a deliberate, committed copy.
 pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()> {
     let io = |p: &Path, e| motionlab_core::Error::io(p, e);
     if dest.exists() {
