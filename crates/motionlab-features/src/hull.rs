@@ -34,9 +34,14 @@
 //! are still the hull when, for every triangle, every other valid point lies *strictly* below
 //! its plane. Proof: such a triangle is then a facet of the convex hull (its plane supports the
 //! set and touches it only at the triangle's three vertices); distinct facets that together form
-//! a closed surface without boundary must be the whole boundary of the hull. The check is a
-//! vectorisable loop of one plane evaluation per (triangle, point) with the same certified error
-//! bound. When it fails (a point pokes out, an edge became reflex, or a hull vertex sank inward)
+//! a closed surface without boundary must be the whole boundary of the hull. The check is one
+//! plane evaluation per (triangle, point) with an a-priori error bound; pairs the bound cannot
+//! decide go to the exact predicate. With AVX2 + FMA (detected at run time) four triangles are
+//! tested per instruction, one per lane, against each point in turn — the triangles' planes are
+//! built lane-wise, each test is a multiply, two FMAs and a compare, and the same pass sums the
+//! volume (see `uncertain_triangles_avx2` for the bound); other CPUs run a portable loop. Both
+//! are checked against the exact predicate on near-degenerate grids far from the origin. When it
+//! fails (a point pokes out, an edge became reflex, or a hull vertex sank inward)
 //! the tracker first tries local repairs of the triangles — edge flips, beneath–beyond insertion
 //! of the point, removal of a degree-3 vertex — that keep the surface closed, and certifies the
 //! result the same way (so the proof covers repaired triangles too); only when no repair applies
@@ -496,6 +501,242 @@ fn orient_fast(a: Point3, b: Point3, c: Point3, q: Point3) -> f64 {
     (d1[1] * d2[2] - d1[2] * d2[1]) * e[0] + (d1[2] * d2[0] - d1[0] * d2[2]) * e[1] + (d1[0] * d2[1] - d1[1] * d2[0]) * e[2]
 }
 
+/// Does every point of `points` have the same validity (all coordinates finite) as `valid`?
+/// Branch-free (`x·0 = 0` exactly for finite `x`, NaN for ±∞ and NaN), so the per-frame check
+/// costs a few cycles per marker.
+fn same_validity(points: &[Point3], valid: &[bool]) -> bool {
+    let mut differ = false;
+    for (p, &v) in points.iter().zip(valid) {
+        let finite = (p[0] * 0.0 + p[1] * 0.0) + p[2] * 0.0 == 0.0;
+        differ |= finite != v;
+    }
+    !differ
+}
+
+/// A frame's distinct valid points in the layouts the certification reads, with their span
+/// and mean.
+#[derive(Default)]
+struct Soa {
+    /// Structure of arrays: the portable plane test.
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    zs: Vec<f64>,
+    /// Per point `[[x; 4], [y; 4], [z; 4]]`: the AVX2 plane test reads a point's coordinates as
+    /// memory operands of its multiply–adds instead of broadcasting them for every triangle.
+    wide: Vec<[[f64; 4]; 3]>,
+    span: Span,
+    /// The points' mean: inside their hull, the apex of the volume sum.
+    mean: Point3,
+}
+
+impl Soa {
+    /// Fills the layouts the plane test will use (`wide` with AVX2 + FMA, else `xs`, `ys`,
+    /// `zs`), the span and the mean.
+    fn fill(&mut self, pts: &[Point3]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                // SAFETY: the CPU supports AVX2 and FMA (checked just above), the only
+                // requirement of the `target_feature` function.
+                return unsafe { self.fill_wide_avx2(pts) };
+            }
+        }
+        let n = pts.len();
+        self.xs.resize(n, 0.0);
+        self.ys.resize(n, 0.0);
+        self.zs.resize(n, 0.0);
+        let (mut lo, mut hi, mut sum) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], [0.0; 3]);
+        for (((p, x), y), z) in pts.iter().zip(&mut self.xs).zip(&mut self.ys).zip(&mut self.zs) {
+            (*x, *y, *z) = (p[0], p[1], p[2]);
+            for k in 0..3 {
+                // `if` rather than `f64::min` (no NaN here): one min/max instruction each.
+                lo[k] = if p[k] < lo[k] { p[k] } else { lo[k] };
+                hi[k] = if p[k] > hi[k] { p[k] } else { hi[k] };
+                sum[k] += p[k];
+            }
+        }
+        self.set_span_and_mean(lo, hi, sum, n);
+    }
+
+    fn set_span_and_mean(&mut self, lo: Point3, hi: Point3, sum: Point3, n: usize) {
+        self.span = Span { ext: [0, 1, 2].map(|k| hi[k] - lo[k]), abs_max: [0, 1, 2].map(|k| lo[k].abs().max(hi[k].abs())) };
+        self.mean = sum.map(|s| s / n as f64);
+    }
+
+    /// [`Soa::fill`] for the AVX2 plane test: each coordinate broadcast once into `wide`, and
+    /// the running min, max and sum (in point order, as the portable loop) taken on the
+    /// broadcast registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn fill_wide_avx2(&mut self, pts: &[Point3]) {
+        use std::arch::x86_64::*;
+        self.wide.resize(pts.len(), [[0.0; 4]; 3]);
+        let mut lo = [_mm256_set1_pd(f64::INFINITY); 3];
+        let mut hi = [_mm256_set1_pd(f64::NEG_INFINITY); 3];
+        let mut sum = [_mm256_setzero_pd(); 3];
+        for (p, w) in pts.iter().zip(&mut self.wide) {
+            for k in 0..3 {
+                let c = _mm256_set1_pd(p[k]);
+                // SAFETY: `w[k]` is a `[f64; 4]` (unaligned 32-byte store).
+                unsafe { _mm256_storeu_pd(w[k].as_mut_ptr(), c) };
+                // vminpd/vmaxpd return the second operand when either is NaN; there is none.
+                lo[k] = _mm256_min_pd(c, lo[k]);
+                hi[k] = _mm256_max_pd(c, hi[k]);
+                sum[k] = _mm256_add_pd(sum[k], c);
+            }
+        }
+        let first = |v: __m256d| _mm_cvtsd_f64(_mm256_castpd256_pd128(v));
+        self.set_span_and_mean(lo.map(first), hi.map(first), sum.map(first), pts.len());
+    }
+}
+
+/// Triangles tested together by the AVX2 kernel: one per f64 lane of a 256-bit register.
+const BATCH: usize = 4;
+
+/// Per-axis quantities the fast certification's error bounds need, from one pass over the
+/// points: the extent (max − min) and the largest magnitude |coordinate|.
+#[derive(Clone, Copy, Debug, Default)]
+struct Span {
+    ext: Point3,
+    abs_max: Point3,
+}
+
+/// The fast half of certification: appends to `uncertain` the index (into `tris`) of every
+/// triangle for which some point other than its three vertices is *not* certified strictly
+/// below its plane by a floating-point test with an a-priori error bound (such a triangle needs
+/// the exact re-check, `HullTracker::certify_slow`). `pts` are the points, `soa` the same in
+/// its layouts. A vertex of the triangle is never certified below (its exact value is 0 and
+/// every evaluation is within its bound of it), so a triangle passes when exactly 3 points fail
+/// the test.
+///
+/// Returns `Σ n·(a − o)` over the triangles (`n = (b−a)×(c−a)`, `o` = the points' mean): six
+/// times the volume they enclose when they are the certified hull, for free from the planes.
+///
+/// With AVX2 + FMA (detected at run time) four triangles are tested at once, one per lane: see
+/// [`uncertain_triangles_avx2`] for its test and error bound. Otherwise each triangle's
+/// [`Plane`] is evaluated at every point.
+fn uncertain_triangles(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU supports AVX2 and FMA (checked just above), the only requirement
+            // of the `target_feature` function.
+            return unsafe { uncertain_triangles_avx2(soa, tris, uncertain) };
+        }
+    }
+    uncertain_triangles_portable(pts, soa, tris, uncertain)
+}
+
+/// [`uncertain_triangles`] without SIMD intrinsics: each triangle's [`Plane`] at every point.
+fn uncertain_triangles_portable(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>) -> f64 {
+    let mut six_volume = 0.0;
+    for (k, t) in tris.iter().enumerate() {
+        let [a, b, c] = t.map(|i| pts[i as usize]);
+        let pl = Plane::new(a, b, c, soa.span.ext);
+        let (nb, o, n) = (-pl.bound, pl.o, pl.n);
+        let mut not_below = 0u32;
+        for ((&x, &y), &z) in soa.xs.iter().zip(&soa.ys).zip(&soa.zs) {
+            let s = (n[0] * (x - o[0]) + n[1] * (y - o[1])) + n[2] * (z - o[2]);
+            not_below += (s >= nb) as u32;
+        }
+        if not_below != 3 {
+            uncertain.push(k as u32);
+        }
+        six_volume -= pl.eval(soa.mean);
+    }
+    six_volume
+}
+
+/// [`uncertain_triangles`] with AVX2 + FMA, four triangles per register (one per f64 lane).
+///
+/// Each lane holds a triangle's normal `n = (b−a)×(c−a)` built as in [`Plane::new`] (same
+/// operations, same order, no FMA) and the threshold `thr = fl(fl(n·a) − bound)`; a point `q`
+/// is certified strictly below when `fl(n·q) < thr`, i.e. one product, two FMAs and a
+/// comparison per (point, triangle) — no per-pair subtraction of `a`.
+///
+/// Error bound (`u = 2⁻⁵³`, `N` the exact normal of the exact differences, `m` and `ext` as in
+/// [`Plane`], `Q` the largest |coordinate| per axis): the exact side value is
+/// `T = N·(q−a) = (N−n)·(q−a) + n·q − n·a`. `|N−n|·|q−a| ≤ γ₄·Σ m_k·ext_k` (two roundings in
+/// each difference, one in each product, one in the subtraction); a 3-term dot product has at
+/// most 3 roundings per term, with or without FMA, so `fl(n·q)` and `fl(n·a)` are each within
+/// `γ₃·(1+u)·Σ m_k·Q_k` of `n·q` and `n·a`; forming `thr` costs at most `u·(|n·a| + bound)`.
+/// So `fl(n·q) < thr` implies `T < −bound·(1−u) + γ₄·Σ m_k·ext_k + 2γ₃(1+u)·Σ m_k·Q_k +
+/// u·(1+γ₃)(1+u)·Σ m_k·Q_k`, which is negative for `bound = ERR·Σ m_k·(ext_k + 2·Q_k) + TINY`
+/// (`ERR = 2e-15` is more than 3× the ≈ 6e-16 these terms need). The vertex `a` itself gives
+/// `fl(n·a) ≥ thr` exactly (same operations, `thr ≤ fl(n·a)` by monotone rounding), `b` and
+/// `c` have `T = 0` so never pass; a triangle passes when exactly 3 points fail the test.
+/// Lanes past the end of `tris` repeat its last triangle and are not reported.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>) -> f64 {
+    use std::arch::x86_64::*;
+    let span = soa.span;
+    let reach = [0, 1, 2].map(|k| span.ext[k] + 2.0 * span.abs_max[k]);
+    let (ox, oy, oz) = (_mm256_set1_pd(soa.mean[0]), _mm256_set1_pd(soa.mean[1]), _mm256_set1_pd(soa.mean[2]));
+    let mut six_volume = _mm256_setzero_pd();
+    let (rx, ry, rz) = (_mm256_set1_pd(reach[0]), _mm256_set1_pd(reach[1]), _mm256_set1_pd(reach[2]));
+    let (err, tiny) = (_mm256_set1_pd(ERR), _mm256_set1_pd(TINY));
+    let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+    let three = _mm256_set1_epi64x(3);
+    for (c, batch) in tris.chunks(BATCH).enumerate() {
+        let last = batch.len() - 1;
+        let t = [batch[0], batch[1.min(last)], batch[2.min(last)], batch[3.min(last)]];
+        let wide = &soa.wide;
+        // Coordinate d of vertex j of each lane's triangle: lane k is blended in from the
+        // 4-lane copy of that vertex's coordinate.
+        macro_rules! lanes {
+            ($j:expr, $d:expr) => {{
+                let (w0, w1, w2, w3) = (&wide[t[0][$j] as usize][$d], &wide[t[1][$j] as usize][$d], &wide[t[2][$j] as usize][$d], &wide[t[3][$j] as usize][$d]);
+                // SAFETY: each pointer addresses a `[f64; 4]` (unaligned 32-byte loads).
+                unsafe {
+                    let v = _mm256_blend_pd::<0b0010>(_mm256_loadu_pd(w0.as_ptr()), _mm256_loadu_pd(w1.as_ptr()));
+                    let v = _mm256_blend_pd::<0b0100>(v, _mm256_loadu_pd(w2.as_ptr()));
+                    _mm256_blend_pd::<0b1000>(v, _mm256_loadu_pd(w3.as_ptr()))
+                }
+            }};
+        }
+        let (ax, ay, az) = (lanes!(0, 0), lanes!(0, 1), lanes!(0, 2));
+        let (d1x, d1y, d1z) = (_mm256_sub_pd(lanes!(1, 0), ax), _mm256_sub_pd(lanes!(1, 1), ay), _mm256_sub_pd(lanes!(1, 2), az));
+        let (d2x, d2y, d2z) = (_mm256_sub_pd(lanes!(2, 0), ax), _mm256_sub_pd(lanes!(2, 1), ay), _mm256_sub_pd(lanes!(2, 2), az));
+        let (p1, p2) = (_mm256_mul_pd(d1y, d2z), _mm256_mul_pd(d1z, d2y));
+        let (p3, p4) = (_mm256_mul_pd(d1z, d2x), _mm256_mul_pd(d1x, d2z));
+        let (p5, p6) = (_mm256_mul_pd(d1x, d2y), _mm256_mul_pd(d1y, d2x));
+        let (nx, ny, nz) = (_mm256_sub_pd(p1, p2), _mm256_sub_pd(p3, p4), _mm256_sub_pd(p5, p6));
+        let mx = _mm256_add_pd(_mm256_and_pd(p1, abs), _mm256_and_pd(p2, abs));
+        let my = _mm256_add_pd(_mm256_and_pd(p3, abs), _mm256_and_pd(p4, abs));
+        let mz = _mm256_add_pd(_mm256_and_pd(p5, abs), _mm256_and_pd(p6, abs));
+        let sum = _mm256_fmadd_pd(mz, rz, _mm256_fmadd_pd(my, ry, _mm256_mul_pd(mx, rx)));
+        let bound = _mm256_fmadd_pd(err, sum, tiny);
+        // n·a with exactly the operations used for n·q below, so the vertex a compares equal.
+        let na = _mm256_fmadd_pd(nz, az, _mm256_fmadd_pd(ny, ay, _mm256_mul_pd(nx, ax)));
+        let thr = _mm256_sub_pd(na, bound);
+        // n·(a − o), in the lanes that hold a triangle of `tris`.
+        let lane_used = _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x(batch.len() as i64), _mm256_setr_epi64x(0, 1, 2, 3)));
+        let six = _mm256_fmadd_pd(nz, _mm256_sub_pd(az, oz), _mm256_fmadd_pd(ny, _mm256_sub_pd(ay, oy), _mm256_mul_pd(nx, _mm256_sub_pd(ax, ox))));
+        six_volume = _mm256_add_pd(six_volume, _mm256_and_pd(six, lane_used));
+        let mut not_below = _mm256_setzero_si256();
+        for w in wide {
+            // SAFETY: each pointer addresses a `[f64; 4]` (unaligned 32-byte loads).
+            let (x, y, z) = unsafe { (_mm256_loadu_pd(w[0].as_ptr()), _mm256_loadu_pd(w[1].as_ptr()), _mm256_loadu_pd(w[2].as_ptr())) };
+            let nq = _mm256_fmadd_pd(nz, z, _mm256_fmadd_pd(ny, y, _mm256_mul_pd(nx, x)));
+            // Ordered comparison (a NaN plane fails it, so its triangle is never passed here);
+            // a true lane is all ones, i.e. −1: subtracting counts it.
+            let m = _mm256_cmp_pd::<_CMP_GE_OQ>(nq, thr);
+            not_below = _mm256_sub_epi64(not_below, _mm256_castpd_si256(m));
+        }
+        let bad = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(not_below, three))) ^ 0b1111;
+        let mut bad = (bad as u32) & ((1 << batch.len()) - 1);
+        while bad != 0 {
+            uncertain.push((c * BATCH) as u32 + bad.trailing_zeros());
+            bad &= bad - 1;
+        }
+    }
+    let mut lanes = [0.0; BATCH];
+    // SAFETY: `lanes` is 4 × f64 = 32 bytes, the width of the unaligned store.
+    unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), six_volume) };
+    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+}
+
 /// Exactly collinear: `(b−a)×(q−a) = 0`, i.e. all three coordinate-plane projections collinear.
 fn collinear_exact(a: Point3, b: Point3, q: Point3) -> bool {
     let o2 = |i: usize, j: usize| {
@@ -508,14 +749,14 @@ fn collinear_exact(a: Point3, b: Point3, q: Point3) -> bool {
     o2(0, 1) == 0.0 && o2(1, 2) == 0.0 && o2(2, 0) == 0.0
 }
 
-/// Volume enclosed by outward triangles: Σ det(a−o, b−o, c−o)/6 about a point `o` inside the
-/// hull (so every term is ≥ 0 and nothing cancels).
-fn volume_of_triangles(pts: &[Point3], o: Point3, tris: &[[u32; 3]]) -> f64 {
+/// Six times the volume enclosed by outward triangles: Σ det(a−o, b−o, c−o) about a point `o`
+/// inside the hull (so every term is ≥ 0 and nothing cancels).
+fn six_volume(pts: &[Point3], o: Point3, tris: &[[u32; 3]]) -> f64 {
     let mut six_v = 0.0;
     for &[a, b, c] in tris {
         six_v += orient_fast(o, pts[a as usize], pts[b as usize], pts[c as usize]);
     }
-    six_v / 6.0
+    six_v
 }
 
 /// Hull volume of the finite points of `points` (non-finite ones are skipped as missing).
@@ -569,10 +810,8 @@ pub struct HullTracker {
     compact: Vec<Point3>,
     /// Their indices in the frame (valid, first of each group of exact duplicates).
     keep: Vec<u32>,
-    /// The distinct valid points, structure of arrays for the certification loop.
-    xs: Vec<f64>,
-    ys: Vec<f64>,
-    zs: Vec<f64>,
+    /// The distinct valid points in the certification's layouts.
+    soa: Soa,
     /// Which markers were valid at the last structure change (= last frame).
     prev_valid: Vec<bool>,
     /// `(k, j)`: marker `k` equalled marker `j < k` exactly at the last structure change.
@@ -580,8 +819,17 @@ pub struct HullTracker {
     /// Last frame's triangles, as indices into the distinct valid points. During a repair,
     /// removed triangles are marked `[NONE; 3]` (and dropped once the frame is certified).
     prev_tris: Vec<[u32; 3]>,
-    /// Triangles still to certify this frame.
-    work: Vec<u32>,
+    /// Triangles that failed certification this frame and still need a repair, with their
+    /// vertices when they failed (an entry whose triangle was rewritten since is stale).
+    work: Vec<(u32, [u32; 3])>,
+    /// Triangles a repair just wrote, as indices and as vertices (scratch).
+    fresh: Vec<u32>,
+    fresh_tris: Vec<[u32; 3]>,
+    /// Triangles the fast test could not certify (scratch).
+    uncertain: Vec<u32>,
+    /// Six times the volume of last frame's triangles about the points' mean, from their
+    /// certification (the frame's volume when no repair was needed).
+    six_volume: f64,
     /// Repair scratch: triangles visible from an inserted point, and their boundary.
     visible: Vec<u32>,
     horizon: Vec<(u32, u32)>,
@@ -625,12 +873,10 @@ impl HullTracker {
         // distinct points are gathered by index, no search.
         let same_structure = !self.prev_tris.is_empty()
             && points.len() == self.prev_valid.len()
-            && points.iter().zip(&self.prev_valid).all(|(p, &v)| p.iter().all(|c| c.is_finite()) == v)
+            && same_validity(points, &self.prev_valid)
             && self.dups.iter().all(|&(k, j)| points[k as usize] == points[j as usize]);
         if same_structure {
-            self.compact.clear();
-            self.compact.extend(self.keep.iter().map(|&i| points[i as usize]));
-            self.fill_soa();
+            self.gather(points);
             let mut repairs = 0;
             let mut ok = self.certify(&mut repairs);
             self.stats.repairs += repairs;
@@ -647,10 +893,10 @@ impl HullTracker {
                 } else {
                     self.stats.repaired += 1;
                 }
-                // The mean of the points is inside their hull: a safe apex for the volume sum.
-                let k = self.xs.len() as f64;
-                let o = [self.xs.iter().sum::<f64>() / k, self.ys.iter().sum::<f64>() / k, self.zs.iter().sum::<f64>() / k];
-                return HullVolume { volume_mm3: volume_of_triangles(&self.compact, o, &self.prev_tris), degenerate: None };
+                // Unchanged triangles: the certification summed their volume about the mean of
+                // the points (inside the hull, so no term is negative); repaired: sum again.
+                let six_volume = if repairs == 0 { self.six_volume } else { six_volume(&self.compact, self.soa.mean, &self.prev_tris) };
+                return HullVolume { volume_mm3: six_volume / 6.0, degenerate: None };
             }
         } else {
             self.prev_valid.clear();
@@ -663,9 +909,7 @@ impl HullTracker {
                 }
             }
             self.find_dups(points);
-            self.compact.clear();
-            self.compact.extend(self.keep.iter().map(|&i| points[i as usize]));
-            self.fill_soa();
+            self.gather(points);
         }
         let h = self.builder.volume(&self.compact);
         self.prev_tris.clear();
@@ -696,16 +940,11 @@ impl HullTracker {
         });
     }
 
-    /// Fills the structure-of-arrays copy of `compact`.
-    fn fill_soa(&mut self) {
-        self.xs.clear();
-        self.ys.clear();
-        self.zs.clear();
-        for p in &self.compact {
-            self.xs.push(p[0]);
-            self.ys.push(p[1]);
-            self.zs.push(p[2]);
-        }
+    /// Gathers the kept points of the frame into `compact` and its structure-of-arrays copy.
+    fn gather(&mut self, points: &[Point3]) {
+        self.compact.clear();
+        self.compact.extend(self.keep.iter().map(|&i| points[i as usize]));
+        self.soa.fill(&self.compact);
     }
 
     /// True when the previous triangles, possibly repaired, have every other point strictly
@@ -713,57 +952,87 @@ impl HullTracker {
     /// certified while others change (its test depends only on the points), so after a repair
     /// only the triangles it created are queued.
     fn certify(&mut self, repairs: &mut usize) -> bool {
-        let ext = extent(&self.compact);
+        let ext = self.soa.span.ext;
+        // Every triangle first (the common case: all pass). The failed ones go on the `work`
+        // stack with their vertices, in reverse so they are popped in index order.
+        self.uncertain.clear();
+        self.six_volume = uncertain_triangles(&self.compact, &self.soa, &self.prev_tris, &mut self.uncertain);
         self.work.clear();
-        self.work.extend((0..self.prev_tris.len() as u32).rev());
-        while let Some(ti) = self.work.pop() {
+        for x in (0..self.uncertain.len()).rev() {
+            let ti = self.uncertain[x];
             let t = self.prev_tris[ti as usize];
-            if t[0] == NONE || self.certify_triangle(&t, ext) {
+            if !self.certify_slow(&t, ext) {
+                self.work.push((ti, t));
+            }
+        }
+        if !self.work.is_empty() && self.no_repairs {
+            return false;
+        }
+        while let Some((ti, t)) = self.work.pop() {
+            if self.prev_tris[ti as usize] != t {
+                // Rewritten or removed by a later repair, which certified what it wrote.
                 continue;
             }
-            if self.no_repairs || *repairs >= MAX_REPAIRS {
+            if *repairs >= MAX_REPAIRS {
                 return false;
             }
             let before = self.prev_tris.len() as u32;
+            self.fresh.clear();
             match self.repair(ti, ext) {
-                Repair::Replaced(tj) => {
-                    self.work.push(tj);
-                    self.work.push(ti);
-                }
+                Repair::Replaced(tj) => self.fresh.extend([tj, ti]),
                 Repair::Appended(tj) => {
                     // Triangles from `before` on are new, and `tj` was rewritten in place.
-                    self.work.extend(before..self.prev_tris.len() as u32);
-                    self.work.extend(tj);
+                    self.fresh.extend(before..self.prev_tris.len() as u32);
+                    self.fresh.extend(tj);
                 }
                 Repair::Failed => return false,
             }
+            self.queue_failed();
             *repairs += 1;
         }
         true
     }
 
-    /// Does triangle `t` have every other point strictly below its plane?
-    #[inline]
-    fn certify_triangle(&self, t: &[u32; 3], ext: Point3) -> bool {
-        let (xs, ys, zs) = (&self.xs[..], &self.ys[..], &self.zs[..]);
-        let [a, b, c] = t.map(|i| self.compact[i as usize]);
-        let pl = Plane::new(a, b, c, ext);
-        let (nb, o, n) = (-pl.bound, pl.o, pl.n);
-        // Branch-free so it vectorises: count points not certified strictly below. The
-        // triangle's own three vertices always count (their exact value is 0).
-        let mut uncertain = 0u32;
-        for q in 0..xs.len() {
-            let s = (n[0] * (xs[q] - o[0]) + n[1] * (ys[q] - o[1])) + n[2] * (zs[q] - o[2]);
-            uncertain += (s >= nb) as u32;
+    /// Certifies the triangles a repair wrote (`fresh`, indices; removed ones are skipped) in
+    /// one pass and pushes the failed ones onto `work` in the order given (the last is popped
+    /// first). A triangle certified once stays certified while others change (its test depends
+    /// only on its vertices and the points), so only these need it.
+    fn queue_failed(&mut self) {
+        self.fresh_tris.clear();
+        let mut kept = 0;
+        for x in 0..self.fresh.len() {
+            let ti = self.fresh[x];
+            let t = self.prev_tris[ti as usize];
+            if t[0] != NONE {
+                self.fresh[kept] = ti;
+                self.fresh_tris.push(t);
+                kept += 1;
+            }
         }
-        uncertain == 3 || self.certify_slow(t, &pl)
+        self.fresh.truncate(kept);
+        if kept == 0 {
+            return;
+        }
+        self.uncertain.clear();
+        uncertain_triangles(&self.compact, &self.soa, &self.fresh_tris, &mut self.uncertain);
+        for x in 0..self.uncertain.len() {
+            let k = self.uncertain[x] as usize;
+            let t = self.fresh_tris[k];
+            if !self.certify_slow(&t, self.soa.span.ext) {
+                self.work.push((self.fresh[k], t));
+            }
+        }
     }
 
-    /// Exact re-check of the points the fast loop could not certify for one triangle.
-    fn certify_slow(&self, t: &[u32; 3], pl: &Plane) -> bool {
+    /// Exact re-check of the points the fast test could not certify for one triangle.
+    fn certify_slow(&self, t: &[u32; 3], ext: Point3) -> bool {
         let [a, b, c] = t.map(|i| self.compact[i as usize]);
+        let pl = Plane::new(a, b, c, ext);
         self.compact.iter().enumerate().all(|(q, &p)| {
-            t.contains(&(q as u32)) || pl.eval(p) < -pl.bound || orient_exact(a, b, c, p) < 0.0
+            let s = pl.eval(p);
+            // Certainly above (most triangles that get here have such a point): fail without
+            // the exact predicate.
+            s < -pl.bound || (s <= pl.bound && (t.contains(&(q as u32)) || orient_exact(a, b, c, p) < 0.0))
         })
     }
 
@@ -1004,15 +1273,17 @@ pub fn hull_volumes(motion: &Motion) -> HullVolumes {
     let mut volume_mm3 = Vec::with_capacity(f);
     let mut degenerate = Vec::with_capacity(f);
     let mut n_valid = Vec::with_capacity(f);
+    // A complete recording (the usual case) needs no per-frame look at the missing flags.
+    let complete = motion.missing_count() == 0;
     for i in 0..f {
         let h = tracker.frame(motion.frame(i));
         volume_mm3.push(h.volume_mm3);
         degenerate.push(h.degenerate);
-        n_valid.push(motion.frame_missing(i).iter().filter(|m| !**m).count());
+        n_valid.push(if complete { motion.n_points() } else { motion.frame_missing(i).iter().filter(|m| !**m).count() });
     }
     let mut change = vec![f64::NAN; f];
     for i in 1..f {
-        let same_markers = motion.frame_missing(i) == motion.frame_missing(i - 1);
+        let same_markers = complete || motion.frame_missing(i) == motion.frame_missing(i - 1);
         if same_markers && degenerate[i].is_none() && degenerate[i - 1].is_none() {
             change[i] = (volume_mm3[i] - volume_mm3[i - 1]).abs();
         }
@@ -1314,6 +1585,83 @@ mod tests {
                 assert!(st.rebuilt < 60, "seed {seed}: {st:?}");
             }
         }
+    }
+
+    /// Exact: every point other than the vertices of `t` strictly below its plane?
+    fn exactly_certified(pts: &[Point3], t: [u32; 3]) -> bool {
+        let [a, b, c] = t.map(|i| pts[i as usize]);
+        pts.iter().enumerate().all(|(q, &p)| t.contains(&(q as u32)) || orient_exact(a, b, c, p) < 0.0)
+    }
+
+    #[test]
+    fn fast_plane_tests_never_certify_what_the_exact_test_rejects() {
+        // A 3×3×3 grid (most triples have other points exactly on their plane), far from the
+        // origin (the AVX2 test's bound grows with |coordinates|) and jittered by a few ulps.
+        // Every triangle, both orientations, through both fast tests: whatever a fast test
+        // certifies, the exact predicate must certify too; the rest goes to `certify_slow`.
+        let mut certified_exactly = 0;
+        let mut rejected_exactly = 0;
+        for (seed, offset, jitter) in [(1u64, 0.0, 0.0), (2, 1e4, 0.0), (3, 3e6, 1e-9), (4, -2e3, 1e-12)] {
+            let mut rng = Rng::new(seed);
+            let pts: Vec<Point3> =
+                (0..23).map(|i| [i % 3, (i / 3) % 3, i / 9].map(|c| offset + 100.0 * c as f64 + jitter * rng.normal())).collect();
+            let mut soa = Soa::default();
+            soa.fill(&pts);
+            // Both layouts, whichever `fill` chose on this CPU.
+            (soa.xs, soa.ys, soa.zs) = (pts.iter().map(|p| p[0]).collect(), pts.iter().map(|p| p[1]).collect(), pts.iter().map(|p| p[2]).collect());
+            soa.wide = pts.iter().map(|p| p.map(|c| [c; 4])).collect();
+            let n = pts.len() as u32;
+            let tris: Vec<[u32; 3]> = (0..n)
+                .flat_map(|a| (a + 1..n).flat_map(move |b| (b + 1..n).flat_map(move |c| [[a, b, c], [a, c, b]])))
+                .collect();
+            let mut results = vec![];
+            let mut uncertain = vec![];
+            uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain);
+            results.push(("portable", std::mem::take(&mut uncertain)));
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+                // SAFETY: the CPU supports AVX2 and FMA (checked just above).
+                unsafe { uncertain_triangles_avx2(&soa, &tris, &mut uncertain) };
+                results.push(("avx2", uncertain));
+            }
+            for (k, &t) in tris.iter().enumerate() {
+                let exact = exactly_certified(&pts, t);
+                certified_exactly += exact as usize;
+                rejected_exactly += !exact as usize;
+                for (name, uncertain) in &results {
+                    let fast = uncertain.binary_search(&(k as u32)).is_err();
+                    assert!(!fast || exact, "{name} certified {t:?} (seed {seed}), which the exact test rejects");
+                }
+            }
+        }
+        assert!(certified_exactly > 50 && rejected_exactly > 10_000, "{certified_exactly} {rejected_exactly}");
+    }
+
+    #[test]
+    fn certification_sums_the_volume_of_the_hull_it_certifies() {
+        // The six-fold volume the plane test returns for a hull's triangles, on both paths,
+        // equals the quickhull's volume (summed another way: from the mean, by `orient_fast`).
+        let mut rng = Rng::new(9);
+        let pts: Vec<Point3> = (0..30).map(|_| [rng.normal() * 300.0 + 2500.0, rng.normal() * 200.0 - 800.0, rng.normal() * 900.0]).collect();
+        let mut b = HullBuilder::new();
+        let want = b.volume(&pts).volume_mm3;
+        let tris: Vec<[u32; 3]> = b.triangles().collect();
+        let mut soa = Soa::default();
+        soa.fill(&pts);
+        (soa.xs, soa.ys, soa.zs) = (pts.iter().map(|p| p[0]).collect(), pts.iter().map(|p| p[1]).collect(), pts.iter().map(|p| p[2]).collect());
+        soa.wide = pts.iter().map(|p| p.map(|c| [c; 4])).collect();
+        let mut uncertain = vec![];
+        let portable = uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain) / 6.0;
+        assert!(uncertain.is_empty(), "{uncertain:?}");
+        assert!(close(portable, want, 1e-12), "{portable} {want}");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU supports AVX2 and FMA (checked just above).
+            let avx2 = unsafe { uncertain_triangles_avx2(&soa, &tris, &mut uncertain) } / 6.0;
+            assert!(uncertain.is_empty(), "{uncertain:?}");
+            assert!(close(avx2, want, 1e-12), "{avx2} {want}");
+        }
+        assert!(close(six_volume(&pts, soa.mean, &tris) / 6.0, want, 1e-12));
     }
 
     #[test]

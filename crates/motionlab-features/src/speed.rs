@@ -52,25 +52,32 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
     } else {
         motion.positions()
     };
-    let mut speeds = vec![f64::NAN; f * m];
+    let mut speeds = Vec::with_capacity(f * m);
     let mut fastest = vec![f64::NAN; f];
     let mut fastest_marker = vec![None; f];
     for i in 0..f.saturating_sub(1) {
         let (a, b) = (&positions[i * m..(i + 1) * m], &positions[(i + 1) * m..(i + 2) * m]);
-        let mut best = f64::NEG_INFINITY;
-        for k in 0..m {
-            let d = [b[k][0] - a[k][0], b[k][1] - a[k][1], b[k][2] - a[k][2]];
-            let v = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * fps;
-            speeds[i * m + k] = v; // NaN propagates from missing samples
+        // All speeds of the frame first, in branch-free loops (squared distances, then the
+        // square roots over a contiguous row, which vectorise), then the fastest among them.
+        speeds.extend(a.iter().zip(b).map(|(a, b)| {
+            let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2] // NaN propagates from missing samples
+        }));
+        let row = &mut speeds[i * m..];
+        for v in row.iter_mut() {
+            *v = v.sqrt() * fps;
+        }
+        let (mut best, mut best_k) = (f64::NEG_INFINITY, usize::MAX);
+        for (k, &v) in row.iter().enumerate() {
             if v > best {
-                best = v;
-                fastest_marker[i] = Some(k);
+                (best, best_k) = (v, k);
             }
         }
-        if fastest_marker[i].is_some() {
-            fastest[i] = best;
+        if best_k != usize::MAX {
+            (fastest[i], fastest_marker[i]) = (best, Some(best_k));
         }
     }
+    speeds.resize(f * m, f64::NAN); // the last frame has no successor
     MarkerSpeeds { n_points: m, speeds, fastest, fastest_marker }
 }
 

@@ -61,7 +61,7 @@ fn run(p: &Pipeline, m: &Motion) -> Vec<usize> {
 }
 
 /// The whole pipeline, per repetition count of 86_01 (1×, 10×, 100×).
-#[divan::bench(args = [1, 10, 100], sample_count = 5, sample_size = 1)]
+#[divan::bench(args = [1, 10, 100], sample_count = 25, sample_size = 1)]
 fn whole_pipeline(bencher: Bencher, times: usize) {
     let m = &REPEATED.iter().find(|(t, _)| *t == times).unwrap().1;
     let p = pipeline();
