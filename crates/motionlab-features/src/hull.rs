@@ -40,8 +40,8 @@
 //! tested per instruction, one per lane, against each point in turn — the triangles' planes are
 //! built lane-wise, each test is a multiply, two FMAs and a compare, and the same pass sums the
 //! volume (see `uncertain_triangles_avx2` for the bound); other CPUs run a portable loop. Both
-//! are checked against the exact predicate on near-degenerate grids far from the origin. When it
-//! fails (a point pokes out, an edge became reflex, or a hull vertex sank inward)
+//! are checked against the exact predicate on near-degenerate grids far from the origin, and
+//! must (and do) make the same decisions frame by frame on real takes. When it fails (a point pokes out, an edge became reflex, or a hull vertex sank inward)
 //! the tracker first tries local repairs of the triangles — edge flips, beneath–beyond insertion
 //! of the point, removal of a degree-3 vertex — that keep the surface closed, and certifies the
 //! result the same way (so the proof covers repaired triangles too); only when no repair applies
@@ -535,8 +535,8 @@ impl Soa {
     fn fill(&mut self, pts: &[Point3]) {
         #[cfg(target_arch = "x86_64")]
         {
-            if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-                // SAFETY: the CPU supports AVX2 and FMA (checked just above), the only
+            if simd_available() {
+                // SAFETY: the CPU supports AVX2 and FMA (checked by `simd_available`), the only
                 // requirement of the `target_feature` function.
                 return unsafe { self.fill_wide_avx2(pts) };
             }
@@ -590,6 +590,24 @@ impl Soa {
     }
 }
 
+/// May the AVX2 + FMA kernels run? True when the CPU has both (detected at run time, cached by
+/// the standard library); tests can force the portable code on this thread.
+#[inline]
+fn simd_available() -> bool {
+    #[cfg(test)]
+    if tests::FORCE_PORTABLE.with(|f| f.get()) {
+        return false;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// Triangles tested together by the AVX2 kernel: one per f64 lane of a 256-bit register.
 const BATCH: usize = 4;
 
@@ -618,9 +636,9 @@ struct Span {
 fn uncertain_triangles(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>) -> f64 {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU supports AVX2 and FMA (checked just above), the only requirement
-            // of the `target_feature` function.
+        if simd_available() {
+            // SAFETY: the CPU supports AVX2 and FMA (checked by `simd_available`), the only
+            // requirement of the `target_feature` function.
             return unsafe { uncertain_triangles_avx2(soa, tris, uncertain) };
         }
     }
@@ -1339,6 +1357,11 @@ mod tests {
     use motionlab_core::Motion;
     use motionlab_testkit::{Rng, cube_corners, motion_from_fn};
 
+    thread_local! {
+        /// Set: this thread's hull code takes the portable path even on an AVX2 CPU.
+        pub(super) static FORCE_PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    }
+
     fn vol(points: &[Point3]) -> f64 {
         let h = convex_hull_volume(points);
         assert_eq!(h.degenerate, None, "{points:?}");
@@ -1758,6 +1781,33 @@ mod tests {
             let worst_plain = max_rel_diff_tracker_vs_rebuild(&m, &mut plain);
             eprintln!("{take}: max relative volume difference vs rebuild every frame {worst:.3e} (without repairs {worst_plain:.3e}); stats {:?}, without repairs {:?}", fast.stats(), plain.stats());
             assert!(worst <= 1e-9 && worst_plain <= 1e-9, "{take}: {worst} {worst_plain}");
+        }
+    }
+
+    #[test]
+    fn portable_and_simd_paths_make_the_same_decisions_on_real_takes() {
+        // The fast tests only decide what they can prove and leave the rest to the exact
+        // predicate, so both paths must certify, repair and rebuild exactly the same frames; the
+        // volumes (summed in another order) agree to rounding, and both equal a rebuild.
+        for take in ["cmu86/86_01.amc.gz", "mct/dance1.tsv.gz"] {
+            let m = load(take);
+            let run = |portable: bool| {
+                FORCE_PORTABLE.with(|f| f.set(portable));
+                let mut t = HullTracker::new();
+                let worst = max_rel_diff_tracker_vs_rebuild(&m, &mut t);
+                t.reset();
+                let volumes: Vec<f64> = (0..m.n_frames()).map(|i| t.frame(m.frame(i)).volume_mm3).collect();
+                FORCE_PORTABLE.with(|f| f.set(false));
+                (worst, t.stats(), volumes)
+            };
+            let (worst_portable, stats_portable, portable) = run(true);
+            let (worst_simd, stats_simd, simd) = run(false);
+            assert!(worst_portable <= 1e-9 && worst_simd <= 1e-9, "{take}: {worst_portable} {worst_simd}");
+            assert_eq!(stats_portable, stats_simd, "{take}");
+            assert!(stats_portable.reused > 0 && stats_portable.repaired > 0, "{take}: {stats_portable:?}");
+            for (i, (a, b)) in portable.iter().zip(&simd).enumerate() {
+                assert!(close(*a, *b, 1e-12), "{take} frame {i}: {a} {b}");
+            }
         }
     }
 
