@@ -41,11 +41,11 @@
 //! built lane-wise, each test is a multiply, two FMAs and a compare, and the same pass sums the
 //! volume (see `uncertain_triangles_avx2` for the bound); other CPUs run a portable loop. Both
 //! are checked against the exact predicate on near-degenerate grids far from the origin, and
-//! must (and do) make the same decisions frame by frame on real takes. When it fails (a point pokes out, an edge became reflex, or a hull vertex sank inward)
-//! the tracker first tries local repairs of the triangles — edge flips, beneath–beyond insertion
-//! of the point, removal of a degree-3 vertex — that keep the surface closed, and certifies the
-//! result the same way (so the proof covers repaired triangles too); only when no repair applies
-//! is the hull rebuilt. On CMU 86_01 39 % of the frames change combinatorics; all but 38 of
+//! must (and do) make the same decisions frame by frame on real takes. When it fails (a point
+//! pokes out, an edge became reflex, or a hull vertex sank inward) the tracker first tries local
+//! repairs of the triangles — edge flips, beneath–beyond insertion of the point, removal of a
+//! degree-3 vertex — that keep the surface closed, and certifies the result the same way (so
+//! the proof covers repaired triangles too); only when no repair applies is the hull rebuilt. On CMU 86_01 39 % of the frames change combinatorics; all but 38 of
 //! those 1778 frames are repaired.
 //!
 //! **Missing samples:** the hull is taken over the valid markers of the frame only. `D[i]` is
