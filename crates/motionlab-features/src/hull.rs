@@ -696,10 +696,10 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
     let (err, tiny) = (_mm256_set1_pd(ERR), _mm256_set1_pd(TINY));
     let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
     let three = _mm256_set1_epi64x(3);
+    let wide = &soa.wide;
     for (c, batch) in tris.chunks(BATCH).enumerate() {
         let last = batch.len() - 1;
         let t = [batch[0], batch[1.min(last)], batch[2.min(last)], batch[3.min(last)]];
-        let wide = &soa.wide;
         // Coordinate d of vertex j of each lane's triangle: lane k is blended in from the
         // 4-lane copy of that vertex's coordinate.
         macro_rules! lanes {
@@ -1610,6 +1610,15 @@ mod tests {
         }
     }
 
+    /// `pts` in both the portable and the AVX2 layout, whichever `Soa::fill` chose on this CPU.
+    fn soa_in_both_layouts(pts: &[Point3]) -> Soa {
+        let mut soa = Soa::default();
+        soa.fill(pts);
+        (soa.xs, soa.ys, soa.zs) = (pts.iter().map(|p| p[0]).collect(), pts.iter().map(|p| p[1]).collect(), pts.iter().map(|p| p[2]).collect());
+        soa.wide = pts.iter().map(|p| p.map(|c| [c; 4])).collect();
+        soa
+    }
+
     /// Exact: every point other than the vertices of `t` strictly below its plane?
     fn exactly_certified(pts: &[Point3], t: [u32; 3]) -> bool {
         let [a, b, c] = t.map(|i| pts[i as usize]);
@@ -1628,11 +1637,7 @@ mod tests {
             let mut rng = Rng::new(seed);
             let pts: Vec<Point3> =
                 (0..23).map(|i| [i % 3, (i / 3) % 3, i / 9].map(|c| offset + 100.0 * c as f64 + jitter * rng.normal())).collect();
-            let mut soa = Soa::default();
-            soa.fill(&pts);
-            // Both layouts, whichever `fill` chose on this CPU.
-            (soa.xs, soa.ys, soa.zs) = (pts.iter().map(|p| p[0]).collect(), pts.iter().map(|p| p[1]).collect(), pts.iter().map(|p| p[2]).collect());
-            soa.wide = pts.iter().map(|p| p.map(|c| [c; 4])).collect();
+            let soa = soa_in_both_layouts(&pts);
             let n = pts.len() as u32;
             let tris: Vec<[u32; 3]> = (0..n)
                 .flat_map(|a| (a + 1..n).flat_map(move |b| (b + 1..n).flat_map(move |c| [[a, b, c], [a, c, b]])))
@@ -1669,10 +1674,7 @@ mod tests {
         let mut b = HullBuilder::new();
         let want = b.volume(&pts).volume_mm3;
         let tris: Vec<[u32; 3]> = b.triangles().collect();
-        let mut soa = Soa::default();
-        soa.fill(&pts);
-        (soa.xs, soa.ys, soa.zs) = (pts.iter().map(|p| p[0]).collect(), pts.iter().map(|p| p[1]).collect(), pts.iter().map(|p| p[2]).collect());
-        soa.wide = pts.iter().map(|p| p.map(|c| [c; 4])).collect();
+        let soa = soa_in_both_layouts(&pts);
         let mut uncertain = vec![];
         let portable = uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain) / 6.0;
         assert!(uncertain.is_empty(), "{uncertain:?}");
