@@ -501,16 +501,9 @@ fn orient_fast(a: Point3, b: Point3, c: Point3, q: Point3) -> f64 {
     (d1[1] * d2[2] - d1[2] * d2[1]) * e[0] + (d1[2] * d2[0] - d1[0] * d2[2]) * e[1] + (d1[0] * d2[1] - d1[1] * d2[0]) * e[2]
 }
 
-/// Does every point of `points` have the same validity (all coordinates finite) as `valid`?
-/// Branch-free (`x·0 = 0` exactly for finite `x`, NaN for ±∞ and NaN), so the per-frame check
-/// costs a few cycles per marker.
-fn same_validity(points: &[Point3], valid: &[bool]) -> bool {
-    let mut differ = false;
-    for (p, &v) in points.iter().zip(valid) {
-        let finite = (p[0] * 0.0 + p[1] * 0.0) + p[2] * 0.0 == 0.0;
-        differ |= finite != v;
-    }
-    !differ
+/// All three coordinates finite (the sample is not missing)?
+fn is_finite(p: Point3) -> bool {
+    p.iter().all(|c| c.is_finite())
 }
 
 /// A frame's distinct valid points in the layouts the certification reads, with their span
@@ -530,24 +523,29 @@ struct Soa {
 }
 
 impl Soa {
-    /// Fills the layouts the plane test will use (`wide` with AVX2 + FMA, else `xs`, `ys`,
-    /// `zs`), the span and the mean.
-    fn fill(&mut self, pts: &[Point3]) {
+    /// Gathers `points[keep[..]]` into `compact` and the layouts the plane test will use
+    /// (`wide` with AVX2 + FMA, else `xs`, `ys`, `zs`), with their span and mean, in one pass.
+    /// Returns false when a gathered point is not finite (a marker went missing): the sum of
+    /// the coordinates is then not finite, so the check costs nothing per point.
+    fn fill(&mut self, points: &[Point3], keep: &[u32], compact: &mut Vec<Point3>) -> bool {
+        compact.resize(keep.len(), [0.0; 3]);
         #[cfg(target_arch = "x86_64")]
         {
             if simd_available() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked by `simd_available`), the only
                 // requirement of the `target_feature` function.
-                return unsafe { self.fill_wide_avx2(pts) };
+                return unsafe { self.fill_wide_avx2(points, keep, compact) };
             }
         }
-        let n = pts.len();
+        let n = keep.len();
         self.xs.resize(n, 0.0);
         self.ys.resize(n, 0.0);
         self.zs.resize(n, 0.0);
         let (mut lo, mut hi, mut sum) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], [0.0; 3]);
-        for (((p, x), y), z) in pts.iter().zip(&mut self.xs).zip(&mut self.ys).zip(&mut self.zs) {
-            (*x, *y, *z) = (p[0], p[1], p[2]);
+        let layouts = self.xs.iter_mut().zip(&mut self.ys).zip(&mut self.zs);
+        for ((&i, c), ((x, y), z)) in keep.iter().zip(compact.iter_mut()).zip(layouts) {
+            let p = points[i as usize];
+            (*c, *x, *y, *z) = (p, p[0], p[1], p[2]);
             for k in 0..3 {
                 // `if` rather than `f64::min` (no NaN here): one min/max instruction each.
                 lo[k] = if p[k] < lo[k] { p[k] } else { lo[k] };
@@ -555,38 +553,49 @@ impl Soa {
                 sum[k] += p[k];
             }
         }
-        self.set_span_and_mean(lo, hi, sum, n);
+        self.set_span_and_mean(lo, hi, sum, n)
     }
 
-    fn set_span_and_mean(&mut self, lo: Point3, hi: Point3, sum: Point3, n: usize) {
+    /// Sets span and mean; false when the sum is not finite (some coordinate is not).
+    fn set_span_and_mean(&mut self, lo: Point3, hi: Point3, sum: Point3, n: usize) -> bool {
         self.span = Span { ext: [0, 1, 2].map(|k| hi[k] - lo[k]), abs_max: [0, 1, 2].map(|k| lo[k].abs().max(hi[k].abs())) };
         self.mean = sum.map(|s| s / n as f64);
+        sum.iter().all(|s| s.is_finite())
     }
 
     /// [`Soa::fill`] for the AVX2 plane test: each coordinate broadcast once into `wide`, and
-    /// the running min, max and sum (in point order, as the portable loop) taken on the
-    /// broadcast registers.
+    /// the running min, max and sum (in point order, as the portable loop) taken on one
+    /// register holding `(x, y, z, z)`.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn fill_wide_avx2(&mut self, pts: &[Point3]) {
+    fn fill_wide_avx2(&mut self, points: &[Point3], keep: &[u32], compact: &mut [Point3]) -> bool {
         use std::arch::x86_64::*;
-        self.wide.resize(pts.len(), [[0.0; 4]; 3]);
-        let mut lo = [_mm256_set1_pd(f64::INFINITY); 3];
-        let mut hi = [_mm256_set1_pd(f64::NEG_INFINITY); 3];
-        let mut sum = [_mm256_setzero_pd(); 3];
-        for (p, w) in pts.iter().zip(&mut self.wide) {
+        self.wide.resize(keep.len(), [[0.0; 4]; 3]);
+        let mut lo = _mm256_set1_pd(f64::INFINITY);
+        let mut hi = _mm256_set1_pd(f64::NEG_INFINITY);
+        let mut sum = _mm256_setzero_pd();
+        for ((&i, c), w) in keep.iter().zip(compact.iter_mut()).zip(&mut self.wide) {
+            let p = points[i as usize];
+            *c = p;
+            // SAFETY: `p` is a `[f64; 3]`: the 16-byte load reads x and y.
+            let v = _mm256_set_m128d(_mm_set1_pd(p[2]), unsafe { _mm_loadu_pd(p.as_ptr()) });
+            // vminpd/vmaxpd return the second operand when either is NaN; a NaN is caught by
+            // the sum.
+            lo = _mm256_min_pd(v, lo);
+            hi = _mm256_max_pd(v, hi);
+            sum = _mm256_add_pd(sum, v);
             for k in 0..3 {
-                let c = _mm256_set1_pd(p[k]);
                 // SAFETY: `w[k]` is a `[f64; 4]` (unaligned 32-byte store).
-                unsafe { _mm256_storeu_pd(w[k].as_mut_ptr(), c) };
-                // vminpd/vmaxpd return the second operand when either is NaN; there is none.
-                lo[k] = _mm256_min_pd(c, lo[k]);
-                hi[k] = _mm256_max_pd(c, hi[k]);
-                sum[k] = _mm256_add_pd(sum[k], c);
+                unsafe { _mm256_storeu_pd(w[k].as_mut_ptr(), _mm256_set1_pd(p[k])) };
             }
         }
-        let first = |v: __m256d| _mm_cvtsd_f64(_mm256_castpd256_pd128(v));
-        self.set_span_and_mean(lo.map(first), hi.map(first), sum.map(first), pts.len());
+        let xyz = |v: __m256d| {
+            let mut lanes = [0.0; 4];
+            // SAFETY: `lanes` is 4 × f64 = 32 bytes, the width of the unaligned store.
+            unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), v) };
+            [lanes[0], lanes[1], lanes[2]]
+        };
+        self.set_span_and_mean(xyz(lo), xyz(hi), xyz(sum), keep.len())
     }
 }
 
@@ -697,14 +706,27 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
     let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
     let three = _mm256_set1_epi64x(3);
     let wide = &soa.wide;
-    for (c, batch) in tris.chunks(BATCH).enumerate() {
-        let last = batch.len() - 1;
-        let t = [batch[0], batch[1.min(last)], batch[2.min(last)], batch[3.min(last)]];
+    // Every vertex index in range, checked once (a vectorised max) so the gathers below need no
+    // per-load bounds check.
+    assert!(tris.as_flattened().iter().fold(0, |m, &i| m.max(i)) < wide.len() as u32 || tris.is_empty());
+    // Full batches, then the last partial one padded with copies of its last triangle.
+    let (full, rest) = tris.as_chunks::<BATCH>();
+    let padded = rest.last().map(|&l| std::array::from_fn::<_, BATCH, _>(|k| *rest.get(k).unwrap_or(&l)));
+    for (c, t) in full.iter().chain(padded.as_ref()).enumerate() {
+        let in_batch = (tris.len() - c * BATCH).min(BATCH);
         // Coordinate d of vertex j of each lane's triangle: lane k is blended in from the
         // 4-lane copy of that vertex's coordinate.
         macro_rules! lanes {
             ($j:expr, $d:expr) => {{
-                let (w0, w1, w2, w3) = (&wide[t[0][$j] as usize][$d], &wide[t[1][$j] as usize][$d], &wide[t[2][$j] as usize][$d], &wide[t[3][$j] as usize][$d]);
+                // SAFETY: every vertex index is < `wide.len()` (asserted above).
+                let (w0, w1, w2, w3) = unsafe {
+                    (
+                        &wide.get_unchecked(t[0][$j] as usize)[$d],
+                        &wide.get_unchecked(t[1][$j] as usize)[$d],
+                        &wide.get_unchecked(t[2][$j] as usize)[$d],
+                        &wide.get_unchecked(t[3][$j] as usize)[$d],
+                    )
+                };
                 // SAFETY: each pointer addresses a `[f64; 4]` (unaligned 32-byte loads).
                 unsafe {
                     let v = _mm256_blend_pd::<0b0010>(_mm256_loadu_pd(w0.as_ptr()), _mm256_loadu_pd(w1.as_ptr()));
@@ -729,7 +751,7 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
         let na = _mm256_fmadd_pd(nz, az, _mm256_fmadd_pd(ny, ay, _mm256_mul_pd(nx, ax)));
         let thr = _mm256_sub_pd(na, bound);
         // n·(a − o), in the lanes that hold a triangle of `tris`.
-        let lane_used = _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x(batch.len() as i64), _mm256_setr_epi64x(0, 1, 2, 3)));
+        let lane_used = _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x(in_batch as i64), _mm256_setr_epi64x(0, 1, 2, 3)));
         let six = _mm256_fmadd_pd(nz, _mm256_sub_pd(az, oz), _mm256_fmadd_pd(ny, _mm256_sub_pd(ay, oy), _mm256_mul_pd(nx, _mm256_sub_pd(ax, ox))));
         six_volume = _mm256_add_pd(six_volume, _mm256_and_pd(six, lane_used));
         let mut not_below = _mm256_setzero_si256();
@@ -743,7 +765,7 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
             not_below = _mm256_sub_epi64(not_below, _mm256_castpd_si256(m));
         }
         let bad = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(not_below, three))) ^ 0b1111;
-        let mut bad = (bad as u32) & ((1 << batch.len()) - 1);
+        let mut bad = (bad as u32) & ((1 << in_batch) - 1);
         while bad != 0 {
             uncertain.push((c * BATCH) as u32 + bad.trailing_zeros());
             bad &= bad - 1;
@@ -830,8 +852,9 @@ pub struct HullTracker {
     keep: Vec<u32>,
     /// The distinct valid points in the certification's layouts.
     soa: Soa,
-    /// Which markers were valid at the last structure change (= last frame).
-    prev_valid: Vec<bool>,
+    /// Number of markers, and which were missing (not finite), at the last structure change.
+    n_markers: usize,
+    missing: Vec<u32>,
     /// `(k, j)`: marker `k` equalled marker `j < k` exactly at the last structure change.
     dups: Vec<(u32, u32)>,
     /// Last frame's triangles, as indices into the distinct valid points. During a repair,
@@ -851,6 +874,11 @@ pub struct HullTracker {
     /// Repair scratch: triangles visible from an inserted point, and their boundary.
     visible: Vec<u32>,
     horizon: Vec<(u32, u32)>,
+    /// `edge_tri[u·n + v]`: the triangle of `prev_tris` holding directed edge (u, v), or NONE
+    /// (`n` points), kept up to date by every write so a repair finds a neighbour in O(1). Only
+    /// the repairs' choices depend on it, never a volume: what they produce is certified and
+    /// checked closed like any other triangles.
+    edge_tri: Vec<u32>,
     /// Closure check scratch: `edge_seen[u·n + v] == edge_stamp` when directed edge (u, v) is
     /// present.
     edge_seen: Vec<u32>,
@@ -881,20 +909,21 @@ impl HullTracker {
     /// Forgets the previous frame (the next call rebuilds).
     pub fn reset(&mut self) {
         self.prev_tris.clear();
-        self.prev_valid.clear();
+        self.missing.clear();
         self.dups.clear();
     }
 
     /// Hull volume of the finite points of one frame (non-finite = missing, skipped).
     pub fn frame(&mut self, points: &[Point3]) -> HullVolume {
         // Same markers valid as last frame, and last rebuild's duplicates still duplicates: the
-        // distinct points are gathered by index, no search.
+        // distinct points are gathered by index, no search. (The gather checks that the
+        // gathered markers are all still valid; a duplicate equals a gathered marker, so it is.)
         let same_structure = !self.prev_tris.is_empty()
-            && points.len() == self.prev_valid.len()
-            && same_validity(points, &self.prev_valid)
-            && self.dups.iter().all(|&(k, j)| points[k as usize] == points[j as usize]);
+            && points.len() == self.n_markers
+            && self.missing.iter().all(|&k| !is_finite(points[k as usize]))
+            && self.dups.iter().all(|&(k, j)| points[k as usize] == points[j as usize])
+            && self.soa.fill(points, &self.keep, &mut self.compact);
         if same_structure {
-            self.gather(points);
             let mut repairs = 0;
             let mut ok = self.certify(&mut repairs);
             self.stats.repairs += repairs;
@@ -917,17 +946,18 @@ impl HullTracker {
                 return HullVolume { volume_mm3: six_volume / 6.0, degenerate: None };
             }
         } else {
-            self.prev_valid.clear();
+            self.n_markers = points.len();
+            self.missing.clear();
             self.keep.clear();
-            for (i, p) in points.iter().enumerate() {
-                let ok = p.iter().all(|c| c.is_finite());
-                self.prev_valid.push(ok);
-                if ok {
+            for (i, &p) in points.iter().enumerate() {
+                if is_finite(p) {
                     self.keep.push(i as u32);
+                } else {
+                    self.missing.push(i as u32);
                 }
             }
             self.find_dups(points);
-            self.gather(points);
+            self.soa.fill(points, &self.keep, &mut self.compact);
         }
         let h = self.builder.volume(&self.compact);
         self.prev_tris.clear();
@@ -936,6 +966,7 @@ impl HullTracker {
         } else {
             self.stats.rebuilt += 1;
             self.prev_tris.extend(self.builder.triangles());
+            self.index_edges();
         }
         h
     }
@@ -956,13 +987,6 @@ impl HullTracker {
             d += drop as usize;
             !drop
         });
-    }
-
-    /// Gathers the kept points of the frame into `compact` and its structure-of-arrays copy.
-    fn gather(&mut self, points: &[Point3]) {
-        self.compact.clear();
-        self.compact.extend(self.keep.iter().map(|&i| points[i as usize]));
-        self.soa.fill(&self.compact);
     }
 
     /// True when the previous triangles, possibly repaired, have every other point strictly
@@ -1093,14 +1117,14 @@ impl HullTracker {
             if d == w || orient_exact(a, b, c, self.compact[d as usize]) <= 0.0 {
                 continue;
             }
-            if self.prev_tris.iter().any(|s| s.contains(&w) && s.contains(&d)) {
+            if self.has_edge(w, d) {
                 if let Some(r) = self.remove_degree3(u, ext).or_else(|| self.remove_degree3(v, ext)) {
                     return Some(r);
                 }
                 continue;
             }
-            self.prev_tris[ti as usize] = [u, d, w];
-            self.prev_tris[tj as usize] = [d, v, w];
+            self.set_tri(ti, [u, d, w]);
+            self.set_tri(tj, [d, v, w]);
             return Some(Repair::Replaced(tj));
         }
         None
@@ -1121,15 +1145,20 @@ impl HullTracker {
             self.edge_seen.clear();
             self.edge_seen.resize(n * n, 0);
         }
-        for t in &self.prev_tris {
+        for (j, t) in self.prev_tris.iter().enumerate() {
             for e in 0..3 {
-                let Some(slot) = self.edge_seen.get_mut(key(t[e], t[(e + 1) % 3])) else {
+                let k = key(t[e], t[(e + 1) % 3]);
+                let Some(slot) = self.edge_seen.get_mut(k) else {
                     return false;
                 };
                 if *slot == stamp {
                     return false; // directed edge twice
                 }
                 *slot = stamp;
+                // The triangles were renumbered by dropping the removed ones: index them again.
+                if let Some(x) = self.edge_tri.get_mut(k) {
+                    *x = j as u32;
+                }
             }
         }
         self.prev_tris.iter().all(|t| (0..3).all(|e| self.edge_seen.get(key(t[(e + 1) % 3], t[e])) == Some(&stamp)))
@@ -1137,9 +1166,54 @@ impl HullTracker {
 
     /// The triangle holding directed edge `(u, v)`, and its third vertex.
     fn neighbour(&self, u: u32, v: u32) -> Option<(u32, u32)> {
-        self.prev_tris.iter().enumerate().find_map(|(j, s)| {
-            (0..3).find(|&k| s[k] == u && s[(k + 1) % 3] == v).map(|k| (j as u32, s[(k + 2) % 3]))
-        })
+        let j = *self.edge_tri.get(self.edge_key(u, v))?;
+        let s = self.prev_tris.get(j as usize)?;
+        (0..3).find(|&k| s[k] == u && s[(k + 1) % 3] == v).map(|k| (j, s[(k + 2) % 3]))
+    }
+
+    /// Is `{u, v}` an edge of the triangles (in either direction)?
+    fn has_edge(&self, u: u32, v: u32) -> bool {
+        self.neighbour(u, v).is_some() || self.neighbour(v, u).is_some()
+    }
+
+    fn edge_key(&self, u: u32, v: u32) -> usize {
+        u as usize * self.compact.len() + v as usize
+    }
+
+    /// Writes triangle `j` (`[NONE; 3]` removes it), keeping `edge_tri` up to date.
+    fn set_tri(&mut self, j: u32, t: [u32; 3]) {
+        let old = self.prev_tris[j as usize];
+        if old[0] != NONE {
+            for e in 0..3 {
+                let key = self.edge_key(old[e], old[(e + 1) % 3]);
+                if self.edge_tri[key] == j {
+                    self.edge_tri[key] = NONE;
+                }
+            }
+        }
+        self.prev_tris[j as usize] = t;
+        self.note_edges(j);
+    }
+
+    /// Records the directed edges of triangle `j` in `edge_tri`.
+    fn note_edges(&mut self, j: u32) {
+        let t = self.prev_tris[j as usize];
+        if t[0] != NONE {
+            for e in 0..3 {
+                let key = self.edge_key(t[e], t[(e + 1) % 3]);
+                self.edge_tri[key] = j;
+            }
+        }
+    }
+
+    /// `edge_tri` from scratch.
+    fn index_edges(&mut self) {
+        let n = self.compact.len();
+        self.edge_tri.clear();
+        self.edge_tri.resize(n * n, NONE);
+        for j in 0..self.prev_tris.len() as u32 {
+            self.note_edges(j);
+        }
     }
 
     /// Replaces the three triangles around vertex `x` by the one spanned by its neighbours, when
@@ -1177,9 +1251,9 @@ impl HullTracker {
         if pl.eval(self.compact[x as usize]) >= -pl.bound {
             return None;
         }
-        self.prev_tris[around[0].0 as usize] = new;
-        self.prev_tris[around[1].0 as usize] = [NONE; 3];
-        self.prev_tris[around[2].0 as usize] = [NONE; 3];
+        self.set_tri(around[0].0, new);
+        self.set_tri(around[1].0, [NONE; 3]);
+        self.set_tri(around[2].0, [NONE; 3]);
         Some(Repair::Appended(Some(around[0].0)))
     }
 
@@ -1244,10 +1318,14 @@ impl HullTracker {
         if steps != h {
             return Repair::Failed;
         }
-        for &j in &self.visible {
-            self.prev_tris[j as usize] = [NONE; 3];
+        for x in 0..self.visible.len() {
+            self.set_tri(self.visible[x], [NONE; 3]);
         }
-        self.prev_tris.extend(self.horizon.iter().map(|&(u, v)| [u, v, q]));
+        for x in 0..self.horizon.len() {
+            let (u, v) = self.horizon[x];
+            self.prev_tris.push([NONE; 3]);
+            self.set_tri(self.prev_tris.len() as u32 - 1, [u, v, q]);
+        }
         Repair::Appended(None)
     }
 }
@@ -1613,7 +1691,8 @@ mod tests {
     /// `pts` in both the portable and the AVX2 layout, whichever `Soa::fill` chose on this CPU.
     fn soa_in_both_layouts(pts: &[Point3]) -> Soa {
         let mut soa = Soa::default();
-        soa.fill(pts);
+        let keep: Vec<u32> = (0..pts.len() as u32).collect();
+        assert!(soa.fill(pts, &keep, &mut Vec::new()));
         (soa.xs, soa.ys, soa.zs) = (pts.iter().map(|p| p[0]).collect(), pts.iter().map(|p| p[1]).collect(), pts.iter().map(|p| p[2]).collect());
         soa.wide = pts.iter().map(|p| p.map(|c| [c; 4])).collect();
         soa

@@ -52,33 +52,104 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
     } else {
         motion.positions()
     };
+    let flat = positions.as_flattened();
+    // Written once, row by row (a zeroed row is in L1 when the kernel overwrites it).
     let mut speeds = Vec::with_capacity(f * m);
     let mut fastest = vec![f64::NAN; f];
     let mut fastest_marker = vec![None; f];
+    let simd = simd_available();
     for i in 0..f.saturating_sub(1) {
-        let (a, b) = (&positions[i * m..(i + 1) * m], &positions[(i + 1) * m..(i + 2) * m]);
-        // All speeds of the frame first, in branch-free loops (squared distances, then the
-        // square roots over a contiguous row, which vectorise), then the fastest among them.
-        speeds.extend(a.iter().zip(b).map(|(a, b)| {
-            let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            d[0] * d[0] + d[1] * d[1] + d[2] * d[2] // NaN propagates from missing samples
-        }));
+        speeds.resize((i + 1) * m, 0.0);
         let row = &mut speeds[i * m..];
-        for v in row.iter_mut() {
-            *v = v.sqrt() * fps;
-        }
-        let (mut best, mut best_k) = (f64::NEG_INFINITY, usize::MAX);
-        for (k, &v) in row.iter().enumerate() {
-            if v > best {
-                (best, best_k) = (v, k);
+        let (a, b) = (&flat[3 * m * i..3 * m * (i + 1)], &flat[3 * m * (i + 1)..3 * m * (i + 2)]);
+        let top = if simd {
+            // SAFETY: the CPU supports AVX2 (checked by `simd_available`), the only requirement
+            // of the `target_feature` function.
+            #[cfg(target_arch = "x86_64")]
+            unsafe {
+                speed_row_avx2(a, b, fps, row)
             }
-        }
-        if best_k != usize::MAX {
-            (fastest[i], fastest_marker[i]) = (best, Some(best_k));
+            #[cfg(not(target_arch = "x86_64"))]
+            unreachable!()
+        } else {
+            speed_row(a, b, fps, row)
+        };
+        // The first marker at the top speed, as a sequential `>` scan would pick (NaN = missing
+        // never equals it; no valid marker: top = −∞, matched by none).
+        if let Some(k) = row.iter().position(|&v| v == top) {
+            (fastest[i], fastest_marker[i]) = (top, Some(k));
         }
     }
     speeds.resize(f * m, f64::NAN); // the last frame has no successor
     MarkerSpeeds { n_points: m, speeds, fastest, fastest_marker }
+}
+
+/// May the AVX2 speed kernel run? (Detected at run time, cached by the standard library; tests
+/// can force the portable loop on this thread.)
+fn simd_available() -> bool {
+    #[cfg(test)]
+    if tests::FORCE_PORTABLE.with(|f| f.get()) {
+        return false;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// One frame step: `row[k] = √((dx² + dy²) + dz²) · fps` for the flat coordinates `a` (frame
+/// `i`) and `b` (frame `i+1`), in exactly this order of operations (no FMA), so the AVX2 kernel
+/// gives the same bits. Returns the largest speed (−∞ when every marker is missing; a NaN never
+/// wins the `>` comparison).
+fn speed_row(a: &[f64], b: &[f64], fps: f64, row: &mut [f64]) -> f64 {
+    let mut top = f64::NEG_INFINITY;
+    for ((v, a), b) in row.iter_mut().zip(a.chunks_exact(3)).zip(b.chunks_exact(3)) {
+        let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        *v = ((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]).sqrt() * fps; // NaN when missing
+        top = if *v > top { *v } else { top };
+    }
+    top
+}
+
+/// [`speed_row`] with AVX2, four markers per register: the 12 coordinates of markers
+/// `4j..4j+4` are three loads (`x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3`), differenced and
+/// squared, then de-interleaved by blends and permutes into `x², y², z²` of the four markers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn speed_row_avx2(a: &[f64], b: &[f64], fps: f64, row: &mut [f64]) -> f64 {
+    use std::arch::x86_64::*;
+    let quads = row.len() / 4;
+    let rate = _mm256_set1_pd(fps);
+    let mut top4 = _mm256_set1_pd(f64::NEG_INFINITY);
+    for j in 0..quads {
+        let (a, b) = (&a[12 * j..12 * j + 12], &b[12 * j..12 * j + 12]);
+        // SAFETY: `a` and `b` have 12 elements: three unaligned 32-byte loads each.
+        let sq = |k: usize| unsafe {
+            let d = _mm256_sub_pd(_mm256_loadu_pd(b[4 * k..].as_ptr()), _mm256_loadu_pd(a[4 * k..].as_ptr()));
+            _mm256_mul_pd(d, d)
+        };
+        let (s0, s1, s2) = (sq(0), sq(1), sq(2));
+        // s0 = x0 y0 z0 x1, s1 = y1 z1 x2 y2, s2 = z2 x3 y3 z3 (squares).
+        let x = _mm256_permute4x64_pd::<0b01_10_11_00>(_mm256_blend_pd::<0b0010>(_mm256_blend_pd::<0b0100>(s0, s1), s2));
+        let y = _mm256_permute_pd::<0b0101>(_mm256_blend_pd::<0b0100>(_mm256_blend_pd::<0b1001>(s0, s1), s2));
+        let z = _mm256_permute4x64_pd::<0b11_00_01_10>(_mm256_blend_pd::<0b1001>(_mm256_blend_pd::<0b0010>(s0, s1), s2));
+        let v = _mm256_mul_pd(_mm256_sqrt_pd(_mm256_add_pd(_mm256_add_pd(x, y), z)), rate);
+        // SAFETY: `row[4j..4j+4]` exists (unaligned 32-byte store).
+        unsafe { _mm256_storeu_pd(row[4 * j..4 * j + 4].as_mut_ptr(), v) };
+        // vmaxpd returns the second operand when either is NaN: a missing marker never wins.
+        top4 = _mm256_max_pd(v, top4);
+    }
+    let mut lanes = [0.0; 4];
+    // SAFETY: `lanes` is 4 × f64 = 32 bytes, the width of the unaligned store.
+    unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), top4) };
+    let top = lanes.into_iter().fold(f64::NEG_INFINITY, |t, v| if v > t { v } else { t });
+    let rest = 4 * quads;
+    let top_rest = speed_row(&a[3 * rest..], &b[3 * rest..], fps, &mut row[rest..]);
+    if top_rest > top { top_rest } else { top }
 }
 
 /// Cached [`marker_speeds`]: the speed segmenters and the feature extractor share one computation.
@@ -170,5 +241,55 @@ mod tests {
         assert_eq!(s.fastest[0], 10.0);
         assert_eq!(s.fastest_marker[0], Some(1));
         assert!(s.speed(0, 0).is_nan());
+    }
+
+    #[test]
+    fn fastest_marker_is_the_first_of_the_fastest_and_skips_missing_ones() {
+        // 9 markers (two groups of four and a remainder): marker k moves `step(i, k)` mm per
+        // frame along x; ties, missing samples and the fastest in every position occur.
+        let step = |i: usize, k: usize| [1.0, 3.0, 2.0, 3.0, 0.5, 3.0, 1.0, 2.5, 3.0][(k + i) % 9];
+        let m = motion_from_fn(12, 1.0, 9, |i, k| {
+            if (i + 2 * k) % 7 == 0 && k != 0 {
+                [f64::NAN; 3]
+            } else {
+                [(0..i).map(|j| step(j, k)).sum::<f64>(), 0.0, 0.0]
+            }
+        });
+        let s = marker_speeds(&m, 0);
+        for i in 0..11 {
+            // Sequential scan: the first valid marker with the largest speed.
+            let mut want: Option<(usize, f64)> = None;
+            for k in 0..9 {
+                let v = s.speed(i, k);
+                if !v.is_nan() && want.is_none_or(|(_, b)| v > b) {
+                    want = Some((k, v));
+                }
+            }
+            assert_eq!(s.fastest_marker[i], want.map(|w| w.0), "frame {i}");
+            assert_eq!(s.fastest[i], want.unwrap().1);
+        }
+    }
+
+    thread_local! {
+        /// Set by a test to make `simd_available` false on its thread.
+        pub(super) static FORCE_PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    }
+
+    #[test]
+    fn simd_and_portable_speeds_are_bitwise_equal_on_a_real_take() {
+        let path = motionlab_testkit::data_path("cmu86/86_01.amc.gz");
+        let asf = motionlab_testkit::data_path("cmu86/86.asf");
+        let m = motionlab_io::asf_amc::load_asf_amc(&path, &asf, motionlab_core::FrameRate::new(120.0).unwrap()).unwrap();
+        // 38 joints: nine groups of four and a remainder of two; with a missing sample.
+        let mut positions = m.positions().to_vec();
+        positions[100 * 38 + 5] = [f64::NAN; 3];
+        let m = Motion::new(m.name.clone(), m.frame_rate(), m.up_axis(), m.point_kind(), m.point_names().to_vec(), positions).unwrap();
+        let fast = marker_speeds(&m, 0);
+        FORCE_PORTABLE.with(|f| f.set(true));
+        let slow = marker_speeds(&m, 0);
+        FORCE_PORTABLE.with(|f| f.set(false));
+        assert!(fast.speeds.iter().zip(&slow.speeds).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert_eq!(fast.fastest_marker, slow.fastest_marker);
+        assert!(fast.speeds[100 * 38 + 5].is_nan() && fast.speeds[99 * 38 + 5].is_nan());
     }
 }
