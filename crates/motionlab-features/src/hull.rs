@@ -636,27 +636,27 @@ struct Span {
 /// every evaluation is within its bound of it), so a triangle passes when exactly 3 points fail
 /// the test.
 ///
-/// Returns `Σ n·(a − o)` over the triangles (`n = (b−a)×(c−a)`, `o` = the points' mean): six
-/// times the volume they enclose when they are the certified hull, for free from the planes.
+/// Sets `six[k] = n·(a − o)` for triangle `k` (`n = (b−a)×(c−a)`, `o` = the points' mean):
+/// summed over the certified hull, six times its volume, for free from the planes.
 ///
 /// With AVX2 + FMA (detected at run time) four triangles are tested at once, one per lane: see
 /// [`uncertain_triangles_avx2`] for its test and error bound. Otherwise each triangle's
 /// [`Plane`] is evaluated at every point.
-fn uncertain_triangles(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>) -> f64 {
+fn uncertain_triangles(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>, six: &mut Vec<f64>) {
     #[cfg(target_arch = "x86_64")]
     {
         if simd_available() {
             // SAFETY: the CPU supports AVX2 and FMA (checked by `simd_available`), the only
             // requirement of the `target_feature` function.
-            return unsafe { uncertain_triangles_avx2(soa, tris, uncertain) };
+            return unsafe { uncertain_triangles_avx2(soa, tris, uncertain, six) };
         }
     }
-    uncertain_triangles_portable(pts, soa, tris, uncertain)
+    uncertain_triangles_portable(pts, soa, tris, uncertain, six)
 }
 
 /// [`uncertain_triangles`] without SIMD intrinsics: each triangle's [`Plane`] at every point.
-fn uncertain_triangles_portable(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>) -> f64 {
-    let mut six_volume = 0.0;
+fn uncertain_triangles_portable(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>, six: &mut Vec<f64>) {
+    six.clear();
     for (k, t) in tris.iter().enumerate() {
         let [a, b, c] = t.map(|i| pts[i as usize]);
         let pl = Plane::new(a, b, c, soa.span.ext);
@@ -669,9 +669,8 @@ fn uncertain_triangles_portable(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], un
         if not_below != 3 {
             uncertain.push(k as u32);
         }
-        six_volume -= pl.eval(soa.mean);
+        six.push(-pl.eval(soa.mean));
     }
-    six_volume
 }
 
 /// [`uncertain_triangles`] with AVX2 + FMA, four triangles per register (one per f64 lane).
@@ -695,12 +694,14 @@ fn uncertain_triangles_portable(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], un
 /// Lanes past the end of `tris` repeat its last triangle and are not reported.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>) -> f64 {
+fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>, six: &mut Vec<f64>) {
     use std::arch::x86_64::*;
     let span = soa.span;
     let reach = [0, 1, 2].map(|k| span.ext[k] + 2.0 * span.abs_max[k]);
     let (ox, oy, oz) = (_mm256_set1_pd(soa.mean[0]), _mm256_set1_pd(soa.mean[1]), _mm256_set1_pd(soa.mean[2]));
-    let mut six_volume = _mm256_setzero_pd();
+    // Whole batches of lanes are stored; the padding lanes are cut off at the end.
+    six.clear();
+    six.resize(tris.len().next_multiple_of(BATCH), 0.0);
     let (rx, ry, rz) = (_mm256_set1_pd(reach[0]), _mm256_set1_pd(reach[1]), _mm256_set1_pd(reach[2]));
     let (err, tiny) = (_mm256_set1_pd(ERR), _mm256_set1_pd(TINY));
     let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
@@ -750,19 +751,28 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
         // n·a with exactly the operations used for n·q below, so the vertex a compares equal.
         let na = _mm256_fmadd_pd(nz, az, _mm256_fmadd_pd(ny, ay, _mm256_mul_pd(nx, ax)));
         let thr = _mm256_sub_pd(na, bound);
-        // n·(a − o), in the lanes that hold a triangle of `tris`.
-        let lane_used = _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x(in_batch as i64), _mm256_setr_epi64x(0, 1, 2, 3)));
-        let six = _mm256_fmadd_pd(nz, _mm256_sub_pd(az, oz), _mm256_fmadd_pd(ny, _mm256_sub_pd(ay, oy), _mm256_mul_pd(nx, _mm256_sub_pd(ax, ox))));
-        six_volume = _mm256_add_pd(six_volume, _mm256_and_pd(six, lane_used));
-        let mut not_below = _mm256_setzero_si256();
-        for w in wide {
+        // n·(a − o), per lane.
+        let six_lanes = _mm256_fmadd_pd(nz, _mm256_sub_pd(az, oz), _mm256_fmadd_pd(ny, _mm256_sub_pd(ay, oy), _mm256_mul_pd(nx, _mm256_sub_pd(ax, ox))));
+        // SAFETY: `six` has a whole batch of lanes from `c·BATCH` on (resized above).
+        unsafe { _mm256_storeu_pd(six[c * BATCH..c * BATCH + BATCH].as_mut_ptr(), six_lanes) };
+        // `fl(n·q) ≥ thr` per lane, as all ones (−1) or 0. Ordered comparison: a NaN plane fails
+        // it, so its triangle is never passed here.
+        let not_below_mask = |w: &[[f64; 4]; 3]| {
             // SAFETY: each pointer addresses a `[f64; 4]` (unaligned 32-byte loads).
             let (x, y, z) = unsafe { (_mm256_loadu_pd(w[0].as_ptr()), _mm256_loadu_pd(w[1].as_ptr()), _mm256_loadu_pd(w[2].as_ptr())) };
             let nq = _mm256_fmadd_pd(nz, z, _mm256_fmadd_pd(ny, y, _mm256_mul_pd(nx, x)));
-            // Ordered comparison (a NaN plane fails it, so its triangle is never passed here);
-            // a true lane is all ones, i.e. −1: subtracting counts it.
-            let m = _mm256_cmp_pd::<_CMP_GE_OQ>(nq, thr);
-            not_below = _mm256_sub_epi64(not_below, _mm256_castpd_si256(m));
+            _mm256_castpd_si256(_mm256_cmp_pd::<_CMP_GE_OQ>(nq, thr))
+        };
+        // Four points per step (one loop overhead per four); subtracting the masks counts.
+        let mut not_below = _mm256_setzero_si256();
+        let mut quads = wide.chunks_exact(4);
+        for w in &mut quads {
+            let pair0 = _mm256_add_epi64(not_below_mask(&w[0]), not_below_mask(&w[1]));
+            let pair1 = _mm256_add_epi64(not_below_mask(&w[2]), not_below_mask(&w[3]));
+            not_below = _mm256_sub_epi64(not_below, _mm256_add_epi64(pair0, pair1));
+        }
+        for w in quads.remainder() {
+            not_below = _mm256_sub_epi64(not_below, not_below_mask(w));
         }
         let bad = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(not_below, three))) ^ 0b1111;
         let mut bad = (bad as u32) & ((1 << in_batch) - 1);
@@ -771,10 +781,7 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
             bad &= bad - 1;
         }
     }
-    let mut lanes = [0.0; BATCH];
-    // SAFETY: `lanes` is 4 × f64 = 32 bytes, the width of the unaligned store.
-    unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), six_volume) };
-    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+    six.truncate(tris.len());
 }
 
 /// Exactly collinear: `(b−a)×(q−a) = 0`, i.e. all three coordinate-plane projections collinear.
@@ -787,16 +794,6 @@ fn collinear_exact(a: Point3, b: Point3, q: Point3) -> bool {
         )
     };
     o2(0, 1) == 0.0 && o2(1, 2) == 0.0 && o2(2, 0) == 0.0
-}
-
-/// Six times the volume enclosed by outward triangles: Σ det(a−o, b−o, c−o) about a point `o`
-/// inside the hull (so every term is ≥ 0 and nothing cancels).
-fn six_volume(pts: &[Point3], o: Point3, tris: &[[u32; 3]]) -> f64 {
-    let mut six_v = 0.0;
-    for &[a, b, c] in tris {
-        six_v += orient_fast(o, pts[a as usize], pts[b as usize], pts[c as usize]);
-    }
-    six_v
 }
 
 /// Hull volume of the finite points of `points` (non-finite ones are skipped as missing).
@@ -868,9 +865,11 @@ pub struct HullTracker {
     fresh_tris: Vec<[u32; 3]>,
     /// Triangles the fast test could not certify (scratch).
     uncertain: Vec<u32>,
-    /// Six times the volume of last frame's triangles about the points' mean, from their
-    /// certification (the frame's volume when no repair was needed).
-    six_volume: f64,
+    /// `tri_six[j]`: six times the volume of the tetrahedron from the points' mean to triangle
+    /// `j`, from its certification (their sum over the certified triangles is six times the
+    /// hull's volume); `fresh_six` the same for `fresh_tris` (scratch).
+    tri_six: Vec<f64>,
+    fresh_six: Vec<f64>,
     /// Repair scratch: triangles visible from an inserted point, and their boundary.
     visible: Vec<u32>,
     horizon: Vec<(u32, u32)>,
@@ -927,6 +926,9 @@ impl HullTracker {
             let mut repairs = 0;
             let mut ok = self.certify(&mut repairs);
             self.stats.repairs += repairs;
+            // Every triangle left was certified this frame, which computed its term (removed
+            // ones are skipped): summed in triangle order, on every path alike.
+            let six_volume: f64 = self.prev_tris.iter().zip(&self.tri_six).filter(|(t, _)| t[0] != NONE).map(|(_, v)| v).sum();
             if ok && repairs > 0 {
                 // The proof needs a closed surface. Every repair keeps it closed by construction;
                 // checking it explicitly (cheap, repaired frames only) makes the volume's
@@ -940,9 +942,6 @@ impl HullTracker {
                 } else {
                     self.stats.repaired += 1;
                 }
-                // Unchanged triangles: the certification summed their volume about the mean of
-                // the points (inside the hull, so no term is negative); repaired: sum again.
-                let six_volume = if repairs == 0 { self.six_volume } else { six_volume(&self.compact, self.soa.mean, &self.prev_tris) };
                 return HullVolume { volume_mm3: six_volume / 6.0, degenerate: None };
             }
         } else {
@@ -998,7 +997,7 @@ impl HullTracker {
         // Every triangle first (the common case: all pass). The failed ones go on the `work`
         // stack with their vertices, in reverse so they are popped in index order.
         self.uncertain.clear();
-        self.six_volume = uncertain_triangles(&self.compact, &self.soa, &self.prev_tris, &mut self.uncertain);
+        uncertain_triangles(&self.compact, &self.soa, &self.prev_tris, &mut self.uncertain, &mut self.tri_six);
         self.work.clear();
         for x in (0..self.uncertain.len()).rev() {
             let ti = self.uncertain[x];
@@ -1056,7 +1055,11 @@ impl HullTracker {
             return;
         }
         self.uncertain.clear();
-        uncertain_triangles(&self.compact, &self.soa, &self.fresh_tris, &mut self.uncertain);
+        uncertain_triangles(&self.compact, &self.soa, &self.fresh_tris, &mut self.uncertain, &mut self.fresh_six);
+        self.tri_six.resize(self.prev_tris.len(), 0.0);
+        for (&j, &v) in self.fresh.iter().zip(&self.fresh_six) {
+            self.tri_six[j as usize] = v;
+        }
         for x in 0..self.uncertain.len() {
             let k = self.uncertain[x] as usize;
             let t = self.fresh_tris[k];
@@ -1070,6 +1073,15 @@ impl HullTracker {
     fn certify_slow(&self, t: &[u32; 3], ext: Point3) -> bool {
         let [a, b, c] = t.map(|i| self.compact[i as usize]);
         let pl = Plane::new(a, b, c, ext);
+        // Most failures are a reflex edge: the far vertex of a neighbouring triangle is above.
+        // Those three are looked up first.
+        for e in 0..3 {
+            if let Some((_, d)) = self.neighbour(t[(e + 1) % 3], t[e]) {
+                if pl.eval(self.compact[d as usize]) > pl.bound {
+                    return false;
+                }
+            }
+        }
         self.compact.iter().enumerate().all(|(q, &p)| {
             let s = pl.eval(p);
             // Certainly above (most triangles that get here have such a point): fail without
@@ -1723,12 +1735,12 @@ mod tests {
                 .collect();
             let mut results = vec![];
             let mut uncertain = vec![];
-            uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain);
+            uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain, &mut vec![]);
             results.push(("portable", std::mem::take(&mut uncertain)));
             #[cfg(target_arch = "x86_64")]
             if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
                 // SAFETY: the CPU supports AVX2 and FMA (checked just above).
-                unsafe { uncertain_triangles_avx2(&soa, &tris, &mut uncertain) };
+                unsafe { uncertain_triangles_avx2(&soa, &tris, &mut uncertain, &mut vec![]) };
                 results.push(("avx2", uncertain));
             }
             for (k, &t) in tris.iter().enumerate() {
@@ -1744,6 +1756,16 @@ mod tests {
         assert!(certified_exactly > 50 && rejected_exactly > 10_000, "{certified_exactly} {rejected_exactly}");
     }
 
+    /// Six times the volume enclosed by outward triangles: Σ det(a−o, b−o, c−o) about a point `o`
+    /// inside the hull (so every term is ≥ 0 and nothing cancels).
+    fn six_volume(pts: &[Point3], o: Point3, tris: &[[u32; 3]]) -> f64 {
+        let mut six_v = 0.0;
+        for &[a, b, c] in tris {
+            six_v += orient_fast(o, pts[a as usize], pts[b as usize], pts[c as usize]);
+        }
+        six_v
+    }
+
     #[test]
     fn certification_sums_the_volume_of_the_hull_it_certifies() {
         // The six-fold volume the plane test returns for a hull's triangles, on both paths,
@@ -1754,14 +1776,16 @@ mod tests {
         let want = b.volume(&pts).volume_mm3;
         let tris: Vec<[u32; 3]> = b.triangles().collect();
         let soa = soa_in_both_layouts(&pts);
-        let mut uncertain = vec![];
-        let portable = uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain) / 6.0;
+        let (mut uncertain, mut six) = (vec![], vec![]);
+        uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain, &mut six);
+        let portable = six.iter().sum::<f64>() / 6.0;
         assert!(uncertain.is_empty(), "{uncertain:?}");
         assert!(close(portable, want, 1e-12), "{portable} {want}");
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             // SAFETY: the CPU supports AVX2 and FMA (checked just above).
-            let avx2 = unsafe { uncertain_triangles_avx2(&soa, &tris, &mut uncertain) } / 6.0;
+            unsafe { uncertain_triangles_avx2(&soa, &tris, &mut uncertain, &mut six) };
+            let avx2 = six.iter().sum::<f64>() / 6.0;
             assert!(uncertain.is_empty(), "{uncertain:?}");
             assert!(close(avx2, want, 1e-12), "{avx2} {want}");
         }
