@@ -1143,9 +1143,17 @@ impl HullTracker {
     }
 
     /// Is every directed edge of the triangles present exactly once, and its reverse too?
+    ///
+    /// One pass: with no directed edge twice, counting the edges whose reverse was already seen
+    /// counts each pair of opposite edges once, so every edge has its reverse exactly when that
+    /// count is half the number of edges. (A triangle with a repeated vertex would pair an edge
+    /// with itself, but it has a zero normal and never passes certification.)
     fn is_closed(&mut self) -> bool {
         let n = self.compact.len();
-        let key = |u: u32, v: u32| u as usize * n + v as usize;
+        let tris = &self.prev_tris;
+        if tris.as_flattened().iter().fold(0, |m, &v| m.max(v)) as usize >= n || tris.is_empty() {
+            return false;
+        }
         self.edge_stamp = self.edge_stamp.wrapping_add(1);
         if self.edge_stamp == 0 {
             // Wrapped: forget every old stamp so none can be mistaken for the new one.
@@ -1157,23 +1165,25 @@ impl HullTracker {
             self.edge_seen.clear();
             self.edge_seen.resize(n * n, 0);
         }
-        for (j, t) in self.prev_tris.iter().enumerate() {
-            for e in 0..3 {
-                let k = key(t[e], t[(e + 1) % 3]);
-                let Some(slot) = self.edge_seen.get_mut(k) else {
-                    return false;
-                };
-                if *slot == stamp {
-                    return false; // directed edge twice
-                }
-                *slot = stamp;
-                // The triangles were renumbered by dropping the removed ones: index them again.
-                if let Some(x) = self.edge_tri.get_mut(k) {
-                    *x = j as u32;
+        self.edge_tri.resize(self.edge_tri.len().max(n * n), NONE);
+        let (seen, tri_of) = (self.edge_seen.as_mut_ptr(), self.edge_tri.as_mut_ptr());
+        let (mut pairs, mut twice) = (0, false);
+        for (j, t) in tris.iter().enumerate() {
+            let [a, b, c] = t.map(|v| v as usize);
+            let (an, bn, cn) = (a * n, b * n, c * n);
+            for (edge, reverse) in [(an + b, bn + a), (bn + c, cn + b), (cn + a, an + c)] {
+                // SAFETY: every vertex index is < n (checked above), so both keys are < n², and
+                // both tables have at least n² entries.
+                unsafe {
+                    twice |= *seen.add(edge) == stamp;
+                    *seen.add(edge) = stamp;
+                    pairs += (*seen.add(reverse) == stamp) as usize;
+                    // The triangles were renumbered by dropping the removed ones: index them again.
+                    *tri_of.add(edge) = j as u32;
                 }
             }
         }
-        self.prev_tris.iter().all(|t| (0..3).all(|e| self.edge_seen.get(key(t[(e + 1) % 3], t[e])) == Some(&stamp)))
+        !twice && 2 * pairs == 3 * tris.len()
     }
 
     /// The triangle holding directed edge `(u, v)`, and its third vertex.
