@@ -1076,10 +1076,10 @@ impl HullTracker {
         // Most failures are a reflex edge: the far vertex of a neighbouring triangle is above.
         // Those three are looked up first.
         for e in 0..3 {
-            if let Some((_, d)) = self.neighbour(t[(e + 1) % 3], t[e]) {
-                if pl.eval(self.compact[d as usize]) > pl.bound {
-                    return false;
-                }
+            if let Some((_, d)) = self.neighbour(t[(e + 1) % 3], t[e])
+                && pl.eval(self.compact[d as usize]) > pl.bound
+            {
+                return false;
             }
         }
         self.compact.iter().enumerate().all(|(q, &p)| {
