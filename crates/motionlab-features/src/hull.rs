@@ -134,6 +134,13 @@ impl Plane {
         let bound = ERR * (m[0] * ext[0] + m[1] * ext[1] + m[2] * ext[2]) + TINY;
         Plane { o: a, n, bound }
     }
+    /// A value with the sign of the exact orientation of `q` (positive above): the plane's
+    /// evaluation when its bound decides, else the exact predicate.
+    #[inline]
+    fn side_exact(&self, a: Point3, b: Point3, c: Point3, q: Point3) -> f64 {
+        let s = self.eval(q);
+        if s > self.bound || s < -self.bound { s } else { orient_exact(a, b, c, q) }
+    }
     #[inline(always)]
     fn eval(&self, q: Point3) -> f64 {
         // Fixed evaluation order (no FMA contraction in Rust): the error analysis depends on it.
@@ -700,7 +707,7 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
     let reach = [0, 1, 2].map(|k| span.ext[k] + 2.0 * span.abs_max[k]);
     let (ox, oy, oz) = (_mm256_set1_pd(soa.mean[0]), _mm256_set1_pd(soa.mean[1]), _mm256_set1_pd(soa.mean[2]));
     // Whole batches of lanes are stored; the padding lanes are cut off at the end.
-    six.clear();
+    // (Every entry is overwritten below, so only a longer tail needs filling.)
     six.resize(tris.len().next_multiple_of(BATCH), 0.0);
     let (rx, ry, rz) = (_mm256_set1_pd(reach[0]), _mm256_set1_pd(reach[1]), _mm256_set1_pd(reach[2]));
     let (err, tiny) = (_mm256_set1_pd(ERR), _mm256_set1_pd(TINY));
@@ -715,24 +722,31 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
     let padded = rest.last().map(|&l| std::array::from_fn::<_, BATCH, _>(|k| *rest.get(k).unwrap_or(&l)));
     for (c, t) in full.iter().chain(padded.as_ref()).enumerate() {
         let in_batch = (tris.len() - c * BATCH).min(BATCH);
+        // The byte offsets in `wide` of the batch's 12 vertices (index × 96 = (i << 6) + (i << 5)),
+        // scaled in two registers rather than one multiply per vertex.
+        let mut offsets = [0u32; 3 * BATCH];
+        // SAFETY: `t` is 12 u32 = 48 bytes: a 32-byte load from its start and a 16-byte load
+        // from byte 32; `offsets` has the same size (unaligned stores).
+        unsafe {
+            let (lo, hi) = (_mm256_loadu_si256(t.as_ptr().cast()), _mm_loadu_si128(t.as_ptr().cast::<u32>().add(8).cast()));
+            let lo = _mm256_add_epi32(_mm256_slli_epi32::<6>(lo), _mm256_slli_epi32::<5>(lo));
+            let hi = _mm_add_epi32(_mm_slli_epi32::<6>(hi), _mm_slli_epi32::<5>(hi));
+            _mm256_storeu_si256(offsets.as_mut_ptr().cast(), lo);
+            _mm_storeu_si128(offsets.as_mut_ptr().add(8).cast(), hi);
+        }
+        let base = wide.as_ptr().cast::<u8>();
         // Coordinate d of vertex j of each lane's triangle: lane k is blended in from the
         // 4-lane copy of that vertex's coordinate.
         macro_rules! lanes {
             ($j:expr, $d:expr) => {{
-                // SAFETY: every vertex index is < `wide.len()` (asserted above).
-                let (w0, w1, w2, w3) = unsafe {
-                    (
-                        &wide.get_unchecked(t[0][$j] as usize)[$d],
-                        &wide.get_unchecked(t[1][$j] as usize)[$d],
-                        &wide.get_unchecked(t[2][$j] as usize)[$d],
-                        &wide.get_unchecked(t[3][$j] as usize)[$d],
-                    )
-                };
-                // SAFETY: each pointer addresses a `[f64; 4]` (unaligned 32-byte loads).
+                // SAFETY: every vertex index is < `wide.len()` (asserted above), so each offset
+                // plus 32·d addresses the `[f64; 4]` of coordinate d of a point (unaligned
+                // 32-byte loads).
                 unsafe {
-                    let v = _mm256_blend_pd::<0b0010>(_mm256_loadu_pd(w0.as_ptr()), _mm256_loadu_pd(w1.as_ptr()));
-                    let v = _mm256_blend_pd::<0b0100>(v, _mm256_loadu_pd(w2.as_ptr()));
-                    _mm256_blend_pd::<0b1000>(v, _mm256_loadu_pd(w3.as_ptr()))
+                    let at = |k: usize| _mm256_loadu_pd(base.add(offsets[3 * k + $j] as usize + 32 * $d).cast());
+                    let v = _mm256_blend_pd::<0b0010>(at(0), at(1));
+                    let v = _mm256_blend_pd::<0b0100>(v, at(2));
+                    _mm256_blend_pd::<0b1000>(v, at(3))
                 }
             }};
         }
@@ -1121,12 +1135,13 @@ impl HullTracker {
     fn flip_reflex_edge(&mut self, ti: u32, ext: Point3) -> Option<Repair> {
         let t = self.prev_tris[ti as usize];
         let [a, b, c] = t.map(|i| self.compact[i as usize]);
+        let pl = Plane::new(a, b, c, ext);
         for e in 0..3 {
             let (u, v, w) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
             let Some((tj, d)) = self.neighbour(v, u) else {
                 continue;
             };
-            if d == w || orient_exact(a, b, c, self.compact[d as usize]) <= 0.0 {
+            if d == w || pl.side_exact(a, b, c, self.compact[d as usize]) <= 0.0 {
                 continue;
             }
             if self.has_edge(w, d) {
@@ -1291,19 +1306,11 @@ impl HullTracker {
             }
             let [a, b, c] = t.map(|i| self.compact[i as usize]);
             let pl = Plane::new(a, b, c, ext);
-            let s = pl.eval(p);
-            let above = if s > pl.bound {
-                true
-            } else if s < -pl.bound {
-                false
-            } else {
-                let o = orient_exact(a, b, c, p);
-                if o == 0.0 {
-                    return Repair::Failed; // on a plane: leave it to a rebuild
-                }
-                o > 0.0
-            };
-            if above {
+            let side = pl.side_exact(a, b, c, p);
+            if side == 0.0 {
+                return Repair::Failed; // on a plane: leave it to a rebuild
+            }
+            if side > 0.0 {
                 self.visible.push(j as u32);
             }
         }
