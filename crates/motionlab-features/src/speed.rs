@@ -62,18 +62,7 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
         speeds.resize((i + 1) * m, 0.0);
         let row = &mut speeds[i * m..];
         let (a, b) = (&flat[3 * m * i..3 * m * (i + 1)], &flat[3 * m * (i + 1)..3 * m * (i + 2)]);
-        let top = if simd {
-            // SAFETY: the CPU supports AVX2 (checked by `simd_available`), the only requirement
-            // of the `target_feature` function.
-            #[cfg(target_arch = "x86_64")]
-            unsafe {
-                speed_row_avx2(a, b, fps, row)
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            unreachable!()
-        } else {
-            speed_row(a, b, fps, row)
-        };
+        let top = speed_row_dispatch(simd, a, b, fps, row);
         // The first marker at the top speed, as a sequential `>` scan would pick (NaN = missing
         // never equals it; no valid marker: top = −∞, matched by none).
         if let Some(k) = row.iter().position(|&v| v == top) {
@@ -99,6 +88,20 @@ fn simd_available() -> bool {
     {
         false
     }
+}
+
+/// [`speed_row_avx2`] when `simd` (from [`simd_available`]), else [`speed_row`].
+#[inline]
+fn speed_row_dispatch(simd: bool, a: &[f64], b: &[f64], fps: f64, row: &mut [f64]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if simd {
+        // SAFETY: the CPU supports AVX2 (`simd` comes from `simd_available`), the only
+        // requirement of the `target_feature` function.
+        return unsafe { speed_row_avx2(a, b, fps, row) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = simd;
+    speed_row(a, b, fps, row)
 }
 
 /// One frame step: `row[k] = √((dx² + dy²) + dz²) · fps` for the flat coordinates `a` (frame
