@@ -903,6 +903,8 @@ pub struct HullTracker {
 
 /// Most local repairs tried in one frame before falling back to a rebuild.
 const MAX_REPAIRS: usize = 16;
+/// Most times in one frame a triangle no repair applies to is put back behind the others.
+const MAX_DEFERRALS: usize = 8;
 
 impl HullTracker {
     pub fn new() -> Self {
@@ -1023,6 +1025,7 @@ impl HullTracker {
         if !self.work.is_empty() && self.no_repairs {
             return false;
         }
+        let mut deferrals = 0;
         while let Some((ti, t)) = self.work.pop() {
             if self.prev_tris[ti as usize] != t {
                 // Rewritten or removed by a later repair, which certified what it wrote.
@@ -1040,7 +1043,18 @@ impl HullTracker {
                     self.fresh.extend(before..self.prev_tris.len() as u32);
                     self.fresh.extend(tj);
                 }
-                Repair::Failed => return false,
+                Repair::Failed => {
+                    // No repair of this triangle applies yet, but another failed triangle's may
+                    // rewrite it (a fold elsewhere can show up here as a hull vertex above the
+                    // plane): retry it after those, a bounded number of times.
+                    let others_pending = self.work.iter().any(|&(tj, s)| self.prev_tris[tj as usize] == s);
+                    if others_pending && deferrals < MAX_DEFERRALS {
+                        deferrals += 1;
+                        self.work.insert(0, (ti, t));
+                        continue;
+                    }
+                    return false;
+                }
             }
             self.queue_failed();
             *repairs += 1;
