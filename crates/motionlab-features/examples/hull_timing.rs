@@ -38,18 +38,24 @@ fn thread_cpu_ns() -> Option<u64> {
 }
 
 /// Median time per frame (µs) of `pass` over the whole sequence, repeated for ~`budget_s` of wall
-/// time; thread CPU time when the platform offers it.
+/// time; thread CPU time when the platform offers it. Each sample runs enough passes to last
+/// ≥ 20 ms, well above the scheduler-tick granularity at which the thread CPU time can advance.
 fn time_per_frame(frames: usize, budget_s: f64, mut pass: impl FnMut() -> f64) -> f64 {
+    let t = Instant::now();
+    black_box(pass());
+    let passes = (0.02 / t.elapsed().as_secs_f64().max(1e-6)).ceil().clamp(1.0, 10_000.0) as usize;
     let mut samples = Vec::new();
     let start = Instant::now();
     while samples.len() < 5 || (start.elapsed().as_secs_f64() < budget_s && samples.len() < 1000) {
         let (t, c) = (Instant::now(), thread_cpu_ns());
-        black_box(pass());
+        for _ in 0..passes {
+            black_box(pass());
+        }
         let ns = match (c, thread_cpu_ns()) {
             (Some(a), Some(b)) => (b - a) as f64,
             _ => t.elapsed().as_secs_f64() * 1e9,
         };
-        samples.push(ns / 1e3 / frames as f64);
+        samples.push(ns / 1e3 / (frames * passes) as f64);
     }
     samples.sort_by(f64::total_cmp);
     samples[samples.len() / 2]
