@@ -45,8 +45,12 @@
 //! pokes out, an edge became reflex, or a hull vertex sank inward) the tracker first tries local
 //! repairs of the triangles — edge flips, beneath–beyond insertion of the point, removal of a
 //! degree-3 vertex — that keep the surface closed, and certifies the result the same way (so
-//! the proof covers repaired triangles too); only when no repair applies is the hull rebuilt. On CMU 86_01 39 % of the frames change combinatorics; all but 38 of
-//! those 1778 frames are repaired.
+//! the proof covers repaired triangles too). A triangle no repair applies to yet (a fold
+//! elsewhere can put a hull vertex above it) is retried after the other failed triangles, whose
+//! repairs often rewrite it; only when nothing applies is the hull rebuilt. On CMU 86_01 39 % of
+//! the frames change combinatorics; all but 6 of those 1778 frames (the first among them) are
+//! repaired. Each triangle's term of the volume comes out of its certification, so a repaired
+//! frame's volume costs no extra pass.
 //!
 //! **Missing samples:** the hull is taken over the valid markers of the frame only. `D[i]` is
 //! NaN when the set of valid markers differs between frames `i−1` and `i` (a marker dropping out
@@ -851,9 +855,14 @@ pub struct TrackerStats {
 /// certification's proof needs besides every triangle being certified; how the triangles were
 /// obtained does not matter. The closure is also checked explicitly on every repaired frame
 /// (`HullTracker::is_closed`), so a mistake in the repair code could cost a rebuild but never
-/// give a wrong volume. A point on a plane (exactly), a visible region that is not a disc,
-/// or too many repairs in one frame falls back to the quickhull rebuild. On 86_01 this turns
-/// 1740 of the 1778 rebuilds into repairs (`crates/motionlab-features/benches/README.md`).
+/// give a wrong volume. A failed triangle none of these applies to is put back behind the other
+/// failed triangles (their repairs often rewrite it) a bounded number of times. A point on a
+/// plane (exactly), a visible region that is not a disc, or too many repairs in one frame falls
+/// back to the quickhull rebuild. On 86_01 this turns 1772 of the 1778 rebuilds into repairs
+/// (`crates/motionlab-features/benches/README.md`). Neighbours are found in O(1) through a
+/// directed-edge table kept up to date by every triangle write; only the repairs' choices and an
+/// early exit of the exact re-check read it (a point above a triangle fails it, neighbour or
+/// not), never what passes a triangle or the closure check.
 #[derive(Default)]
 pub struct HullTracker {
     builder: HullBuilder,
