@@ -53,14 +53,12 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
         motion.positions()
     };
     let flat = positions.as_flattened();
-    // Written once, row by row (a zeroed row is in L1 when the kernel overwrites it).
-    let mut speeds = Vec::with_capacity(f * m);
+    // NaN where the kernel writes nothing: the last frame, which has no successor.
+    let mut speeds = vec![f64::NAN; f * m];
     let mut fastest = vec![f64::NAN; f];
     let mut fastest_marker = vec![None; f];
     let simd = simd_available();
-    for i in 0..f.saturating_sub(1) {
-        speeds.resize((i + 1) * m, 0.0);
-        let row = &mut speeds[i * m..];
+    for (i, row) in speeds.chunks_exact_mut(m.max(1)).take(f.saturating_sub(1)).enumerate() {
         let (a, b) = (&flat[3 * m * i..3 * m * (i + 1)], &flat[3 * m * (i + 1)..3 * m * (i + 2)]);
         let top = speed_row_dispatch(simd, a, b, fps, row);
         // The first marker at the top speed, as a sequential `>` scan would pick (NaN = missing
@@ -69,7 +67,6 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
             (fastest[i], fastest_marker[i]) = (top, Some(k));
         }
     }
-    speeds.resize(f * m, f64::NAN); // the last frame has no successor
     MarkerSpeeds { n_points: m, speeds, fastest, fastest_marker }
 }
 
