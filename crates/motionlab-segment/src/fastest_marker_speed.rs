@@ -142,7 +142,7 @@ impl Segmenter for FastestMarkerSpeed {
         let smoothing = self.smoothing.map(|s| s.whole_frames_at(motion.frame_rate())).unwrap_or(0);
         let speeds = cached_marker_speeds(motion, cache, smoothing)?;
         let v = &speeds.fastest;
-        let (v_high, v_low) = (self.v_high.resolve(v)?, self.v_low.resolve(v)?);
+        let (v_high, v_low) = SpeedThreshold::resolve_pair(self.v_high, self.v_low, v)?;
         if v_low >= v_high {
             return Err(Error::new(
                 ErrorKind::InvalidParameter,

@@ -26,10 +26,20 @@ impl SpeedThreshold {
     pub fn resolve(self, v: &[f64]) -> Result<f64> {
         match self {
             SpeedThreshold::MmPerS(x) => Ok(x),
-            SpeedThreshold::FractionOfP90(f) => percentile(v, 90.0).map(|p90| f * p90).ok_or_else(|| {
-                Error::new(ErrorKind::MissingData, "the fastest-marker speed has no finite value to take a percentile of")
-            }),
+            SpeedThreshold::FractionOfP90(f) => speed_p90(v).map(|p90| f * p90),
         }
+    }
+    /// Two thresholds for the same `v`, taking its 90th percentile at most once.
+    pub fn resolve_pair(first: Self, second: Self, v: &[f64]) -> Result<(f64, f64)> {
+        let mut p90 = None;
+        let mut resolve = |t: Self| match t {
+            SpeedThreshold::MmPerS(x) => Ok(x),
+            SpeedThreshold::FractionOfP90(f) => Ok(f * match p90 {
+                Some(p) => p,
+                None => *p90.insert(speed_p90(v)?),
+            }),
+        };
+        Ok((resolve(first)?, resolve(second)?))
     }
     /// Checks the value is finite and > 0.
     pub fn check(self, field: &str) -> Result<Self> {
@@ -42,6 +52,12 @@ impl SpeedThreshold {
             Err(Error::new(ErrorKind::OutOfRange, format!("speed threshold must be finite and > 0, found {v}")).with_field(field))
         }
     }
+}
+
+/// The 90th percentile of the fastest-marker speed `v` (finite values).
+fn speed_p90(v: &[f64]) -> Result<f64> {
+    percentile(v, 90.0)
+        .ok_or_else(|| Error::new(ErrorKind::MissingData, "the fastest-marker speed has no finite value to take a percentile of"))
 }
 
 /// A threshold on the per-frame change of the hull volume `D` (mm³ per frame) that transfers
@@ -89,6 +105,11 @@ mod tests {
         let v: Vec<f64> = (0..=10).map(|i| i as f64 * 100.0).chain([f64::NAN]).collect();
         assert_eq!(SpeedThreshold::MmPerS(80.0).resolve(&v).unwrap(), 80.0);
         assert!((SpeedThreshold::FractionOfP90(0.5).resolve(&v).unwrap() - 450.0).abs() < 1e-9);
+        let pair = SpeedThreshold::resolve_pair(SpeedThreshold::FractionOfP90(0.5), SpeedThreshold::MmPerS(80.0), &v).unwrap();
+        assert!((pair.0 - 450.0).abs() < 1e-9 && pair.1 == 80.0);
+        let pair = SpeedThreshold::resolve_pair(SpeedThreshold::FractionOfP90(0.5), SpeedThreshold::FractionOfP90(0.1), &v).unwrap();
+        assert!((pair.0 - 450.0).abs() < 1e-9 && (pair.1 - 90.0).abs() < 1e-9);
+        assert!(SpeedThreshold::resolve_pair(SpeedThreshold::MmPerS(1.0), SpeedThreshold::FractionOfP90(0.1), &[f64::NAN]).is_err());
         let r = FrameRate::new(120.0).unwrap();
         assert_eq!(VolumeChangeThreshold::Mm3PerS(1.2e6).resolve(&v, r).unwrap(), 1e4);
         assert!((VolumeChangeThreshold::FractionOfP90(0.1).resolve(&v, r).unwrap() - 90.0).abs() < 1e-9);
