@@ -719,8 +719,9 @@ fn uncertain_triangles_avx2(soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u3
     let three = _mm256_set1_epi64x(3);
     let wide = &soa.wide;
     // Every vertex index in range, checked once (a vectorised max) so the gathers below need no
-    // per-load bounds check.
+    // per-load bounds check; and every byte offset (index × 96, below) fits in a u32.
     assert!(tris.as_flattened().iter().fold(0, |m, &i| m.max(i)) < wide.len() as u32 || tris.is_empty());
+    assert!(wide.len() < (u32::MAX / 96) as usize && std::mem::size_of::<[[f64; 4]; 3]>() == 96);
     // Full batches, then the last partial one padded with copies of its last triangle.
     let (full, rest) = tris.as_chunks::<BATCH>();
     let padded = rest.last().map(|&l| std::array::from_fn::<_, BATCH, _>(|k| *rest.get(k).unwrap_or(&l)));
@@ -816,7 +817,7 @@ fn collinear_exact(a: Point3, b: Point3, q: Point3) -> bool {
 
 /// Hull volume of the finite points of `points` (non-finite ones are skipped as missing).
 pub fn convex_hull_volume(points: &[Point3]) -> HullVolume {
-    let valid: Vec<Point3> = points.iter().copied().filter(|p| p.iter().all(|c| c.is_finite())).collect();
+    let valid: Vec<Point3> = points.iter().copied().filter(|&p| is_finite(p)).collect();
     HullBuilder::new().volume(&valid)
 }
 
@@ -952,8 +953,13 @@ impl HullTracker {
             let mut ok = self.certify(&mut repairs);
             self.stats.repairs += repairs;
             // Every triangle left was certified this frame, which computed its term (removed
-            // ones are skipped): summed in triangle order, on every path alike.
-            let six_volume: f64 = self.prev_tris.iter().zip(&self.tri_six).filter(|(t, _)| t[0] != NONE).map(|(_, v)| v).sum();
+            // ones are skipped): summed in triangle order, on every path alike (before the
+            // removed ones are dropped, which renumbers the triangles).
+            let six_volume: f64 = if ok {
+                self.prev_tris.iter().zip(&self.tri_six).filter(|(t, _)| t[0] != NONE).map(|(_, v)| v).sum()
+            } else {
+                0.0
+            };
             if ok && repairs > 0 {
                 // The proof needs a closed surface. Every repair keeps it closed by construction;
                 // checking it explicitly (cheap, repaired frames only) makes the volume's
