@@ -542,8 +542,8 @@ impl Soa {
         compact.resize(keep.len(), [0.0; 3]);
         #[cfg(target_arch = "x86_64")]
         {
-            if simd_available() {
-                // SAFETY: the CPU supports AVX2 and FMA (checked by `simd_available`), the only
+            if crate::simd::available() {
+                // SAFETY: the CPU supports AVX2 and FMA (checked by `simd::available`), the only
                 // requirement of the `target_feature` function.
                 return unsafe { self.fill_wide_avx2(points, keep, compact) };
             }
@@ -610,24 +610,6 @@ impl Soa {
     }
 }
 
-/// May the AVX2 + FMA kernels run? True when the CPU has both (detected at run time, cached by
-/// the standard library); tests can force the portable code on this thread.
-#[inline]
-fn simd_available() -> bool {
-    #[cfg(test)]
-    if tests::FORCE_PORTABLE.with(|f| f.get()) {
-        return false;
-    }
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// Triangles tested together by the AVX2 kernel: one per f64 lane of a 256-bit register.
 const BATCH: usize = 4;
 
@@ -656,8 +638,8 @@ struct Span {
 fn uncertain_triangles(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>, six: &mut Vec<f64>) {
     #[cfg(target_arch = "x86_64")]
     {
-        if simd_available() {
-            // SAFETY: the CPU supports AVX2 and FMA (checked by `simd_available`), the only
+        if crate::simd::available() {
+            // SAFETY: the CPU supports AVX2 and FMA (checked by `simd::available`), the only
             // requirement of the `target_feature` function.
             return unsafe { uncertain_triangles_avx2(soa, tris, uncertain, six) };
         }
@@ -1493,10 +1475,7 @@ mod tests {
     use motionlab_core::Motion;
     use motionlab_testkit::{Rng, cube_corners, motion_from_fn};
 
-    thread_local! {
-        /// Set: this thread's hull code takes the portable path even on an AVX2 CPU.
-        pub(super) static FORCE_PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-    }
+    use crate::simd::FORCE_PORTABLE;
 
     fn vol(points: &[Point3]) -> f64 {
         let h = convex_hull_volume(points);

@@ -13,3 +13,4 @@ pub mod curvature;
 pub mod hull;
 pub mod virtual_markers;
 pub mod gap_fill;
+mod simd;

@@ -57,7 +57,7 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
     let mut speeds = vec![f64::NAN; f * m];
     let mut fastest = vec![f64::NAN; f];
     let mut fastest_marker = vec![None; f];
-    let simd = simd_available();
+    let simd = crate::simd::available();
     for (i, row) in speeds.chunks_exact_mut(m.max(1)).take(f.saturating_sub(1)).enumerate() {
         let (a, b) = (&flat[3 * m * i..3 * m * (i + 1)], &flat[3 * m * (i + 1)..3 * m * (i + 2)]);
         let top = speed_row_dispatch(simd, a, b, fps, row);
@@ -70,29 +70,12 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
     MarkerSpeeds { n_points: m, speeds, fastest, fastest_marker }
 }
 
-/// May the AVX2 speed kernel run? (Detected at run time, cached by the standard library; tests
-/// can force the portable loop on this thread.)
-fn simd_available() -> bool {
-    #[cfg(test)]
-    if tests::FORCE_PORTABLE.with(|f| f.get()) {
-        return false;
-    }
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// [`speed_row_avx2`] when `simd` (from [`simd_available`]), else [`speed_row`].
+/// [`speed_row_avx2`] when `simd` (from `simd::available`), else [`speed_row`].
 #[inline]
 fn speed_row_dispatch(simd: bool, a: &[f64], b: &[f64], fps: f64, row: &mut [f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
     if simd {
-        // SAFETY: the CPU supports AVX2 (`simd` comes from `simd_available`), the only
+        // SAFETY: the CPU supports AVX2 (`simd` comes from `simd::available`), the only
         // requirement of the `target_feature` function.
         return unsafe { speed_row_avx2(a, b, fps, row) };
     }
@@ -270,10 +253,7 @@ mod tests {
         }
     }
 
-    thread_local! {
-        /// Set by a test to make `simd_available` false on its thread.
-        pub(super) static FORCE_PORTABLE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-    }
+    use crate::simd::FORCE_PORTABLE;
 
     #[test]
     fn simd_and_portable_speeds_are_bitwise_equal_on_a_real_take() {
