@@ -28,6 +28,21 @@ fn list_and_describe_print_plugins_from_their_docs() {
     let _ = repo();
 }
 
+#[test]
+fn list_and_describe_print_workflows_from_their_section_docs() {
+    let out = motionlab().arg("list").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    for section in ["[features]", "[segmentation]", "[matching]", "[gait]"] {
+        assert!(text.contains(section), "{section} missing from:\n{text}");
+    }
+    let out = motionlab().args(["describe", "gait"]).output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    // The section struct's doc comment, and its keys with their own docs and defaults.
+    assert!(text.contains("[gait] (workflow, from motionlab-workflows)"), "{text}");
+    assert!(text.contains("Osafune") && text.contains("normal_condition") && text.contains("default \"condition\""), "{text}");
+}
+
 /// Runs motionlab with `args` from the repository root; returns (exit code, stdout, stderr).
 fn run_in_repo(args: &[&str]) -> (i32, String, String) {
     let out = motionlab().args(args).current_dir(repo()).output().unwrap();

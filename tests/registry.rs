@@ -1,67 +1,73 @@
-//! The plugin registry: every expected plugin is linked into the binary's crates and
-//! documented (a plugin crate the CLI forgets to name would vanish silently).
+//! The plugin registry: every plugin and workflow crate is linked into the binary's crates
+//! with exactly the plugins it says it registers, and every one is documented (a crate the CLI
+//! forgets to name, or a plugin file whose `mod` line is missing, would vanish silently).
+//!
+//! Each crate states its count (`PLUGIN_COUNT`, `WORKFLOW_COUNT` in its lib.rs); this test
+//! derives everything else from the registry.
 
-use motionlab_core::registry::{self, StageKind};
+use motionlab_core::registry;
+use motionlab_experiment::workflow::workflows;
 
-// The same plugin crates the CLI names.
-use motionlab_eval as _;
-use motionlab_features as _;
-use motionlab_gait as _;
-use motionlab_io as _;
-use motionlab_match as _;
-use motionlab_segment as _;
-
-/// Every plugin the project ships, by kind. Adding a plugin means adding it here.
-const EXPECTED: &[(StageKind, &str)] = &[
-    (StageKind::Loader, "asf_amc"),
-    (StageKind::Loader, "bvh"),
-    (StageKind::Loader, "c3d"),
-    (StageKind::Loader, "qualisys_tsv"),
-    (StageKind::GroundTruth, "cmu86_labels"),
-    (StageKind::GroundTruth, "mocap6_labels"),
-    (StageKind::Preprocessor, "add_centroid"),
-    (StageKind::Preprocessor, "delay_points"),
-    (StageKind::Preprocessor, "fill_gaps"),
-    (StageKind::Preprocessor, "initial_pose_normalisation"),
-    (StageKind::FeatureExtractor, "hull_volume"),
-    (StageKind::FeatureExtractor, "isb_joint_angles"),
-    (StageKind::FeatureExtractor, "marker_speed"),
-    (StageKind::FeatureExtractor, "root_curvature"),
-    (StageKind::FeatureExtractor, "skeleton_joint_angles"),
-    (StageKind::Segmenter, "direction_change"),
-    (StageKind::Segmenter, "fastest_marker_speed"),
-    (StageKind::Segmenter, "hull_volume_change"),
-    (StageKind::Segmenter, "pca_error_rise"),
-    (StageKind::Segmenter, "speed_minima"),
-    (StageKind::Fuser, "union_merge"),
-    (StageKind::PointDetector, "velocity_peaks"),
-    (StageKind::Matcher, "multistream_two_stage"),
-    (StageKind::Matcher, "subsequence_dp"),
-    (StageKind::Synchroniser, "synchronisation"),
-    (StageKind::GaitCycleDetector, "c3d_events"),
-    (StageKind::GaitCycleDetector, "heel_height"),
-    (StageKind::WaveformAnalyzer, "waveform_parameters"),
-    (StageKind::WalkSynthesizer, "feature_channel_control"),
-    (StageKind::Evaluator, "boundary_pr"),
-    (StageKind::Evaluator, "change_rates"),
-    (StageKind::Evaluator, "judgement"),
-    (StageKind::Evaluator, "transitions"),
+/// The same plugin crates the CLI names, with the number of plugins each says it registers.
+const PLUGIN_CRATES: &[(&str, usize)] = &[
+    ("motionlab-eval", motionlab_eval::PLUGIN_COUNT),
+    ("motionlab-features", motionlab_features::PLUGIN_COUNT),
+    ("motionlab-gait", motionlab_gait::PLUGIN_COUNT),
+    ("motionlab-io", motionlab_io::PLUGIN_COUNT),
+    ("motionlab-match", motionlab_match::PLUGIN_COUNT),
+    ("motionlab-segment", motionlab_segment::PLUGIN_COUNT),
 ];
 
+/// The workflow crates the CLI names, with the number of workflows each registers.
+const WORKFLOW_CRATES: &[(&str, usize)] = &[("motionlab-workflows", motionlab_workflows::WORKFLOW_COUNT)];
+
 #[test]
-fn every_expected_plugin_is_registered_with_its_kind() {
+fn every_plugin_crate_registers_the_plugins_it_counts() {
     let all = registry::plugins();
-    for (kind, name) in EXPECTED {
-        let p = all.iter().find(|p| p.name == *name).unwrap_or_else(|| panic!("plugin {name:?} is not registered (crate not linked?)"));
-        assert_eq!(p.kind, *kind, "{name}");
+    for (krate, count) in PLUGIN_CRATES {
+        let names: Vec<&str> = all.iter().filter(|p| p.crate_name == *krate).map(|p| p.name).collect();
+        assert_eq!(names.len(), *count, "{krate} says it registers {count} plugins; the binary holds {}: {names:?} (crate not linked, or a plugin's `mod` line missing?)", names.len());
+    }
+    for p in &all {
+        assert!(PLUGIN_CRATES.iter().any(|(k, _)| *k == p.crate_name), "plugin {:?} comes from {}, which the CLI does not name", p.name, p.crate_name);
     }
 }
 
 #[test]
-fn every_registered_plugin_is_expected_and_documented() {
+fn every_workflow_crate_registers_the_workflows_it_counts() {
+    let all = workflows();
+    for (krate, count) in WORKFLOW_CRATES {
+        let names: Vec<&str> = all.iter().filter(|w| w.crate_name == *krate).map(|w| w.name).collect();
+        assert_eq!(names.len(), *count, "{krate} says it registers {count} workflows; the binary holds {names:?}");
+    }
+    for w in &all {
+        assert!(WORKFLOW_CRATES.iter().any(|(k, _)| *k == w.crate_name), "workflow {:?} comes from {}, which the CLI does not name", w.name, w.crate_name);
+    }
+}
+
+#[test]
+fn every_registered_plugin_is_documented() {
     let problems = registry::check_registry();
     assert!(problems.is_empty(), "{problems:#?}");
-    for p in registry::plugins() {
-        assert!(EXPECTED.iter().any(|(_, n)| *n == p.name), "plugin {:?} is registered but missing from EXPECTED", p.name);
+}
+
+#[test]
+fn every_workflow_is_documented_and_its_section_names_are_unique() {
+    let all = workflows();
+    for w in &all {
+        assert!(w.doc().len() >= 20, "workflow {:?} has no doc comment on {}", w.name, w.section_type);
+        for p in w.params() {
+            assert!(!p.description.is_empty(), "[{}] {}: no doc comment", w.name, p.name);
+        }
+        assert_eq!(all.iter().filter(|o| o.name == w.name).count(), 1, "two workflows own [{}]", w.name);
+        assert!(registry::plugins().iter().all(|p| p.name != w.name), "[{}] is also a plugin name", w.name);
+    }
+}
+
+#[test]
+fn stage_kinds_have_distinct_labels() {
+    let labels: Vec<&str> = registry::StageKind::ALL.iter().map(|k| k.label()).collect();
+    for (i, l) in labels.iter().enumerate() {
+        assert!(!labels[..i].contains(l), "two stage kinds are labelled {l:?}");
     }
 }

@@ -17,6 +17,7 @@ use motionlab_features as _;
 use motionlab_gait as _;
 use motionlab_match as _;
 use motionlab_segment as _;
+use motionlab_workflows as _;
 
 fuzz_target!(|data: &[u8]| {
     let Some(text) = common::text(data) else { return };
@@ -29,7 +30,7 @@ fuzz_target!(|data: &[u8]| {
     match parse_experiment(&source, &overrides) {
         Ok(parsed) => {
             for combo in &parsed.combos {
-                if let Err(e) = build_stages_in_memory(&source, parsed.workflow_kind, combo) {
+                if let Err(e) = build_stages_in_memory(&source, parsed.workflow, combo) {
                     common::assert_names_file(&e, "/nonexistent/fuzz.toml");
                 }
             }

@@ -3,12 +3,17 @@
 
 use std::fmt::Write;
 
-use motionlab_core::registry::{self, StageKind};
+use motionlab_core::registry::{self, ParamDoc, StageKind};
 use motionlab_core::Result;
+use motionlab_experiment::workflow::{find_workflow, workflows};
 
 pub fn list() -> String {
     let all = registry::plugins();
     let mut out = String::new();
+    let _ = writeln!(out, "workflows (an experiment's section):");
+    for w in workflows() {
+        let _ = writeln!(out, "  {:<28} {}", format!("[{}]", w.name), w.summary());
+    }
     for kind in StageKind::ALL {
         let of_kind: Vec<_> = all.iter().filter(|p| p.kind == kind).collect();
         if of_kind.is_empty() {
@@ -23,14 +28,31 @@ pub fn list() -> String {
 }
 
 pub fn describe(name: &str) -> Result<String> {
+    let section = name.trim_start_matches('[').trim_end_matches(']');
+    if let Some(w) = find_workflow(section) {
+        let mut out = String::new();
+        let _ = writeln!(out, "[{}] (workflow, from {})\n", w.name, w.crate_name);
+        let _ = writeln!(out, "{}\n", w.doc());
+        write_params(&mut out, w.params());
+        let _ = writeln!(out, "\nIn an experiment: a [{}] section with these keys.", w.name);
+        return Ok(out);
+    }
     let p = registry::find(name)?;
     let mut out = String::new();
     let _ = writeln!(out, "{} ({}, from {})\n", p.name, p.kind.label(), p.crate_name);
     let _ = writeln!(out, "{}\n", p.doc());
-    let params = p.params();
+    if !write_params(&mut out, p.params()) {
+        return Ok(out);
+    }
+    let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }}", p.name);
+    Ok(out)
+}
+
+/// The parameter list; false when there is none.
+fn write_params(out: &mut String, params: Vec<ParamDoc>) -> bool {
     if params.is_empty() {
         let _ = writeln!(out, "Parameters: none");
-        return Ok(out);
+        return false;
     }
     let _ = writeln!(out, "Parameters:");
     for d in params {
@@ -44,6 +66,5 @@ pub fn describe(name: &str) -> Result<String> {
             let _ = writeln!(out, "      {line}");
         }
     }
-    let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }}", p.name);
-    Ok(out)
+    true
 }

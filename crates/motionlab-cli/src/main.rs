@@ -16,6 +16,7 @@ use motionlab_gait as _;
 use motionlab_io as _;
 use motionlab_match as _;
 use motionlab_segment as _;
+use motionlab_workflows as _;
 
 use motionlab_core::{Error, ErrorKind, Result};
 use motionlab_engine::{RunOptions, RunSummary};
@@ -54,11 +55,11 @@ enum Command {
         experiment: PathBuf,
         overrides: Vec<String>,
     },
-    /// List every registered plugin by kind.
+    /// List every registered workflow and plugin by kind.
     List,
-    /// Print a plugin's documentation and parameters.
+    /// Print a workflow's or a plugin's documentation and parameters.
     Describe {
-        /// The plugin's registered name (`bvh`, `fastest_marker_speed`, …).
+        /// The workflow's section (`segmentation`) or the plugin's registered name (`bvh`, `fastest_marker_speed`, …).
         name: String,
     },
     /// Run every experiment in a folder (default `experiments/`) into `reports/`.
@@ -187,9 +188,9 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             let plan = motionlab_engine::plan(&experiment, &overrides)?;
             let items: usize = plan.built.iter().map(|b| b.workflow.items(&b.data).len()).sum();
             println!(
-                "{}: valid — {:?} workflow, {} dataset(s), {} input file(s), {} combination(s), {} work item(s)",
+                "{}: valid — {} workflow, {} dataset(s), {} input file(s), {} combination(s), {} work item(s)",
                 experiment.display(),
-                plan.workflow_kind,
+                plan.workflow.name,
                 plan.file.datasets.len(),
                 plan.input_files().len(),
                 plan.combos.len(),

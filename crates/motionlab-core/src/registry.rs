@@ -22,59 +22,81 @@ use serde::de::DeserializeOwned;
 use crate::stage::*;
 use crate::{Error, ErrorKind, Result};
 
-/// The kinds of pluggable stage. `type = "..."` names are unique across all kinds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StageKind {
-    Loader,
-    GroundTruth,
-    Preprocessor,
-    FeatureExtractor,
-    Segmenter,
-    Fuser,
-    PointDetector,
-    Matcher,
-    Synchroniser,
-    GaitCycleDetector,
-    WaveformAnalyzer,
-    WalkSynthesizer,
-    Evaluator,
+/// The stage kinds: one row each — variant, stage trait, human label, typed builder. Adding a
+/// stage kind is one row here (and its trait in [`crate::stage`]); the [`StageKind`] enum, its
+/// list and labels, the [`Build`] enum, the generic builders behind
+/// [`register_plugin!`](crate::register_plugin) and the typed `build_*` functions all come from
+/// this table.
+macro_rules! stage_kinds {
+    ($($kind:ident => $trait:ident, $label:literal, $build_fn:ident;)*) => {
+        /// The kinds of pluggable stage. `type = "..."` names are unique across all kinds.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+        #[serde(rename_all = "snake_case")]
+        pub enum StageKind {
+            $($kind,)*
+        }
+
+        impl StageKind {
+            /// Every kind, in declaration order.
+            pub const ALL: [StageKind; [$(stringify!($kind)),*].len()] = [$(StageKind::$kind),*];
+            /// Human label (`ground-truth reader`, `walk synthesizer`).
+            pub fn label(self) -> &'static str {
+                match self {
+                    $(StageKind::$kind => $label,)*
+                }
+            }
+        }
+
+        /// The builder of a plugin, by kind.
+        #[derive(Clone, Copy)]
+        pub enum Build {
+            $($kind(BuildFn<dyn $trait>),)*
+        }
+
+        /// Per-kind generic builders used by [`register_plugin!`](crate::register_plugin).
+        #[allow(non_snake_case)]
+        pub mod builders {
+            use super::*;
+            $(
+                pub fn $kind<P>(value: &toml::Value) -> Result<Box<dyn $trait>>
+                where
+                    P: ParamGuard,
+                    P::Checked: $trait + 'static,
+                {
+                    let params: P = parse_params(value)?;
+                    Ok(Box::new(params.check()?))
+                }
+            )*
+        }
+
+        $(
+            /// Builds a stage of this kind from its TOML table (without the `type` key).
+            pub fn $build_fn(name: &str, params: &toml::Value) -> Result<Box<dyn $trait>> {
+                let entry = find_kind(name, StageKind::$kind)?;
+                match entry.build {
+                    Build::$kind(f) => f(params),
+                    #[allow(unreachable_patterns)]
+                    _ => Err(Error::new(ErrorKind::UnknownPlugin, format!("{name:?} is registered with a mismatched builder"))),
+                }
+            }
+        )*
+    };
 }
 
-impl StageKind {
-    pub const ALL: [StageKind; 13] = [
-        StageKind::Loader,
-        StageKind::GroundTruth,
-        StageKind::Preprocessor,
-        StageKind::FeatureExtractor,
-        StageKind::Segmenter,
-        StageKind::Fuser,
-        StageKind::PointDetector,
-        StageKind::Matcher,
-        StageKind::Synchroniser,
-        StageKind::GaitCycleDetector,
-        StageKind::WaveformAnalyzer,
-        StageKind::WalkSynthesizer,
-        StageKind::Evaluator,
-    ];
-    /// Human label (`ground truth reader`, `walk synthesizer`).
-    pub fn label(self) -> &'static str {
-        match self {
-            StageKind::Loader => "loader",
-            StageKind::GroundTruth => "ground-truth reader",
-            StageKind::Preprocessor => "preprocessor",
-            StageKind::FeatureExtractor => "feature extractor",
-            StageKind::Segmenter => "segmenter",
-            StageKind::Fuser => "fuser",
-            StageKind::PointDetector => "point detector",
-            StageKind::Matcher => "matcher",
-            StageKind::Synchroniser => "synchroniser",
-            StageKind::GaitCycleDetector => "gait-cycle detector",
-            StageKind::WaveformAnalyzer => "waveform analyzer",
-            StageKind::WalkSynthesizer => "walk synthesizer",
-            StageKind::Evaluator => "evaluator",
-        }
-    }
+stage_kinds! {
+    Loader => Loader, "loader", build_loader;
+    GroundTruth => GroundTruthReader, "ground-truth reader", build_ground_truth;
+    Preprocessor => Preprocessor, "preprocessor", build_preprocessor;
+    FeatureExtractor => FeatureExtractor, "feature extractor", build_feature_extractor;
+    Segmenter => Segmenter, "segmenter", build_segmenter;
+    Fuser => Fuser, "fuser", build_fuser;
+    PointDetector => PointDetector, "point detector", build_point_detector;
+    Matcher => Matcher, "matcher", build_matcher;
+    Synchroniser => Synchroniser, "synchroniser", build_synchroniser;
+    GaitCycleDetector => GaitCycleDetector, "gait-cycle detector", build_gait_cycle_detector;
+    WaveformAnalyzer => WaveformAnalyzer, "waveform analyzer", build_waveform_analyzer;
+    WalkSynthesizer => WalkSynthesizer, "walk synthesizer", build_walk_synthesizer;
+    Evaluator => Evaluator, "evaluator", build_evaluator;
 }
 
 /// Validation of deserialised parameters into the type a stage runs with (linfa's ParamGuard).
@@ -88,24 +110,6 @@ pub trait ParamGuard: DeserializeOwned + JsonSchema {
 
 /// A builder from a TOML parameter table (the stage's table without its `type` key).
 pub type BuildFn<T> = fn(&toml::Value) -> Result<Box<T>>;
-
-/// The builder of a plugin, by kind.
-#[derive(Clone, Copy)]
-pub enum Build {
-    Loader(BuildFn<dyn Loader>),
-    GroundTruth(BuildFn<dyn GroundTruthReader>),
-    Preprocessor(BuildFn<dyn Preprocessor>),
-    FeatureExtractor(BuildFn<dyn FeatureExtractor>),
-    Segmenter(BuildFn<dyn Segmenter>),
-    Fuser(BuildFn<dyn Fuser>),
-    PointDetector(BuildFn<dyn PointDetector>),
-    Matcher(BuildFn<dyn Matcher>),
-    Synchroniser(BuildFn<dyn Synchroniser>),
-    GaitCycleDetector(BuildFn<dyn GaitCycleDetector>),
-    WaveformAnalyzer(BuildFn<dyn WaveformAnalyzer>),
-    WalkSynthesizer(BuildFn<dyn WalkSynthesizer>),
-    Evaluator(BuildFn<dyn Evaluator>),
-}
 
 /// One registered plugin.
 pub struct PluginEntry {
@@ -126,18 +130,7 @@ inventory::collect!(PluginEntry);
 impl PluginEntry {
     /// The plugin's documentation: the params struct's doc comment (title + description).
     pub fn doc(&self) -> String {
-        let schema = (self.schema)();
-        let get = |k: &str| schema.get(k).and_then(|v| v.as_str()).unwrap_or("").trim().to_string();
-        let (mut title, description) = (get("title"), get("description"));
-        // schemars titles a root schema with the type name; that is not documentation.
-        if title == self.params_type || !title.contains(' ') {
-            title.clear();
-        }
-        match (title.is_empty(), description.is_empty()) {
-            (true, _) => description,
-            (false, true) => title,
-            (false, false) => format!("{title}\n\n{description}"),
-        }
+        schema_doc(&(self.schema)(), self.params_type)
     }
     /// First line of [`PluginEntry::doc`].
     pub fn summary(&self) -> String {
@@ -145,32 +138,50 @@ impl PluginEntry {
     }
     /// The parameters: name, type, default and description, in declaration order.
     pub fn params(&self) -> Vec<ParamDoc> {
-        let schema = (self.schema)();
-        let root = schema.as_value();
-        let defs = root.get("$defs");
-        let Some(props) = root.get("properties").and_then(|p| p.as_object()) else { return Vec::new() };
-        let required: Vec<&str> = root
-            .get("required")
-            .and_then(|r| r.as_array())
-            .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
-            .unwrap_or_default();
-        props
-            .iter()
-            .map(|(name, p)| ParamDoc {
-                name: name.clone(),
-                type_name: type_name(p, defs),
-                default: p.get("default").map(toml_like),
-                required: required.contains(&name.as_str()),
-                description: p
-                    .get("description")
-                    .and_then(|d| d.as_str())
-                    .or_else(|| resolve(p, defs).and_then(|r| r.get("description")).and_then(|d| d.as_str()))
-                    .unwrap_or("")
-                    .trim()
-                    .to_string(),
-            })
-            .collect()
+        schema_params(&(self.schema)())
     }
+}
+
+/// The documentation in a params type's schema: its doc comment (title + description).
+/// `type_name` is the Rust type's name, which schemars uses as the title when there is none.
+pub fn schema_doc(schema: &schemars::Schema, type_name: &str) -> String {
+    let get = |k: &str| schema.get(k).and_then(|v| v.as_str()).unwrap_or("").trim().to_string();
+    let (mut title, description) = (get("title"), get("description"));
+    // schemars titles a root schema with the type name; that is not documentation.
+    if title == type_name || !title.contains(' ') {
+        title.clear();
+    }
+    match (title.is_empty(), description.is_empty()) {
+        (true, _) => description,
+        (false, true) => title,
+        (false, false) => format!("{title}\n\n{description}"),
+    }
+}
+
+/// The parameters documented in a params type's schema: name, type, default and description,
+/// in declaration order.
+pub fn schema_params(schema: &schemars::Schema) -> Vec<ParamDoc> {
+    let root = schema.as_value();
+    let defs = root.get("$defs");
+    let Some(props) = root.get("properties").and_then(|p| p.as_object()) else { return Vec::new() };
+    let required: Vec<&str> =
+        root.get("required").and_then(|r| r.as_array()).map(|a| a.iter().filter_map(|v| v.as_str()).collect()).unwrap_or_default();
+    props
+        .iter()
+        .map(|(name, p)| ParamDoc {
+            name: name.clone(),
+            type_name: type_name(p, defs),
+            default: p.get("default").map(toml_like),
+            required: required.contains(&name.as_str()),
+            description: p
+                .get("description")
+                .and_then(|d| d.as_str())
+                .or_else(|| resolve(p, defs).and_then(|r| r.get("description")).and_then(|d| d.as_str()))
+                .unwrap_or("")
+                .trim()
+                .to_string(),
+        })
+        .collect()
 }
 
 /// One documented parameter.
@@ -360,38 +371,6 @@ pub fn schema_of<P: JsonSchema>() -> schemars::Schema {
     schemars::SchemaGenerator::default().into_root_schema_for::<P>()
 }
 
-/// Per-kind generic builders used by [`register_plugin!`](crate::register_plugin).
-#[allow(non_snake_case)]
-pub mod builders {
-    use super::*;
-
-    macro_rules! builder {
-        ($kind:ident, $trait:ident) => {
-            pub fn $kind<P>(value: &toml::Value) -> Result<Box<dyn $trait>>
-            where
-                P: ParamGuard,
-                P::Checked: $trait + 'static,
-            {
-                let params: P = parse_params(value)?;
-                Ok(Box::new(params.check()?))
-            }
-        };
-    }
-    builder!(Loader, Loader);
-    builder!(GroundTruth, GroundTruthReader);
-    builder!(Preprocessor, Preprocessor);
-    builder!(FeatureExtractor, FeatureExtractor);
-    builder!(Segmenter, Segmenter);
-    builder!(Fuser, Fuser);
-    builder!(PointDetector, PointDetector);
-    builder!(Matcher, Matcher);
-    builder!(Synchroniser, Synchroniser);
-    builder!(GaitCycleDetector, GaitCycleDetector);
-    builder!(WaveformAnalyzer, WaveformAnalyzer);
-    builder!(WalkSynthesizer, WalkSynthesizer);
-    builder!(Evaluator, Evaluator);
-}
-
 /// Registers a plugin: `register_plugin!(Segmenter, SpeedMinimaParams, "speed_minima");`
 ///
 /// The first argument is the [`StageKind`] variant; the params type must implement
@@ -411,32 +390,6 @@ macro_rules! register_plugin {
         }
     };
 }
-
-/// Builds a stage of a known kind from its TOML table (without the `type` key).
-macro_rules! typed_builder {
-    ($fn_name:ident, $kind:ident, $trait:ident) => {
-        pub fn $fn_name(name: &str, params: &toml::Value) -> Result<Box<dyn $trait>> {
-            let entry = find_kind(name, StageKind::$kind)?;
-            match entry.build {
-                Build::$kind(f) => f(params),
-                _ => Err(Error::new(ErrorKind::UnknownPlugin, format!("{name:?} is registered with a mismatched builder"))),
-            }
-        }
-    };
-}
-typed_builder!(build_loader, Loader, Loader);
-typed_builder!(build_ground_truth, GroundTruth, GroundTruthReader);
-typed_builder!(build_preprocessor, Preprocessor, Preprocessor);
-typed_builder!(build_feature_extractor, FeatureExtractor, FeatureExtractor);
-typed_builder!(build_segmenter, Segmenter, Segmenter);
-typed_builder!(build_fuser, Fuser, Fuser);
-typed_builder!(build_point_detector, PointDetector, PointDetector);
-typed_builder!(build_matcher, Matcher, Matcher);
-typed_builder!(build_synchroniser, Synchroniser, Synchroniser);
-typed_builder!(build_gait_cycle_detector, GaitCycleDetector, GaitCycleDetector);
-typed_builder!(build_waveform_analyzer, WaveformAnalyzer, WaveformAnalyzer);
-typed_builder!(build_walk_synthesizer, WalkSynthesizer, WalkSynthesizer);
-typed_builder!(build_evaluator, Evaluator, Evaluator);
 
 /// An empty parameter table (every parameter at its default).
 pub fn default_params() -> toml::Value {

@@ -360,10 +360,36 @@ pub trait WalkSynthesizer: Send + Sync {
     fn synthesize(&self, walk: &AngleCurves, cycles: &[GaitCycle], changes: &WalkChanges) -> Result<AngleCurves>;
 }
 
+/// What an evaluator produced: its tables and, for an evaluator whose analysis a workflow
+/// builds on (the change rates behind a gait study's control), that analysis as a typed value.
+pub struct Evaluation {
+    pub tables: Vec<Table>,
+    /// The analysis behind the tables, of the type [`Evaluator::analysis_type`] names; `None`
+    /// for evaluators that only write tables.
+    pub analysis: Option<Box<dyn std::any::Any + Send + Sync>>,
+}
+
+impl Evaluation {
+    /// The analysis as a `T`, when it is one.
+    pub fn analysis<T: 'static>(&self) -> Option<&T> {
+        self.analysis.as_ref().and_then(|a| a.downcast_ref::<T>())
+    }
+}
+
 /// Turns results into tables.
 pub trait Evaluator: Send + Sync {
     fn domain(&self) -> EvalDomain;
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>>;
+    /// The tables and the typed analysis behind them, computed once. Default: the tables only.
+    fn evaluate_with_analysis(&self, input: EvalInput<'_>) -> Result<Evaluation> {
+        Ok(Evaluation { tables: self.evaluate(input)?, analysis: None })
+    }
+    /// The type of the analysis [`Evaluator::evaluate_with_analysis`] returns, if any — so a
+    /// workflow that builds on one can require it when the experiment is validated, by type
+    /// rather than by plugin name.
+    fn analysis_type(&self) -> Option<std::any::TypeId> {
+        None
+    }
 }
 
 #[cfg(test)]

@@ -195,6 +195,50 @@ fn column_from_json(cells: &[&Value]) -> ColumnValues {
     }
 }
 
+/// Compact number formatting for labels and tables: up to 4 significant digits, no
+/// scientific notation for everyday magnitudes; NaN as `–`, infinities as `∞`/`−∞`.
+pub fn fmt_num(v: f64) -> String {
+    if !v.is_finite() {
+        return if v.is_nan() { "–".into() } else if v > 0.0 { "∞".into() } else { "−∞".into() };
+    }
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e7).contains(&a) {
+        return format!("{v:.3e}");
+    }
+    let decimals = if a >= 1000.0 { 0 } else if a >= 100.0 { 1 } else if a >= 10.0 { 2 } else { 3 };
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+}
+
+/// Unit suffixes used in column names, longest first.
+const UNITS: &[(&str, &str)] = &[
+    ("_mm3_per_frame", "mm³/frame"),
+    ("_mm3_per_s", "mm³/s"),
+    ("_mm_per_frame", "mm/frame"),
+    ("_mm_per_s", "mm/s"),
+    ("_steps_per_min", "steps/min"),
+    ("_mm3", "mm³"),
+    ("_mm", "mm"),
+    ("_deg", "°"),
+    ("_pct", "%"),
+    ("_hz", "Hz"),
+    ("_ms", "ms"),
+    ("_s", "s"),
+];
+
+/// Splits a unit suffix off a column name (`speed_mm_per_s` → `speed`, `mm/s`), for headers
+/// and axis labels.
+pub fn split_unit(column: &str) -> (String, String) {
+    for (suffix, unit) in UNITS {
+        if let Some(base) = column.strip_suffix(suffix)
+            && !base.is_empty()
+        {
+            return (base.replace('_', " "), unit.to_string());
+        }
+    }
+    (column.replace('_', " "), String::new())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -252,3 +296,4 @@ mod tests {
         assert!(a.push_column("z", ColumnValues::I64(vec![1, 2, 3])).is_err());
     }
 }
+

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
-use motionlab_report::figures::fmt_num;
+use motionlab_core::table::fmt_num;
 use motionlab_report::html::{write_compare_page, ComparePage, MetricDiff};
 
 use crate::pages::read_table_csv;

@@ -1,22 +1,24 @@
 //! # motionlab-engine
 //!
-//! Experiments as data: a TOML file ([`spec`]) is parsed and validated in full before any work
-//! ([`plan`]: every file, plugin and parameter, with errors naming the file, line and key
-//! path), expanded over its `[sweep]` grid, and run as a map–reduce of work items
-//! ([`workflows`], [`run`]) into a fresh run directory ([`rundir`]) with provenance.
+//! Experiments as data: a TOML file is parsed and validated in full before any work ([`plan`]:
+//! every file, plugin and parameter, with errors naming the file, line and key path), expanded
+//! over its `[sweep]` grid, and run as a map–reduce of work items ([`run`]) into a fresh run
+//! directory ([`rundir`]) with provenance and pages ([`pages`], [`compare`]).
 //!
-//! Depends on no polars or plotters directly: tables and figures go through
-//! `motionlab-report`. Workflows call algorithm crates by name where a paper's analysis is more
-//! than one plugin (the gait study, the BVH writer); stages come from the registry.
+//! It knows no workflow: the experiment's workflow section names a registered
+//! [`Workflow`](motionlab_experiment::Workflow) plugin (`motionlab-experiment` holds the trait
+//! and the schema; the built-in workflows are in `motionlab-workflows`). What a workflow returns
+//! — tables, figure specs, files — is handed to `motionlab-report` to write and render; the
+//! engine depends on no polars or plotters directly.
 
 pub mod compare;
 pub mod pages;
 pub mod plan;
 pub mod run;
 pub mod rundir;
-pub mod spec;
-pub mod toml_paths;
-pub mod workflows;
+
+// The schema and key paths live beside the Workflow trait; re-exported under their old paths.
+pub use motionlab_experiment::{spec, toml_paths, workflow as workflows};
 
 pub use plan::{plan, Plan};
 pub use run::{merge, run, run_file, Progress, RunOptions, RunSummary, Silent};

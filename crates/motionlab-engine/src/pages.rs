@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use motionlab_core::{ColumnValues, Result, Table};
 use motionlab_report::html::{compare_published, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
 
-use crate::spec::{ExperimentFile, Headline};
+use motionlab_experiment::spec::{ExperimentFile, Headline};
 
 /// A figure already rendered into `figures/`, with its title.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -238,7 +238,7 @@ fn headline_value(run: &Path, h: &Headline) -> Option<String> {
     let t = read_table_csv(&run.join("tables").join(format!("{}.csv", h.table)), &h.table)?;
     let row = (0..t.n_rows()).find(|&r| h.filter.iter().all(|(k, v)| t.column(k).is_some_and(|c| c.cell(r) == *v)))?;
     Some(match t.column(&h.column)? {
-        ColumnValues::F64(v) => motionlab_report::figures::fmt_num(v[row]),
+        ColumnValues::F64(v) => motionlab_core::table::fmt_num(v[row]),
         other => other.cell(row),
     })
 }

@@ -7,144 +7,15 @@
 //! and line) and resolve every input file.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, GroundTruthReader, Loader, Location, Motion, Preprocessor, Result, Segmentation};
+use motionlab_core::{Error, ErrorKind, Location, Result};
+use motionlab_experiment::spec::{ExperimentFile, SweepGrid};
+use motionlab_experiment::toml_paths::{parse_override, set_path, syntax_error_line, KeyPath};
+use motionlab_experiment::workflow::{self, Workflow, WorkflowEntry};
 
-use crate::spec::{Cut, DatasetSpec, ExperimentFile, StageSpec, SweepGrid, WorkflowKind};
-use crate::toml_paths::{line_of, parse_override, set_path, syntax_error_line, KeyPath};
-use crate::workflows::{self, Workflow};
-
-/// The experiment file as read.
-#[derive(Clone, Debug)]
-pub struct Source {
-    pub path: PathBuf,
-    pub text: String,
-}
-
-impl Source {
-    pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        Ok(Source { path: path.to_path_buf(), text })
-    }
-    /// Folder that relative paths in the experiment are resolved against.
-    pub fn base_dir(&self) -> PathBuf {
-        self.path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
-    }
-    /// Attaches this file and the line of `path` (when it is written in the file) to an error.
-    pub fn locate(&self, err: Error, path: &KeyPath, doc: &toml::Table) -> Error {
-        let resolved = path.resolve(doc).unwrap_or_else(|_| path.clone());
-        let mut loc = Location::file(&self.path).field(resolved.to_string());
-        if let Some(line) = line_of(&self.text, &resolved) {
-            loc = loc.line(line);
-        }
-        let kind = err.kind();
-        let msg = err.message().to_string();
-        Error::new(kind, msg).with_location(loc)
-    }
-}
-
-/// One combination of swept parameter values (the only one when there is no sweep).
-#[derive(Clone, Debug)]
-pub struct Combo {
-    pub index: usize,
-    /// The sweep grid's name (`None` without a sweep).
-    pub sweep: Option<String>,
-    pub focus: Option<String>,
-    /// The swept key paths and their values in this combination.
-    pub params: Vec<(String, toml::Value)>,
-    /// The resolved document of this combination.
-    pub doc: toml::Table,
-    pub file: ExperimentFile,
-}
-
-impl Combo {
-    /// `v_low.fraction_of_p90=0.1, c_min=0.2` — the swept values, for table columns.
-    pub fn label(&self) -> String {
-        self.params.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(", ")
-    }
-}
-
-/// A dataset with its plugins built and its files resolved.
-pub struct BuiltDataset {
-    pub index: usize,
-    pub spec: DatasetSpec,
-    pub loader: Box<dyn Loader>,
-    /// The reader and the ground-truth path, which may hold `{stem}` (replaced by each motion
-    /// file's stem, so one dataset can list several sequences with a label file each).
-    pub ground_truth: Option<(Box<dyn GroundTruthReader>, PathBuf)>,
-    pub preprocess: Vec<Box<dyn Preprocessor>>,
-    /// Resolved files (globs expanded, sorted).
-    pub files: Vec<PathBuf>,
-}
-
-impl BuiltDataset {
-    /// The sequence name of file `k`: the dataset's name when it has one file, else the stem.
-    pub fn sequence_name(&self, k: usize) -> String {
-        let stem = motionlab_core::paths::stem(&self.files[k]);
-        match (&self.spec.name, self.files.len()) {
-            (Some(n), 1) => n.clone(),
-            (Some(n), _) => format!("{n}/{stem}"),
-            (None, _) => stem,
-        }
-    }
-    pub fn tag(&self, key: &str) -> Option<&str> {
-        self.spec.tags.get(key).map(String::as_str)
-    }
-    /// The ground-truth file of motion file `k` (`{stem}` substituted).
-    pub fn ground_truth_path(&self, k: usize) -> Option<PathBuf> {
-        let (_, template) = self.ground_truth.as_ref()?;
-        let stem = motionlab_core::paths::stem(&self.files[k]);
-        Some(PathBuf::from(template.to_string_lossy().replace("{stem}", &stem)))
-    }
-}
-
-/// A loaded, cut and preprocessed input.
-pub struct LoadedItem {
-    pub name: String,
-    pub motion: Arc<Motion>,
-    pub truth: Option<Segmentation>,
-}
-
-/// Every dataset of a combination, plus the experiment-wide preprocessors.
-pub struct Datasets {
-    pub datasets: Vec<BuiltDataset>,
-    pub preprocess: Vec<Box<dyn Preprocessor>>,
-}
-
-impl Datasets {
-    /// Loads file `file` of dataset `dataset`: loader → cut → dataset preprocessors →
-    /// experiment preprocessors → ground truth.
-    pub fn load(&self, dataset: usize, file: usize) -> Result<LoadedItem> {
-        let d = &self.datasets[dataset];
-        let path = &d.files[file];
-        let mut motion = d.loader.load(path).map_err(|e| e.in_file(path))?;
-        motion.name = d.sequence_name(file);
-        if let Some(cut) = d.spec.cut {
-            let rate = motion.frame_rate();
-            let (a, b) = match cut {
-                Cut::Frames([a, b]) => (a, b),
-                Cut::Seconds([a, b]) => (rate.seconds_to_frames(motionlab_core::Seconds(a)).round() as usize, rate.seconds_to_frames(motionlab_core::Seconds(b)).round() as usize),
-            };
-            motion = motion.slice_frames(a, b).map_err(|e| e.in_file(path).with_field(format!("dataset[{dataset}].cut")))?;
-        }
-        // Ground truth is read against the motion as loaded (and cut), before preprocessors
-        // that may add points but never change timing.
-        let truth = match (&d.ground_truth, d.ground_truth_path(file)) {
-            (Some((reader, _)), Some(gt_path)) => Some(reader.read(&gt_path, &motion).map_err(|e| e.in_file(&gt_path))?),
-            _ => None,
-        };
-        for p in d.preprocess.iter().chain(&self.preprocess) {
-            motion = p.apply(motion).map_err(|e| e.in_file(path))?;
-        }
-        Ok(LoadedItem { name: d.sequence_name(file), motion: Arc::new(motion), truth })
-    }
-    /// The dataset whose tag `key` equals `value`.
-    pub fn find_tagged(&self, key: &str, value: &str) -> Vec<&BuiltDataset> {
-        self.datasets.iter().filter(|d| d.tag(key) == Some(value)).collect()
-    }
-}
+// What workflows are given, defined beside the Workflow trait (polars-free).
+pub use motionlab_experiment::context::{build_stage, deserialize_section, BuiltDataset, Combo, Datasets, LoadedItem, Source};
 
 /// A validated experiment: every combination with its workflow built.
 pub struct Plan {
@@ -153,7 +24,8 @@ pub struct Plan {
     /// The document after overrides (before sweeping).
     pub doc: toml::Table,
     pub file: ExperimentFile,
-    pub workflow_kind: WorkflowKind,
+    /// The registered workflow whose section the experiment has.
+    pub workflow: &'static WorkflowEntry,
     pub combos: Vec<Combo>,
     pub built: Vec<BuiltCombo>,
 }
@@ -181,24 +53,23 @@ impl Plan {
 /// Reads, overrides, deserialises and validates an experiment.
 pub fn plan(path: &Path, overrides: &[String]) -> Result<Plan> {
     let source = Source::read(path)?;
-    let ParsedExperiment { doc, file, workflow_kind, combos } = parse_experiment(&source, overrides)?;
+    let ParsedExperiment { doc, file, workflow, combos } = parse_experiment(&source, overrides)?;
     let mut built = Vec::with_capacity(combos.len());
     for combo in &combos {
         let data = build_datasets(&source, combo, Inputs::Resolve)?;
-        let workflow = workflows::build(workflow_kind, &source, combo, &data)?;
-        built.push(BuiltCombo { data, workflow });
+        let built_workflow = workflow::build(workflow, &source, combo, &data)?;
+        built.push(BuiltCombo { data, workflow: built_workflow });
     }
-    Ok(Plan { source, overrides: overrides.to_vec(), doc, file, workflow_kind, combos, built })
+    Ok(Plan { source, overrides: overrides.to_vec(), doc, file, workflow, combos, built })
 }
 
 /// An experiment parsed, overridden, deserialised and expanded over its sweep, with no plugin
 /// built and no input file touched.
-#[derive(Clone, Debug)]
 pub struct ParsedExperiment {
     /// The document after overrides (before sweeping).
     pub doc: toml::Table,
     pub file: ExperimentFile,
-    pub workflow_kind: WorkflowKind,
+    pub workflow: &'static WorkflowEntry,
     pub combos: Vec<Combo>,
 }
 
@@ -221,34 +92,30 @@ pub fn parse_experiment(source: &Source, overrides: &[String]) -> Result<ParsedE
         })?;
     }
     let file = deserialize_file(source, &doc)?;
-    let workflow_kind = file.workflow().map_err(|e| e.with_location(Location::file(&source.path)))?;
+    let workflow = workflow::find_workflow(&file.workflow).ok_or_else(|| Error::new(ErrorKind::UnknownKey, format!("no workflow {:?}", file.workflow)))?;
     check_name(source, &file)?;
     let combos = expand_sweep(source, &doc, &file)?;
-    Ok(ParsedExperiment { doc, file, workflow_kind, combos })
+    Ok(ParsedExperiment { doc, file, workflow, combos })
 }
 
 /// Builds every stage of one combination — loaders, ground-truth readers, preprocessors and
 /// the workflow's own stages — through the registry, as [`plan`] does, but resolves no input
 /// file (datasets get no files). For the experiment fuzz target.
-pub fn build_stages_in_memory(source: &Source, workflow_kind: WorkflowKind, combo: &Combo) -> Result<()> {
+pub fn build_stages_in_memory(source: &Source, workflow: &WorkflowEntry, combo: &Combo) -> Result<()> {
     let data = build_datasets(source, combo, Inputs::Skip)?;
-    workflows::build(workflow_kind, source, combo, &data).map(|_| ())
+    workflow::build(workflow, source, combo, &data).map(|_| ())
 }
 
+/// The fixed part of the schema, and the one workflow section checked against the registered
+/// workflows (which parse their sections themselves when they are built).
 fn deserialize_file(source: &Source, doc: &toml::Table) -> Result<ExperimentFile> {
-    deserialize_section(source, doc, toml::Value::Table(doc.clone()), &KeyPath::default())
-}
-
-/// Deserialises a table of the document found at `root` (a workflow section, or the whole
-/// document at the empty path), with errors located at `root.<field>` and its line.
-pub fn deserialize_section<T: serde::de::DeserializeOwned>(source: &Source, doc: &toml::Table, value: toml::Value, root: &KeyPath) -> Result<T> {
-    registry::parse_params::<T>(&value).map_err(|e| {
-        let path = match &e.location().field {
-            Some(f) if !f.is_empty() => root.join_field(f),
-            _ => root.clone(),
-        };
-        source.locate(e, &path, doc)
-    })
+    let workflow = workflow::workflow_section(source, doc)?;
+    let mut fixed = doc.clone();
+    let sections = ExperimentFile::section_names(doc);
+    fixed.retain(|k, _| !sections.iter().any(|s| s == k));
+    let mut file: ExperimentFile = deserialize_section(source, doc, toml::Value::Table(fixed), &KeyPath::default())?;
+    file.workflow = workflow.name.to_string();
+    Ok(file)
 }
 
 fn check_name(source: &Source, file: &ExperimentFile) -> Result<()> {
@@ -334,24 +201,6 @@ fn cartesian(grid: &SweepGrid) -> Vec<Vec<(String, toml::Value)>> {
             .collect();
     }
     out
-}
-
-/// Builds a plugin, mapping its parameter errors to the stage's key path and line.
-pub fn build_stage<T: ?Sized>(
-    source: &Source,
-    combo: &Combo,
-    spec: &StageSpec,
-    path: &KeyPath,
-    builder: fn(&str, &toml::Value) -> Result<Box<T>>,
-) -> Result<Box<T>> {
-    builder(&spec.kind, &spec.plugin_params()).map_err(|e| {
-        let full = match &e.location().field {
-            Some(f) if e.kind() != ErrorKind::UnknownPlugin => path.join_field(f),
-            _ if e.kind() == ErrorKind::UnknownPlugin => path.key("type"),
-            _ => path.clone(),
-        };
-        source.locate(e, &full, &combo.doc)
-    })
 }
 
 /// Whether [`build_datasets`] resolves the input files (globs, existence) or leaves them out.

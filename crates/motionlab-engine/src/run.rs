@@ -19,7 +19,7 @@ use motionlab_report::{figures::render, write_table, Figure};
 use crate::pages::{write_run_html, FigureEntry};
 use crate::plan::{plan, Plan};
 use crate::rundir::{sha256_bytes, sha256_file, utc_iso, write_atomic, RunDir};
-use crate::workflows::{ComboOutput, ItemData, Output, WorkItem};
+use motionlab_experiment::workflow::{ComboOutput, ItemData, Output, WorkItem};
 
 /// Progress reporting, implemented by the CLI (indicatif) or silent.
 pub trait Progress: Send + Sync {
@@ -192,6 +192,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
                 }
                 let entries: Vec<FigureEntry> = out.figures.iter().map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() }).collect();
                 write_atomic(&items_dir.join(format!("c{c}-{}.figures.json", item.id)), &json_bytes(&entries)?)?;
+                if !out.files.is_empty() {
+                    let dir = rundir.subdir("files")?;
+                    for (name, bytes) in &out.files {
+                        write_atomic(&dir.join(name), bytes)?;
+                    }
+                }
                 opts.progress.advance(&item.id);
                 Ok((*k, *c, item.clone(), out.result, figs))
             })

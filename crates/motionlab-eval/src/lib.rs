@@ -19,6 +19,11 @@
 //! consensus clustering (a one-pass chain over sorted marks). The fastest-marker speed used by
 //! the consensus stop rule comes from `motionlab_features::speed`, the one definition of V.
 
+/// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
+/// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
+/// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
+pub const PLUGIN_COUNT: usize = 2;
+
 pub mod boundaries;
 pub mod boundary_pr;
 pub mod consensus;

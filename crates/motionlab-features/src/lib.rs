@@ -3,6 +3,11 @@
 //! Per-frame features of motions, one file each. Each module documents how it treats missing
 //! samples. Feature-extractor plugins registered here: `marker_speed`.
 
+/// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
+/// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
+/// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
+pub const PLUGIN_COUNT: usize = 10;
+
 pub mod signal;
 pub mod smoothing;
 pub mod speed;

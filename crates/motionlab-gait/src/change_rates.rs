@@ -7,7 +7,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, GaitStudy, GaitTrial, Result, Table, WalkChanges};
+use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, GaitStudy, GaitTrial, Result, Table, WalkChanges};
 
 /// Change rates of every channel from the normal walk to each other condition, their mean,
 /// population s.d. and coefficient of variation over subjects, and the feature channels
@@ -229,6 +229,15 @@ impl ConditionChanges {
     }
 }
 
+/// What `change_rates` hands a workflow beside its tables
+/// ([`Evaluator::evaluate_with_analysis`]): the analysis, and the parameters it was made with
+/// (a leave-one-out re-analyses each training fold with them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChangeRateAnalysis {
+    pub rates: ChangeRates,
+    pub changes: StudyChanges,
+}
+
 /// Change rates of a study: one entry per condition other than the normal one.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StudyChanges {
@@ -416,7 +425,11 @@ impl ChangeRates {
 
     /// The evaluator's tables (see [`ChangeRatesParams`]).
     pub fn tables(&self, study: &GaitStudy) -> Result<Vec<Table>> {
-        let analysis = self.analyse(study)?;
+        self.tables_of(study, &self.analyse(study)?)
+    }
+
+    /// The evaluator's tables from an analysis of `study` already made.
+    pub fn tables_of(&self, study: &GaitStudy, analysis: &StudyChanges) -> Result<Vec<Table>> {
         let g = &analysis.normal_condition;
         let parameters: Vec<ParameterRecord> = study
             .trials
@@ -552,13 +565,25 @@ impl Evaluator for ChangeRates {
         EvalDomain::Gait
     }
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
+        self.evaluate_with_analysis(input).map(|e| e.tables)
+    }
+    /// The tables and the [`ChangeRateAnalysis`] behind them (the gait workflow's Tables 2–3,
+    /// control and leave-one-out build on it).
+    fn evaluate_with_analysis(&self, input: EvalInput<'_>) -> Result<Evaluation> {
         match input {
-            EvalInput::Gait(study) => self.tables(study),
+            EvalInput::Gait(study) => {
+                let changes = self.analyse(study)?;
+                let tables = self.tables_of(study, &changes)?;
+                Ok(Evaluation { tables, analysis: Some(Box::new(ChangeRateAnalysis { rates: self.clone(), changes })) })
+            }
             other => Err(Error::new(
                 ErrorKind::Mismatch,
                 format!("change_rates evaluates a gait study, but was given {:?} results", other.domain()),
             )),
         }
+    }
+    fn analysis_type(&self) -> Option<std::any::TypeId> {
+        Some(std::any::TypeId::of::<ChangeRateAnalysis>())
     }
 }
 
@@ -596,20 +621,8 @@ pub fn feature_channels(changes: &ConditionChanges) -> BTreeMap<&'static str, Ve
 mod tests {
     use super::*;
     use motionlab_core::registry::build_evaluator;
-    use motionlab_core::{ColumnValues, WaveformParameters};
-
-    fn trial(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64; 2], f: f64) -> GaitTrial {
-        GaitTrial {
-            subject: subject.into(),
-            condition: condition.into(),
-            parameters: WaveformParameters {
-                channels: vec!["knee_l.flexion".into(), "hip_l.rotation".into()],
-                dc: dc.to_vec(),
-                amplitude: amplitude.to_vec(),
-                frequency_hz: f,
-            },
-        }
-    }
+    use motionlab_core::ColumnValues;
+    use motionlab_testkit::gait_trial as trial;
 
     /// Three subjects, normal and fast. Knee DC: 20 → 24, 10 → 11, 40 → 52 (K = 20, 10, 30 %);
     /// hip rotation DC: 2° for s1 (excluded: near zero), −10 → −12, 8 → 6 (K = 20, −25 %).

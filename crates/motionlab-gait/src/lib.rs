@@ -15,6 +15,11 @@
 //! arithmetic over a few hundred numbers per subject, written by hand; the one algorithm with
 //! a shared implementation — DTW — comes from `motionlab_match::dp`.
 
+/// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
+/// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
+/// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
+pub const PLUGIN_COUNT: usize = 2;
+
 pub mod change_rates;
 pub mod loso;
 pub mod study;

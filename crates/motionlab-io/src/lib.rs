@@ -6,6 +6,11 @@
 //! No sound crate exists for BVH or ASF/AMC (bvh_anim is abandoned with unsound
 //! dependencies), so both are written here.
 
+/// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
+/// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
+/// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
+pub const PLUGIN_COUNT: usize = 6;
+
 pub mod read;
 
 pub mod asf_amc;

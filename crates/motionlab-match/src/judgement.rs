@@ -110,6 +110,36 @@ fn normalise(v: &[f64]) -> Vec<f64> {
     if mu == 0.0 { vec![1.0; v.len()] } else { v.iter().map(|x| x / mu).collect() }
 }
 
+/// The judgement rule (§4.1) over the repetitions of one take.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scores {
+    /// `H' = H / mean(H)`.
+    pub h_norm: Vec<f64>,
+    /// `R' = R / mean(R)`.
+    pub r_norm: Vec<f64>,
+    /// `sqrt(H'² + R'²)`: the least is the most similar repetition.
+    pub score: Vec<f64>,
+}
+
+/// `H'`, `R'` and the score of each repetition from its `H` and `R` (the judgement rule, §4.1;
+/// also what the timing test of the matching workflow ranks by).
+pub fn scores(h: &[f64], r: &[f64]) -> Scores {
+    let (h_norm, r_norm) = (normalise(h), normalise(r));
+    let score = h_norm.iter().zip(&r_norm).map(|(a, b)| (a * a + b * b).sqrt()).collect();
+    Scores { h_norm, r_norm, score }
+}
+
+/// 1-based ranks of `v` ascending (1 = least); ties keep their order.
+pub fn ranks(v: &[f64]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..v.len()).collect();
+    order.sort_by(|&x, &y| v[x].total_cmp(&v[y]).then(x.cmp(&y)));
+    let mut rank = vec![0; v.len()];
+    for (pos, &k) in order.iter().enumerate() {
+        rank[k] = pos + 1;
+    }
+    rank
+}
+
 fn require_finite(v: f64, what: &str, take: &str, rep: &str) -> Result<f64> {
     if v.is_finite() {
         Ok(v)
@@ -178,14 +208,8 @@ fn judge_take(take: &MatchingResult, out: &mut JudgementRecords) -> Result<()> {
         h.push(require_finite(rep.alignment.total_distance, "H", name, label)?);
         r.push(require_finite(rep.synchronisation.total, "R", name, label)?);
     }
-    let (hn, rn) = (normalise(&h), normalise(&r));
-    let score: Vec<f64> = hn.iter().zip(&rn).map(|(a, b)| (a * a + b * b).sqrt()).collect();
-    let mut order: Vec<usize> = (0..reps.len()).collect();
-    order.sort_by(|&x, &y| score[x].total_cmp(&score[y]).then(x.cmp(&y)));
-    let mut rank = vec![0; reps.len()];
-    for (pos, &k) in order.iter().enumerate() {
-        rank[k] = pos + 1;
-    }
+    let Scores { h_norm: hn, r_norm: rn, score } = scores(&h, &r);
+    let rank = ranks(&score);
     for (k, rep) in reps.iter().enumerate() {
         out.repetitions.push(RepetitionJudgement {
             take: name.to_string(),
@@ -271,6 +295,16 @@ mod tests {
     use super::*;
     use motionlab_core::registry::{build_evaluator, default_params};
     use motionlab_core::{Alignment, ColumnValues, GaitStudy, RepetitionResult, Synchronisation};
+
+    #[test]
+    fn scores_and_ranks_follow_the_rule() {
+        let s = scores(&[1.0, 3.0], &[0.0, 0.0]);
+        assert_eq!(s.h_norm, vec![0.5, 1.5]);
+        // R = 0 everywhere: its mean is 0, so each R' is 1.
+        assert_eq!(s.r_norm, vec![1.0, 1.0]);
+        assert_eq!(s.score, vec![1.25f64.sqrt(), 3.25f64.sqrt()]);
+        assert_eq!(ranks(&[3.0, 1.0, 2.0, 1.0]), vec![4, 1, 3, 2]);
+    }
 
     fn rep(label: &str, h: &[f64], r: &[f64]) -> RepetitionResult {
         RepetitionResult {

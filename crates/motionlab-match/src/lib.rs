@@ -46,6 +46,11 @@
 //! missing frame, and points to the `fill_gaps` preprocessor); the normalisation keeps them
 //! missing; the synchroniser and the judgement only see what the matchers produced.
 
+/// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
+/// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
+/// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
+pub const PLUGIN_COUNT: usize = 7;
+
 pub mod delay;
 pub mod dp;
 pub mod initial_pose;

@@ -11,7 +11,6 @@ use std::sync::Once;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
-use serde::{Deserialize, Serialize};
 
 use motionlab_core::{Error, ErrorKind, Location, Result};
 
@@ -25,131 +24,9 @@ fn ensure_font() {
     });
 }
 
-/// A data series: `x[i], y[i]` pairs, optionally with a label per point.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Series {
-    pub label: String,
-    pub x: Vec<f64>,
-    pub y: Vec<f64>,
-    /// Per-point annotations (scatter plots); empty for none.
-    #[serde(default)]
-    pub point_labels: Vec<String>,
-}
-
-impl Series {
-    pub fn new(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Series { label: label.into(), x, y, point_labels: Vec::new() }
-    }
-}
-
-/// A horizontal reference line (a threshold).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RefLine {
-    pub label: String,
-    pub value: f64,
-}
-
-/// One row of vertical bars under a chart (candidate frames of a method), optionally with
-/// shaded bands (ground-truth windows).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct BarRow {
-    pub label: String,
-    pub marks: Vec<f64>,
-    #[serde(default)]
-    pub bands: Vec<(f64, f64)>,
-}
-
-/// A 2-D chart: lines, scatter points, thresholds, and rows of candidate bars beneath it.
-/// With no lines and no points it is a pure timeline of bar rows.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Chart {
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-    pub lines: Vec<Series>,
-    pub points: Vec<Series>,
-    pub hlines: Vec<RefLine>,
-    pub bar_rows: Vec<BarRow>,
-    /// Same scale on both axes (floor-plane paths).
-    #[serde(default)]
-    pub equal_aspect: bool,
-    /// Optional fixed x range.
-    #[serde(default)]
-    pub x_range: Option<(f64, f64)>,
-    /// Optional fixed y range.
-    #[serde(default)]
-    pub y_range: Option<(f64, f64)>,
-}
-
-/// A stick figure: 2-D projected points and the bones joining them.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Pose {
-    pub label: String,
-    pub points: Vec<[f64; 2]>,
-}
-
-/// One row of poses drawn side by side (a strip of snapshots).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct StickRow {
-    pub label: String,
-    pub poses: Vec<Pose>,
-}
-
-/// Strips of stick figures (the papers' snapshot figures), all rows at one scale.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct StickStrip {
-    pub title: String,
-    /// Index pairs into each pose's points.
-    pub bones: Vec<(usize, usize)>,
-    pub rows: Vec<StickRow>,
-    /// What the drawing's axes are (`side view, x–z, mm`).
-    pub caption: String,
-}
-
-/// Something to draw.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum FigureKind {
-    Chart(Chart),
-    Sticks(StickStrip),
-    TimelinePoses(TimelinePoses),
-}
-
-/// A timeline of bar rows (ground truth, each method) with a stick-figure pose drawn under each
-/// marked instant, on the same time axis (Sonoda et al.'s Figs 10 and 11 in one picture).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct TimelinePoses {
-    /// The timeline: bar rows only (its lines and points are ignored).
-    pub timeline: Chart,
-    /// Index pairs into each pose's points.
-    pub bones: Vec<(usize, usize)>,
-    /// (time in the timeline's x unit, pose) pairs, in time order.
-    pub poses: Vec<(f64, Pose)>,
-    pub caption: String,
-}
-
-/// A named figure; `name` becomes the file stem.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Figure {
-    pub name: String,
-    pub figure: FigureKind,
-}
-
-impl Figure {
-    pub fn chart(name: impl Into<String>, chart: Chart) -> Self {
-        Figure { name: name.into(), figure: FigureKind::Chart(chart) }
-    }
-    pub fn sticks(name: impl Into<String>, strip: StickStrip) -> Self {
-        Figure { name: name.into(), figure: FigureKind::Sticks(strip) }
-    }
-    pub fn title(&self) -> &str {
-        match &self.figure {
-            FigureKind::Chart(c) => &c.title,
-            FigureKind::Sticks(s) => &s.title,
-            FigureKind::TimelinePoses(t) => &t.timeline.title,
-        }
-    }
-}
+// The specs are plain data in `motionlab-figure` (so workflows build them without plotters);
+// this module renders them.
+pub use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip, TimelinePoses};
 
 /// Pixel size of rendered figures.
 const SIZE: (u32, u32) = (1100, 560);
@@ -501,20 +378,8 @@ where
     Ok(())
 }
 
-/// Compact number formatting for labels and tables: up to 4 significant digits, no
-/// scientific notation for everyday magnitudes.
-pub fn fmt_num(v: f64) -> String {
-    if !v.is_finite() {
-        return if v.is_nan() { "–".into() } else if v > 0.0 { "∞".into() } else { "−∞".into() };
-    }
-    let a = v.abs();
-    if a != 0.0 && !(1e-3..1e7).contains(&a) {
-        return format!("{v:.3e}");
-    }
-    let decimals = if a >= 1000.0 { 0 } else if a >= 100.0 { 1 } else if a >= 10.0 { 2 } else { 3 };
-    let s = format!("{v:.decimals$}");
-    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
-}
+/// Compact number formatting for labels and tables (in `motionlab-core`, beside `Table`).
+pub use motionlab_core::table::fmt_num;
 
 #[cfg(test)]
 mod tests {

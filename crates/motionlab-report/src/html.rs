@@ -47,33 +47,8 @@ pub struct Header {
     pub numeric: bool,
 }
 
-/// Unit suffixes used in column names, longest first.
-const UNITS: &[(&str, &str)] = &[
-    ("_mm3_per_frame", "mm³/frame"),
-    ("_mm3_per_s", "mm³/s"),
-    ("_mm_per_frame", "mm/frame"),
-    ("_mm_per_s", "mm/s"),
-    ("_steps_per_min", "steps/min"),
-    ("_mm3", "mm³"),
-    ("_mm", "mm"),
-    ("_deg", "°"),
-    ("_pct", "%"),
-    ("_hz", "Hz"),
-    ("_ms", "ms"),
-    ("_s", "s"),
-];
-
-/// Splits a unit suffix off a column name.
-pub fn split_unit(column: &str) -> (String, String) {
-    for (suffix, unit) in UNITS {
-        if let Some(base) = column.strip_suffix(suffix)
-            && !base.is_empty()
-        {
-            return (base.replace('_', " "), unit.to_string());
-        }
-    }
-    (column.replace('_', " "), String::new())
-}
+// Splitting a unit suffix off a column name is shared with workflows' figure labels.
+pub use motionlab_core::table::split_unit;
 
 /// A table ready for HTML.
 #[derive(Clone, Debug, Serialize)]

@@ -1,7 +1,7 @@
 //! Figure and table helpers shared by workflows.
 
 use motionlab_core::{Motion, Point3, Result, Threshold, Trace};
-use motionlab_report::{BarRow, Chart, Pose, RefLine, Series, StickRow, StickStrip};
+use motionlab_figure::{BarRow, Chart, Pose, RefLine, Series, StickRow, StickStrip};
 
 /// Seconds of each frame of a motion.
 pub fn time_axis(motion: &Motion) -> Vec<f64> {
@@ -16,7 +16,7 @@ pub fn frames_to_seconds(frames: &[usize], rate_hz: f64) -> Vec<f64> {
 
 /// A trace name without its unit suffix, for labels (`V_mm_per_s` → `V`).
 pub fn label_of(name: &str) -> String {
-    motionlab_report::html::split_unit(name).0
+    motionlab_core::table::split_unit(name).0
 }
 
 /// Charts of a stage's traces against time with its thresholds and candidate bars (the papers'

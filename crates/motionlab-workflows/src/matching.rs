@@ -64,6 +64,7 @@
 
 use std::collections::BTreeMap;
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
@@ -71,18 +72,27 @@ use motionlab_core::{
     Alignment, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FrameRate, Matcher, MatchingResult, Motion,
     PointDetection, PointDetector, RepetitionResult, Result, Seconds, Synchronisation, Synchroniser, Table,
 };
-use motionlab_report::{BarRow, Chart, Figure, RefLine, Series};
+use motionlab_figure::{BarRow, Chart, Figure, RefLine, Series};
+use motionlab_match::judgement::{ranks, scores, Scores};
 
-use super::{sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow};
-use crate::plan::{build_stage, BuiltDataset, Combo, Datasets, Source};
-use crate::spec::{Cut, StageSpec};
-use crate::toml_paths::KeyPath;
+use motionlab_experiment::workflow::{build_evaluators, sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
+use motionlab_experiment::{build_stage, BuiltDataset, Combo, Datasets, Source};
+use motionlab_experiment::spec::{Cut, StageSpec};
+use motionlab_experiment::toml_paths::KeyPath;
 
 /// The figures this workflow can draw (`[matching] figures`).
 const FIGURES: [&str; 3] = ["velocity", "paths", "scatter"];
 
-/// `[matching]`: the model, the stages, and how repetitions are found.
-#[derive(Clone, Debug, Deserialize)]
+/// A model basic motion against a user's repetitions, marker by marker (Yabe & Tanaka): point
+/// detection, two-stage DP matching, synchronisation, the evaluators' judgement and tendency
+/// (`[[evaluate]]`, matching domain), the paper's figures and its (a)/(b)/(c) timing test.
+///
+/// Every dataset but the model is a user take: *continuous* (tag `repetitions = "N"`, cut into
+/// N repetitions by the point detector) or *explicit windows* (tag `take = "<name>"`, one
+/// repetition per dataset; tags `group = "a" | "b" | "c"` and `pair` turn on the timing test).
+///
+/// Missing samples: the matchers refuse them (fill gaps first with `fill_gaps`).
+#[derive(Clone, Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MatchingSection {
     /// Name of the dataset holding the model basic motion (its `name`, or the file stem of its
@@ -124,11 +134,11 @@ fn one() -> usize {
 }
 
 fn default_matcher() -> StageSpec {
-    StageSpec { kind: "multistream_two_stage".into(), params: toml::Table::new() }
+    StageSpec::of_type("multistream_two_stage")
 }
 
 fn default_synchroniser() -> StageSpec {
-    StageSpec { kind: "synchronisation".into(), params: toml::Table::new() }
+    StageSpec::of_type("synchronisation")
 }
 
 fn default_figures() -> Vec<String> {
@@ -220,10 +230,10 @@ struct RepetitionRow {
     r_frames2: f64,
 }
 
-impl MatchingWorkflow {
-    pub fn build(source: &Source, combo: &Combo, data: &Datasets) -> Result<Self> {
-        let root = KeyPath::parse("matching")?;
-        let section = parse_section(source, combo, &root)?;
+impl WorkflowPlugin for MatchingWorkflow {
+    type Section = MatchingSection;
+    fn build(section: MatchingSection, cx: &BuildContext<'_>) -> Result<Self> {
+        let (source, combo, data, root) = (cx.source, cx.combo, cx.data, cx.root.clone());
         let locate = |e: Error, key: &str| source.locate(e, &root.join_field(key), &combo.doc);
         if section.peaks_per_repetition == 0 {
             return Err(locate(
@@ -252,7 +262,7 @@ impl MatchingWorkflow {
         let matcher = build_stage(source, combo, &section.matcher, &root.key("matcher"), registry::build_matcher)?;
         let synchroniser = build_stage(source, combo, &section.synchroniser, &root.key("synchroniser"), registry::build_synchroniser)?;
         let matcher_points = stage_points(&section.matcher);
-        let evaluators = super::build_evaluators(source, combo, EvalDomain::Matching)?;
+        let evaluators = build_evaluators(source, combo, EvalDomain::Matching)?;
         let takes = build_takes(source, combo, data, &section, model, &root)?;
         if takes.is_empty() {
             return Err(locate(
@@ -265,7 +275,11 @@ impl MatchingWorkflow {
         }
         Ok(MatchingWorkflow { section, model, takes, matcher, matcher_points, synchroniser, evaluators })
     }
+}
 
+motionlab_experiment::register_workflow!(MatchingWorkflow, "matching");
+
+impl MatchingWorkflow {
     fn wants(&self, figure: &str) -> bool {
         self.section.figures.iter().any(|f| f == figure)
     }
@@ -310,11 +324,6 @@ impl MatchingWorkflow {
             .map_err(|e| e.under_field(format!("synchroniser {}", self.section.synchroniser.kind)))?;
         Ok((alignment, sync))
     }
-}
-
-fn parse_section(source: &Source, combo: &Combo, root: &KeyPath) -> Result<MatchingSection> {
-    let table = combo.file.matching.clone().ok_or_else(|| Error::new(ErrorKind::MissingKey, "[matching] is missing"))?;
-    crate::plan::deserialize_section(source, &combo.doc, toml::Value::Table(table), root)
 }
 
 fn check_point_list(points: &[String]) -> Result<()> {
@@ -563,23 +572,6 @@ fn most_out_of_step(paths: &[Vec<(usize, usize)>], frames: &[usize], model_frame
     best.map(|(_, a, b)| (a, b))
 }
 
-/// `x / mean(x)`, every value 1 when the mean is 0 — the judgement evaluator's rule (§4.1).
-fn normalise(v: &[f64]) -> Vec<f64> {
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    if mean == 0.0 { vec![1.0; v.len()] } else { v.iter().map(|x| x / mean).collect() }
-}
-
-/// 1-based ranks of `v` ascending (ties keep order).
-fn ranks(v: &[f64]) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..v.len()).collect();
-    order.sort_by(|&a, &b| v[a].total_cmp(&v[b]).then(a.cmp(&b)));
-    let mut r = vec![0; v.len()];
-    for (pos, &k) in order.iter().enumerate() {
-        r[k] = pos + 1;
-    }
-    r
-}
-
 impl Workflow for MatchingWorkflow {
     fn items(&self, _data: &Datasets) -> Vec<WorkItem> {
         self.takes
@@ -670,7 +662,7 @@ impl Workflow for MatchingWorkflow {
             repetitions: reps,
         };
         let figures = if draw { self.item_figures(&item.id, &result, detection.as_ref(), &paths)? } else { Vec::new() };
-        Ok(ItemOutput { result: ItemData::encode(&result)?, figures })
+        Ok(ItemOutput::new(ItemData::encode(&result)?, figures))
     }
 
     fn finish(&self, items: &[(WorkItem, ItemData)], _data: &Datasets, draw: bool) -> Result<Output> {
@@ -792,7 +784,7 @@ struct Verdict {
 }
 
 fn fmt(v: f64) -> String {
-    motionlab_report::figures::fmt_num(v)
+    motionlab_core::table::fmt_num(v)
 }
 
 /// The paper's (a)/(b)/(c) test on every explicit take whose repetitions carry groups.
@@ -803,8 +795,8 @@ fn timing_test(results: &[ItemResult]) -> (Vec<TimingRank>, Vec<Verdict>) {
         let reps = &r.repetitions;
         let h: Vec<f64> = reps.iter().map(|x| x.total_distance).collect();
         let rr: Vec<f64> = reps.iter().map(|x| x.sync_total).collect();
-        let (hn, rn) = (normalise(&h), normalise(&rr));
-        let score: Vec<f64> = hn.iter().zip(&rn).map(|(a, b)| (a * a + b * b).sqrt()).collect();
+        // The judgement rule itself (§4.1), and its ranking applied to H and R alone.
+        let Scores { h_norm: hn, r_norm: rn, score } = scores(&h, &rr);
         let (rank_s, rank_h, rank_r) = (ranks(&score), ranks(&h), ranks(&rr));
         let group = |k: usize| reps[k].group.clone().unwrap_or_default();
         for k in 0..reps.len() {
@@ -901,7 +893,8 @@ fn scatter_figures(results: &[ItemResult]) -> Vec<Figure> {
         let mut s = Series::new(r.take.clone(), h.clone(), rr.clone());
         s.point_labels = labels.clone();
         raw.push(s);
-        let mut n = Series::new(r.take.clone(), normalise(&h), normalise(&rr));
+        let normalised = scores(&h, &rr);
+        let mut n = Series::new(r.take.clone(), normalised.h_norm, normalised.r_norm);
         n.point_labels = labels;
         norm.push(n);
     }
@@ -1063,10 +1056,6 @@ impl MatchingWorkflow {
     }
 }
 
-pub fn build(source: &Source, combo: &Combo, data: &Datasets) -> Result<Box<dyn Workflow>> {
-    Ok(Box::new(MatchingWorkflow::build(source, combo, data)?))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1107,13 +1096,6 @@ mod tests {
         let paths = vec![diag(0), diag(1), diag(5), diag(2)];
         assert_eq!(most_out_of_step(&paths, &[2, 5, 8], 10), Some((0, 2)));
         assert_eq!(most_out_of_step(&paths[..1], &[2], 10), None);
-    }
-
-    #[test]
-    fn normalisation_and_ranks_follow_the_judgement_rule() {
-        assert_eq!(normalise(&[1.0, 3.0]), vec![0.5, 1.5]);
-        assert_eq!(normalise(&[0.0, 0.0]), vec![1.0, 1.0]);
-        assert_eq!(ranks(&[3.0, 1.0, 2.0, 1.0]), vec![4, 1, 3, 2]);
     }
 
     fn rep(label: &str, group: &str, pair: &str, h: f64, r: f64) -> RepetitionRecord {

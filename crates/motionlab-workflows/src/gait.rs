@@ -63,11 +63,13 @@
 //! `missing`), `trials` counts them, and the leave-one-out leaves them out of that subject's
 //! comparison. The control walk is a skeleton motion, which has no missing samples.
 
+use std::any::TypeId;
 use std::collections::BTreeMap;
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::registry::{self, parse_params, ParamGuard};
+use motionlab_core::registry;
 use motionlab_core::{
     AngleCurves, ChannelKind, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, FeatureExtractor, GaitCycle,
     GaitCycleDetector, LengthUnit, Location, Motion, PointKind, Result, SkeletonMotion, Table, WalkChanges, WalkSynthesizer,
@@ -75,24 +77,32 @@ use motionlab_core::{
 };
 use motionlab_features::joint_angles::angle_curves_from_features;
 use motionlab_features::waveform::{cycles_by_side, mean_gait_cycle};
-use motionlab_gait::change_rates::{ChangeRates, ChangeRatesParams, Component, StudyChanges};
+use motionlab_gait::change_rates::{ChangeRateAnalysis, Component, StudyChanges};
 use motionlab_gait::loso::{leave_one_subject_out, LosoResult};
 use motionlab_gait::study::{study_of, AnalysedWalk, SubjectWalk, Walk};
-use motionlab_report::{Chart, Figure, Pose, RefLine, Series, StickRow};
+use motionlab_figure::{Chart, Figure, Pose, RefLine, Series, StickRow};
 
-use super::shared::{axis_name, main_floor_axis, stick_strip};
-use super::{ItemData, ItemOutput, Output, WorkItem, Workflow};
-use crate::plan::{build_stage, Combo, Datasets, Source};
-use crate::spec::StageSpec;
-use crate::toml_paths::KeyPath;
+use crate::drawing::{axis_name, main_floor_axis, stick_strip};
+use motionlab_experiment::workflow::{build_evaluators, sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
+use motionlab_experiment::{build_stage, Datasets, Source};
+use motionlab_experiment::spec::StageSpec;
 
 /// Name of the Table 2 (posture) result table; `[[published]]` rows for it name its channels.
 pub const TABLE_POSTURE: &str = "table2_posture";
 /// Name of the Table 3 (size) result table.
 pub const TABLE_SIZE: &str = "table3_size";
 
-/// `[gait]`.
-#[derive(Clone, Debug, Deserialize, Serialize)]
+/// Walk analysis and control (Osafune et al.): per trial, joint angles → gait cycles → waveform
+/// parameters; per combination, the gait study and its evaluators (`[[evaluate]]`, gait
+/// domain — one of them must produce the change-rate analysis, `change_rates`), the paper's
+/// Tables 2–3, and optionally the control of a skeleton walk (`[gait.control]`) and the
+/// leave-one-subject-out evaluation (`[gait.loso]`).
+///
+/// Trials are the datasets with a condition tag (`tags = { condition = "fast" }`).
+///
+/// Missing samples: a channel without a complete gait cycle in a trial has NaN parameters; the
+/// change rates exclude those subject-channel pairs and `trials` counts them.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GaitSection {
     /// The dataset tag that holds a trial's condition (`tags = { condition = "fast" }`). Every
@@ -102,7 +112,7 @@ pub struct GaitSection {
     /// The normal condition G (a value of the condition tag); every other condition X is
     /// compared with it: `K = (X − G) / G × 100`.
     pub normal_condition: String,
-    /// How the subject id is read from a trial's file stem.
+    /// How the subject id is read from a trial's file stem. Default: field 0 split at `_`.
     #[serde(default)]
     pub subject: SubjectRule,
     /// Angle source of the trials: a feature extractor whose `deg` traces are joint angles.
@@ -114,11 +124,14 @@ pub struct GaitSection {
     /// Walk synthesizer used by `[gait.control]` and `[gait.loso]` (required by either).
     #[serde(default)]
     pub synthesizer: Option<StageSpec>,
-    /// Channels whose mean gait cycle (across subjects, per condition) is drawn.
+    /// Channels whose mean gait cycle (across subjects, per condition) is drawn. Default:
+    /// `knee_l.flexion`, `hip_l.flexion`, `ankle_l.flexion`.
     #[serde(default = "default_figure_channels")]
     pub figure_channels: Vec<String>,
+    /// `[gait.control]`: synthesise a changed skeleton walk. Default: none.
     #[serde(default)]
     pub control: Option<ControlSection>,
+    /// `[gait.loso]`: leave-one-subject-out evaluation. Default: none.
     #[serde(default)]
     pub loso: Option<LosoSection>,
 }
@@ -133,11 +146,13 @@ fn default_figure_channels() -> Vec<String> {
 
 /// The subject id is field `field` (0-based) of the file stem split at `separator`
 /// (`2014001_C4_05.c3d.gz` → `2014001` with the defaults `"_"` and 0).
-#[derive(Clone, Debug, Deserialize, Serialize)]
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SubjectRule {
+    /// Separator of the stem's fields. Default `"_"`.
     #[serde(default = "default_separator")]
     pub separator: String,
+    /// The field holding the subject id, 0-based. Default 0.
     #[serde(default)]
     pub field: usize,
 }
@@ -166,7 +181,7 @@ impl SubjectRule {
 /// a DC about 0 and an amplitude about the DC commute with negating the channel. An offset is:
 /// when the walk channel reads `o` where the marker channel reads 0 (a different neutral
 /// pose), give `offset_deg = { "LeftKnee.Xrotation" = o }` and its DC is scaled about `o`.
-#[derive(Clone, Debug, Deserialize, Serialize)]
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ControlSection {
     /// Name of the dataset holding the walk (one file, a skeleton motion).
@@ -204,7 +219,7 @@ fn default_strip_poses() -> usize {
 }
 
 /// `[gait.loso]`: leave-one-subject-out evaluation of the synthesizer on the trials.
-#[derive(Clone, Debug, Deserialize, Serialize)]
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LosoSection {
     /// The condition to synthesise from each held-out subject's normal walk.
@@ -240,8 +255,9 @@ pub struct GaitWorkflow {
     angles: Box<dyn FeatureExtractor>,
     detector: Box<dyn GaitCycleDetector>,
     analyzer: Box<dyn WaveformAnalyzer>,
+    /// The evaluators; one produces the change-rate analysis (checked by
+    /// [`Evaluator::analysis_type`] when built).
     evaluators: Vec<(String, Box<dyn Evaluator>)>,
-    rates: ChangeRates,
     synthesizer: Option<Box<dyn WalkSynthesizer>>,
     control: Option<BuiltControl>,
     /// Channels the `[[published]]` rows of Tables 2 and 3 name, by table.
@@ -268,33 +284,11 @@ struct WalkRecord {
     parameters: WaveformParameters,
 }
 
-pub fn build(source: &Source, combo: &Combo, data: &Datasets) -> Result<Box<dyn Workflow>> {
-    Ok(Box::new(GaitWorkflow::build(source, combo, data)?))
-}
-
-/// Attaches the experiment file, the key path and its line to an error about the configuration.
-fn locate_at(source: &Source, doc: &toml::Table, path: &str, err: Error) -> Error {
-    match KeyPath::parse(path) {
-        Ok(p) => source.locate(err, &p, doc),
-        Err(_) => err.with_location(Location::file(&source.path).field(path)),
-    }
-}
-
-/// Deserialises `[gait]`, errors located at `gait.<field>` and its line.
-fn parse_section(source: &Source, combo: &Combo) -> Result<GaitSection> {
-    let table = combo.file.gait.clone().ok_or_else(|| Error::new(ErrorKind::MissingKey, "[gait] is missing"))?;
-    crate::plan::deserialize_section(source, &combo.doc, toml::Value::Table(table), &KeyPath::parse("gait")?)
-}
-
-fn change_rates_builder(_name: &str, params: &toml::Value) -> Result<Box<ChangeRates>> {
-    Ok(Box::new(parse_params::<ChangeRatesParams>(params)?.check()?))
-}
-
-impl GaitWorkflow {
-    pub fn build(source: &Source, combo: &Combo, data: &Datasets) -> Result<Self> {
-        let section = parse_section(source, combo)?;
-        let root = KeyPath::parse("gait")?;
-        let here = |path: &str, err: Error| locate_at(source, &combo.doc, path, err);
+impl WorkflowPlugin for GaitWorkflow {
+    type Section = GaitSection;
+    fn build(section: GaitSection, cx: &BuildContext<'_>) -> Result<Self> {
+        let (source, combo, data, root) = (cx.source, cx.combo, cx.data, cx.root.clone());
+        let here = |path: &str, err: Error| cx.locate(err, path);
         let angles = build_stage(source, combo, &section.joint_angles, &root.key("joint_angles"), registry::build_feature_extractor)?;
         let detector = build_stage(source, combo, &section.cycles, &root.key("cycles"), registry::build_gait_cycle_detector)?;
         let analyzer = build_stage(source, combo, &section.waveform, &root.key("waveform"), registry::build_waveform_analyzer)?;
@@ -313,8 +307,10 @@ impl GaitWorkflow {
             }
             None => None,
         };
-        let evaluators = super::build_evaluators(source, combo, EvalDomain::Gait)?;
-        let Some(k) = combo.file.evaluators.iter().position(|e| e.kind == "change_rates") else {
+        let evaluators = build_evaluators(source, combo, EvalDomain::Gait)?;
+        // Tables 2–3, the control and the leave-one-out build on the change-rate analysis: one
+        // evaluator must hand it over (found by the type of its analysis, not by its name).
+        if !evaluators.iter().any(|(_, e)| e.analysis_type() == Some(TypeId::of::<ChangeRateAnalysis>())) {
             return Err(here(
                 "gait",
                 Error::new(
@@ -322,12 +318,7 @@ impl GaitWorkflow {
                     "the [gait] workflow needs an `[[evaluate]] type = \"change_rates\"`: its change rates feed Tables 2–3, the control and the leave-one-out",
                 ),
             ));
-        };
-        // The registry's `dyn Evaluator` only writes tables; Tables 2–3, the control and the
-        // leave-one-out need the analysis itself (μ of each feature channel), so the concrete
-        // evaluator is built a second time from the same parameters.
-        let rates = *build_stage(source, combo, &combo.file.evaluators[k], &KeyPath::parse("evaluate")?.index(k), change_rates_builder)?;
-
+        }
         // Roles of the datasets: the control walk (by name), else trials (by condition tag).
         let control_dataset = match &section.control {
             Some(c) => Some(data.datasets.iter().position(|d| d.spec.name.as_deref() == Some(c.dataset.as_str())).ok_or_else(|| {
@@ -490,7 +481,6 @@ impl GaitWorkflow {
             detector,
             analyzer,
             evaluators,
-            rates,
             synthesizer,
             control,
             published_channels,
@@ -499,10 +489,14 @@ impl GaitWorkflow {
             doc: combo.doc.clone(),
         })
     }
+}
 
+motionlab_experiment::register_workflow!(GaitWorkflow, "gait");
+
+impl GaitWorkflow {
     /// An error about the configuration at key `path` (file, line, key path).
     fn config_error(&self, path: &str, err: Error) -> Error {
-        locate_at(&self.source, &self.doc, path, err)
+        self.source.locate(err, path, &self.doc)
     }
 
     /// Angles → cycles → parameters of one walk; errors name the stage.
@@ -539,7 +533,7 @@ impl Workflow for GaitWorkflow {
             cycles: analysed.walk.cycles,
             parameters: analysed.parameters,
         };
-        Ok(ItemOutput { result: ItemData::encode(&record)?, figures: Vec::new() })
+        Ok(ItemOutput::new(ItemData::encode(&record)?, Vec::new()))
     }
 
     fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, draw: bool) -> Result<Output> {
@@ -565,12 +559,17 @@ impl Workflow for GaitWorkflow {
         let study = study_of(&normal, &walks);
         let mut out = Output::default();
         out.tables.push(trials_table(&trials)?);
+        let mut change_rates: Option<Box<ChangeRateAnalysis>> = None;
         for (name, e) in &self.evaluators {
-            let tables = e.evaluate(EvalInput::Gait(&study)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
-            out.tables.extend(tables);
+            let evaluation = e.evaluate_with_analysis(EvalInput::Gait(&study)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
+            out.tables.extend(evaluation.tables);
+            if change_rates.is_none() {
+                change_rates = evaluation.analysis.and_then(|a| a.downcast::<ChangeRateAnalysis>().ok());
+            }
         }
-        let analysis = self.rates.analyse(&study)?;
-        out.tables.extend(self.paper_tables(&analysis)?);
+        let ChangeRateAnalysis { rates, changes: analysis } =
+            *change_rates.ok_or_else(|| self.config_error("gait", Error::new(ErrorKind::MissingKey, "no evaluator produced the change-rate analysis")))?;
+        out.tables.extend(self.paper_tables(&analysis, rates.max_abs_cv_pct)?);
         if draw {
             for (k, ch) in self.section.figure_channels.iter().enumerate() {
                 let figure = mean_cycle_figure(&trials, ch, &normal, &conditions_in_order(&trials, &normal))
@@ -584,7 +583,7 @@ impl Workflow for GaitWorkflow {
         }
         if let Some(l) = &self.section.loso {
             let synth = self.synthesizer.as_deref().ok_or_else(|| Error::new(ErrorKind::MissingKey, "[gait.loso] needs a synthesizer"))?;
-            let loso = leave_one_subject_out(&walks, &normal, &l.condition, &self.rates, synth, l.points).map_err(|e| e.under_field("gait.loso"))?;
+            let loso = leave_one_subject_out(&walks, &normal, &l.condition, &rates, synth, l.points).map_err(|e| e.under_field("gait.loso"))?;
             out.tables.extend(loso.tables()?);
             out.tables.push(loso_verdict(&loso, &normal)?);
             if draw {
@@ -688,12 +687,12 @@ fn paper_table(analysis: &StudyChanges, component: Component, listed: &[String],
 }
 
 impl GaitWorkflow {
-    fn paper_tables(&self, analysis: &StudyChanges) -> Result<Vec<Table>> {
+    fn paper_tables(&self, analysis: &StudyChanges, max_abs_cv_pct: f64) -> Result<Vec<Table>> {
         [(TABLE_POSTURE, Component::Dc), (TABLE_SIZE, Component::Amplitude)]
             .into_iter()
             .map(|(name, component)| {
                 let listed = self.published_channels.get(name).cloned().unwrap_or_default();
-                paper_table(analysis, component, &listed, self.rates.max_abs_cv_pct)
+                paper_table(analysis, component, &listed, max_abs_cv_pct)
             })
             .collect()
     }
@@ -756,7 +755,7 @@ fn mean_cycle_figure(trials: &[WalkRecord], channel: &str, normal: &str, conditi
         return Err(Error::new(ErrorKind::UnknownName, format!("figure channel {channel:?} is not a channel of the trials (closest: {})", close.join(", "))));
     }
     Ok(Figure::chart(
-        format!("mean_cycle_{}", super::sanitize(channel)),
+        format!("mean_cycle_{}", sanitize(channel)),
         Chart {
             title: format!("{channel}: mean gait cycle ({side} foot strike to strike), {normal} vs other conditions"),
             x_label: "gait cycle (%)".into(),
@@ -778,7 +777,7 @@ fn frequency_figures(analysis: &StudyChanges) -> Result<Vec<Figure>> {
             let mut pts = Series::new("K_j", valid.iter().map(|(i, _)| (*i + 1) as f64).collect(), valid.iter().map(|(_, f)| f.k_pct).collect());
             pts.point_labels = valid.iter().map(|(_, f)| f.subject.clone()).collect();
             Figure::chart(
-                format!("frequency_change_{}", super::sanitize(&c.condition)),
+                format!("frequency_change_{}", sanitize(&c.condition)),
                 Chart {
                     title: format!("Gait frequency change K_j per subject, {} vs {} (μ = {:.1} %, CV = {:.1} %)", c.condition, analysis.normal_condition, c.frequency_mean_pct, c.frequency_cv_pct),
                     x_label: "subject (number in study order)".into(),
@@ -929,7 +928,7 @@ impl GaitWorkflow {
         let mut bvh = Vec::new();
         motionlab_io::bvh::write_bvh(&synthesised, motion.frame_rate(), LengthUnit::Millimetre, &mut bvh).map_err(fail)?;
         let suffix = if self.combo_index == 0 { String::new() } else { format!("_c{}", self.combo_index) };
-        let bvh_name = format!("{}_{}{suffix}.bvh", super::sanitize(&walk.sequence), super::sanitize(&spec.condition));
+        let bvh_name = format!("{}_{}{suffix}.bvh", sanitize(&walk.sequence), sanitize(&spec.condition));
         out.files.push((bvh_name.clone(), bvh));
 
         // What was applied, and what the synthesised walk measures (over the scaled cycles).
@@ -1001,7 +1000,7 @@ impl GaitWorkflow {
                 let (Ok(ks), true) = (synth.channel_index(to), changed) else { continue };
                 let t = |n: usize| (0..n).map(|f| f as f64 / rate).collect::<Vec<f64>>();
                 out.figures.push(Figure::chart(
-                    format!("control_{}", super::sanitize(to)),
+                    format!("control_{}", sanitize(to)),
                     Chart {
                         title: format!("{} — {to}: recorded {} vs synthesised {}", walk.sequence, analysis.normal_condition, spec.condition),
                         x_label: "time (s)".into(),
@@ -1070,7 +1069,7 @@ impl GaitWorkflow {
         let (r0, axis) = row(recorded, &format!("recorded {}", analysis.normal_condition), s0);
         let (r1, _) = row(synthesised, &format!("synthesised {}", spec.condition), s1);
         Ok(Figure::sticks(
-            format!("fig5_{}", super::sanitize(&walk.sequence)),
+            format!("fig5_{}", sanitize(&walk.sequence)),
             stick_strip(
                 format!("{}: recorded {} walk and the synthesised {} walk, every {} frames (Osafune et al. Fig 5)", walk.sequence, analysis.normal_condition, spec.condition, spec.strip_every_frames),
                 bones,
@@ -1153,7 +1152,7 @@ fn loso_figure(loso: &LosoResult, normal: &str) -> Figure {
         s
     };
     Figure::chart(
-        format!("loso_rms_{}", super::sanitize(&loso.target_condition)),
+        format!("loso_rms_{}", sanitize(&loso.target_condition)),
         Chart {
             title: format!("Leave-one-subject-out: mean RMS error per held-out subject against the recorded {} walk", loso.target_condition),
             x_label: "held-out subject (number in study order)".into(),
@@ -1175,6 +1174,9 @@ fn loso_figure(loso: &LosoResult, normal: &str) -> Figure {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use motionlab_core::registry::ParamGuard;
+    use motionlab_gait::change_rates::ChangeRatesParams;
+    use motionlab_testkit::gait_trial as trial;
 
     #[test]
     fn subject_rule_reads_a_field_of_the_stem() {
@@ -1195,19 +1197,6 @@ mod tests {
         assert_eq!(out[0], GaitCycle { start: 8, end: 88, side: "Left".into() });
         assert_eq!(out[1].start, 88);
         assert_eq!(out[1].end, 175); // 219 / 1.25 = 175.2
-    }
-
-    fn trial(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64; 2], f: f64) -> motionlab_core::GaitTrial {
-        motionlab_core::GaitTrial {
-            subject: subject.into(),
-            condition: condition.into(),
-            parameters: WaveformParameters {
-                channels: vec!["knee_l.flexion".into(), "hip_l.rotation".into()],
-                dc: dc.to_vec(),
-                amplitude: amplitude.to_vec(),
-                frequency_hz: f,
-            },
-        }
     }
 
     /// Knee DC K = 20, 10, 30 % (CV 40.8 %: a feature); hip-rotation DC K = 20, −20, 0 %

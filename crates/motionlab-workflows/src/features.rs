@@ -1,14 +1,16 @@
 //! The `[features]` workflow: per-frame features of each sequence as a table and a figure.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
 use motionlab_core::{ColumnValues, FeatureCache, FeatureExtractor, LabelTrace, Result, Table, Trace};
-use motionlab_report::{Chart, Figure, Series};
+use motionlab_figure::{Chart, Figure, Series};
 
-use super::{ItemData, ItemOutput, Output, WorkItem, Workflow};
-use crate::plan::{build_stage, Combo, Datasets, Source};
-use crate::toml_paths::KeyPath;
+use motionlab_experiment::workflow::{sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
+use motionlab_experiment::build_stage;
+use motionlab_experiment::spec::StageSpec;
+use motionlab_experiment::Datasets;
 
 pub struct FeaturesWorkflow {
     extractors: Vec<(String, Box<dyn FeatureExtractor>)>,
@@ -34,18 +36,34 @@ impl From<LabelTrace> for LabelTraceRecord {
     }
 }
 
-impl FeaturesWorkflow {
-    pub fn build(source: &Source, combo: &Combo) -> Result<Self> {
-        let section = combo.file.features.as_ref().map(|f| f.extractors.clone()).unwrap_or_default();
-        let root = KeyPath::parse("features.extractors")?;
+/// Per-frame features of each sequence: one table per sequence (`<sequence>_features`: frame,
+/// time and every extractor's traces and labels) and one figure per extractor and unit.
+///
+/// `[features] extractors = [{ type = "marker_speed" }]`. Missing samples: as each extractor
+/// treats them (NaN where a trace is undefined).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FeaturesSection {
+    /// The feature extractors, in column order (`{ type = "<extractor>", … }`; `name = "…"`
+    /// labels one in tables and figures). Required.
+    pub extractors: Vec<StageSpec>,
+}
+
+impl WorkflowPlugin for FeaturesWorkflow {
+    type Section = FeaturesSection;
+    fn build(section: FeaturesSection, cx: &BuildContext<'_>) -> Result<Self> {
+        let root = cx.root.key("extractors");
         let extractors = section
+            .extractors
             .iter()
             .enumerate()
-            .map(|(k, s)| Ok((s.display_name(), build_stage(source, combo, s, &root.index(k), registry::build_feature_extractor)?)))
+            .map(|(k, s)| Ok((s.display_name(), build_stage(cx.source, cx.combo, s, &root.index(k), registry::build_feature_extractor)?)))
             .collect::<Result<Vec<_>>>()?;
         Ok(FeaturesWorkflow { extractors })
     }
 }
+
+motionlab_experiment::register_workflow!(FeaturesWorkflow, "features");
 
 impl Workflow for FeaturesWorkflow {
     fn run_item(&self, item: &WorkItem, data: &Datasets, draw_figures: bool) -> Result<ItemOutput> {
@@ -69,11 +87,11 @@ impl Workflow for FeaturesWorkflow {
                         .iter()
                         .filter(|t| t.unit == unit)
                         .take(8)
-                        .map(|t| Series::new(super::shared::label_of(&t.name), time.clone(), t.values.clone()))
+                        .map(|t| Series::new(crate::drawing::label_of(&t.name), time.clone(), t.values.clone()))
                         .collect();
                     let suffix = if unit.is_empty() { String::new() } else { format!(" ({unit})") };
                     figures.push(Figure::chart(
-                        format!("{}_{}{}", item.id, super::sanitize(name), if units_count(&set.traces) > 1 { format!("_{}", super::sanitize(unit)) } else { String::new() }),
+                        format!("{}_{}{}", item.id, sanitize(name), if units_count(&set.traces) > 1 { format!("_{}", sanitize(unit)) } else { String::new() }),
                         Chart {
                             title: format!("{} — {name}", loaded.name),
                             x_label: "time (s)".into(),
@@ -88,7 +106,7 @@ impl Workflow for FeaturesWorkflow {
             labels.extend(set.labels.into_iter().map(LabelTraceRecord::from));
         }
         let result = ItemResult { sequence: loaded.name.clone(), frame_rate_hz: rate.hz(), traces, labels };
-        Ok(ItemOutput { result: ItemData::encode(&result)?, figures })
+        Ok(ItemOutput::new(ItemData::encode(&result)?, figures))
     }
 
     fn finish(&self, items: &[(WorkItem, ItemData)], _data: &Datasets, _draw: bool) -> Result<Output> {

@@ -4,6 +4,7 @@
 
 use std::sync::Arc;
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
@@ -11,13 +12,56 @@ use motionlab_core::{
     ColumnValues, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
     Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table,
 };
-use motionlab_report::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
+use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
 
-use super::shared::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip, time_axis, traces_charts};
-use super::{ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow};
-use crate::plan::{build_stage, Combo, Datasets, Source};
-use crate::spec::SegmentationSection;
-use crate::toml_paths::KeyPath;
+use crate::drawing::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip, time_axis, traces_charts};
+use motionlab_experiment::workflow::{build_evaluators, sanitize, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
+use motionlab_experiment::spec::StageSpec;
+use motionlab_experiment::{build_stage, Datasets};
+
+/// Segmenters → an optional fuser → evaluators, per sequence (Sonoda et al.): every method's
+/// candidate frames (`candidates`), the evaluators' tables (`[[evaluate]]`, segmentation
+/// domain), figures per sequence (each method's traces with thresholds and candidate bars and
+/// a close-up, the root path with candidates, the timeline with ground truth, a stick-figure
+/// strip of one segment) and, across a sweep, precision–recall curves with each method's
+/// best-F1 operating point (`best_f1`).
+///
+/// Missing samples: as each segmenter treats them; figures leave gaps where a trace is NaN.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentationSection {
+    /// The segmenters (`[[segmentation.segmenter]]`, `{ type = "<segmenter>", … }`); names
+    /// (`name = "…"`, default the type) must be unique. At least one is required.
+    #[serde(rename = "segmenter")]
+    pub segmenters: Vec<StageSpec>,
+    /// The fuser combining the segmenters' candidates. Default: none.
+    #[serde(default)]
+    pub fuser: Option<StageSpec>,
+    /// Names of the segmenters whose candidates the fuser combines. Default: all of them.
+    #[serde(default)]
+    pub fuse: Option<Vec<String>>,
+    /// Marker pairs joined in stick figures (`[["Head_FL", "Head_FR"], …]`). Default: the
+    /// skeleton's bones when the source has one.
+    #[serde(default)]
+    pub bones: Vec<[String; 2]>,
+    /// The root point (after preprocessing) for the floor-path figure and the stick figures.
+    /// Default `"root"`.
+    #[serde(default = "default_root")]
+    pub root: String,
+    /// Which figures to draw per sequence: any of `traces`, `root_path`, `timeline`,
+    /// `timeline_poses` (the timeline with the pose at each fused boundary underneath) and
+    /// `stick_strip`. Default: all.
+    #[serde(default = "default_seg_figures")]
+    pub figures: Vec<String>,
+}
+
+fn default_root() -> String {
+    "root".into()
+}
+
+fn default_seg_figures() -> Vec<String> {
+    ["traces", "root_path", "timeline", "timeline_poses", "stick_strip"].iter().map(|s| s.to_string()).collect()
+}
 
 pub struct SegmentationWorkflow {
     section: SegmentationSection,
@@ -52,10 +96,10 @@ struct CandidateRow {
     time_s: f64,
 }
 
-impl SegmentationWorkflow {
-    pub fn build(source: &Source, combo: &Combo, _data: &Datasets) -> Result<Self> {
-        let section = combo.file.segmentation.clone().ok_or_else(|| Error::new(ErrorKind::MissingKey, "[segmentation] is missing"))?;
-        let root = KeyPath::parse("segmentation")?;
+impl WorkflowPlugin for SegmentationWorkflow {
+    type Section = SegmentationSection;
+    fn build(section: SegmentationSection, cx: &BuildContext<'_>) -> Result<Self> {
+        let (source, combo, root) = (cx.source, cx.combo, cx.root.clone());
         let mut segmenters = Vec::new();
         for (k, s) in section.segmenters.iter().enumerate() {
             let name = s.display_name();
@@ -90,10 +134,14 @@ impl SegmentationWorkflow {
             Some(f) => Some((f.display_name(), build_stage(source, combo, f, &root.key("fuser"), registry::build_fuser)?)),
             None => None,
         };
-        let evaluators = super::build_evaluators(source, combo, EvalDomain::Segmentation)?;
+        let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
         Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators })
     }
+}
 
+motionlab_experiment::register_workflow!(SegmentationWorkflow, "segmentation");
+
+impl SegmentationWorkflow {
     fn method_names(&self) -> Vec<String> {
         self.segmenters.iter().map(|(n, _)| n.clone()).chain(self.fuser.iter().map(|(n, _)| n.clone())).collect()
     }
@@ -122,7 +170,7 @@ impl Workflow for SegmentationWorkflow {
         }
         let figures = if draw { self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)? } else { Vec::new() };
         let result = ItemResult { sequence: loaded.name.clone(), frame_rate_hz: motion.frame_rate().hz(), n_frames: motion.n_frames(), methods };
-        Ok(ItemOutput { result: ItemData::encode(&result)?, figures })
+        Ok(ItemOutput::new(ItemData::encode(&result)?, figures))
     }
 
     fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, _draw: bool) -> Result<Output> {
@@ -189,7 +237,7 @@ impl SegmentationWorkflow {
                 let Some(chart) = charts.first().cloned() else { continue };
                 for (k, c) in charts.into_iter().enumerate() {
                     let suffix = if k == 0 { String::new() } else { format!("_{k}") };
-                    figs.push(Figure::chart(format!("{id}_{}{suffix}", super::sanitize(method)), c));
+                    figs.push(Figure::chart(format!("{id}_{}{suffix}", sanitize(method)), c));
                 }
                 // The paper's Fig 3: a close-up around one candidate, where the tracked marker's
                 // speed can be read against V.
@@ -206,7 +254,7 @@ impl SegmentationWorkflow {
                     for b in zoom.bar_rows.iter_mut() {
                         b.marks.retain(|m| (m - t).abs() <= 1.25);
                     }
-                    figs.push(Figure::chart(format!("{id}_{}_zoom", super::sanitize(method)), zoom));
+                    figs.push(Figure::chart(format!("{id}_{}_zoom", sanitize(method)), zoom));
                 }
             }
         }

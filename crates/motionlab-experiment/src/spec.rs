@@ -13,8 +13,9 @@
 //! extractors = [{ type = "marker_speed" }]
 //! ```
 //!
-//! Exactly one workflow section is present: `[features]`, `[segmentation]`, `[matching]` or
-//! `[gait]`. Stage tables (`loader`, `segmenter`, `evaluate`, …) are `{ type = "<plugin>",
+//! Exactly one workflow section is present, named after a registered workflow (`[features]`,
+//! `[segmentation]`, … — see [`crate::workflow`]); it is parsed by that workflow into its own
+//! typed parameters. Every other top-level key is fixed here. Stage tables (`loader`, `segmenter`, `evaluate`, …) are `{ type = "<plugin>",
 //! <params>… }`; their parameters are checked by the plugin itself when the experiment is
 //! validated. Every table denies unknown keys.
 
@@ -22,7 +23,6 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::{Error, ErrorKind, Result};
 
 /// `{ type = "name", …params }` — a plugin and its parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -159,47 +159,6 @@ impl SweepSpec {
     }
 }
 
-/// `[features]`: per-frame features as tables and figures.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FeaturesSection {
-    pub extractors: Vec<StageSpec>,
-}
-
-/// `[segmentation]`: segmenters, then an optional fuser; evaluators come from `[[evaluate]]`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SegmentationSection {
-    #[serde(rename = "segmenter")]
-    pub segmenters: Vec<StageSpec>,
-    #[serde(default)]
-    pub fuser: Option<StageSpec>,
-    /// Names of the segmenters whose candidates the fuser combines; default: all of them.
-    #[serde(default)]
-    pub fuse: Option<Vec<String>>,
-    /// Marker pairs joined in stick figures (`[["Head_FL", "Head_FR"], …]`); default: the
-    /// skeleton's bones when the source has one.
-    #[serde(default)]
-    pub bones: Vec<[String; 2]>,
-    /// The root point (after preprocessing) for the floor-path figure and the stick figures;
-    /// default `"root"`.
-    #[serde(default = "default_root")]
-    pub root: String,
-    /// Which figures to draw per sequence (default: all of `traces`, `root_path`, `timeline`,
-    /// `timeline_poses` — the timeline with the pose at each fused boundary underneath —, and
-    /// `stick_strip`).
-    #[serde(default = "default_seg_figures")]
-    pub figures: Vec<String>,
-}
-
-fn default_root() -> String {
-    "root".into()
-}
-
-fn default_seg_figures() -> Vec<String> {
-    ["traces", "root_path", "timeline", "timeline_poses", "stick_strip"].iter().map(|s| s.to_string()).collect()
-}
-
 /// Published numbers the experiment reproduces, written once here (never typed into HTML):
 /// `[[published]] table = "table1", rows = [{ method = "speed", precision = 0.64, recall = 0.59 }]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -224,52 +183,46 @@ pub struct ExperimentFile {
     /// Preprocessors applied to every dataset (after each dataset's own).
     #[serde(default)]
     pub preprocess: Vec<StageSpec>,
-    #[serde(default)]
-    pub features: Option<FeaturesSection>,
-    #[serde(default)]
-    pub segmentation: Option<SegmentationSection>,
-    /// Parsed by the matching workflow (`motionlab_engine::workflows::matching`).
-    #[serde(default)]
-    pub matching: Option<toml::Table>,
-    /// Parsed by the gait workflow (`motionlab_engine::workflows::gait`).
-    #[serde(default)]
-    pub gait: Option<toml::Table>,
     #[serde(default, rename = "evaluate")]
     pub evaluators: Vec<StageSpec>,
     #[serde(default)]
     pub sweep: Option<SweepSpec>,
     #[serde(default)]
     pub published: Vec<Published>,
+    /// The workflow this experiment runs: the name of its one workflow section (which the
+    /// workflow parses itself, from the document).
+    #[serde(skip)]
+    pub workflow: String,
 }
 
-/// Which workflow an experiment runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum WorkflowKind {
-    Features,
-    Segmentation,
-    Matching,
-    Gait,
-}
+/// The top-level keys [`ExperimentFile`] holds; every other top-level key is a workflow section.
+pub const FIXED_KEYS: [&str; 6] = ["experiment", "dataset", "preprocess", "evaluate", "sweep", "published"];
 
 impl ExperimentFile {
-    pub fn workflow(&self) -> Result<WorkflowKind> {
-        let present: Vec<WorkflowKind> = [
-            (self.features.is_some(), WorkflowKind::Features),
-            (self.segmentation.is_some(), WorkflowKind::Segmentation),
-            (self.matching.is_some(), WorkflowKind::Matching),
-            (self.gait.is_some(), WorkflowKind::Gait),
-        ]
-        .into_iter()
-        .filter_map(|(p, k)| p.then_some(k))
-        .collect();
-        match present.as_slice() {
-            [one] => Ok(*one),
-            [] => Err(Error::new(
-                ErrorKind::MissingKey,
-                "expected one workflow section: [features], [segmentation], [matching] or [gait]",
-            )),
-            _ => Err(Error::new(ErrorKind::InvalidParameter, format!("expected one workflow section, found {present:?}"))),
-        }
+    /// The top-level keys of a document that are not fixed keys: its workflow sections.
+    pub fn section_names(doc: &toml::Table) -> Vec<String> {
+        doc.keys().filter(|k| !FIXED_KEYS.contains(&k.as_str())).cloned().collect()
+    }
+}
+
+impl StageSpec {
+    /// A stage with every parameter at its default.
+    pub fn of_type(kind: &str) -> Self {
+        StageSpec { kind: kind.to_string(), params: toml::Table::new() }
+    }
+}
+
+/// Documented as `{ type = "<plugin>", <parameter> = <value>, … }` (`motionlab describe`).
+impl schemars::JsonSchema for StageSpec {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "StageSpec".into()
+    }
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "type": "object",
+            "description": "a plugin: `{ type = \"<plugin>\", <parameter> = <value>, … }`",
+            "properties": { "type": { "type": "string" } },
+            "required": ["type"],
+        })
     }
 }

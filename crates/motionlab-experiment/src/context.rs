@@ -1,0 +1,219 @@
+//! What a workflow is given: the experiment file as read ([`Source`], which locates errors at
+//! a file, line and key path), one sweep combination ([`Combo`]), the datasets with their
+//! plugins built ([`Datasets`], which loads, cuts and preprocesses an input), and the helpers
+//! that build a stage or parse a section with located errors.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use motionlab_core::registry;
+use motionlab_core::{Error, ErrorKind, GroundTruthReader, Loader, Location, Motion, Preprocessor, Result, Segmentation};
+
+use crate::spec::{Cut, DatasetSpec, ExperimentFile, StageSpec};
+use crate::toml_paths::{line_of, KeyPath};
+
+/// The experiment file as read.
+#[derive(Clone, Debug)]
+pub struct Source {
+    pub path: PathBuf,
+    pub text: String,
+}
+
+impl Source {
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Ok(Source { path: path.to_path_buf(), text })
+    }
+    /// Folder that relative paths in the experiment are resolved against.
+    pub fn base_dir(&self) -> PathBuf {
+        self.path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+    }
+    /// The one way to attach a place in the experiment to an error: this file, the key path
+    /// `at` (a [`KeyPath`] or its text, `"gait.control.dataset"`) with the error's own field —
+    /// a plugin's or a params struct's, relative to `at` — appended, and the line where that
+    /// path (or its nearest written parent) is written in the file. Overrides and sweeps are
+    /// resolved against `doc`, the combination's document.
+    pub fn locate(&self, err: Error, at: impl Into<At>, doc: &toml::Table) -> Error {
+        let kind = err.kind();
+        let msg = err.message().to_string();
+        let own = err.location().field.clone().filter(|f| !f.is_empty());
+        let path = match at.into() {
+            At::Path(p) => match own {
+                Some(f) => p.join_field(&f),
+                None => p,
+            },
+            At::Text(text) => match KeyPath::parse(&text) {
+                Ok(p) => match own {
+                    Some(f) => p.join_field(&f),
+                    None => p,
+                },
+                // Not a key path (cannot happen for paths written in code): name it as text.
+                Err(_) => return Error::new(kind, msg).with_location(Location::file(&self.path).field(text)),
+            },
+        };
+        let resolved = path.resolve(doc).unwrap_or_else(|_| path.clone());
+        let mut loc = Location::file(&self.path).field(resolved.to_string());
+        if let Some(line) = line_of(&self.text, &resolved) {
+            loc = loc.line(line);
+        }
+        Error::new(kind, msg).with_location(loc)
+    }
+}
+
+/// Where in the experiment an error is: a key path, or its text.
+pub enum At {
+    Path(KeyPath),
+    Text(String),
+}
+
+impl From<KeyPath> for At {
+    fn from(p: KeyPath) -> Self {
+        At::Path(p)
+    }
+}
+impl From<&KeyPath> for At {
+    fn from(p: &KeyPath) -> Self {
+        At::Path(p.clone())
+    }
+}
+impl From<&str> for At {
+    fn from(t: &str) -> Self {
+        At::Text(t.to_string())
+    }
+}
+impl From<String> for At {
+    fn from(t: String) -> Self {
+        At::Text(t)
+    }
+}
+impl From<&String> for At {
+    fn from(t: &String) -> Self {
+        At::Text(t.clone())
+    }
+}
+
+/// One combination of swept parameter values (the only one when there is no sweep).
+#[derive(Clone, Debug)]
+pub struct Combo {
+    pub index: usize,
+    /// The sweep grid's name (`None` without a sweep).
+    pub sweep: Option<String>,
+    pub focus: Option<String>,
+    /// The swept key paths and their values in this combination.
+    pub params: Vec<(String, toml::Value)>,
+    /// The resolved document of this combination.
+    pub doc: toml::Table,
+    pub file: ExperimentFile,
+}
+
+impl Combo {
+    /// `v_low.fraction_of_p90=0.1, c_min=0.2` — the swept values, for table columns.
+    pub fn label(&self) -> String {
+        self.params.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(", ")
+    }
+}
+
+/// A dataset with its plugins built and its files resolved.
+pub struct BuiltDataset {
+    pub index: usize,
+    pub spec: DatasetSpec,
+    pub loader: Box<dyn Loader>,
+    /// The reader and the ground-truth path, which may hold `{stem}` (replaced by each motion
+    /// file's stem, so one dataset can list several sequences with a label file each).
+    pub ground_truth: Option<(Box<dyn GroundTruthReader>, PathBuf)>,
+    pub preprocess: Vec<Box<dyn Preprocessor>>,
+    /// Resolved files (globs expanded, sorted).
+    pub files: Vec<PathBuf>,
+}
+
+impl BuiltDataset {
+    /// The sequence name of file `k`: the dataset's name when it has one file, else the stem.
+    pub fn sequence_name(&self, k: usize) -> String {
+        let stem = motionlab_core::paths::stem(&self.files[k]);
+        match (&self.spec.name, self.files.len()) {
+            (Some(n), 1) => n.clone(),
+            (Some(n), _) => format!("{n}/{stem}"),
+            (None, _) => stem,
+        }
+    }
+    pub fn tag(&self, key: &str) -> Option<&str> {
+        self.spec.tags.get(key).map(String::as_str)
+    }
+    /// The ground-truth file of motion file `k` (`{stem}` substituted).
+    pub fn ground_truth_path(&self, k: usize) -> Option<PathBuf> {
+        let (_, template) = self.ground_truth.as_ref()?;
+        let stem = motionlab_core::paths::stem(&self.files[k]);
+        Some(PathBuf::from(template.to_string_lossy().replace("{stem}", &stem)))
+    }
+}
+
+/// A loaded, cut and preprocessed input.
+pub struct LoadedItem {
+    pub name: String,
+    pub motion: Arc<Motion>,
+    pub truth: Option<Segmentation>,
+}
+
+/// Every dataset of a combination, plus the experiment-wide preprocessors.
+pub struct Datasets {
+    pub datasets: Vec<BuiltDataset>,
+    pub preprocess: Vec<Box<dyn Preprocessor>>,
+}
+
+impl Datasets {
+    /// Loads file `file` of dataset `dataset`: loader → cut → dataset preprocessors →
+    /// experiment preprocessors → ground truth.
+    pub fn load(&self, dataset: usize, file: usize) -> Result<LoadedItem> {
+        let d = &self.datasets[dataset];
+        let path = &d.files[file];
+        let mut motion = d.loader.load(path).map_err(|e| e.in_file(path))?;
+        motion.name = d.sequence_name(file);
+        if let Some(cut) = d.spec.cut {
+            let rate = motion.frame_rate();
+            let (a, b) = match cut {
+                Cut::Frames([a, b]) => (a, b),
+                Cut::Seconds([a, b]) => (rate.seconds_to_frames(motionlab_core::Seconds(a)).round() as usize, rate.seconds_to_frames(motionlab_core::Seconds(b)).round() as usize),
+            };
+            motion = motion.slice_frames(a, b).map_err(|e| e.in_file(path).with_field(format!("dataset[{dataset}].cut")))?;
+        }
+        // Ground truth is read against the motion as loaded (and cut), before preprocessors
+        // that may add points but never change timing.
+        let truth = match (&d.ground_truth, d.ground_truth_path(file)) {
+            (Some((reader, _)), Some(gt_path)) => Some(reader.read(&gt_path, &motion).map_err(|e| e.in_file(&gt_path))?),
+            _ => None,
+        };
+        for p in d.preprocess.iter().chain(&self.preprocess) {
+            motion = p.apply(motion).map_err(|e| e.in_file(path))?;
+        }
+        Ok(LoadedItem { name: d.sequence_name(file), motion: Arc::new(motion), truth })
+    }
+    /// The dataset whose tag `key` equals `value`.
+    pub fn find_tagged(&self, key: &str, value: &str) -> Vec<&BuiltDataset> {
+        self.datasets.iter().filter(|d| d.tag(key) == Some(value)).collect()
+    }
+}
+
+/// Builds a plugin, mapping its parameter errors to the stage's key path and line.
+pub fn build_stage<T: ?Sized>(
+    source: &Source,
+    combo: &Combo,
+    spec: &StageSpec,
+    path: &KeyPath,
+    builder: fn(&str, &toml::Value) -> Result<Box<T>>,
+) -> Result<Box<T>> {
+    builder(&spec.kind, &spec.plugin_params()).map_err(|e| {
+        if e.kind() == ErrorKind::UnknownPlugin {
+            // An unknown name is the `type` key's fault, whatever field the registry named.
+            source.locate(Error::new(e.kind(), e.message().to_string()), path.key("type"), &combo.doc)
+        } else {
+            source.locate(e, path, &combo.doc)
+        }
+    })
+}
+
+/// Deserialises a table of the document found at `root` (a workflow section, or the whole
+/// document at the empty path), with errors located at `root.<field>` and its line.
+pub fn deserialize_section<T: serde::de::DeserializeOwned>(source: &Source, doc: &toml::Table, value: toml::Value, root: &KeyPath) -> Result<T> {
+    registry::parse_params::<T>(&value).map_err(|e| source.locate(e, root, doc))
+}
+

@@ -1,0 +1,293 @@
+//! Workflows are plugins: what an experiment does with its datasets.
+//!
+//! A workflow owns one top-level section of the experiment file, named after it
+//! (`[segmentation]`), parsed into its own typed parameters (`deny_unknown_fields`, documented
+//! like a stage's: `motionlab describe segmentation`). It registers itself with one line,
+//!
+//! ```ignore
+//! motionlab_experiment::register_workflow!(SegmentationWorkflow, "segmentation");
+//! ```
+//!
+//! and the engine finds it by the section an experiment has; an unknown section is an error
+//! naming the closest registered ones. As with stages, a crate the binary never names is not
+//! linked and its workflows vanish: the CLI names every workflow crate, and the registry test
+//! counts them (each workflow crate states its `WORKFLOW_COUNT`).
+//!
+//! Every workflow is a map–reduce over work items (normally one per input file): `run_item`
+//! does the per-item work and returns a serialisable result (persisted under `items/`, which is
+//! what makes sharded runs and `merge` possible) plus per-item figures and files; `finish` turns
+//! all item results of one sweep combination into tables, figures and files; `summarize` may
+//! add tables and figures across combinations (precision–recall curves of a sweep).
+
+use schemars::JsonSchema;
+use serde::de::DeserializeOwned;
+
+use motionlab_core::registry::{self, closest_names, schema_doc, schema_params, ParamDoc};
+use motionlab_core::{Error, ErrorKind, EvalDomain, Evaluator, Result, Table};
+use motionlab_figure::Figure;
+
+use crate::context::{build_stage, deserialize_section, Combo, Datasets, Source};
+use crate::spec::{ExperimentFile, FIXED_KEYS};
+use crate::toml_paths::KeyPath;
+
+/// One unit of work.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct WorkItem {
+    /// Unique within a combination, file-name safe (`86_01`, `13_29`).
+    pub id: String,
+    pub dataset: usize,
+    pub file: usize,
+}
+
+/// A persisted item result: MessagePack (unlike JSON it keeps NaN, which marks undefined
+/// samples throughout motionlab).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ItemData(pub Vec<u8>);
+
+impl ItemData {
+    pub fn encode<T: serde::Serialize>(value: &T) -> Result<Self> {
+        rmp_serde::to_vec_named(value)
+            .map(ItemData)
+            .map_err(|e| motionlab_core::Error::new(motionlab_core::ErrorKind::Report, format!("cannot encode an item result: {e}")))
+    }
+    pub fn decode<T: serde::de::DeserializeOwned>(&self) -> Result<T> {
+        rmp_serde::from_slice(&self.0)
+            .map_err(|e| motionlab_core::Error::new(motionlab_core::ErrorKind::Mismatch, format!("cannot decode an item result: {e}")))
+    }
+}
+
+/// What one item produced.
+pub struct ItemOutput {
+    pub result: ItemData,
+    pub figures: Vec<Figure>,
+    /// Other files of this item (`name`, bytes), written under the run's `files/` as the item
+    /// finishes (per-item data for a page, say). Names must be unique across items.
+    pub files: Vec<(String, Vec<u8>)>,
+}
+
+impl ItemOutput {
+    /// An item's result and figures, with no other files.
+    pub fn new(result: ItemData, figures: Vec<Figure>) -> Self {
+        ItemOutput { result, figures, files: Vec::new() }
+    }
+}
+
+/// What a combination (or the whole sweep) produced.
+#[derive(Default)]
+pub struct Output {
+    pub tables: Vec<Table>,
+    pub figures: Vec<Figure>,
+    /// Other files (`name`, bytes), e.g. a synthesised BVH.
+    pub files: Vec<(String, Vec<u8>)>,
+}
+
+/// A completed combination, for [`Workflow::summarize`].
+pub struct ComboOutput<'a> {
+    pub combo: &'a Combo,
+    pub output: &'a Output,
+}
+
+/// A workflow: what an experiment does with its datasets, as a map–reduce over work items.
+/// Built per sweep combination by its [`WorkflowPlugin::build`]; registered with
+/// [`register_workflow!`](crate::register_workflow).
+pub trait Workflow: Send + Sync {
+    /// The work items (default: every file of every dataset).
+    fn items(&self, data: &Datasets) -> Vec<WorkItem> {
+        default_items(data)
+    }
+    /// Per-item work. Must be deterministic: sharded and single-machine runs are compared.
+    fn run_item(&self, item: &WorkItem, data: &Datasets, draw_figures: bool) -> Result<ItemOutput>;
+    /// All items of one combination → tables and figures.
+    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, draw_figures: bool) -> Result<Output>;
+    /// Tables and figures across sweep combinations (called once, even without a sweep).
+    fn summarize(&self, _combos: &[ComboOutput<'_>]) -> Result<Output> {
+        Ok(Output::default())
+    }
+}
+
+/// Builds `[[evaluate]]` stages, checking each accepts this workflow's results.
+pub fn build_evaluators(source: &Source, combo: &Combo, domain: EvalDomain) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
+    let root = KeyPath::parse("evaluate")?;
+    combo
+        .file
+        .evaluators
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let e = build_stage(source, combo, s, &root.index(k), registry::build_evaluator)?;
+            if e.domain() != domain {
+                return Err(source.locate(
+                    Error::new(
+                        ErrorKind::InvalidParameter,
+                        format!("evaluator {:?} evaluates {:?} results, but this experiment produces {domain:?} results", s.kind, e.domain()),
+                    ),
+                    root.index(k).key("type"),
+                    &combo.doc,
+                ));
+            }
+            Ok((s.display_name(), e))
+        })
+        .collect()
+}
+
+/// One item per file of every dataset, ids from sequence names (made unique).
+pub fn default_items(data: &Datasets) -> Vec<WorkItem> {
+    let mut items: Vec<WorkItem> = Vec::new();
+    for d in &data.datasets {
+        for f in 0..d.files.len() {
+            let base = sanitize(&d.sequence_name(f));
+            let mut id = base.clone();
+            let mut k = 2;
+            while items.iter().any(|i| i.id == id) {
+                id = format!("{base}_{k}");
+                k += 1;
+            }
+            items.push(WorkItem { id, dataset: d.index, file: f });
+        }
+    }
+    items
+}
+
+/// A file-name-safe version of a name.
+pub fn sanitize(name: &str) -> String {
+    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
+}
+
+/// What a workflow is built from: the experiment, one combination, its datasets (plugins
+/// built, files resolved — or none, when only validating in memory).
+pub struct BuildContext<'a> {
+    pub source: &'a Source,
+    pub combo: &'a Combo,
+    pub data: &'a Datasets,
+    /// The workflow's section (`segmentation`), for locating errors under it.
+    pub root: KeyPath,
+}
+
+impl BuildContext<'_> {
+    /// [`Source::locate`] in this combination's document.
+    pub fn locate(&self, err: Error, at: impl Into<crate::context::At>) -> Error {
+        self.source.locate(err, at, &self.combo.doc)
+    }
+}
+
+/// A workflow with its section's typed parameters: what [`register_workflow!`](crate::register_workflow) registers.
+pub trait WorkflowPlugin: Workflow + Sized + 'static {
+    /// The section's parameters. Its doc comment and its fields' are the user documentation
+    /// (`motionlab describe <workflow>`), as for a stage's params struct.
+    type Section: DeserializeOwned + JsonSchema;
+    /// Validates the section against the datasets and builds every stage it names (errors
+    /// located with [`BuildContext::locate`] or [`build_stage`]).
+    fn build(section: Self::Section, cx: &BuildContext<'_>) -> Result<Self>;
+}
+
+/// One registered workflow.
+pub struct WorkflowEntry {
+    /// The section it owns (`segmentation` for `[segmentation]`).
+    pub name: &'static str,
+    /// The section type's Rust name (for docs).
+    pub section_type: &'static str,
+    /// The crate that registered it.
+    pub crate_name: &'static str,
+    /// JSON schema of the section, with doc comments as descriptions and defaults.
+    pub schema: fn() -> schemars::Schema,
+    pub build: fn(&BuildContext<'_>) -> Result<Box<dyn Workflow>>,
+}
+
+inventory::collect!(WorkflowEntry);
+
+impl WorkflowEntry {
+    /// The workflow's documentation: its section type's doc comment.
+    pub fn doc(&self) -> String {
+        schema_doc(&(self.schema)(), self.section_type)
+    }
+    /// First line of [`WorkflowEntry::doc`].
+    pub fn summary(&self) -> String {
+        self.doc().lines().next().unwrap_or("").to_string()
+    }
+    /// The section's keys: name, type, default and description.
+    pub fn params(&self) -> Vec<ParamDoc> {
+        schema_params(&(self.schema)())
+    }
+}
+
+/// The generic builder [`register_workflow!`](crate::register_workflow) stores: parses the
+/// section (errors at `<section>.<key>` and its line), then builds.
+pub fn build_entry<W: WorkflowPlugin>(cx: &BuildContext<'_>) -> Result<Box<dyn Workflow>> {
+    let name = cx.root.to_string();
+    let value = cx.combo.doc.get(&name).cloned().unwrap_or_else(|| toml::Value::Table(toml::Table::new()));
+    let section: W::Section = deserialize_section(cx.source, &cx.combo.doc, value, &cx.root)?;
+    Ok(Box::new(W::build(section, cx)?))
+}
+
+/// Registers a workflow: `register_workflow!(SegmentationWorkflow, "segmentation");` — the type
+/// implements [`WorkflowPlugin`]; the name is the section it owns.
+#[macro_export]
+macro_rules! register_workflow {
+    ($workflow:ty, $name:literal) => {
+        $crate::inventory::submit! {
+            $crate::workflow::WorkflowEntry {
+                name: $name,
+                section_type: stringify!($workflow),
+                crate_name: env!("CARGO_PKG_NAME"),
+                schema: $crate::workflow::section_schema::<$workflow>,
+                build: $crate::workflow::build_entry::<$workflow>,
+            }
+        }
+    };
+}
+
+/// The JSON schema of a workflow's section (stored as a fn pointer in [`WorkflowEntry::schema`]).
+pub fn section_schema<W: WorkflowPlugin>() -> schemars::Schema {
+    registry::schema_of::<W::Section>()
+}
+
+/// Every registered workflow, sorted by name.
+pub fn workflows() -> Vec<&'static WorkflowEntry> {
+    let mut v: Vec<&'static WorkflowEntry> = inventory::iter::<WorkflowEntry>.into_iter().collect();
+    v.sort_by_key(|w| w.name);
+    v
+}
+
+/// The workflow registered under `name`.
+pub fn find_workflow(name: &str) -> Option<&'static WorkflowEntry> {
+    workflows().into_iter().find(|w| w.name == name)
+}
+
+/// The one workflow section of a document, checked against the registered workflows: an
+/// unknown top-level key is an error naming the closest registered sections (and fixed keys).
+pub fn workflow_section(source: &Source, doc: &toml::Table) -> Result<&'static WorkflowEntry> {
+    let all = workflows();
+    let names: Vec<String> = ExperimentFile::section_names(doc);
+    let sections = || all.iter().map(|w| format!("[{}]", w.name)).collect::<Vec<_>>().join(", ");
+    let mut found = Vec::new();
+    for n in &names {
+        match all.iter().find(|w| w.name == n) {
+            Some(w) => found.push(*w),
+            None => {
+                let pool = all.iter().map(|w| w.name).chain(FIXED_KEYS);
+                let close = closest_names(n, pool);
+                let hint = if close.is_empty() { String::new() } else { format!("; did you mean {}?", close.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(" or ")) };
+                return Err(source.locate(
+                    Error::new(ErrorKind::UnknownKey, format!("unknown section `{n}`: expected a workflow section ({}) or one of {}{hint}", sections(), FIXED_KEYS.join(", "))),
+                    KeyPath::default().key(n),
+                    doc,
+                ));
+            }
+        }
+    }
+    match found.as_slice() {
+        [one] => Ok(one),
+        [] => Err(Error::new(ErrorKind::MissingKey, format!("expected one workflow section: {}", sections())).with_location(motionlab_core::Location::file(&source.path))),
+        many => Err(Error::new(
+            ErrorKind::InvalidParameter,
+            format!("expected one workflow section, found {}", many.iter().map(|w| format!("[{}]", w.name)).collect::<Vec<_>>().join(", ")),
+        )
+        .with_location(motionlab_core::Location::file(&source.path))),
+    }
+}
+
+/// Builds the workflow of a combination (validating every workflow-specific plugin).
+pub fn build(entry: &WorkflowEntry, source: &Source, combo: &Combo, data: &Datasets) -> Result<Box<dyn Workflow>> {
+    let root = KeyPath::parse(entry.name)?;
+    (entry.build)(&BuildContext { source, combo, data, root })
+}

@@ -1,0 +1,25 @@
+//! # motionlab-workflows
+//!
+//! The built-in workflows, one file each, each registered with
+//! `motionlab_experiment::register_workflow!` and owning its section of the experiment file:
+//!
+//! - [`features`] — `[features]`: per-frame features of each sequence as a table and figures.
+//! - [`segmentation`] — `[segmentation]` (Sonoda et al.): segmenters → fuser → evaluators, the
+//!   paper's figures, precision–recall curves across a sweep.
+//! - [`matching`] — `[matching]` (Yabe & Tanaka): a model against a user's repetitions, the
+//!   paper's figures and its (a)/(b)/(c) timing test.
+//! - [`gait`] — `[gait]` (Osafune et al.): walk analysis, the paper's Tables 2–3, the control
+//!   of a skeleton walk and the leave-one-subject-out evaluation.
+//!
+//! [`drawing`] holds the figure-building helpers they share. Everything here is polars- and
+//! plotters-free: figures are specs (`motionlab-figure`), rendered by `motionlab-report`.
+
+pub mod drawing;
+pub mod features;
+pub mod gait;
+pub mod matching;
+pub mod segmentation;
+
+/// How many workflows this crate registers (checked by the registry test, `tests/registry.rs`,
+/// so a workflow that silently vanishes from the binary fails it).
+pub const WORKFLOW_COUNT: usize = 4;
