@@ -247,7 +247,7 @@ fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs) -> Result<Data
             .map(|(k, p)| build_stage(source, combo, p, &dp.key("preprocess").index(k), registry::build_preprocessor))
             .collect::<Result<Vec<_>>>()?;
         let files = match inputs {
-            Inputs::Resolve => resolve_files(source, &base, &spec.files).map_err(|e| source.locate(e, &dp.key("files"), &combo.doc))?,
+            Inputs::Resolve => resolve_files(source, &base, &spec.files).map_err(|e| source.locate(e, dp.key("files"), &combo.doc))?,
             Inputs::Skip => Vec::new(),
         };
         let built = BuiltDataset { index: i, spec: spec.clone(), loader, ground_truth, preprocess, files };
@@ -257,7 +257,7 @@ fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs) -> Result<Data
             {
                 return Err(source.locate(
                     Error::new(ErrorKind::Io, format!("ground-truth file {} does not exist", gt.display())),
-                    &dp.key("ground_truth").key("file"),
+                    dp.key("ground_truth").key("file"),
                     &combo.doc,
                 ));
             }

@@ -86,11 +86,6 @@ impl From<String> for At {
         At::Text(t)
     }
 }
-impl From<&String> for At {
-    fn from(t: &String) -> Self {
-        At::Text(t.clone())
-    }
-}
 
 /// One combination of swept parameter values (the only one when there is no sweep).
 #[derive(Clone, Debug)]

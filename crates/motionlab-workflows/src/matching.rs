@@ -234,7 +234,7 @@ impl WorkflowPlugin for MatchingWorkflow {
     type Section = MatchingSection;
     fn build(section: MatchingSection, cx: &BuildContext<'_>) -> Result<Self> {
         let (source, combo, data, root) = (cx.source, cx.combo, cx.data, cx.root.clone());
-        let locate = |e: Error, key: &str| source.locate(e, &root.join_field(key), &combo.doc);
+        let locate = |e: Error, key: &str| source.locate(e, root.join_field(key), &combo.doc);
         if section.peaks_per_repetition == 0 {
             return Err(locate(
                 Error::new(ErrorKind::OutOfRange, "expected at least one velocity peak per repetition, found 0"),
@@ -388,13 +388,13 @@ fn build_takes(source: &Source, combo: &Combo, data: &Datasets, section: &Matchi
                 ErrorKind::InvalidParameter,
                 "`count` is set per take by the workflow: tag the take's dataset `repetitions = \"N\"` or set `[matching.repetitions]`",
             ),
-            &detector_path.key("count"),
+            detector_path.key("count"),
             &combo.doc,
         ));
     }
     for d in data.datasets.iter().filter(|d| d.index != model) {
         let here = datasets.index(d.index);
-        let at_tag = |key: &str, e: Error| source.locate(e, &here.key("tags").key(key), &combo.doc);
+        let at_tag = |key: &str, e: Error| source.locate(e, here.key("tags").key(key), &combo.doc);
         if let Some(take) = d.tag("take") {
             if d.tag("repetitions").is_some() {
                 return Err(at_tag(
@@ -431,7 +431,7 @@ fn build_takes(source: &Source, combo: &Combo, data: &Datasets, section: &Matchi
                     if n == 0 {
                         return Err(source.locate(
                             Error::new(ErrorKind::OutOfRange, "expected at least one repetition, found 0"),
-                            &root.key("repetitions").key(&name),
+                            root.key("repetitions").key(&name),
                             &combo.doc,
                         ));
                     }
@@ -485,7 +485,7 @@ fn build_takes(source: &Source, combo: &Combo, data: &Datasets, section: &Matchi
             takes.iter().filter(|t| matches!(t.kind, TakeKind::Continuous { .. })).map(|t| format!("{:?}", t.name)).collect();
         return Err(source.locate(
             Error::new(ErrorKind::UnknownName, format!("{unused:?} names no continuous take; the continuous takes are: {}", names.join(", "))),
-            &root.key("repetitions").key(unused),
+            root.key("repetitions").key(unused),
             &combo.doc,
         ));
     }

@@ -106,7 +106,7 @@ impl WorkflowPlugin for SegmentationWorkflow {
             if segmenters.iter().any(|(n, _)| n == &name) {
                 return Err(source.locate(
                     Error::new(ErrorKind::DuplicateName, format!("two segmenters are named {name:?}; give one a `name = \"…\"`")),
-                    &root.key("segmenter").index(k),
+                    root.key("segmenter").index(k),
                     &combo.doc,
                 ));
             }
@@ -123,7 +123,7 @@ impl WorkflowPlugin for SegmentationWorkflow {
                     segmenters.iter().position(|(s, _)| s == n).ok_or_else(|| {
                         source.locate(
                             Error::new(ErrorKind::UnknownName, format!("fuse names {n:?}, which is not a segmenter of this experiment")),
-                            &root.key("fuse"),
+                            root.key("fuse"),
                             &combo.doc,
                         )
                     })
