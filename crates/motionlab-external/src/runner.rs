@@ -178,7 +178,7 @@ fn describe_status(status: ExitStatus) -> String {
 /// The last lines of stderr on one line (` | ` between lines).
 fn stderr_tail(stderr: &[u8]) -> String {
     let text = String::from_utf8_lossy(stderr);
-    let lines: Vec<&str> = text.lines().map(str::trim_end).filter(|l| !l.trim().is_empty()).collect();
+    let lines: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
     if lines.is_empty() {
         return "stderr was empty".into();
     }
