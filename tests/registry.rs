@@ -5,6 +5,7 @@ use motionlab_core::registry::{self, StageKind};
 
 // The same plugin crates the CLI names.
 use motionlab_eval as _;
+use motionlab_external as _;
 use motionlab_features as _;
 use motionlab_gait as _;
 use motionlab_io as _;
@@ -23,12 +24,14 @@ const EXPECTED: &[(StageKind, &str)] = &[
     (StageKind::Preprocessor, "delay_points"),
     (StageKind::Preprocessor, "fill_gaps"),
     (StageKind::Preprocessor, "initial_pose_normalisation"),
+    (StageKind::FeatureExtractor, "external_features"),
     (StageKind::FeatureExtractor, "hull_volume"),
     (StageKind::FeatureExtractor, "isb_joint_angles"),
     (StageKind::FeatureExtractor, "marker_speed"),
     (StageKind::FeatureExtractor, "root_curvature"),
     (StageKind::FeatureExtractor, "skeleton_joint_angles"),
     (StageKind::Segmenter, "direction_change"),
+    (StageKind::Segmenter, "external"),
     (StageKind::Segmenter, "fastest_marker_speed"),
     (StageKind::Segmenter, "hull_volume_change"),
     (StageKind::Segmenter, "pca_error_rise"),
