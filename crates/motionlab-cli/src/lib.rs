@@ -180,7 +180,8 @@ pub fn main() -> ExitCode {
 }
 
 /// The `motionlab` command on `args` (the first is the program name); `--help`, `--version`
-/// and usage errors print and exit as clap does.
+/// and usage errors print and exit as clap does. A run's provenance records the process's own
+/// command line (`std::env::args`).
 pub fn main_with<I, T>(args: I) -> ExitCode
 where
     I: IntoIterator<Item = T>,

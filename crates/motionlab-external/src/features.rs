@@ -55,10 +55,7 @@ impl ParamGuard for ExternalFeaturesParams {
 
 impl FeatureExtractor for ExternalFeatures {
     fn extract(&self, motion: &Motion, _cache: &FeatureCache) -> Result<FeatureSet> {
-        let inv = &self.invocation;
-        let stdout = inv.exchange(motion, "feature_extractor")?;
-        let reply: FeaturesReply = protocol::parse_reply(&stdout).map_err(|e| inv.reply_error(e))?;
-        protocol::feature_set(reply, motion.n_frames()).map_err(|e| inv.reply_error(e))
+        self.invocation.call::<FeaturesReply, _>(motion, "feature_extractor", protocol::feature_set)
     }
 }
 

@@ -58,12 +58,20 @@ impl Invocation {
     }
 
     /// Converts a protocol check's error.
-    pub fn reply_error(&self, (kind, message): ReplyError) -> Error {
+    fn reply_error(&self, (kind, message): ReplyError) -> Error {
         self.error(kind, message)
     }
 
+    /// One call of the protocol: runs the program on `motion`, parses its stdout as `R` and
+    /// checks and converts it with `convert` (given the motion's frame count).
+    pub fn call<R: serde::de::DeserializeOwned, T>(&self, motion: &Motion, expects: &str, convert: fn(R, usize) -> Result<T, ReplyError>) -> Result<T> {
+        let stdout = self.exchange(motion, expects)?;
+        let reply: R = protocol::parse_reply(&stdout).map_err(|e| self.reply_error(e))?;
+        convert(reply, motion.n_frames()).map_err(|e| self.reply_error(e))
+    }
+
     /// Writes the motion to a fresh folder, runs the program on it and returns its stdout.
-    pub fn exchange(&self, motion: &Motion, expects: &str) -> Result<Vec<u8>> {
+    fn exchange(&self, motion: &Motion, expects: &str) -> Result<Vec<u8>> {
         let dir = tempfile::Builder::new()
             .prefix("motionlab-external-")
             .tempdir()

@@ -68,10 +68,7 @@ impl ParamGuard for ExternalSegmenterParams {
 
 impl Segmenter for ExternalSegmenter {
     fn segment(&self, motion: &Motion, _cache: &FeatureCache) -> Result<SegmenterOutput> {
-        let inv = &self.invocation;
-        let stdout = inv.exchange(motion, "segmenter")?;
-        let reply: SegmenterReply = protocol::parse_reply(&stdout).map_err(|e| inv.reply_error(e))?;
-        protocol::segmenter_output(reply, motion.n_frames()).map_err(|e| inv.reply_error(e))
+        self.invocation.call::<SegmenterReply, _>(motion, "segmenter", protocol::segmenter_output)
     }
 }
 
