@@ -5,7 +5,7 @@
 //! command of their own (examples/plugin-template/):
 //!
 //! ```ignore
-//! use my_segmenters as _; // names the plugin crate so the linker keeps its registrations
+//! use your_plugins as _; // names the plugin crate so the linker keeps its registrations
 //!
 //! fn main() -> std::process::ExitCode {
 //!     motionlab_cli::main()
