@@ -11,6 +11,7 @@ use motionlab_experiment::workflow::workflows;
 /// The same plugin crates the CLI names, with the number of plugins each says it registers.
 const PLUGIN_CRATES: &[(&str, usize)] = &[
     ("motionlab-eval", motionlab_eval::PLUGIN_COUNT),
+    ("motionlab-external", motionlab_external::PLUGIN_COUNT),
     ("motionlab-features", motionlab_features::PLUGIN_COUNT),
     ("motionlab-gait", motionlab_gait::PLUGIN_COUNT),
     ("motionlab-io", motionlab_io::PLUGIN_COUNT),

@@ -1,0 +1,334 @@
+//! `motionlab`: declare motion-capture experiments in TOML, run them on real data, get tables
+//! and figures in a fresh run directory.
+//!
+//! A library so that a researcher's own plugin crates can be linked into a `motionlab`
+//! command of their own (examples/plugin-template/):
+//!
+//! ```ignore
+//! use your_plugins as _; // names the plugin crate so the linker keeps its registrations
+//!
+//! fn main() -> std::process::ExitCode {
+//!     motionlab_cli::main()
+//! }
+//! ```
+
+use std::ffi::OsString;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use clap::{Parser, Subcommand};
+
+// Plugin crates are never called by name from here; naming them keeps the linker from dropping
+// their `inventory` registrations (tests/registry.rs checks every expected plugin is present).
+use motionlab_eval as _;
+use motionlab_external as _;
+use motionlab_features as _;
+use motionlab_gait as _;
+use motionlab_io as _;
+use motionlab_match as _;
+use motionlab_segment as _;
+use motionlab_workflows as _;
+
+use motionlab_core::{Error, ErrorKind, Result};
+use motionlab_engine::{RunOptions, RunSummary};
+
+mod describe;
+mod inspect;
+mod progress;
+mod slurm;
+
+#[derive(Parser)]
+#[command(name = "motionlab", version, about = "Motion-capture experiments from TOML: segmentation, multistream matching, walk analysis")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run an experiment into a fresh run directory.
+    Run {
+        /// The experiment file.
+        experiment: PathBuf,
+        /// Dotted overrides: `segmentation.fuser.merge_mm=200`.
+        overrides: Vec<String>,
+        #[command(flatten)]
+        opts: RunArgs,
+        /// Compute only shard `i/n` of the work items (needs --run-dir shared by all shards).
+        #[arg(long, value_parser = parse_shard)]
+        shard: Option<(usize, usize)>,
+        /// Run directory (shared by shards; default: a fresh one under --reports).
+        #[arg(long)]
+        run_dir: Option<PathBuf>,
+    },
+    /// Check every file, plugin and parameter of an experiment without running it.
+    Validate {
+        experiment: PathBuf,
+        overrides: Vec<String>,
+    },
+    /// List every registered workflow and plugin by kind.
+    List,
+    /// Print a workflow's or a plugin's documentation and parameters.
+    Describe {
+        /// The workflow's section (`segmentation`) or the plugin's registered name (`bvh`, `fastest_marker_speed`, …).
+        name: String,
+    },
+    /// Run every experiment in a folder (default `experiments/`) into `reports/`.
+    Reproduce {
+        /// Folder of experiment files.
+        #[arg(long, default_value = "experiments")]
+        experiments: PathBuf,
+        #[command(flatten)]
+        opts: RunArgs,
+        /// Also copy each run to `reports/<experiment>/record/` (the runs of record, committed).
+        #[arg(long)]
+        record: bool,
+        /// Run only experiments whose name contains this text.
+        #[arg(long)]
+        only: Option<String>,
+    },
+    /// Describe motion files: format, frames, rate, duration, points, missing samples, events.
+    Inspect {
+        files: Vec<PathBuf>,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Combine the shards of a sharded run into the tables and figures of a plain run.
+    Merge {
+        run_dir: PathBuf,
+        #[command(flatten)]
+        opts: RunArgs,
+    },
+    /// Write a Slurm job array (one task per shard) and a merge job that waits for it.
+    Slurm {
+        experiment: PathBuf,
+        overrides: Vec<String>,
+        /// Number of shards (array tasks).
+        #[arg(long)]
+        shards: usize,
+        /// Shared run directory (default: a new one under --reports).
+        #[arg(long)]
+        run_dir: Option<PathBuf>,
+        #[arg(long, default_value = "reports")]
+        reports: PathBuf,
+        #[arg(long)]
+        partition: Option<String>,
+        /// Wall-time limit per task (`HH:MM:SS`).
+        #[arg(long)]
+        time: Option<String>,
+        /// Memory per task (`4G`).
+        #[arg(long)]
+        mem: Option<String>,
+        /// Threads per task.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Submit with sbatch and print the job ids.
+        #[arg(long)]
+        submit: bool,
+    },
+    /// Parameter and metric differences between two runs of one experiment (text and HTML).
+    Compare { run_a: PathBuf, run_b: PathBuf },
+    /// Rebuild reports/index.html from experiments/ and the runs under reports/.
+    Index {
+        #[arg(long, default_value = "experiments")]
+        experiments: PathBuf,
+        #[arg(long, default_value = "reports")]
+        reports: PathBuf,
+        /// Link the committed runs of record rather than the latest runs.
+        #[arg(long)]
+        records: bool,
+    },
+}
+
+#[derive(clap::Args, Clone)]
+struct RunArgs {
+    /// Folder holding `<experiment>/<run-id>/`.
+    #[arg(long, default_value = "reports")]
+    reports: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// No progress bars.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
+    let (i, n) = s.split_once('/').ok_or_else(|| format!("expected i/n, found {s:?}"))?;
+    let i: usize = i.trim().parse().map_err(|_| format!("shard index {i:?} is not a number"))?;
+    let n: usize = n.trim().parse().map_err(|_| format!("shard count {n:?} is not a number"))?;
+    if n == 0 || i >= n {
+        return Err(format!("expected 0 <= i < n, found {i}/{n}"));
+    }
+    Ok((i, n))
+}
+
+fn options(args: &RunArgs) -> RunOptions {
+    let progress: Arc<dyn motionlab_engine::Progress> = if !args.quiet && std::io::stderr().is_terminal() {
+        Arc::new(progress::Bars::default())
+    } else {
+        Arc::new(motionlab_engine::Silent)
+    };
+    RunOptions { reports_dir: args.reports.clone(), threads: args.threads, progress, command: std::env::args().collect(), ..Default::default() }
+}
+
+/// The `motionlab` command on this process's arguments, with every plugin linked into the binary.
+pub fn main() -> ExitCode {
+    main_with(std::env::args_os())
+}
+
+/// The `motionlab` command on `args` (the first is the program name); `--help`, `--version`
+/// and usage errors print and exit as clap does. A run's provenance records the process's own
+/// command line (`std::env::args`).
+pub fn main_with<I, T>(args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = Cli::parse_from(args);
+    match dispatch(cli.command) {
+        Ok(code) => code,
+        Err(e) => {
+            // One line, naming the file and line/field: the contract of every motionlab error.
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn dispatch(command: Command) -> Result<ExitCode> {
+    match command {
+        Command::Run { experiment, overrides, opts, shard, run_dir } => {
+            let mut o = options(&opts);
+            o.shard = shard;
+            o.run_dir = run_dir;
+            let summary = motionlab_engine::run_file(&experiment, &overrides, &o)?;
+            print_summary(&summary);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Validate { experiment, overrides } => {
+            let plan = motionlab_engine::plan(&experiment, &overrides)?;
+            let items: usize = plan.built.iter().map(|b| b.workflow.items(&b.data).len()).sum();
+            println!(
+                "{}: valid — {} workflow, {} dataset(s), {} input file(s), {} combination(s), {} work item(s)",
+                experiment.display(),
+                plan.workflow.name,
+                plan.file.datasets.len(),
+                plan.input_files().len(),
+                plan.combos.len(),
+                items
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::List => {
+            print!("{}", describe::list());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Describe { name } => {
+            print!("{}", describe::describe(&name)?);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Reproduce { experiments, opts, record, only } => reproduce(&experiments, &opts, record, only.as_deref()),
+        Command::Inspect { files, json } => inspect::inspect(&files, json),
+        Command::Merge { run_dir, opts } => {
+            let summary = motionlab_engine::merge(&run_dir, &options(&opts))?;
+            print_summary(&summary);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Slurm { experiment, overrides, shards, run_dir, reports, partition, time, mem, threads, submit } => {
+            if shards == 0 {
+                return Err(Error::new(ErrorKind::OutOfRange, "--shards must be at least 1"));
+            }
+            // Validate now, on the login node, rather than in N failing array tasks.
+            let plan = motionlab_engine::plan(&experiment, &overrides)?;
+            let run_dir = match run_dir {
+                Some(d) => d,
+                None => {
+                    let stamp = motionlab_engine::rundir::utc_stamp(std::time::SystemTime::now());
+                    reports.join(&plan.file.experiment.name).join(format!("{stamp}-slurm-p{}", std::process::id()))
+                }
+            };
+            let abs = |p: &Path| std::path::absolute(p).map_err(|e| Error::io(p, e));
+            let job = slurm::SlurmJob {
+                experiment: abs(&experiment)?,
+                overrides,
+                shards,
+                run_dir: abs(&run_dir)?,
+                partition,
+                time,
+                mem,
+                threads,
+                binary: std::env::current_exe().map_err(|e| Error::new(ErrorKind::Io, format!("cannot locate the motionlab binary: {e}")))?,
+            };
+            let (array, merge) = slurm::write_scripts(&job)?;
+            println!("wrote {} and {}", array.display(), merge.display());
+            if submit {
+                let (a, m) = slurm::submit(&array, &merge)?;
+                println!("submitted shard array job {a} ({shards} tasks) and merge job {m} (afterok:{a})");
+                println!("results: {}", job.run_dir.display());
+            } else {
+                println!("submit with: sbatch {}  then  sbatch --dependency=afterok:<array id> {}", array.display(), merge.display());
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Compare { run_a, run_b } => {
+            let page = motionlab_engine::compare::compare(&run_a, &run_b)?;
+            print!("{}", motionlab_engine::compare::compare_text(&page));
+            let path = motionlab_engine::compare::write_compare(&run_a, &run_b, &page)?;
+            println!("wrote {}", path.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Index { experiments, reports, records } => {
+            let p = motionlab_engine::pages::write_reproduction_index(&experiments, &reports, records)?;
+            println!("wrote {}", p.display());
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+fn print_summary(s: &RunSummary) {
+    if s.complete {
+        println!("{}: {} item(s), {} table file(s), {} figure file(s)", s.run_dir.display(), s.items, s.tables.len(), s.figures.len());
+    } else {
+        println!("{}: shard done ({} item(s)); run `motionlab merge {}` when every shard has finished", s.run_dir.display(), s.items, s.run_dir.display());
+    }
+}
+
+/// Every `*.toml` in the folder, sorted.
+fn experiment_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| Error::io(dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+fn reproduce(dir: &Path, args: &RunArgs, record: bool, only: Option<&str>) -> Result<ExitCode> {
+    let files = experiment_files(dir)?;
+    let files: Vec<PathBuf> = files.into_iter().filter(|f| only.is_none_or(|o| f.to_string_lossy().contains(o))).collect();
+    if files.is_empty() {
+        return Err(Error::new(ErrorKind::Io, format!("no experiment files (*.toml) in {}", dir.display())));
+    }
+    // Validate everything first: a typo in the last experiment fails before an hour of work.
+    let plans = files.iter().map(|f| motionlab_engine::plan(f, &[])).collect::<Result<Vec<_>>>()?;
+    let opts = options(args);
+    for (f, plan) in files.iter().zip(&plans) {
+        let started = std::time::Instant::now();
+        let summary = motionlab_engine::run(plan, &opts)?;
+        println!("{} ({:.1} s)", f.display(), started.elapsed().as_secs_f64());
+        print_summary(&summary);
+        if record {
+            let dest = args.reports.join(&plan.file.experiment.name).join("record");
+            motionlab_engine::pages::write_record(&summary.run_dir, &dest, &plan.file)?;
+            println!("  recorded into {}", dest.display());
+        }
+    }
+    let index = motionlab_engine::pages::write_reproduction_index(dir, &args.reports, record)?;
+    println!("wrote {}", index.display());
+    Ok(ExitCode::SUCCESS)
+}
