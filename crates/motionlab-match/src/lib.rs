@@ -51,8 +51,10 @@ pub mod dp;
 pub mod initial_pose;
 pub mod input;
 pub mod judgement;
+pub mod lanes;
 pub mod multistream;
 pub mod peaks;
+pub mod simd;
 pub mod subsequence;
 pub mod sync;
 
