@@ -149,6 +149,13 @@ pub fn two_stage(model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool
     two_stage_at(simd::level(), &s, &t, keep_paths)
 }
 
+/// [`two_stage`] at a chosen instruction-set level (capped at what the CPU runs), to compare
+/// the levels' speed; every level gives the same numbers.
+pub fn two_stage_at_level(level: Level, model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
+    let (s, t) = marker_blocks(model, target)?;
+    two_stage_at(level.min(simd::level()), &s, &t, keep_paths)
+}
+
 fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, keep_paths: bool) -> Result<TwoStageMatch> {
     let mut cells = Vec::new();
     let end_costs = summed_end_costs(level, s, t, &mut cells);
