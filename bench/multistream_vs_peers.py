@@ -12,7 +12,8 @@ DP cells: L*n*m + L*n*(b+1) + L*n*(b-a+1).
 
 How each library does it:
   * ours: `cargo run --release -p motionlab-match --example multistream_timing` (times itself
-    in-process, so process start and JSON parsing are not counted);
+    in-process, so process start and JSON parsing are not counted; eight markers per SIMD
+    register, the paths walked from decisions recorded in the backward pass);
   * dtaidistance 2.5.1, C (use_c=True), inner_dist='euclidean': forward = warping_paths with
     psi=(0, 0, m, m) (free start/end in the window) and psi_neg=False, last row; backward = warping_paths of the
     reversed model against the reversed window T[b], T[b-1], ..., T[0], last row; paths =
@@ -216,7 +217,7 @@ def main():
     forward = table(f"stage 1 alone (31 forward passes and G, {L * n * m:,} cells; kernel against kernel, no path extraction):",
                     ftimes, fmedians, forward_cells)
     print(f"per-cell ratio vs dtaidistance (medians): whole match {whole:.2f}x, stage 1 {forward:.2f}x "
-          f"(target >= 2x: {'met' if min(whole, forward) >= 2 else 'NOT met'})")
+          f"(target whole match >= 10x (issue 19): {'met' if whole >= 10 else 'NOT met'})")
     sys.exit(0 if ok else 1)
 
 

@@ -11,10 +11,9 @@
 
 use divan::counter::ItemsCount;
 use divan::{Bencher, black_box};
-use motionlab_match::dp::{
-    Euclidean3, Euclidean3x4, Trajectory3, Trajectory3x4, Workspace, anchored_costs_into, anchored_path, subsequence_costs_into,
-};
-use motionlab_match::multistream::{end_costs, two_stage};
+use motionlab_match::dp::{Euclidean3, Trajectory3, Workspace, anchored_costs_into, anchored_path, subsequence_costs_into};
+use motionlab_match::multistream::{end_costs, two_stage, two_stage_at_level};
+use motionlab_match::simd::Level;
 
 const MARKERS: usize = 31;
 const MODEL: usize = 120;
@@ -49,6 +48,19 @@ fn two_stage_with_paths(bencher: Bencher) {
     bencher.counter(ItemsCount::new(cells)).bench(|| two_stage(black_box(&model), black_box(&target), true));
 }
 
+/// The whole match with paths at each instruction-set level (capped at what the CPU runs: on a
+/// CPU without AVX-512 the `Avx512` row repeats the best level it has).
+#[divan::bench(args = [Level::Portable, Level::Avx2, Level::Avx512])]
+fn two_stage_with_paths_at_level(bencher: Bencher, level: Level) {
+    let (model, target) = data();
+    let r = two_stage(&model, &target, true).expect("bench data are finite");
+    let (a, b) = (r.alignment.start, r.alignment.end);
+    let cells = MARKERS * MODEL * (WINDOW + (b + 1) + (b - a + 1));
+    bencher
+        .counter(ItemsCount::new(cells))
+        .bench(|| two_stage_at_level(level, black_box(&model), black_box(&target), true));
+}
+
 /// The same without paths (the synchronisation stage needs them; H alone does not).
 #[divan::bench]
 fn two_stage_without_paths(bencher: Bencher) {
@@ -59,7 +71,7 @@ fn two_stage_without_paths(bencher: Bencher) {
     bencher.counter(ItemsCount::new(cells)).bench(|| two_stage(black_box(&model), black_box(&target), false));
 }
 
-/// Stage 1 as `two_stage` runs it: markers four to a DP cell (SIMD lanes), summed into G(j).
+/// Stage 1 as `two_stage` runs it: markers eight to a DP cell (SIMD lanes), summed into G(j).
 #[divan::bench]
 fn forward_pass_31_markers_in_lanes(bencher: Bencher) {
     let (model, target) = data();
@@ -76,26 +88,6 @@ fn forward_pass_31_markers_one_by_one(bencher: Bencher) {
         for (s, t) in model.iter().zip(&target) {
             subsequence_costs_into(&Euclidean3::new(s, t), &mut h, &mut ws).expect("finite");
             black_box(&h);
-        }
-    });
-}
-
-fn groups(model: &[Trajectory3], target: &[Trajectory3]) -> Vec<(Trajectory3x4, Trajectory3x4)> {
-    let gather = |g: &[Trajectory3]| Trajectory3x4::gather(&g.iter().collect::<Vec<_>>()).expect("1..=4 equal lengths");
-    model.chunks(4).zip(target.chunks(4)).map(|(s, t)| (gather(s), gather(t))).collect()
-}
-
-/// Stage 2 in lanes: backward passes anchored at the last window frame (b = 599).
-#[divan::bench]
-fn backward_pass_31_markers_in_lanes(bencher: Bencher) {
-    let (model, target) = data();
-    let g = groups(&model, &target);
-    let mut ws = Workspace::new();
-    let mut c = Vec::new();
-    bencher.counter(ItemsCount::new(MARKERS * MODEL * WINDOW)).bench_local(|| {
-        for (s, t) in &g {
-            anchored_costs_into(&Euclidean3x4 { model: s, target: t }, WINDOW - 1, &mut c, &mut ws).expect("finite");
-            black_box(&c);
         }
     });
 }

@@ -54,9 +54,9 @@
 //! which for [`Euclidean3`] (structure-of-arrays coordinates) is a branch-free loop the compiler
 //! vectorises, square roots included. The recurrence then runs over contiguous slices with
 //! iterators (no bounds checks) and one rolling row updated in place, so no pass allocates per
-//! cell and the cost-only passes keep O(m) memory. The cost-only kernels are also generic over
-//! the cell type ([`Cost`]): with [`Euclidean3x4`] four markers share each cell's dependency
-//! chain in SIMD lanes (1.35–1.45× faster, `benches/README.md`), with bit-identical results.
+//! cell and the cost-only passes keep O(m) memory. The two-stage matcher runs eight markers per
+//! cell in SIMD lanes with the distance fused into the sweep ([`crate::lanes`]), bit-for-bit
+//! the results of these kernels one marker at a time.
 
 use motionlab_core::{Error, ErrorKind, Point3, Result};
 
@@ -64,14 +64,8 @@ use motionlab_core::{Error, ErrorKind, Point3, Result};
 // Local distances
 // ---------------------------------------------------------------------------------------------
 
-/// What a DP cell holds: one cost (`f64`), or the costs of four independent matches advanced
-/// in lock-step, one per lane (`[f64; 4]`).
-///
-/// Lanes exist for speed. The recurrence's only serial dependency is `g(i, j−1) → g(i, j)`
-/// (an add and a min, ≈ 4 cycles); four markers in the lanes of one cell share that latency,
-/// and the compiler turns the lane-wise arithmetic into packed SIMD instructions. Each lane
-/// performs exactly the operations the scalar kernel would, in the same order, so the results
-/// are bit-for-bit those of four scalar runs.
+/// What a DP cell holds: one cost (`f64`). (The two-stage matcher's markers-in-lanes kernels
+/// are in [`crate::lanes`], with the recurrences written out for the lane registers.)
 pub trait Cost: Copy + Default + PartialEq + std::fmt::Debug {
     /// `self + other`, lane-wise.
     fn plus(self, other: Self) -> Self;
@@ -90,21 +84,10 @@ impl Cost for f64 {
     }
 }
 
-impl Cost for [f64; 4] {
-    #[inline(always)]
-    fn plus(self, o: Self) -> Self {
-        [self[0] + o[0], self[1] + o[1], self[2] + o[2], self[3] + o[3]]
-    }
-    #[inline(always)]
-    fn least(self, o: Self) -> Self {
-        [min2(self[0], o[0]), min2(self[1], o[1]), min2(self[2], o[2]), min2(self[3], o[3])]
-    }
-}
-
 /// A local distance `d(i, j) ≥ 0` between model frame `i` and target frame `j`, produced a row
 /// at a time so the kernels' inner loops run over contiguous memory.
 pub trait LocalDistance {
-    /// `f64`, or `[f64; 4]` for four matches computed together ([`Euclidean3x4`]).
+    /// The cell type (`f64`).
     type Cost: Cost;
     /// `n`: number of model frames.
     fn model_len(&self) -> usize;
@@ -214,70 +197,6 @@ impl LocalDistance for Euclidean3<'_> {
         for (((o, &x), &y), &z) in out.iter_mut().zip(tx).zip(ty).zip(tz) {
             let (dx, dy, dz) = (sx - x, sy - y, sz - z);
             *o = (dx * dx + dy * dy + dz * dz).sqrt();
-        }
-    }
-}
-
-/// Up to four markers' trajectories interleaved lane by lane: `x[j][l]` is marker `l`'s x at
-/// frame `j` (mm). A group of fewer than four repeats its first marker in the spare lanes
-/// (finite numbers whose results the caller ignores).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Trajectory3x4 {
-    pub x: Vec<[f64; 4]>,
-    pub y: Vec<[f64; 4]>,
-    pub z: Vec<[f64; 4]>,
-    /// How many lanes hold real markers (1..=4).
-    pub used: usize,
-}
-
-impl Trajectory3x4 {
-    /// Interleaves 1 to 4 trajectories of equal length; None for an empty group, more than four,
-    /// or unequal lengths.
-    pub fn gather(group: &[&Trajectory3]) -> Option<Self> {
-        let first = group.first()?;
-        if group.len() > 4 || group.iter().any(|t| t.len() != first.len()) {
-            return None;
-        }
-        let lane = |l: usize| group.get(l).unwrap_or(first);
-        let interleave = |axis: fn(&Trajectory3) -> &[f64]| -> Vec<[f64; 4]> {
-            let (a, b, c, d) = (axis(lane(0)), axis(lane(1)), axis(lane(2)), axis(lane(3)));
-            a.iter().zip(b).zip(c).zip(d).map(|(((&a, &b), &c), &d)| [a, b, c, d]).collect()
-        };
-        Some(Trajectory3x4 { x: interleave(|t| &t.x), y: interleave(|t| &t.y), z: interleave(|t| &t.z), used: group.len() })
-    }
-    pub fn len(&self) -> usize {
-        self.x.len()
-    }
-    pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
-    }
-}
-
-/// [`Euclidean3`] for four markers at once: lane `l` of `d(i, j)` is `|s_i − t_j|` of marker `l`.
-#[derive(Clone, Copy, Debug)]
-pub struct Euclidean3x4<'a> {
-    pub model: &'a Trajectory3x4,
-    pub target: &'a Trajectory3x4,
-}
-
-impl LocalDistance for Euclidean3x4<'_> {
-    type Cost = [f64; 4];
-    fn model_len(&self) -> usize {
-        self.model.len()
-    }
-    fn target_len(&self) -> usize {
-        self.target.len()
-    }
-    #[inline]
-    fn row(&self, i: usize, j0: usize, out: &mut [[f64; 4]]) {
-        let (sx, sy, sz) = (self.model.x[i], self.model.y[i], self.model.z[i]);
-        let end = j0 + out.len();
-        let (tx, ty, tz) = (&self.target.x[j0..end], &self.target.y[j0..end], &self.target.z[j0..end]);
-        for (((o, x), y), z) in out.iter_mut().zip(tx).zip(ty).zip(tz) {
-            for l in 0..4 {
-                let (dx, dy, dz) = (sx[l] - x[l], sy[l] - y[l], sz[l] - z[l]);
-                o[l] = (dx * dx + dy * dy + dz * dz).sqrt();
-            }
         }
     }
 }
@@ -841,36 +760,6 @@ mod tests {
                 assert!((path_cost(&p, f) - c).abs() <= 1e-9 * c.max(1.0));
             }
         }
-    }
-
-    #[test]
-    fn four_lanes_equal_four_scalar_runs_bit_for_bit() {
-        let mut rng = Rng::new(9);
-        for used in 1..=4 {
-            let (n, m) = (3 + used * 2, 17 + used);
-            let model: Vec<Trajectory3> = (0..used).map(|_| random_traj(&mut rng, n)).collect();
-            let target: Vec<Trajectory3> = (0..used).map(|_| random_traj(&mut rng, m)).collect();
-            let s4 = Trajectory3x4::gather(&model.iter().collect::<Vec<_>>()).unwrap();
-            let t4 = Trajectory3x4::gather(&target.iter().collect::<Vec<_>>()).unwrap();
-            assert_eq!(s4.used, used);
-            let d4 = Euclidean3x4 { model: &s4, target: &t4 };
-            let h4 = subsequence_costs(&d4).unwrap();
-            let b = m - 3;
-            let a4 = anchored_costs(&d4, b).unwrap();
-            let f4 = dtw_full_cost_with(&d4, &mut Workspace::new()).unwrap();
-            for l in 0..4 {
-                // Spare lanes repeat marker 0.
-                let k = if l < used { l } else { 0 };
-                let d = Euclidean3::new(&model[k], &target[k]);
-                assert_eq!(h4.iter().map(|c| c[l]).collect::<Vec<_>>(), subsequence_costs(&d).unwrap());
-                assert_eq!(a4.iter().map(|c| c[l]).collect::<Vec<_>>(), anchored_costs(&d, b).unwrap());
-                assert_eq!(f4[l], dtw_full_cost_with(&d, &mut Workspace::new()).unwrap());
-            }
-        }
-        let (a, b) = (Trajectory3::from_points(&[[0.0; 3]; 3]), Trajectory3::from_points(&[[0.0; 3]; 4]));
-        assert!(Trajectory3x4::gather(&[&a, &b]).is_none());
-        assert!(Trajectory3x4::gather(&[]).is_none());
-        assert!(Trajectory3x4::gather(&[&a; 5]).is_none());
     }
 
     #[test]

@@ -19,7 +19,9 @@
 //! The DP kernels are in [`dp`]: the paper's forward subsequence pass (free start, free end),
 //! its backward pass anchored at the common end, a full DTW with path (also used by
 //! `motionlab-gait` on joint-angle curves through [`dp::dtw_full`] / [`dp::dtw_full_1d`]), all
-//! generic over the local distance.
+//! generic over the local distance. The two-stage matcher runs the same recurrences with eight
+//! markers per SIMD register ([`lanes`], instruction set chosen at run time by [`simd`]), bit
+//! for bit the numbers of [`dp`]'s kernels one marker at a time.
 //!
 //! ## Written by hand, and why
 //!
@@ -56,8 +58,10 @@ pub mod dp;
 pub mod initial_pose;
 pub mod input;
 pub mod judgement;
+pub mod lanes;
 pub mod multistream;
 pub mod peaks;
+pub mod simd;
 pub mod subsequence;
 pub mod sync;
 

@@ -6,11 +6,10 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Alignment, Error, ErrorKind, Matcher, Motion, Result};
 
-use crate::dp::{
-    Euclidean3, Euclidean3x4, Trajectory3, Trajectory3x4, Workspace, anchored_costs_into, anchored_path, argmin_first,
-    subsequence_costs_into,
-};
+use crate::dp::{Trajectory3, argmin_first};
 use crate::input::{check_names, trajectories};
+use crate::lanes::{self, Cell8, LANES, MarkerBlocks, Step8};
+use crate::simd::{self, Level};
 
 /// Two-stage DP matching over all markers with one common stretch `[a, b]` (Yabe & Tanaka §3.1.3).
 ///
@@ -35,9 +34,10 @@ use crate::input::{check_names, trajectories};
 /// Frame indices are 0-based into the target given to the matcher (a cut window); the points
 /// are matched by name, so model and target may list them in different orders.
 ///
-/// Memory: the forward pass keeps one rolling row (O(m)) for each group of four markers in
-/// turn, plus `G` (O(m)); the backward pass likewise one rolling row, plus each marker's cost
-/// per start (O(L·b)); only the paths need a matrix, one marker at a time, O(n·(b−a+1)).
+/// Memory: the forward pass keeps one rolling row (O(m)) for each block of eight markers in
+/// turn, plus `G` (O(m)); the backward pass one rolling row per block (each marker's cost per
+/// start, O(L·b)) and, when paths are kept, two bytes of path decisions per cell and block
+/// (O(n·b·L/8) bytes).
 ///
 /// Missing samples: **refused**. A missing sample has no distance to anything, so the run stops
 /// with an error naming the marker and the first missing frame; fill gaps first (preprocessor
@@ -86,10 +86,8 @@ pub struct TwoStageMatch {
     pub alignment: Alignment,
 }
 
-type Group = (Trajectory3x4, Trajectory3x4);
-
-/// Checks the per-marker trajectories and interleaves them four markers to a group.
-fn groups_of_four(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<Group>> {
+/// Checks the per-marker trajectories and regroups them eight markers to a block.
+fn marker_blocks(model: &[Trajectory3], target: &[Trajectory3]) -> Result<(MarkerBlocks, MarkerBlocks)> {
     let (Some(s0), Some(t0)) = (model.first(), target.first()) else {
         return Err(Error::new(ErrorKind::EmptySequence, "two-stage matching needs at least one marker"));
     };
@@ -105,68 +103,89 @@ fn groups_of_four(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<G
             ),
         ));
     }
-    let gather = |group: &[Trajectory3]| {
-        let refs: Vec<&Trajectory3> = group.iter().collect();
-        Trajectory3x4::gather(&refs)
-            .ok_or_else(|| Error::new(ErrorKind::WrongValueCount, "a marker group must hold 1 to 4 equal-length trajectories"))
+    if n == 0 || m == 0 {
+        let which = if n == 0 { "the model" } else { "the target" };
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            format!("DP matching needs at least one frame in each sequence, but {which} has none (model {n}, target {m} frames)"),
+        ));
+    }
+    let gather = |t: &[Trajectory3]| {
+        MarkerBlocks::gather(t).ok_or_else(|| Error::new(ErrorKind::WrongValueCount, "marker trajectories of unequal lengths"))
     };
-    model.chunks(4).zip(target.chunks(4)).map(|(s, t)| Ok((gather(s)?, gather(t)?))).collect()
+    Ok((gather(model)?, gather(target)?))
 }
 
-/// Stage 1 over marker groups: `G(j) = Σ_l h_l(j)`, markers added in order.
-fn summed_end_costs(groups: &[Group], ws4: &mut Workspace<[f64; 4]>, cells: &mut Vec<[f64; 4]>) -> Result<Vec<f64>> {
-    let m = groups.first().map(|(_, t)| t.len()).unwrap_or(0);
-    let mut end_costs = vec![0.0; m];
-    for (s, t) in groups {
-        subsequence_costs_into(&Euclidean3x4 { model: s, target: t }, cells, ws4)?;
+/// Stage 1 over marker blocks: `G(j) = Σ_l h_l(j)`, markers added in order.
+fn summed_end_costs(level: Level, model: &MarkerBlocks, target: &MarkerBlocks, cells: &mut Vec<Cell8>) -> Vec<f64> {
+    let mut end_costs = vec![0.0; target.frames()];
+    for k in 0..model.block_count() {
+        lanes::forward(level, model.block(k), target.block(k), cells);
+        let used = model.used(k);
         for (g, h) in end_costs.iter_mut().zip(cells.iter()) {
-            for v in &h[..s.used] {
+            for v in &h.0[..used] {
                 *g += v;
             }
         }
     }
-    Ok(end_costs)
+    end_costs
 }
 
 /// Stage 1 alone: `G(j)` for every target frame (mm), O(m) memory.
 pub fn end_costs(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<f64>> {
-    summed_end_costs(&groups_of_four(model, target)?, &mut Workspace::new(), &mut Vec::new())
+    let (s, t) = marker_blocks(model, target)?;
+    Ok(summed_end_costs(simd::level(), &s, &t, &mut Vec::new()))
 }
 
 /// The two-stage match of per-marker model trajectories against the same markers' target
 /// trajectories (`model[l]` pairs with `target[l]`). Samples must be finite.
 ///
-/// The two cost passes run four markers at a time in the lanes of one DP cell (see
-/// [`crate::dp::Cost`]); the numbers are bit-for-bit those of one marker at a time.
+/// The two cost passes run eight markers at a time in the SIMD lanes of one DP cell, and the
+/// backward pass records each cell's path decision, so the paths need no third DP (see
+/// [`crate::lanes`]); the numbers and paths are bit-for-bit those of one marker at a time with
+/// [`crate::dp`]'s kernels.
 pub fn two_stage(model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
-    let groups = groups_of_four(model, target)?;
-    let mut ws4 = Workspace::<[f64; 4]>::new();
+    let (s, t) = marker_blocks(model, target)?;
+    two_stage_at(simd::level(), &s, &t, keep_paths)
+}
+
+/// [`two_stage`] at a chosen instruction-set level (capped at what the CPU runs), to compare
+/// the levels' speed; every level gives the same numbers.
+pub fn two_stage_at_level(level: Level, model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
+    let (s, t) = marker_blocks(model, target)?;
+    two_stage_at(level.min(simd::level()), &s, &t, keep_paths)
+}
+
+fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, keep_paths: bool) -> Result<TwoStageMatch> {
     let mut cells = Vec::new();
-    let end_costs = summed_end_costs(&groups, &mut ws4, &mut cells)?;
+    let end_costs = summed_end_costs(level, s, t, &mut cells);
     let end = argmin_first(&end_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "G(j) is NaN everywhere"))?;
-    // Stage 2: backward from b; each marker's cost per start is kept to read h_l at a.
-    let mut per_marker: Vec<Vec<f64>> = Vec::with_capacity(model.len());
-    for (s, t) in &groups {
-        anchored_costs_into(&Euclidean3x4 { model: s, target: t }, end, &mut cells, &mut ws4)?;
-        per_marker.extend((0..s.used).map(|l| cells.iter().map(|c| c[l]).collect::<Vec<f64>>()));
+    // Stage 2: backward from b; each block's cost per start is kept to read h_l at a, and its
+    // path decisions to walk the paths.
+    let blocks = s.block_count();
+    let mut costs: Vec<Vec<Cell8>> = Vec::with_capacity(blocks);
+    let mut steps: Vec<Vec<Step8>> = Vec::with_capacity(blocks);
+    for k in 0..blocks {
+        let (mut c, mut st) = (Vec::new(), Vec::new());
+        lanes::backward(level, s.block(k), &t.block(k)[..=end], &mut c, keep_paths.then_some(&mut st));
+        costs.push(c);
+        steps.push(st);
     }
     let mut start_costs = vec![0.0; end + 1];
-    for costs in &per_marker {
-        for (acc, v) in start_costs.iter_mut().zip(costs) {
-            *acc += v;
+    for (k, c) in costs.iter().enumerate() {
+        for l in 0..s.used(k) {
+            for (acc, cell) in start_costs.iter_mut().zip(c) {
+                *acc += cell.0[l];
+            }
         }
     }
     let start =
         argmin_last(&start_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "the backward costs are NaN everywhere"))?;
-    let point_distances: Vec<f64> = per_marker.iter().map(|c| c[start]).collect();
+    let markers = s.markers();
+    let point_distances: Vec<f64> = (0..markers).map(|l| costs[l / LANES][start].0[l % LANES]).collect();
     let total_distance = point_distances.iter().sum();
     let paths = if keep_paths {
-        let mut ws = Workspace::new();
-        model
-            .iter()
-            .zip(target)
-            .map(|(s, t)| anchored_path(&Euclidean3::new(s, t), start, end, &mut ws).map(|(_, p)| p))
-            .collect::<Result<_>>()?
+        (0..markers).map(|l| lanes::walk(&steps[l / LANES], s.frames(), start, end, l % LANES)).collect()
     } else {
         Vec::new()
     };
@@ -209,7 +228,7 @@ motionlab_core::register_plugin!(Matcher, MultistreamTwoStageParams, "multistrea
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dp::{dtw_full_3d, subsequence_costs};
+    use crate::dp::{Euclidean3, dtw_full_3d, subsequence_costs};
     use motionlab_core::registry::build_matcher;
     use motionlab_testkit::{Rng, motion_from_fn};
 
@@ -308,6 +327,52 @@ mod tests {
         for (l, (sl, tl)) in s.iter().zip(&t).enumerate() {
             let back = crate::dp::anchored_costs(&Euclidean3::new(sl, tl), a.end).unwrap();
             assert_eq!(a.point_distances[l], back[a.start]);
+        }
+    }
+
+    #[test]
+    fn every_instruction_set_level_gives_the_scalar_kernels_results_bit_for_bit() {
+        // Eleven markers (a full block of eight and one of three with spare lanes), a target
+        // with a still stretch (ties between starts and ends) and the model's own first frames
+        // (exact zero distances, which take the square root's fallback).
+        let mut rng = Rng::new(29);
+        let (n, m, markers) = (23usize, 70usize, 11usize);
+        let model = motion_from_fn(n, 60.0, markers, |i, k| movement(2 * i + k, k));
+        let noise: Vec<f64> = (0..m * markers * 3).map(|_| rng.normal() * 3.0).collect();
+        let target = motion_from_fn(m, 60.0, markers, |j, k| match j {
+            0..8 => movement(2 * j + k, k),
+            8..20 => movement(2 * 8 + k, k),
+            _ => {
+                let (p, e) = (movement(j + 9 + k, k), &noise[(j * markers + k) * 3..]);
+                [p[0] + e[0], p[1] + e[1] * 1e-7, p[2] + e[2] * 1e3]
+            }
+        });
+        let names: Vec<String> = model.point_names().to_vec();
+        let (s, t) = (trajectories(&model, &names, "", "").unwrap(), trajectories(&target, &names, "", "").unwrap());
+        let mut g = vec![0.0; m];
+        for (sl, tl) in s.iter().zip(&t) {
+            let h = subsequence_costs(&Euclidean3::new(sl, tl)).unwrap();
+            g.iter_mut().zip(&h).for_each(|(a, b)| *a += b);
+        }
+        let levels = crate::simd::available();
+        assert!(levels.contains(&Level::Portable));
+        for level in levels {
+            let r = crate::simd::with_cap(level, || two_stage(&s, &t, true)).unwrap();
+            assert_eq!(r.end_costs, g, "{level:?}");
+            let a = &r.alignment;
+            let mut start_costs = vec![0.0; a.end + 1];
+            for (l, (sl, tl)) in s.iter().zip(&t).enumerate() {
+                let d = Euclidean3::new(sl, tl);
+                let back = crate::dp::anchored_costs(&d, a.end).unwrap();
+                start_costs.iter_mut().zip(&back).for_each(|(acc, c)| *acc += c);
+                assert_eq!(a.point_distances[l], back[a.start], "{level:?} marker {l}");
+                let (cost, path) = crate::dp::anchored_path(&d, a.start, a.end, &mut crate::dp::Workspace::new()).unwrap();
+                assert_eq!((cost, &path), (a.point_distances[l], &a.paths[l]), "{level:?} marker {l}");
+            }
+            assert_eq!(r.start_costs, start_costs, "{level:?}");
+            let without = crate::simd::with_cap(level, || two_stage(&s, &t, false)).unwrap();
+            assert_eq!((without.end_costs, without.start_costs), (r.end_costs, r.start_costs));
+            assert_eq!(without.alignment.point_distances, a.point_distances);
         }
     }
 
