@@ -176,7 +176,7 @@ impl Skeleton {
         let fk = ForwardKinematics::new(self);
         let mut points = vec![[0.0; 3]; fk.n_points()];
         let mut rot = vec![IDENTITY; self.joints.len()];
-        fk.frame(values, &mut points, &mut rot);
+        fk.frame::<Portable>(values, &mut points, &mut rot);
         let rot = rot.iter().map(|g| Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| g[i][j]))).collect();
         (points, rot)
     }
@@ -198,6 +198,57 @@ fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
     for i in 0..3 {
         for j in 0..4 {
             out[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j];
+        }
+    }
+    out
+}
+
+/// The dense products of the per-frame hot path ([`ForwardKinematics::frame`]), in a portable
+/// and an AVX build with the same per-entry arithmetic.
+trait DenseProduct {
+    fn mul(a: &Mat3, b: &Mat3) -> Mat3;
+}
+
+/// [`mat_mul`] as the compiler vectorises it for the build's baseline (SSE2 on x86-64).
+struct Portable;
+
+impl DenseProduct for Portable {
+    #[inline(always)]
+    fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
+        mat_mul(a, b)
+    }
+}
+
+/// [`mat_mul`] with a row in one 256-bit register: row i = (a_i0·B₀ + a_i1·B₁) + a_i2·B₂,
+/// lane by lane the same products and sums (no FMA), so bit-identical.
+#[cfg(target_arch = "x86_64")]
+struct Avx;
+
+#[cfg(target_arch = "x86_64")]
+impl DenseProduct for Avx {
+    #[inline(always)]
+    fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
+        // SAFETY: `Avx` is only used by `ForwardKinematics::frames_avx2`, which runs only after
+        // AVX2 (which implies AVX) was detected.
+        unsafe { mat_mul_avx(a, b) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+fn mat_mul_avx(a: &Mat3, b: &Mat3) -> Mat3 {
+    use std::arch::x86_64::{_mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd};
+    let mut out = [[0.0; 4]; 3];
+    // SAFETY: every pointer is to a whole `[f64; 4]` row (four readable/writable f64s).
+    unsafe {
+        let (b0, b1, b2) = (_mm256_loadu_pd(b[0].as_ptr()), _mm256_loadu_pd(b[1].as_ptr()), _mm256_loadu_pd(b[2].as_ptr()));
+        for (row, a) in out.iter_mut().zip(a) {
+            let sum = _mm256_add_pd(
+                _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(a[0]), b0), _mm256_mul_pd(_mm256_set1_pd(a[1]), b1)),
+                _mm256_mul_pd(_mm256_set1_pd(a[2]), b2),
+            );
+            _mm256_storeu_pd(row.as_mut_ptr(), sum);
         }
     }
     out
@@ -391,20 +442,20 @@ impl ForwardKinematics {
 
     /// The local rotation `C · M · Cᵀ` of a joint, `None` when it is exactly the identity.
     #[inline(always)]
-    fn local(joint: &FkJoint, values: &[f64]) -> Option<Mat3> {
+    fn local<P: DenseProduct>(joint: &FkJoint, values: &[f64]) -> Option<Mat3> {
         match (&joint.axis, Self::euler(joint, values)) {
             (None, None) => None,
             // (I · M) · Iᵀ
             (None, Some(m)) => Some(if has_negative_zero(&m) { mat_mul(&mat_mul(&IDENTITY, &m), &IDENTITY) } else { m }),
             (Some(_), None) => Some(joint.rest_local),
-            (Some((c, ct)), Some(m)) => Some(mat_mul(&mat_mul(c, &m), ct)),
+            (Some((c, ct)), Some(m)) => Some(P::mul(&P::mul(c, &m), ct)),
         }
     }
 
     /// Forward kinematics of one frame into `points` ([`Self::n_points`] long) and each
     /// joint's global rotation into `rot` (one per joint). `values` holds the frame's channels.
     #[inline(always)]
-    fn frame(&self, values: &[f64], points: &mut [Point3], rot: &mut [Mat3]) {
+    fn frame<P: DenseProduct>(&self, values: &[f64], points: &mut [Point3], rot: &mut [Mat3]) {
         let values = &values[..self.n_channels];
         let (joint_points, end_points) = points.split_at_mut(self.joints.len());
         for (j, joint) in self.joints.iter().enumerate() {
@@ -412,7 +463,7 @@ impl ForwardKinematics {
             for &(k, a) in &joint.translations {
                 translation[a] += values[k];
             }
-            let local = Self::local(joint, values);
+            let local = Self::local::<P>(joint, values);
             let v = add3(joint.offset, translation);
             match joint.parent {
                 None => {
@@ -423,7 +474,7 @@ impl ForwardKinematics {
                     let gp = rot[pi];
                     joint_points[j] = add3(joint_points[pi], mat_vec(&gp, v));
                     rot[j] = match local {
-                        Some(l) => mat_mul(&gp, &l),
+                        Some(l) => P::mul(&gp, &l),
                         None => times_identity(gp),
                     };
                 }
@@ -452,7 +503,7 @@ impl ForwardKinematics {
 
     /// Every frame, portable build (SSE2 on x86-64).
     fn frames(&self, channel_values: &[f64], points: &mut [Point3]) {
-        self.frames_inline(channel_values, points);
+        self.frames_inline::<Portable>(channel_values, points);
     }
 
     /// Every frame, compiled for AVX2: the same code and the same IEEE operations (no FMA, so
@@ -460,15 +511,15 @@ impl ForwardKinematics {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn frames_avx2(&self, channel_values: &[f64], points: &mut [Point3]) {
-        self.frames_inline(channel_values, points);
+        self.frames_inline::<Avx>(channel_values, points);
     }
 
     #[inline(always)]
-    fn frames_inline(&self, channel_values: &[f64], points: &mut [Point3]) {
+    fn frames_inline<P: DenseProduct>(&self, channel_values: &[f64], points: &mut [Point3]) {
         let m = self.n_points();
         let mut rot = vec![IDENTITY; self.joints.len()];
         for (values, out) in channel_values.chunks_exact(self.n_channels.max(1)).zip(points.chunks_exact_mut(m.max(1))) {
-            self.frame(values, out, &mut rot);
+            self.frame::<P>(values, out, &mut rot);
         }
     }
 }
