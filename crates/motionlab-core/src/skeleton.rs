@@ -155,6 +155,9 @@ impl Skeleton {
         bones
     }
     /// Local rotation `C · R(order) · C⁻¹` of joint `j` from its channel values (degrees).
+    ///
+    /// Plain nalgebra products, kept as written: `motionlab-io`'s `tests/fk_reference.rs` uses it
+    /// as the reference the compiled [`ForwardKinematics`] must match bit for bit.
     pub fn local_rotation(&self, j: usize, values: &[f64]) -> Rotation3<f64> {
         let joint = &self.joints[j];
         let mut angle = [0.0f64; 3];

@@ -15,23 +15,8 @@ use motionlab_core::{Motion, Point3, Skeleton};
 use motionlab_testkit::data_path;
 use nalgebra::{Rotation3, Vector3};
 
-/// The original `Skeleton::local_rotation` (2026-11-23), verbatim.
-fn reference_local_rotation(skeleton: &Skeleton, j: usize, values: &[f64]) -> Rotation3<f64> {
-    let joint = &skeleton.joints[j];
-    let mut angle = [0.0f64; 3];
-    for (c, v) in joint.channels.iter().zip(values) {
-        if let ChannelKind::Rotation(a) = c {
-            angle[a.index()] = *v;
-        }
-    }
-    let mut m = Rotation3::identity();
-    for a in &joint.rotation_order {
-        m *= axis_rotation(*a, angle[a.index()].to_radians());
-    }
-    joint.axis * m * joint.axis.inverse()
-}
-
-/// The original `Skeleton::forward_kinematics` (2026-11-23), verbatim (points only).
+/// The original `Skeleton::forward_kinematics` (2026-11-23), verbatim (points only); its local
+/// rotations come from `Skeleton::local_rotation`, which is still the original nalgebra code.
 fn reference_forward_kinematics(skeleton: &Skeleton, values: &[f64]) -> Vec<Point3> {
     let n = skeleton.joints.len();
     let mut pos: Vec<Vector3<f64>> = Vec::with_capacity(n);
@@ -46,7 +31,7 @@ fn reference_forward_kinematics(skeleton: &Skeleton, values: &[f64]) -> Vec<Poin
                 translation[a.index()] += *v;
             }
         }
-        let local = reference_local_rotation(skeleton, j, vals);
+        let local = skeleton.local_rotation(j, vals);
         let offset = Vector3::from(joint.offset);
         let (p, g) = match joint.parent {
             None => (offset + translation, local),
