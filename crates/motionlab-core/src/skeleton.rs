@@ -174,7 +174,8 @@ impl Skeleton {
     }
     /// Forward kinematics of one frame: `values` holds every channel (translations in mm,
     /// rotations in degrees) in storage order. Returns points in [`Skeleton::point_names`] order
-    /// and each joint's global rotation.
+    /// and each joint's global rotation. For many frames, [`ForwardKinematics::positions`]
+    /// resolves the skeleton once.
     pub fn forward_kinematics(&self, values: &[f64]) -> (Vec<Point3>, Vec<Rotation3<f64>>) {
         let fk = ForwardKinematics::new(self);
         let mut points = vec![[0.0; 3]; fk.n_points()];
@@ -360,6 +361,8 @@ pub struct ForwardKinematics {
 }
 
 impl ForwardKinematics {
+    /// Resolves the per-joint constants of `skeleton` (a validated one: parents before
+    /// children). Cheap (one pass over the joints); build it once per take, not per frame.
     pub fn new(skeleton: &Skeleton) -> Self {
         let mut joints = Vec::with_capacity(skeleton.joints.len());
         let mut at = 0;
