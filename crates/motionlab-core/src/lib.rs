@@ -28,7 +28,7 @@ pub use error::{Error, ErrorKind, Location, Result};
 pub use motion::{Event, Motion, Point3, PointKind};
 pub use registry::{ParamGuard, StageKind};
 pub use segmentation::{Boundary, Segment, Segmentation, Transition};
-pub use skeleton::{ChannelKind, Joint, Skeleton, SkeletonMotion};
+pub use skeleton::{ChannelKind, ForwardKinematics, Joint, Skeleton, SkeletonMotion};
 pub use stage::*;
 pub use table::{Column, ColumnValues, Table};
 pub use units::{Axis, CubicMillimetres, Degrees, FrameRate, LengthUnit, Millimetres, MillimetresPerSecond, Seconds, TimeSpan};

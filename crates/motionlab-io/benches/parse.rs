@@ -7,6 +7,8 @@
 //!   kinematics in `motionlab-core`), from an in-memory `&str`.
 //! - `bvh_loader` / `amc_loader`: the registered loader on the `.gz` file (read, gunzip, parse,
 //!   FK) — what a user waits for.
+//! - `bvh_fk` / `amc_fk`: forward kinematics alone (`ForwardKinematics::positions` on channel
+//!   values parsed beforehand), counted in frames.
 //! - `floats_*`: every number of 131_01's MOTION section parsed by `str::parse::<f64>` after
 //!   whitespace splitting vs `fast_float2::parse_partial` in one pass — why the scanner uses
 //!   the crate.
@@ -16,8 +18,8 @@ use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 
 use divan::Bencher;
-use divan::counter::BytesCount;
-use motionlab_core::FrameRate;
+use divan::counter::{BytesCount, ItemsCount};
+use motionlab_core::{ForwardKinematics, FrameRate, SkeletonMotion};
 use motionlab_core::registry::{build_loader, default_params};
 use motionlab_io::asf_amc::{AsfSkeleton, amc_motion, parse_amc, parse_asf};
 use motionlab_io::bvh::{BvhOptions, parse_bvh, parse_bvh_channels};
@@ -99,6 +101,31 @@ fn amc_loader(bencher: Bencher, file: &str) {
     let loader = build_loader("asf_amc", &default_params()).unwrap();
     let path = data(file);
     bencher.counter(bytes(file)).bench(|| loader.load(&path).unwrap());
+}
+
+/// Parsed channel values of every shipped take, for the FK-only benches.
+static CHANNELS: LazyLock<HashMap<&'static str, SkeletonMotion>> = LazyLock::new(|| {
+    let bvh = BVH_FILES.iter().map(|f| {
+        (*f, parse_bvh_channels(&TEXTS[f], Path::new(f), &BvhOptions::default()).expect("BVH parses").motion)
+    });
+    let amc = AMC_FILES.iter().map(|f| (*f, parse_amc(&TEXTS[f], Path::new(f), &ASFS[f]).expect("AMC parses")));
+    bvh.chain(amc).collect()
+});
+
+fn fk(bencher: Bencher, file: &str) {
+    let channels = &CHANNELS[file];
+    let fk = ForwardKinematics::new(&channels.skeleton);
+    bencher.counter(ItemsCount::new(channels.n_frames())).bench(|| fk.positions(divan::black_box(channels.channel_values())));
+}
+
+#[divan::bench(args = BVH_FILES)]
+fn bvh_fk(bencher: Bencher, file: &str) {
+    fk(bencher, file);
+}
+
+#[divan::bench(args = AMC_FILES)]
+fn amc_fk(bencher: Bencher, file: &str) {
+    fk(bencher, file);
 }
 
 /// 131_01's MOTION section (every frame line).

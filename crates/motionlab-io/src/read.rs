@@ -10,8 +10,13 @@ use motionlab_core::{Error, ErrorKind, Location, Result};
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if raw.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::with_capacity(raw.len() * 4);
-        flate2::read::MultiGzDecoder::new(&raw[..]).read_to_end(&mut out).map_err(|e| {
+        // The gzip trailer's ISIZE is the last member's length mod 2³², so for the usual
+        // one-member file it sizes the buffer exactly (no regrowth copies); it is only a hint.
+        let isize = raw.last_chunk::<4>().map_or(0, |b| u32::from_le_bytes(*b) as usize);
+        let mut out = Vec::with_capacity(isize.clamp(raw.len(), raw.len().saturating_mul(64)) + 1);
+        // `bufread` reads the input slice in place (the `read` decoder would copy it through a
+        // 32 KiB buffer).
+        flate2::bufread::MultiGzDecoder::new(&raw[..]).read_to_end(&mut out).map_err(|e| {
             Error::new(ErrorKind::Truncated, format!("cannot decompress gzip data: {e}")).with_location(Location::file(path))
         })?;
         Ok(out)
@@ -25,11 +30,16 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
 /// The text of a file (decompressed when gzip), without a leading UTF-8 BOM. Non-UTF-8 bytes
 /// are an error naming the line they are on.
 pub fn read_text(path: &Path) -> Result<String> {
-    let bytes = read_bytes(path)?;
-    let body = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF][..]).unwrap_or(&bytes);
-    match std::str::from_utf8(body) {
-        Ok(s) => Ok(s.to_string()),
+    let mut bytes = read_bytes(path)?;
+    if bytes.starts_with(&[0xEF, 0xBB, 0xBF]) {
+        bytes.drain(..3);
+    }
+    // Validated in place: the text is the decompressed buffer itself, not a copy.
+    match String::from_utf8(bytes) {
+        Ok(s) => Ok(s),
         Err(e) => {
+            let body = e.as_bytes();
+            let e = e.utf8_error();
             let at = e.valid_up_to();
             let line = body[..at].iter().filter(|b| **b == b'\n').count() + 1;
             Err(Error::at_line(ErrorKind::Syntax, path, line, format!("invalid UTF-8 at byte {at}; expected a text file")))

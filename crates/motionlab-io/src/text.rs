@@ -42,6 +42,83 @@ fn token_at(bytes: &[u8], start: usize) -> &str {
     std::str::from_utf8(&bytes[start..cut]).unwrap_or("")
 }
 
+/// 10⁰ … 10²², the powers of ten an f64 holds exactly.
+const EXACT_POWERS_OF_TEN: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
+    1e21, 1e22,
+];
+
+/// The common case of a mocap number — `-?digits[.digits][e±digits]` with at most 19
+/// significant digits whose value `m · 10^e` has `m ≤ 2⁵³` and `|e| ≤ 22` — parsed in one pass:
+/// `m` and `10^|e|` are then exact f64s, so the one multiplication or division rounds
+/// correctly, which makes the result bit for bit what any correct parser (`fast-float2`
+/// included) returns (Clinger's fast path, which fast-float2 also takes first, after more
+/// general checks). Returns the value and the bytes used, or `None` for anything else
+/// (a leading `+`, `inf`, `nan`, more digits, a larger exponent), which the caller hands to
+/// `fast-float2`. In the AMC/BVH frame sections every number takes this path; it costs about
+/// a third of `parse_partial`'s instructions (`benches/README.md`).
+#[inline(always)]
+fn parse_plain_decimal(bytes: &[u8]) -> Option<(f64, usize)> {
+    let negative = bytes.first() == Some(&b'-');
+    let mut i = usize::from(negative);
+    let mut mantissa: u64 = 0;
+    let mut digits = 0usize;
+    while let Some(d) = bytes.get(i).map(|b| b.wrapping_sub(b'0')).filter(|d| *d < 10) {
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+        digits += 1;
+        i += 1;
+    }
+    let mut exponent: i64 = 0;
+    if bytes.get(i) == Some(&b'.') {
+        i += 1;
+        while let Some(d) = bytes.get(i).map(|b| b.wrapping_sub(b'0')).filter(|d| *d < 10) {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            digits += 1;
+            exponent -= 1;
+            i += 1;
+        }
+    }
+    // 19 digits cannot overflow u64 (< 10^19 < 2^64); more may have wrapped.
+    if digits == 0 || digits > 19 {
+        return None;
+    }
+    if matches!(bytes.get(i), Some(b'e' | b'E')) {
+        i += 1;
+        let negative_exponent = match bytes.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let mut e: i64 = 0;
+        let start = i;
+        while let Some(d) = bytes.get(i).map(|b| b.wrapping_sub(b'0')).filter(|d| *d < 10) {
+            // Capped so a long exponent cannot overflow; anything this large leaves the fast path.
+            e = (e * 10 + i64::from(d)).min(1_000);
+            i += 1;
+        }
+        if i == start {
+            return None;
+        }
+        exponent += if negative_exponent { -e } else { e };
+    }
+    if mantissa > 1 << 53 {
+        return None;
+    }
+    let m = mantissa as f64;
+    let value = match exponent {
+        0..=22 => m * EXACT_POWERS_OF_TEN[exponent as usize],
+        -22..=-1 => m / EXACT_POWERS_OF_TEN[(-exponent) as usize],
+        _ => return None,
+    };
+    Some((if negative { -value } else { value }, i))
+}
+
 /// The outcome of scanning one line of numbers with [`NumberLines::read_line`].
 pub(crate) struct LineValues {
     /// Values found on the line (all of them, also those beyond the requested count).
@@ -132,6 +209,16 @@ impl<'a> NumberLines<'a> {
                 pos += 1;
                 self.line += 1;
                 break;
+            }
+            if let Some((value, used)) = parse_plain_decimal(&bytes[pos..])
+                && (pos + used >= bytes.len() || is_separator(bytes[pos + used]))
+            {
+                if let (Some(slot), Some(s)) = (out.get_mut(count), scale.get(count)) {
+                    *slot = value * s;
+                }
+                count += 1;
+                pos += used;
+                continue;
             }
             let parsed = fast_float2::parse_partial::<f64, _>(&bytes[pos..]);
             let (value, used) = match parsed {
@@ -284,6 +371,50 @@ mod tests {
         assert_eq!((v, n, line), (vec![2.0, -5.0, 60.0], 3, 2));
         let (v, n, _) = read(" 1 2 3 4 5", 2).unwrap();
         assert_eq!((v, n), (vec![2.0, 4.0], 5));
+    }
+
+    #[test]
+    fn plain_decimals_parse_bit_for_bit_like_fast_float2() {
+        // Hand-picked corners, then a deterministic sweep of mantissas, point positions and
+        // exponents around the fast path's limits (2^53, 19 digits, |e| = 22).
+        let mut cases: Vec<String> = [
+            "0", "-0", "0.0", "-0.000", "1", "-1", "1.", ".5", "-.5", "17.3866", "-88.1261", "1.39149e-015", "7.95139e-016",
+            "1e22", "1e23", "1e-22", "1e-23", "9007199254740992", "9007199254740993", "1234567890123456789",
+            "12345678901234567890", "0.1", "0.2", "0.30000000000000004", "2.5E+3", "4e", "5e+", "1.5x", "+1", "inf", "nan",
+            "00000000000000000001.5", "-", ".", "e5",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let digits = (x % 20 + 1) as usize;
+            let m = format!("{:020}", x >> 3);
+            let m = &m[m.len() - digits..];
+            let point = (x >> 40) as usize % (digits + 1);
+            let mut t = format!("{}{}.{}", if x & 1 == 0 { "-" } else { "" }, &m[..point], &m[point..]);
+            if x & 2 == 0 {
+                t.push_str(&format!("e{}", ((x >> 50) % 61) as i64 - 30));
+            }
+            cases.push(t);
+        }
+        let mut fast = 0;
+        for t in &cases {
+            let reference = fast_float2::parse_partial::<f64, _>(t.as_bytes()).ok();
+            if let Some((v, n)) = parse_plain_decimal(t.as_bytes()) {
+                fast += 1;
+                let (rv, rn) = reference.unwrap_or_else(|| panic!("{t:?}: fast path accepted what fast-float2 refuses"));
+                assert_eq!((v.to_bits(), n), (rv.to_bits(), rn), "{t:?}: {v} vs {rv}");
+            }
+        }
+        // The sweep must mostly exercise the fast path, not fall back.
+        assert!(fast > cases.len() / 2, "{fast} of {}", cases.len());
+        assert!(parse_plain_decimal(b"12345678901234567890").is_none());
+        assert!(parse_plain_decimal(b"1e23").is_none());
+        assert!(parse_plain_decimal(b"+1").is_none());
     }
 
     #[test]
