@@ -11,7 +11,12 @@
 //! - [`transitions`]: the paper's Table 3 (each labelled transition ○/×) and its evaluator plugin.
 //! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled).
 //!
-//! Evaluator plugins registered here: `boundary_pr`, `transitions`.
+//! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
+//!   (`boundaries_csv`, `elan_eaf`; formats parsed in `motionlab-io`), one annotator or the
+//!   consensus of several.
+//!
+//! Evaluator plugins registered here: `boundary_pr`, `transitions`; ground-truth readers:
+//! `boundaries_csv`, `elan_eaf`.
 //!
 //! Written by hand: the two matching algorithms (a point–interval sweep and Hopcroft–Karp, each
 //! a few dozen lines, cross-checked against exhaustive search in the tests — see
@@ -24,6 +29,9 @@ pub mod boundary_pr;
 pub mod consensus;
 mod sequences;
 pub mod transitions;
+mod truth_annotators;
+pub mod truth_csv;
+pub mod truth_eaf;
 
 pub use boundaries::{BoundaryScores, MatchRule, MatchedPair, PoseRule, evaluate_boundaries, hausdorff_frames};
 pub use consensus::{Consensus, ConsensusParams, ConsensusPoint, cluster_marks};

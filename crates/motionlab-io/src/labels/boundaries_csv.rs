@@ -58,6 +58,8 @@ pub struct CsvAnnotations {
     /// One row per segment (else per boundary).
     pub segments: bool,
     pub has_sequence: bool,
+    /// 1-based line of the header.
+    pub header_line: usize,
     pub rows: Vec<CsvRow>,
 }
 
@@ -210,7 +212,7 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
         let label = cell(label_col).unwrap_or("").to_string();
         rows.push(CsvRow { sequence, annotator, item: AnnotatedItem { line, start_field: start_name.into(), start, end, label } });
     }
-    Ok(CsvAnnotations { unit, segments: end_name.is_some(), has_sequence: seq_col.is_some(), rows })
+    Ok(CsvAnnotations { unit, segments: end_name.is_some(), has_sequence: seq_col.is_some(), header_line: hline, rows })
 }
 
 impl CsvAnnotations {
