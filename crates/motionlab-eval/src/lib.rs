@@ -9,7 +9,8 @@
 //! - [`consensus`]: consensus ground truth from several annotators' marks (clustering by
 //!   chaining, one vote per annotator, `min_votes`, median frame, optional stop rule).
 //! - [`transitions`]: the paper's Table 3 (each labelled transition ○/×) and its evaluator plugin.
-//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled).
+//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled); [`span`]: its
+//!   option to count only found frames within the annotated span.
 //!
 //! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
 //!   (`boundaries_csv`, `elan_eaf`; formats parsed in `motionlab-io`), one annotator or the
@@ -28,6 +29,7 @@ pub mod boundaries;
 pub mod boundary_pr;
 pub mod consensus;
 mod sequences;
+pub mod span;
 pub mod transitions;
 mod truth_annotators;
 pub mod truth_csv;
