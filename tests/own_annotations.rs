@@ -113,3 +113,40 @@ fn subject_prefixes_are_stripped_so_one_experiment_uses_plain_marker_names() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("Hip_FL"), "{err}");
 }
+
+/// `motionlab new data/mct/ --truth <csv>` writes an experiment that validates and runs: the
+/// C3D loader, the hip-centroid root, the annotated dances only, consensus of the two
+/// annotators, and a precision/recall table.
+#[test]
+fn motionlab_new_scaffolds_an_experiment_that_validates_and_runs() {
+    let out = tempfile::tempdir().unwrap();
+    let toml_path = out.path().join("exp/mct.toml");
+    let t = toml_path.to_str().unwrap();
+    let said = motionlab_ok(&["new", "data/mct/", "--truth", "tests/fixtures/annotations/mct_dances.csv", "-o", t]);
+    assert!(said.contains("(valid)"), "{said}");
+    let text = std::fs::read_to_string(&toml_path).unwrap();
+    for expected in [
+        "loader = { type = \"c3d\" }",
+        "markers = [\"Hip_FL\", \"Hip_FR\", \"Hip_BL\", \"Hip_BR\"]",
+        "# Not annotated, so left out: walk1, walk2.",
+        "type = \"boundaries_csv\"",
+        "consensus = {",
+        "type = \"boundary_pr\"",
+        "span = \"annotated\"",
+    ] {
+        assert!(text.contains(expected), "{expected:?} not in:\n{text}");
+    }
+    // It will not overwrite.
+    let again = Command::new(env!("CARGO_BIN_EXE_motionlab"))
+        .args(["new", "data/mct/", "-o", t])
+        .current_dir(repo())
+        .output()
+        .unwrap();
+    assert!(!again.status.success() && String::from_utf8_lossy(&again.stderr).contains("--force"));
+    motionlab_ok(&["validate", t]);
+    let reports = out.path().join("reports");
+    motionlab_ok(&["run", t, "--reports", reports.to_str().unwrap(), "--quiet"]);
+    let rows = read_table(&run_dir(&reports, "mct_segmentation").join("tables/table1_precision_recall.csv"));
+    let sequences: Vec<&str> = rows.iter().filter(|r| r["method"] == "fused").map(|r| r["sequence"].as_str()).collect();
+    assert_eq!(sequences, vec!["dance1", "dance2", "pooled"]);
+}

@@ -19,6 +19,8 @@ const EXPECTED: &[(StageKind, &str)] = &[
     (StageKind::Loader, "qualisys_tsv"),
     (StageKind::GroundTruth, "cmu86_labels"),
     (StageKind::GroundTruth, "mocap6_labels"),
+    (StageKind::GroundTruth, "boundaries_csv"),
+    (StageKind::GroundTruth, "elan_eaf"),
     (StageKind::Preprocessor, "add_centroid"),
     (StageKind::Preprocessor, "delay_points"),
     (StageKind::Preprocessor, "fill_gaps"),
