@@ -36,8 +36,15 @@ pub struct EafTier {
 pub fn parse_eaf(text: &str, origin: &Path) -> Result<Vec<EafTier>> {
     let text = crate::text::strip_bom(text);
     let doc = roxmltree::Document::parse(text).map_err(|e| {
-        let pos = e.pos();
-        Error::at_line(ErrorKind::Syntax, origin, pos.row as usize, format!("not well-formed XML (column {}): {e}", pos.col))
+        // roxmltree places "ended too early" at 1:1; the file's end is where it is.
+        let (row, col) = match e {
+            roxmltree::Error::UnclosedRootNode | roxmltree::Error::UnexpectedEndOfStream => {
+                let last = text.trim_end().lines().last().unwrap_or("");
+                (text.trim_end().lines().count().max(1), last.chars().count() + 1)
+            }
+            _ => (e.pos().row as usize, e.pos().col as usize),
+        };
+        Error::at_line(ErrorKind::Syntax, origin, row, format!("not well-formed XML (column {col}): {e}"))
     })?;
     let line_of = |n: roxmltree::Node| doc.text_pos_at(n.range().start).row as usize;
     let root = doc.root_element();
