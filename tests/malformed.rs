@@ -401,6 +401,54 @@ fn label_defects_name_kind_and_line() {
     assert_error(read_labels("mocap6_labels", "mocap6_label_text.txt", &m13), "mocap6_label_text.txt", ErrorKind::Syntax, At::Line(1), "label 4 is \"jog\"");
 }
 
+/// The users' annotation readers (`boundaries_csv`, `elan_eaf`) on fixtures made from 86_01's
+/// labels (make.py `annotation_cases`); the motion stands in for data/cmu86/86_01.amc.gz (4579
+/// frames at 120 Hz, in the folder the CSV's sequences are checked against).
+#[test]
+fn annotation_defects_name_kind_line_and_column() {
+    let mut m86 = motion_named("86_01", 4579);
+    m86.source = Some(motionlab_testkit::data_path("cmu86/86_01.amc.gz"));
+    let csv: &[(&str, ErrorKind, At<'_>, &str)] = &[
+        ("csv_no_rows_for_sequence.csv", ErrorKind::EmptySequence, At::LineField(2, "sequence"), "no row for sequence \"86_01\""),
+        ("csv_unknown_sequence.csv", ErrorKind::UnknownName, At::LineField(6, "sequence"), "sequence \"86_99\" names no loaded sequence"),
+        ("csv_non_numeric.csv", ErrorKind::Syntax, At::LineField(5, "end_frame"), "\"1979f\" is not a number"),
+        ("csv_start_after_end.csv", ErrorKind::OutOfRange, At::LineField(4, "end_frame"), "ends at 549, before its start 1149"),
+        ("csv_mixed_formats.csv", ErrorKind::InvalidParameter, At::LineField(2, "start_frame"), "mixed formats: columns frame, start_frame, end_frame"),
+        ("csv_missing_end_column.csv", ErrorKind::MissingKey, At::LineField(2, "end_frame"), "\"start_frame\" needs \"end_frame\""),
+        ("csv_past_end.csv", ErrorKind::OutOfRange, At::LineField(9, "end_frame"), "9579 is motion frame 9579, outside the motion's frames 0..=4579"),
+    ];
+    for (file, kind, at, says) in csv {
+        let at = match at {
+            At::LineField(l, f) => At::LineField(*l, f),
+            _ => unreachable!(),
+        };
+        assert_error(read_labels("boundaries_csv", file, &m86), file, *kind, at, says);
+    }
+    let eaf: &[(&str, ErrorKind, usize, Option<&str>, &str)] = &[
+        ("eaf_unaligned_slot.eaf", ErrorKind::MissingData, 27, Some("TIME_SLOT_REF2"), "time slot \"ts4\" (line 9) has no TIME_VALUE"),
+        ("eaf_undeclared_slot.eaf", ErrorKind::UnknownName, 32, Some("TIME_SLOT_REF2"), "time slot \"ts50\" is not declared"),
+        ("eaf_end_before_start.eaf", ErrorKind::OutOfRange, 22, Some("TIME_SLOT_REF2"), "ends at 4000, before its start 4575"),
+        ("eaf_time_text.eaf", ErrorKind::Syntax, 10, Some("TIME_VALUE"), "\"20.8s\" is not a number"),
+        ("eaf_truncated.eaf", ErrorKind::Syntax, 50, None, "the root node was opened but never closed"),
+    ];
+    for (file, kind, line, field, says) in eaf {
+        let at = match field {
+            Some(f) => At::LineField(*line, f),
+            None => At::Line(*line),
+        };
+        assert_error(read_labels("elan_eaf", file, &m86), file, *kind, at, says);
+    }
+    // The intact sources read: 86_01's six boundaries, as cmu86_labels gives them.
+    let dir = motionlab_testkit::repo_root().join("tests/fixtures/annotations");
+    let empty = toml::Value::Table(toml::Table::new());
+    let with = |params: &str| -> toml::Value { toml::from_str(params).unwrap() };
+    let from_csv = registry::build_ground_truth("boundaries_csv", &with("check_sequences = false")).unwrap()
+        .read(&dir.join("cmu86_mocap6_segments.csv"), &m86).unwrap();
+    let from_eaf = registry::build_ground_truth("elan_eaf", &empty).unwrap().read(&dir.join("86_01.eaf"), &m86).unwrap();
+    assert_eq!(from_csv.frames(), vec![549, 1149, 1979, 2499, 3199, 4064]);
+    assert_eq!(from_eaf.frames(), from_csv.frames());
+}
+
 // ---------------------------------------------------------------------------------------------
 // Experiment TOML, validated by motionlab_engine::plan
 // ---------------------------------------------------------------------------------------------

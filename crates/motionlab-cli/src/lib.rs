@@ -36,6 +36,7 @@ use motionlab_engine::{RunOptions, RunSummary};
 
 mod describe;
 mod inspect;
+mod new;
 mod progress;
 mod slurm;
 
@@ -88,6 +89,21 @@ enum Command {
         /// Run only experiments whose name contains this text.
         #[arg(long)]
         only: Option<String>,
+    },
+    /// Write a commented segmentation experiment for a folder or glob of motion files (and
+    /// their annotations) that runs as is.
+    New {
+        /// A folder of motion files, or a glob (`captures/*.c3d`).
+        input: String,
+        /// Annotations: a `.csv` (boundaries_csv) or an ELAN `.eaf` (elan_eaf).
+        #[arg(long)]
+        truth: Option<PathBuf>,
+        /// The experiment file to write (default `<folder>_segmentation.toml`).
+        #[arg(short = 'o', long = "output")]
+        output: Option<PathBuf>,
+        /// Overwrite the output file if it exists.
+        #[arg(long)]
+        force: bool,
     },
     /// Describe motion files: format, frames, rate, duration, points, missing samples, events.
     Inspect {
@@ -233,6 +249,11 @@ fn dispatch(command: Command) -> Result<ExitCode> {
         }
         Command::Reproduce { experiments, opts, record, only } => reproduce(&experiments, &opts, record, only.as_deref()),
         Command::Inspect { files, json } => inspect::inspect(&files, json),
+        Command::New { input, truth, output, force } => {
+            let path = new::new_experiment(&new::NewArgs { input, truth, output, force })?;
+            println!("wrote {} (valid); run it with: motionlab run {}", path.display(), path.display());
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Merge { run_dir, opts } => {
             let summary = motionlab_engine::merge(&run_dir, &options(&opts))?;
             print_summary(&summary);

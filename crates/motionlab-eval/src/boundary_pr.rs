@@ -9,6 +9,7 @@ use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Millime
 
 use crate::boundaries::{MatchRule, PoseRule, default_tolerance, evaluate_boundaries, ratios, tolerance_frames};
 use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
+use crate::span::{Span, counted};
 
 /// Precision, recall and F1 of each method against the ground truth, per sequence and pooled
 /// (Sonoda et al. §3, Tables 1 and 2).
@@ -69,6 +70,11 @@ pub struct BoundaryPrParams {
     /// Default: none = every other method.
     #[serde(default)]
     pub claim_against: Option<Vec<String>>,
+    /// Which found frames count: `"whole"` (every one) or `"annotated"` (only those from the
+    /// first to the last annotation of the sequence, ± `tolerance`: recordings start and end
+    /// with stretches nobody annotated). Default `"whole"`.
+    #[serde(default)]
+    pub span: Span,
 }
 
 fn default_root() -> String {
@@ -84,6 +90,7 @@ pub struct BoundaryPr {
     pose_max_gap: Option<TimeSpan>,
     root: String,
     claim_against: Option<Vec<String>>,
+    span: Span,
 }
 
 impl ParamGuard for BoundaryPrParams {
@@ -113,7 +120,7 @@ impl ParamGuard for BoundaryPrParams {
         if self.claim_against.as_ref().is_some_and(|v| v.is_empty()) {
             return Err(Error::new(ErrorKind::OutOfRange, "must name at least one method").with_field("claim_against"));
         }
-        Ok(BoundaryPr { tolerance, use_windows: self.use_windows, pose_mm, pose_max_gap, root: self.root, claim_against: self.claim_against })
+        Ok(BoundaryPr { tolerance, use_windows: self.use_windows, pose_mm, pose_max_gap, root: self.root, claim_against: self.claim_against, span: self.span })
     }
 }
 
@@ -205,7 +212,8 @@ impl Evaluator for BoundaryPr {
                 pose,
             };
             for m in &seq.methods {
-                let s = evaluate_boundaries(&m.candidates, &truth.boundaries, &rule);
+                let candidates = counted(&m.candidates, truth, self.span, rule.tolerance_frames);
+                let s = evaluate_boundaries(&candidates, &truth.boundaries, &rule);
                 let n_by_pose = s.pairs.iter().filter(|p| p.by_pose).count();
                 let hausdorff_s = s.hausdorff_frames * period_s;
                 rows.push(PrecisionRecallRow {
@@ -239,7 +247,7 @@ impl Evaluator for BoundaryPr {
                 match_rows.extend(match_rows_of(
                     &seq.sequence,
                     &m.method,
-                    &m.candidates,
+                    &candidates,
                     &truth.frames(),
                     &s,
                     period_s,

@@ -9,9 +9,15 @@
 //! - [`consensus`]: consensus ground truth from several annotators' marks (clustering by
 //!   chaining, one vote per annotator, `min_votes`, median frame, optional stop rule).
 //! - [`transitions`]: the paper's Table 3 (each labelled transition ○/×) and its evaluator plugin.
-//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled).
+//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled); [`span`]: its
+//!   option to count only found frames within the annotated span.
 //!
-//! Evaluator plugins registered here: `boundary_pr`, `transitions`.
+//! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
+//!   (`boundaries_csv`, `elan_eaf`; formats parsed in `motionlab-io`), one annotator or the
+//!   consensus of several.
+//!
+//! Evaluator plugins registered here: `boundary_pr`, `transitions`; ground-truth readers:
+//! `boundaries_csv`, `elan_eaf`.
 //!
 //! Written by hand: the two matching algorithms (a point–interval sweep and Hopcroft–Karp, each
 //! a few dozen lines, cross-checked against exhaustive search in the tests — see
@@ -22,13 +28,17 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 2;
+pub const PLUGIN_COUNT: usize = 4;
 
 pub mod boundaries;
 pub mod boundary_pr;
 pub mod consensus;
 mod sequences;
+pub mod span;
 pub mod transitions;
+mod truth_annotators;
+pub mod truth_csv;
+pub mod truth_eaf;
 
 pub use boundaries::{BoundaryScores, MatchRule, MatchedPair, PoseRule, evaluate_boundaries, hausdorff_frames};
 pub use consensus::{Consensus, ConsensusParams, ConsensusPoint, cluster_marks};

@@ -49,7 +49,8 @@ use raw::{header_offset, C3dFile, DataLayout, Param};
 /// … `ACTUAL_END_FIELD` when present, else header words 4–5. Units: `POINT:UNITS` (`mm`, `cm`,
 /// `m`, `in`) converted to mm; absent or blank means mm. Names: `POINT:LABELS`, `LABELS2`,
 /// … in order, trimmed; labels beyond the point count are ignored, a blank label becomes
-/// `P<n>` (1-based point number), fewer labels than points or a repeated label is an error.
+/// `P<n>` (1-based point number), fewer labels than points or a repeated label is an error;
+/// a Vicon subject prefix (`Subject:`) is removed unless `strip_subject_prefix = false`.
 ///
 /// Events: `EVENT:LABELS`, `EVENT:CONTEXTS` and `EVENT:TIMES`, a 2 × N array of (minutes,
 /// seconds): time = 60·minutes + seconds from the start of the capture, where time 0 is frame
@@ -80,6 +81,18 @@ pub struct C3dParams {
     /// writers). Default `false`: a marker at the lab origin is data.
     #[serde(default)]
     pub zero_means_missing: bool,
+    /// Drop a subject prefix from marker labels: Vicon writes `Subject:Marker`, and the subject
+    /// name changes between sessions (`vsk2:LFWT` in one file, `vsk:LFWT` in the next), so
+    /// one experiment can address markers by their plain names across files. Everything up
+    /// to the last `:` is removed; two labels that become equal (two subjects in one file) is
+    /// an error naming both — set `false` to keep the prefixes then. Default `true` (no
+    /// shipped C3D has a prefix, so their names are unchanged).
+    #[serde(default = "default_strip_subject_prefix")]
+    pub strip_subject_prefix: bool,
+}
+
+fn default_strip_subject_prefix() -> bool {
+    true
 }
 
 fn default_up_axis() -> Axis {
@@ -91,11 +104,12 @@ fn default_up_axis() -> Axis {
 pub struct C3dOptions {
     pub up_axis: Axis,
     pub zero_means_missing: bool,
+    pub strip_subject_prefix: bool,
 }
 
 impl Default for C3dOptions {
     fn default() -> Self {
-        C3dOptions { up_axis: Axis::Z, zero_means_missing: false }
+        C3dOptions { up_axis: Axis::Z, zero_means_missing: false, strip_subject_prefix: true }
     }
 }
 
@@ -108,7 +122,11 @@ pub struct C3dLoader {
 impl ParamGuard for C3dParams {
     type Checked = C3dLoader;
     fn check(self) -> Result<C3dLoader> {
-        Ok(C3dLoader { options: C3dOptions { up_axis: self.up_axis, zero_means_missing: self.zero_means_missing } })
+        Ok(C3dLoader { options: C3dOptions {
+            up_axis: self.up_axis,
+            zero_means_missing: self.zero_means_missing,
+            strip_subject_prefix: self.strip_subject_prefix,
+        } })
     }
 }
 
@@ -146,7 +164,7 @@ pub fn parse_c3d(bytes: &[u8], origin: &Path, options: &C3dOptions) -> Result<Mo
     }
     let rate = frame_rate(&file)?;
     let mm_per_unit = units(&file)?;
-    let names = point_names(&file, layout.points)?;
+    let names = point_names(&file, layout.points, options.strip_subject_prefix)?;
     let positions = decode_points(&file, &layout, mm_per_unit, options.zero_means_missing, &names)?;
     let events = events(&file, &layout, rate)?;
     let mut motion = Motion::new(crate::read::stem(origin), rate, options.up_axis, PointKind::Marker, names, positions)
@@ -188,7 +206,7 @@ fn units(file: &C3dFile<'_>) -> Result<f64> {
 }
 
 /// `POINT:LABELS`, `LABELS2`, `LABELS3`, … concatenated, cut to the point count.
-fn point_names(file: &C3dFile<'_>, n_points: usize) -> Result<Vec<String>> {
+fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool) -> Result<Vec<String>> {
     let ctx = file.ctx;
     let Some(first) = file.param("POINT", "LABELS") else {
         return Err(ctx
@@ -217,13 +235,28 @@ fn point_names(file: &C3dFile<'_>, n_points: usize) -> Result<Vec<String>> {
             *l = format!("P{}", i + 1);
         }
     }
+    let written = labels.clone();
+    if strip_subject_prefix {
+        for l in labels.iter_mut() {
+            if let Some((_, plain)) = l.rsplit_once(':')
+                && !plain.trim().is_empty()
+            {
+                *l = plain.trim().to_string();
+            }
+        }
+    }
     let mut seen = std::collections::HashMap::with_capacity(n_points);
     for (i, l) in labels.iter().enumerate() {
         if let Some(j) = seen.insert(l.as_str(), i) {
+            let hint = if written[i] != written[j] {
+                format!(" once subject prefixes are stripped (written {:?} and {:?}); set strip_subject_prefix = false", written[j], written[i])
+            } else {
+                String::new()
+            };
             return Err(ctx.param_err(
                 ErrorKind::DuplicateName,
                 first,
-                format!("label {l:?} names points {} and {}; expected unique marker names", j + 1, i + 1),
+                format!("label {l:?} names points {} and {}{hint}; expected unique marker names", j + 1, i + 1),
             ));
         }
     }

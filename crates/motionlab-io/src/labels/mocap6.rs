@@ -36,11 +36,12 @@ pub const MOCAP6_ACTIONS: [&str; 12] = [
 /// 9 UpDown, 10 ToeTouchOneHand, 11 SideBend, 12 ToeTouchTwoHands); a boundary is placed where
 /// the number changes (no transition window).
 ///
-/// Length: the dataset block-averaged the motion including a final partial block, so a file
-/// has `ceil(F / block_frames)` labels for a motion of F frames: the last block is cut at the
-/// motion's end (e.g. 13_29: 4592 frames, 383 labels, the last block 8 frames long). More
-/// labels than that (a block starting at or after the last frame) is an error. Fewer labels
-/// leave the frames after the last block in no segment. Missing samples in the motion do not
+/// Length: the dataset block-averaged the motion into `floor(F / block_frames) + 1` blocks for
+/// a motion of F frames (all five shipped takes: 13_29 has 4592 frames and 383 labels, the last
+/// block 8 frames long; 14_20 has 4644 = 387 × 12 frames and 388 labels). The last block is cut
+/// at the motion's end; when F is a multiple of `block_frames` it starts at F, covers no frame
+/// and is ignored. More labels than that is an error. Fewer labels leave the frames after the
+/// last block in no segment. Missing samples in the motion do not
 /// matter: only its frame count is used.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -108,7 +109,7 @@ pub fn block_segmentation(
     if labels.is_empty() {
         return Err(Error::at_line(ErrorKind::EmptySequence, origin, 1, "no labels; expected one action number per block"));
     }
-    let max_blocks = n_frames.div_ceil(block_frames);
+    let max_blocks = n_frames / block_frames + 1;
     if labels.len() > max_blocks {
         let first_extra = &labels[max_blocks];
         return Err(Error::at_line(
@@ -116,7 +117,7 @@ pub fn block_segmentation(
             origin,
             first_extra.line,
             format!(
-                "{} labels of {block_frames} frames need a motion of more than {} frames, but {} has {n_frames} (at most {max_blocks} blocks)",
+                "{} labels of {block_frames} frames need a motion of at least {} frames, but {} has {n_frames} (at most {max_blocks} blocks)",
                 labels.len(),
                 (labels.len() - 1).saturating_mul(block_frames),
                 motion.name
@@ -127,6 +128,10 @@ pub fn block_segmentation(
     for (i, l) in labels.iter().enumerate() {
         // Saturating: a huge block_frames must not overflow (the length check above bounds i).
         let start = i.saturating_mul(block_frames);
+        if start >= n_frames {
+            // The empty final block of a motion whose length is a multiple of block_frames.
+            break;
+        }
         let end = (i + 1).saturating_mul(block_frames).min(n_frames);
         let name = MOCAP6_ACTIONS[l.label - 1];
         match segments.last_mut() {
@@ -169,8 +174,14 @@ mod tests {
     #[test]
     fn too_many_labels_is_an_error_too_few_leaves_the_tail_unlabelled() {
         let m = motion_from_fn(9, 120.0, 1, |_, _| [0.0; 3]);
-        let e = block_segmentation(&labels("1 1 2\n3"), Path::new("l.txt"), 3, &m).unwrap_err();
+        let e = block_segmentation(&labels("1 1 2\n3 3"), Path::new("l.txt"), 3, &m).unwrap_err();
         assert_eq!((e.kind(), e.location().line), (ErrorKind::OutOfRange, Some(2)));
+        // 9 frames = 3 blocks of 3: a 4th label is the dataset's empty final block, ignored
+        // (no segment, no boundary at frame 9).
+        let s = block_segmentation(&labels("1 1 2\n3"), Path::new("l.txt"), 3, &m).unwrap();
+        let spans: Vec<(usize, usize)> = s.segments.iter().map(|g| (g.start, g.end)).collect();
+        assert_eq!(spans, vec![(0, 6), (6, 9)]);
+        assert_eq!(s.frames(), vec![6]);
         let s = block_segmentation(&labels("12 12"), Path::new("l.txt"), 3, &m).unwrap();
         assert_eq!(s.segments, vec![Segment { start: 0, end: 6, label: "ToeTouchTwoHands".into() }]);
         assert!(s.boundaries.is_empty());
@@ -186,5 +197,20 @@ mod tests {
             .err()
             .unwrap();
         assert_eq!(e.location().field.as_deref(), Some("block_frames"));
+    }
+
+    /// The shipped label files against their takes' frame counts (counted in the AMC files:
+    /// 13_29 4592, 13_30 2465, 13_31 3017, 14_14 4653, 14_20 4644): every file has
+    /// floor(F / 12) + 1 labels, so 14_20 (a multiple of 12) ends with an empty block.
+    #[test]
+    fn every_shipped_label_file_fits_its_take() {
+        for (take, n_frames) in [("13_29", 4592), ("13_30", 2465), ("13_31", 3017), ("14_14", 4653), ("14_20", 4644)] {
+            let path = motionlab_testkit::data_path(&format!("mocap6/truelabels/{take}.txt"));
+            let l = parse_mocap6_labels(&std::fs::read_to_string(&path).unwrap(), &path).unwrap();
+            assert_eq!(l.len(), n_frames / 12 + 1, "{take}");
+            let m = motion_from_fn(n_frames, 120.0, 1, |_, _| [0.0; 3]);
+            let s = block_segmentation(&l, &path, 12, &m).unwrap();
+            assert_eq!(s.segments.last().map(|g| g.end), Some(n_frames), "{take}");
+        }
     }
 }
