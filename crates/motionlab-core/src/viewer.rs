@@ -194,8 +194,10 @@ pub struct TraceLane {
 
 impl TraceLane {
     /// One lane per unit of a stage's traces, each with the thresholds that apply to its
-    /// traces, named `<stage>` (`<stage> (<unit>)` when the stage has several units).
-    pub fn from_traces(stage: &str, traces: &[Trace], thresholds: &[Threshold]) -> Vec<TraceLane> {
+    /// traces, named `<stage>` (`<stage> (<unit>)` when the stage has several units). A trace
+    /// shorter than `n_frames` (a speed has one value fewer than positions) is undefined (NaN)
+    /// after its end; a longer one is left for [`ViewerSpec::validate`] to refuse.
+    pub fn from_traces(stage: &str, traces: &[Trace], thresholds: &[Threshold], n_frames: usize) -> Vec<TraceLane> {
         let mut units: Vec<&str> = Vec::new();
         for t in traces {
             if !units.contains(&t.unit.as_str()) {
@@ -210,7 +212,16 @@ impl TraceLane {
                 TraceLane {
                     name: if several && !unit.is_empty() { format!("{stage} ({unit})") } else { stage.to_string() },
                     unit: unit.to_string(),
-                    series: group.iter().map(|t| TraceSeries { name: t.name.clone(), values: t.values.clone() }).collect(),
+                    series: group
+                        .iter()
+                        .map(|t| {
+                            let mut values = t.values.clone();
+                            if values.len() < n_frames {
+                                values.resize(n_frames, f64::NAN);
+                            }
+                            TraceSeries { name: t.name.clone(), values }
+                        })
+                        .collect(),
                     thresholds: thresholds
                         .iter()
                         .filter(|h| group.iter().any(|t| t.name == h.trace))
@@ -382,9 +393,10 @@ mod tests {
 
     #[test]
     fn trace_lanes_group_by_unit_with_their_thresholds() {
-        let traces = vec![Trace::new("V_mm_per_s", "mm/s", vec![1.0]), Trace::new("v_m", "mm/s", vec![2.0]), Trace::new("C", "", vec![0.5])];
+        let traces = vec![Trace::new("V_mm_per_s", "mm/s", vec![1.0, 2.0]), Trace::new("v_m", "mm/s", vec![2.0]), Trace::new("C", "", vec![0.5, 0.1])];
         let th = vec![Threshold { name: "v_low".into(), trace: "V_mm_per_s".into(), value: 3.0 }];
-        let lanes = TraceLane::from_traces("speed", &traces, &th);
+        let lanes = TraceLane::from_traces("speed", &traces, &th, 2);
+        assert!(lanes[0].series[1].values[1].is_nan(), "a short trace is undefined after its end");
         assert_eq!(lanes.len(), 2);
         assert_eq!((lanes[0].name.as_str(), lanes[0].series.len(), lanes[0].thresholds.len()), ("speed (mm/s)", 2, 1));
         assert_eq!((lanes[1].name.as_str(), lanes[1].thresholds.len()), ("speed", 0));
