@@ -74,7 +74,7 @@ function toView(raw) {
   }
   hs.sort((x, y) => x - y);
   bodyHeight = hs.length ? Math.max(300, hs[hs.length >> 1]) : 1800;
-  state.dist = bodyHeight * 3.2;
+  state.dist = bodyHeight * 2.6;
   let x0 = Infinity, x1 = -Infinity, z0 = Infinity, z1 = -Infinity;
   for (let f = 0; f < N; f++) {
     const c = centre(f);
@@ -287,7 +287,7 @@ function drawEventLane(ctx, l, box, w) {
   ctx.fillStyle = "rgba(0,0,0,0.10)";
   for (const [a, b] of l.windows) ctx.fillRect(xOf(a, w), box.y + 2, Math.max(1, (b - a) * unit), box.h - 4);
   if (l.tolerance_frames) {
-    ctx.fillStyle = "rgba(255,165,0,0.18)";
+    ctx.fillStyle = "rgba(70,110,170,0.16)";
     for (const m of l.marks) ctx.fillRect(xOf(m.frame - l.tolerance_frames, w), box.y + 2, 2 * l.tolerance_frames * unit, box.h - 4);
   }
   for (const m of l.marks) {
@@ -334,11 +334,14 @@ function drawTraceLane(ctx, l, box, w) {
   });
   ctx.setLineDash([6, 4]); ctx.strokeStyle = "#555"; ctx.lineWidth = 1;
   ctx.textBaseline = "bottom";
-  for (const [name, v] of l.thresholds) {
+  l.thresholds.forEach(([name, v], k) => {
     const y = Math.round(yOf(v)) + 0.5;
     ctx.beginPath(); ctx.moveTo(x0, y); ctx.lineTo(x1, y); ctx.stroke();
-    ctx.fillStyle = "#333"; ctx.fillText(`${name} = ${fmt(v)}`, x1 - 120, y - 1);
-  }
+    const text = `${name} = ${fmt(v)}`, tw = ctx.measureText(text).width;
+    const tx = x1 - 8 - tw - k * 150;
+    ctx.fillStyle = "rgba(255,255,255,0.8)"; ctx.fillRect(tx - 2, y - 12, tw + 4, 11);
+    ctx.fillStyle = "#333"; ctx.fillText(text, tx, y - 1);
+  });
   ctx.setLineDash([]);
   // Legend of the series.
   ctx.textBaseline = "top";
@@ -565,13 +568,16 @@ async function start() {
     traces[i] = l.series.map(([, q]) => { const s = new Float32Array(N); off = decodeChannel(raw, off, q, s, 0, 1); return s; });
   });
   if (off !== raw.length) throw new Error(`viewer data: ${raw.length} bytes, expected ${off}`);
+  const tDecoded = performance.now();
   toView(xyz);
+  const tView = performance.now();
   document.getElementById("subtitle").textContent = `${N} frames at ${RATE} Hz (${(N / RATE).toFixed(1)} s) · ${P} ${meta.bones.length ? "joints/markers with bones" : "markers"}`;
   if (meta.back_link) {
     const a = document.createElement("a"); a.href = meta.back_link; a.textContent = "← run page";
     document.getElementById("back").appendChild(a);
   }
   buildList();
+  const tList = performance.now();
   wireInput();
   const fused = meta.lanes.findIndex(l => l.type === "events" && l.kind === "fused");
   const cand = meta.lanes.findIndex(l => l.type === "events" && l.kind !== "truth");
@@ -579,6 +585,7 @@ async function start() {
   seek(0);
   state.ready = true;
   state.openMs = performance.now();
+  state.phases = { script_start_ms: t0, decoded_ms: tDecoded, view_ms: tView, list_ms: tList, first_frame_ms: state.openMs };
   state.decodeMs = state.openMs - t0;
 }
 
@@ -589,6 +596,7 @@ window.viewer = {
   get ready() { return state.ready; },
   get openMs() { return state.openMs; },
   get decodeMs() { return state.decodeMs; },
+  get phases() { return state.phases; },
   meta, seek, setActiveLane, stepMark,
   setPlaying,
 };
