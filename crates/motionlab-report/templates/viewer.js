@@ -259,7 +259,8 @@ function drawLanesImage() {
     ctx.font = (active ? "bold " : "") + "12px " + getComputedStyle(document.body).fontFamily;
     ctx.textBaseline = "middle";
     const label = l.type === "trace" && l.unit ? `${l.name} (${l.unit})`.replace(`(${l.unit}) (${l.unit})`, `(${l.unit})`) : l.name;
-    ctx.fillText(label.length > 24 ? label.slice(0, 23) + "…" : label, 6, box.y + Math.min(12, box.h / 2));
+    if (l.type === "trace" && !active) ctx.fillStyle = "#555";
+    ctx.fillText(label.length > 24 ? label.slice(0, 23) + "…" : label, l.type === "trace" ? 16 : 6, box.y + Math.min(12, box.h / 2));
     ctx.save();
     ctx.beginPath(); ctx.rect(LABEL_W, box.y, w - LABEL_W, box.h); ctx.clip();
     if (l.type === "events") drawEventLane(ctx, l, box, w);
@@ -377,8 +378,11 @@ function drawLanes() {
   lctx.setTransform(dpr, 0, 0, dpr, 0, 0);
   const x = Math.round(xOf(state.frame, w)) + 0.5;
   if (x >= LABEL_W && x <= w - 10) {
-    lctx.strokeStyle = "#e0301e"; lctx.lineWidth = 1.5;
+    // Dark and thin, with a handle on the axis: it must not hide a mark's status colour.
+    lctx.strokeStyle = "rgba(20,20,20,0.8)"; lctx.lineWidth = 1;
     lctx.beginPath(); lctx.moveTo(x, 0); lctx.lineTo(x, h - AXIS_H + 2); lctx.stroke();
+    lctx.fillStyle = "#222";
+    lctx.beginPath(); lctx.moveTo(x - 5, h - AXIS_H + 2); lctx.lineTo(x + 5, h - AXIS_H + 2); lctx.lineTo(x, h - AXIS_H - 5); lctx.fill();
   }
 }
 
