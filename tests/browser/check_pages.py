@@ -20,15 +20,18 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 
 
-def driver():
+def driver(window_size="1280,900", console_log=False):
+    """Headless Debian Chromium; with console_log, its console is kept for get_log("browser")."""
     opts = webdriver.ChromeOptions()
     opts.binary_location = os.environ.get("CHROMIUM", "/usr/bin/chromium")
     for flag in [
         "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--allow-file-access-from-files", "--window-size=1280,900",
+        "--allow-file-access-from-files", f"--window-size={window_size}", "--hide-scrollbars",
     ]:
         opts.add_argument(flag)
+    if console_log:
+        opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     service = Service(executable_path=os.environ.get("CHROMEDRIVER", "/usr/bin/chromedriver"))
     return webdriver.Chrome(service=service, options=opts)
 

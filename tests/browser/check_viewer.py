@@ -13,28 +13,13 @@ time: navigation start → first frame drawn, as the page measures it, and wall 
 Usage: check_viewer.py VIEWER [SCREENSHOT]
 """
 import json
-import os
 import sys
 import time
 from pathlib import Path
 
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 
-
-def driver():
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = os.environ.get("CHROMIUM", "/usr/bin/chromium")
-    for flag in [
-        "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--window-size=1400,900", "--hide-scrollbars",
-    ]:
-        opts.add_argument(flag)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    service = Service(executable_path=os.environ.get("CHROMEDRIVER", "/usr/bin/chromedriver"))
-    return webdriver.Chrome(service=service, options=opts)
+from check_pages import driver  # the same headless Chromium set-up (beside this file)
 
 
 # Distinct colours in a canvas, sampled on a grid (a blank canvas has one).
@@ -56,7 +41,7 @@ def main():
     page = Path(sys.argv[1]).resolve()
     shot = Path(sys.argv[2]) if len(sys.argv) == 3 else page.with_suffix(".png")
     problems = []
-    d = driver()
+    d = driver(window_size="1400,900", console_log=True)
     try:
         started = time.perf_counter()
         d.get(page.as_uri())
