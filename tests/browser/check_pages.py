@@ -5,6 +5,7 @@ Opens reports/index.html and one run's index.html, and fails when
   - an image does not load (not complete, or zero natural width),
   - a link points to a file that does not exist or to an anchor that is not on the page,
   - anything is loaded from, or linked to, the network (http/https),
+  - the page has Japanese text but not the bundled CJK font,
 then saves a full-page screenshot of each page next to it (reports/index.png and
 <run>/screenshot.png).
 
@@ -47,6 +48,16 @@ def check_page(d, page: Path, screenshot: Path):
         Promise.all(imgs.map(i => i.complete ? null : new Promise(r => { i.onload = r; i.onerror = r; })))
             .then(() => done());
     """)
+    # Japanese text (the Osafune joint names) needs the bundled CJK font: without it a plain
+    # Chromium draws empty boxes.
+    needs_cjk = d.execute_script(r"return /[\u2e80-\u9fff\uf900-\ufaff\uff00-\uffef]/.test(document.body.innerText);")
+    if needs_cjk:
+        loaded = d.execute_async_script("""
+            const done = arguments[arguments.length - 1];
+            document.fonts.load('16px "motionlab CJK"', '膝').then(f => done(f.length > 0), () => done(false));
+        """)
+        if not loaded:
+            problems.append("the page has Japanese text but the bundled CJK font is not loaded")
     images = d.execute_script("return Array.from(document.images).map(i => [i.src, i.complete, i.naturalWidth]);")
     for src, complete, width in images:
         if not complete or width == 0:
