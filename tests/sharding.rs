@@ -50,6 +50,21 @@ fn three_shards_then_merge_equal_a_plain_run() {
     let (a, b) = (tables(&plain), tables(&sharded));
     assert!(!a.is_empty());
     assert_eq!(a, b, "merged tables must equal the plain run's, cell for cell");
+    // Viewer pages (one per sequence of the base combination) are the same too, and linked.
+    let viewers = |run: &Path| -> Vec<(String, Vec<u8>)> {
+        let mut v: Vec<_> = std::fs::read_dir(run.join("viewers"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+            .collect();
+        v.sort();
+        v
+    };
+    let (va, vb) = (viewers(&plain), viewers(&sharded));
+    assert_eq!(va.iter().map(|v| v.0.as_str()).collect::<Vec<_>>(), ["dance1.html", "walk1.html"]);
+    assert!(va == vb, "merged viewers must equal the plain run's");
+    let page = std::fs::read_to_string(plain.join("index.html")).unwrap().replace("&#x2f;", "/");
+    assert!(page.contains("href=\"viewers/dance1.html\""), "the run page links its viewers");
     // Shards never wrote the same item twice: 6 items, each once.
     let items = std::fs::read_dir(sharded.join("items")).unwrap().filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "msgpack")).count();
     assert_eq!(items, 6);

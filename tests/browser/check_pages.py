@@ -5,6 +5,7 @@ Opens reports/index.html and one run's index.html, and fails when
   - an image does not load (not complete, or zero natural width),
   - a link points to a file that does not exist or to an anchor that is not on the page,
   - anything is loaded from, or linked to, the network (http/https),
+  - the page has Japanese text but not the bundled CJK font,
 then saves a full-page screenshot of each page next to it (reports/index.png and
 <run>/screenshot.png).
 
@@ -20,15 +21,18 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 
 
-def driver():
+def driver(window_size="1280,900", console_log=False):
+    """Headless Debian Chromium; with console_log, its console is kept for get_log("browser")."""
     opts = webdriver.ChromeOptions()
     opts.binary_location = os.environ.get("CHROMIUM", "/usr/bin/chromium")
     for flag in [
         "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--allow-file-access-from-files", "--window-size=1280,900",
+        "--allow-file-access-from-files", f"--window-size={window_size}", "--hide-scrollbars",
     ]:
         opts.add_argument(flag)
+    if console_log:
+        opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     service = Service(executable_path=os.environ.get("CHROMEDRIVER", "/usr/bin/chromedriver"))
     return webdriver.Chrome(service=service, options=opts)
 
@@ -44,6 +48,16 @@ def check_page(d, page: Path, screenshot: Path):
         Promise.all(imgs.map(i => i.complete ? null : new Promise(r => { i.onload = r; i.onerror = r; })))
             .then(() => done());
     """)
+    # Japanese text (the Osafune joint names) needs the bundled CJK font: without it a plain
+    # Chromium draws empty boxes.
+    needs_cjk = d.execute_script(r"return /[\u2e80-\u9fff\uf900-\ufaff\uff00-\uffef]/.test(document.body.innerText);")
+    if needs_cjk:
+        loaded = d.execute_async_script("""
+            const done = arguments[arguments.length - 1];
+            document.fonts.load('16px "motionlab CJK"', '膝').then(f => done(f.length > 0), () => done(false));
+        """)
+        if not loaded:
+            problems.append("the page has Japanese text but the bundled CJK font is not loaded")
     images = d.execute_script("return Array.from(document.images).map(i => [i.src, i.complete, i.naturalWidth]);")
     for src, complete, width in images:
         if not complete or width == 0:

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Browser test of the HTML reports: needs Debian's chromium and chromium-driver.
 # Usage: tests/browser/run.sh REPORTS_DIR RUN_DIR   (exit 0 = pass, 1 = fail, 77 = skipped)
+# Checks reports/index.html and RUN_DIR/index.html (check_pages.py), then one viewer page
+# (check_viewer.py): CMU 86_01 of sonoda_table1 when REPORTS_DIR has it, else the first found.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 chromium=${CHROMIUM:-/usr/bin/chromium}
@@ -14,4 +16,10 @@ if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
 "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$here/requirements.txt"
-exec "$venv/bin/python" "$here/check_pages.py" "$1" "$2"
+"$venv/bin/python" "$here/check_pages.py" "$1" "$2"
+viewer=$( { ls "$1"/sonoda_table1/*/viewers/86_01.html 2>/dev/null; find "$1" -path '*/viewers/*.html' | sort; } | head -1 || true)
+if [ -z "$viewer" ]; then
+  echo "viewer test SKIPPED: no viewers/*.html under $1"
+  exit 0
+fi
+exec "$venv/bin/python" "$here/check_viewer.py" "$viewer"

@@ -23,6 +23,7 @@ pub mod skeleton;
 pub mod stage;
 pub mod table;
 pub mod units;
+pub mod viewer;
 
 pub use error::{Error, ErrorKind, Location, Result};
 pub use motion::{Event, Motion, Point3, PointKind};

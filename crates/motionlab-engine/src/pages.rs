@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use motionlab_core::{ColumnValues, Result, Table};
-use motionlab_report::html::{compare_published, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
+use motionlab_report::html::{compare_published, viewer_links, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
 
 use motionlab_experiment::spec::{ExperimentFile, Headline};
 
@@ -98,6 +98,8 @@ fn write_page(
         comparisons,
         index_link: "../../index.html".into(),
         screenshot: None,
+        // Whatever viewer pages the run wrote (`viewers/<sequence>.html`).
+        viewers: viewer_links(run_dir, ""),
     };
     write_run_page(run_dir, &page)
 }
@@ -272,6 +274,10 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
                     .count()
             })
             .unwrap_or(0);
+        let viewers = run.as_ref().map(|r| {
+            let id = r.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            viewer_links(r, &format!("{}/{id}/", file.experiment.name))
+        });
         let (latest_link, latest_id, finished_utc, headline, comparisons) = match &run {
             Some(run) => {
                 let id = run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -303,6 +309,7 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
             runs,
             headline,
             comparisons,
+            viewers: viewers.unwrap_or_default(),
         });
     }
     write_index(reports, &entries, None)

@@ -315,6 +315,11 @@ fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemDat
             write_atomic(&dir.join(name), bytes)?;
         }
     }
+    // Viewers of the base combination only, like per-item figures.
+    if let Some(first) = outputs.first().filter(|o| !o.viewers.is_empty()) {
+        let dir = rundir.subdir("viewers")?;
+        first.viewers.par_iter().map(|v| motionlab_report::viewer::write(&dir, v).map(|_| ())).collect::<Result<Vec<_>>>()?;
+    }
     let figures = figures.iter().map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() }).collect();
     Ok(Finished { tables, table_paths, figures, figure_paths })
 }

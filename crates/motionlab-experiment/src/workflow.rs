@@ -79,6 +79,8 @@ pub struct Output {
     pub figures: Vec<Figure>,
     /// Other files (`name`, bytes), e.g. a synthesised BVH.
     pub files: Vec<(String, Vec<u8>)>,
+    /// Interactive viewer pages, one per sequence, written as `viewers/<name>.html`.
+    pub viewers: Vec<motionlab_core::viewer::ViewerSpec>,
 }
 
 /// A completed combination, for [`Workflow::summarize`].

@@ -3,7 +3,8 @@
 //! Workflows describe *what* to draw (series, candidate bars, thresholds, stick figures); this
 //! module is the only place that knows plotters. Every figure has a title and axis labels with
 //! units. Text uses the bundled DejaVu Sans (plotters' `ttf` feature would need the system's
-//! fontconfig), registered once per process.
+//! fontconfig), registered once per process; text with Japanese characters falls back to the
+//! bundled Noto Sans CJK JP subset ([`crate::fonts`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::Once;
@@ -21,12 +22,20 @@ fn ensure_font() {
     REGISTER.call_once(|| {
         // Registration only fails for an unparsable font; the bundled one parses (tested).
         let _ = register_font("sans-serif", FontStyle::Normal, FONT);
+        let _ = register_font(crate::fonts::CJK_FAMILY, FontStyle::Normal, crate::fonts::CJK_FONT);
     });
 }
 
 // The specs are plain data in `motionlab-figure` (so workflows build them without plotters);
 // this module renders them.
 pub use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip, TimelinePoses};
+
+/// The font family for a text: DejaVu Sans, or — only for text with CJK characters, which it
+/// lacks — the bundled Noto Sans CJK JP subset (which also draws Latin), so figures without
+/// Japanese text are drawn exactly as before.
+fn family(text: &str) -> &'static str {
+    if crate::fonts::needs_cjk(text) { crate::fonts::CJK_FAMILY } else { "sans-serif" }
+}
 
 /// Pixel size of rendered figures.
 const SIZE: (u32, u32) = (1100, 560);
@@ -69,7 +78,21 @@ pub fn render(figure: &Figure, dir: &Path) -> Result<Vec<PathBuf>> {
         draw(figure, &root).map_err(|e| draw_error(&svg, e))?;
         root.present().map_err(|e| draw_error(&svg, e))?;
     }
+    embed_cjk_font_in_svg(&svg)?;
     Ok(vec![png, svg])
+}
+
+/// An SVG shown through `<img>` cannot use its page's fonts: when its text has CJK characters,
+/// the bundled CJK font goes into the SVG itself (other SVGs are left byte-identical).
+fn embed_cjk_font_in_svg(path: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    if !crate::fonts::needs_cjk(&text) {
+        return Ok(());
+    }
+    let Some(open_end) = text.find("<svg").and_then(|i| text[i..].find('>').map(|j| i + j + 1)) else { return Ok(()) };
+    let style = crate::fonts::css_font_face().replace("<style>", "<defs><style><![CDATA[").replace("</style>", "]]></style></defs>");
+    let out = [&text[..open_end], "\n", &style, &text[open_end..]].concat();
+    std::fs::write(path, out).map_err(|e| Error::io(path, e))
 }
 
 fn draw_error(path: &Path, e: impl std::fmt::Display) -> Error {
@@ -110,7 +133,7 @@ where
     timeline.x_range = Some((x0, x1));
     draw_chart(&timeline, &top)?;
     let (poses_area, caption) = bottom.split_vertically(pose_h as i32 - 24);
-    caption.draw(&Text::new(t.caption.clone(), (10, 4), ("sans-serif", 14)))?;
+    caption.draw(&Text::new(t.caption.clone(), (10, 4), (family(&t.caption), 14)))?;
     // The bar rows' plot starts after their label column (`draw_bar_rows`: margin 8, label area
     // 150) and ends 8 px before the right edge: put the poses on the same pixels per second.
     let (left, right) = (8 + 150, w as i32 - 8);
@@ -146,7 +169,7 @@ where
         for p in pose.points.iter().filter(|p| p[0].is_finite() && p[1].is_finite()) {
             poses_area.draw(&Circle::new(to_px(p), 1, color(0).filled()))?;
         }
-        poses_area.draw(&Text::new(pose.label.clone(), (cx as i32 - 14, base as i32 + 4), ("sans-serif", 11)))?;
+        poses_area.draw(&Text::new(pose.label.clone(), (cx as i32 - 14, base as i32 + 4), (family(&pose.label), 11)))?;
         // A tick from the pose up to the time axis, so each pose reads against its instant.
         poses_area.draw(&PathElement::new(vec![(cx as i32, 0), (cx as i32, 6)], RGBColor(120, 120, 120)))?;
         let _ = pyh;
@@ -184,7 +207,7 @@ where
         .flat_map(|s| s.x.iter())
         .chain(c.bar_rows.iter().flat_map(|b| b.marks.iter().chain(b.bands.iter().flat_map(|(a, z)| [a, z]))));
     let (mut x0, mut x1) = c.x_range.unwrap_or_else(|| range_of(xs, 0.01));
-    let root = root.titled(&c.title, ("sans-serif", 22))?;
+    let root = root.titled(&c.title, (family(&c.title), 22))?;
     let rows = c.bar_rows.len();
     let (plot_area, bar_area) = if !has_plot {
         (None, root.clone())
@@ -217,7 +240,7 @@ where
         let mut mesh = chart.configure_mesh();
         mesh.y_desc(c.y_label.as_str())
             .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
+            .axis_desc_style((family(&format!("{}{}", c.x_label, c.y_label)), 16))
             .x_label_formatter(&|v| fmt_num(*v))
             .y_label_formatter(&|v| fmt_num(*v));
         if rows == 0 {
@@ -256,7 +279,7 @@ where
             }
             for ((x, y), l) in s.x.iter().zip(&s.y).zip(&s.point_labels) {
                 if x.is_finite() && y.is_finite() && !l.is_empty() {
-                    chart.draw_series(std::iter::once(Text::new(l.clone(), (*x, *y), ("sans-serif", 13))))?;
+                    chart.draw_series(std::iter::once(Text::new(l.clone(), (*x, *y), (family(l), 13))))?;
                 }
             }
         }
@@ -272,11 +295,13 @@ where
             let _ = i;
         }
         if legend {
+            let names: Vec<&str> = c.lines.iter().chain(&c.points).map(|s| s.label.as_str()).chain(c.hlines.iter().map(|h| h.label.as_str())).collect();
+            let legend_family = family(&names.concat());
             chart
                 .configure_series_labels()
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK.mix(0.3))
-                .label_font(("sans-serif", 14))
+                .label_font((legend_family, 14))
                 .position(SeriesLabelPosition::UpperRight)
                 .draw()?;
         }
@@ -320,8 +345,8 @@ where
                 String::new()
             }
         })
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
+        .label_style((family(&labels.concat()), 14))
+        .axis_desc_style((family(&c.x_label), 16))
         .draw()?;
     for (r, row) in c.bar_rows.iter().enumerate() {
         let top = (rows - r) as f64 - 0.1;
@@ -339,9 +364,9 @@ fn draw_sticks<DB: DrawingBackend>(s: &StickStrip, root: &DrawingArea<DB, Shift>
 where
     DB::ErrorType: 'static,
 {
-    let root = root.titled(&s.title, ("sans-serif", 22))?;
+    let root = root.titled(&s.title, (family(&s.title), 22))?;
     let (body, caption) = root.split_vertically(root.dim_in_pixel().1 as i32 - 24);
-    caption.draw(&Text::new(s.caption.clone(), (10, 4), ("sans-serif", 14)))?;
+    caption.draw(&Text::new(s.caption.clone(), (10, 4), (family(&s.caption), 14)))?;
     let rows = body.split_evenly((s.rows.len().max(1), 1));
     // One scale for every pose of every row: the largest pose extent.
     let mut extent: f64 = 1.0;
@@ -354,7 +379,7 @@ where
     }
     for (row, area) in s.rows.iter().zip(rows) {
         let (label_area, poses_area) = area.split_horizontally(150);
-        label_area.draw(&Text::new(row.label.clone(), (6, (area.dim_in_pixel().1 / 2) as i32), ("sans-serif", 15)))?;
+        label_area.draw(&Text::new(row.label.clone(), (6, (area.dim_in_pixel().1 / 2) as i32), (family(&row.label), 15)))?;
         let cells = poses_area.split_evenly((1, row.poses.len().max(1)));
         for (pose, cell) in row.poses.iter().zip(cells) {
             let (cx, cy) = {
@@ -372,7 +397,7 @@ where
                     .then(|| PathElement::new(vec![(p[0], p[1]), (q[0], q[1])], BLACK.stroke_width(2)))
             }))?;
             chart.draw_series(pts.iter().filter(|p| p[0].is_finite() && p[1].is_finite()).map(|p| Circle::new((p[0], p[1]), 2, color(0).filled())))?;
-            lbl.draw(&Text::new(pose.label.clone(), (4, 2), ("sans-serif", 13)))?;
+            lbl.draw(&Text::new(pose.label.clone(), (4, 2), (family(&pose.label), 13)))?;
         }
     }
     Ok(())
@@ -436,6 +461,24 @@ mod tests {
         }
         let svg = std::fs::read_to_string(dir.join("a.svg")).unwrap();
         assert!(svg.contains("V with candidates") && svg.contains("speed (mm/s)"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn japanese_text_is_drawn_with_glyphs_not_boxes() {
+        // Missing glyphs all draw the same box: with real glyphs, two titles that differ in one
+        // kanji differ in pixels.
+        let dir = std::env::temp_dir().join(format!("mlab-fig-jp-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let chart = |title: &str| Chart { title: title.into(), x_label: "time (s)".into(), bar_rows: vec![BarRow { label: "truth".into(), marks: vec![1.0], bands: vec![] }], ..Default::default() };
+        render(&Figure::chart("left", chart("左膝X (left knee X)")), &dir).unwrap();
+        render(&Figure::chart("right", chart("右膝X (left knee X)")), &dir).unwrap();
+        render(&Figure::chart("plain", chart("knee X")), &dir).unwrap();
+        let read = |n: &str| std::fs::read(dir.join(n)).unwrap();
+        assert_ne!(read("left.png"), read("right.png"));
+        let svg = String::from_utf8(read("left.svg")).unwrap();
+        assert!(svg.contains("@font-face") && svg.contains(crate::fonts::CJK_FAMILY), "the SVG carries its font");
+        assert!(!String::from_utf8(read("plain.svg")).unwrap().contains("@font-face"), "only where needed");
         std::fs::remove_dir_all(&dir).ok();
     }
 

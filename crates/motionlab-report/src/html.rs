@@ -196,6 +196,30 @@ pub struct RunPage {
     /// Link back to the reproduction index, relative to the run directory.
     pub index_link: String,
     pub screenshot: Option<String>,
+    /// Interactive viewer pages of the run (`viewers/<sequence>.html`), relative links.
+    pub viewers: Vec<ViewerLink>,
+}
+
+/// A link to a viewer page.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct ViewerLink {
+    /// The sequence it shows.
+    pub name: String,
+    pub href: String,
+}
+
+/// Links to the viewer pages in `<run_dir>/viewers/`, by name, relative to `prefix` (the run
+/// directory as seen from the linking page: empty for the run's own page).
+pub fn viewer_links(run_dir: &Path, prefix: &str) -> Vec<ViewerLink> {
+    let mut names: Vec<String> = std::fs::read_dir(run_dir.join("viewers"))
+        .map(|r| {
+            r.filter_map(|e| e.ok())
+                .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(".html")).map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names.into_iter().map(|n| ViewerLink { href: format!("{prefix}viewers/{n}.html"), name: n }).collect()
 }
 
 /// Writes `<run_dir>/index.html`.
@@ -205,7 +229,7 @@ pub fn write_run_page(run_dir: &Path, page: &RunPage) -> Result<PathBuf> {
         .and_then(|t| t.render(context! { page => Value::from(Serde(page)), style => STYLE }))
         .map_err(template_error)?;
     let path = run_dir.join("index.html");
-    std::fs::write(&path, html).map_err(|e| Error::io(&path, e))?;
+    std::fs::write(&path, crate::fonts::with_cjk_font(html)).map_err(|e| Error::io(&path, e))?;
     Ok(path)
 }
 
@@ -225,6 +249,8 @@ pub struct IndexEntry {
     /// A few headline numbers (label, value).
     pub headline: Vec<(String, String)>,
     pub comparisons: Vec<Comparison>,
+    /// Viewer pages of the run shown.
+    pub viewers: Vec<ViewerLink>,
 }
 
 /// Writes `<reports>/index.html`.
@@ -234,7 +260,7 @@ pub fn write_index(reports: &Path, entries: &[IndexEntry], screenshot: Option<&s
         .and_then(|t| t.render(context! { entries => Value::from(Serde(entries)), style => STYLE, screenshot => screenshot }))
         .map_err(template_error)?;
     let path = reports.join("index.html");
-    std::fs::write(&path, html).map_err(|e| Error::io(&path, e))?;
+    std::fs::write(&path, crate::fonts::with_cjk_font(html)).map_err(|e| Error::io(&path, e))?;
     Ok(path)
 }
 
@@ -264,7 +290,7 @@ pub fn write_compare_page(path: &Path, page: &ComparePage) -> Result<()> {
         .get_template("compare.html")
         .and_then(|t| t.render(context! { page => Value::from(Serde(page)), style => STYLE }))
         .map_err(template_error)?;
-    std::fs::write(path, html).map_err(|e| Error::io(path, e).with_location(Location::file(path)))
+    std::fs::write(path, crate::fonts::with_cjk_font(html)).map_err(|e| Error::io(path, e).with_location(Location::file(path)))
 }
 
 #[cfg(test)]
@@ -322,6 +348,7 @@ mod tests {
             comparisons: vec![],
             index_link: "../../index.html".into(),
             screenshot: None,
+            viewers: vec![ViewerLink { name: "86_01".into(), href: "viewers/86_01.html".into() }],
         };
         let dir = std::env::temp_dir().join(format!("mlab-html-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -331,6 +358,7 @@ mod tests {
         // minijinja escapes `/` as `&#x2f;` in attributes; browsers decode it back.
         let unescaped = html.replace("&#x2f;", "/");
         assert!(unescaped.contains("href=\"tables/t1.csv\"") && unescaped.contains("src=\"figures/f.svg\""), "{html}");
+        assert!(unescaped.contains("href=\"viewers/86_01.html\""), "viewer link");
         assert!(!html.contains("http://") && !html.contains("https://"), "no network references");
         std::fs::remove_dir_all(&dir).ok();
     }

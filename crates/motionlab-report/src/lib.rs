@@ -2,11 +2,13 @@
 //!
 //! The only crate that knows polars and plotters: result [`Table`](motionlab_core::Table)s
 //! become Polars DataFrames written as CSV, Parquet and Markdown ([`tables`]); figure specs
-//! become PNG and SVG ([`figures`]).
+//! become PNG and SVG ([`figures`]); viewer specs become interactive pages ([`viewer`]).
 
 pub mod figures;
+pub mod fonts;
 pub mod html;
 pub mod tables;
+pub mod viewer;
 
 pub use figures::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip, TimelinePoses};
 pub use tables::{to_dataframe, write_table, WrittenTable};

@@ -8,9 +8,10 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
+use motionlab_core::viewer::{EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
 use motionlab_core::{
     ColumnValues, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
-    Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table,
+    Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table, Threshold, TimeSpan, Trace,
 };
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
 
@@ -70,6 +71,9 @@ pub struct SegmentationWorkflow {
     /// Indices into `segmenters` that the fuser combines.
     fuse: Vec<usize>,
     evaluators: Vec<(String, Box<dyn Evaluator>)>,
+    experiment: String,
+    /// The first evaluator's `tolerance`, drawn as a band around each truth in the viewers.
+    viewer_tolerance: Option<TimeSpan>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -79,6 +83,9 @@ struct ItemResult {
     n_frames: usize,
     /// Each segmenter, then the fuser.
     methods: Vec<MethodRecord>,
+    /// Each segmenter's traces and thresholds, for the viewer pages (base combination only).
+    #[serde(default)]
+    traces: Vec<(String, Vec<Trace>, Vec<Threshold>)>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -135,7 +142,9 @@ impl WorkflowPlugin for SegmentationWorkflow {
             None => None,
         };
         let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
-        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators })
+        let viewer_tolerance = combo.file.evaluators.iter().find_map(|e| e.params.get("tolerance")?.clone().try_into::<TimeSpan>().ok());
+        let experiment = combo.file.experiment.name.clone();
+        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, experiment, viewer_tolerance })
     }
 }
 
@@ -169,15 +178,18 @@ impl Workflow for SegmentationWorkflow {
             methods.push(MethodRecord { method: name.clone(), candidates: fused, flagged_frames: 0 });
         }
         let figures = if draw { self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)? } else { Vec::new() };
-        let result = ItemResult { sequence: loaded.name.clone(), frame_rate_hz: motion.frame_rate().hz(), n_frames: motion.n_frames(), methods };
+        let traces = if draw { outputs.iter().map(|(n, o)| (n.clone(), o.traces.clone(), o.thresholds.clone())).collect() } else { Vec::new() };
+        let result = ItemResult { sequence: loaded.name.clone(), frame_rate_hz: motion.frame_rate().hz(), n_frames: motion.n_frames(), methods, traces };
         Ok(ItemOutput::new(ItemData::encode(&result)?, figures))
     }
 
-    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, _draw: bool) -> Result<Output> {
+    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, draw: bool) -> Result<Output> {
         let mut sequences = Vec::new();
         let mut rows = Vec::new();
+        let mut viewer_traces = Vec::new();
         for (item, value) in items {
-            let r: ItemResult = value.decode()?;
+            let mut r: ItemResult = value.decode()?;
+            viewer_traces.push((item.id.clone(), std::mem::take(&mut r.traces)));
             for m in &r.methods {
                 rows.extend(m.candidates.iter().map(|&f| CandidateRow {
                     sequence: r.sequence.clone(),
@@ -202,6 +214,11 @@ impl Workflow for SegmentationWorkflow {
             let tables = e.evaluate(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
             out.tables.extend(tables);
         }
+        if draw {
+            for ((id, traces), seq) in viewer_traces.iter().zip(&sequences) {
+                out.viewers.push(self.viewer(id, seq, traces, &out.tables)?);
+            }
+        }
         Ok(out)
     }
 
@@ -214,6 +231,65 @@ impl Workflow for SegmentationWorkflow {
 }
 
 impl SegmentationWorkflow {
+    /// The viewer page of one sequence: ground truth (judged against the fused method), the
+    /// fused candidates, then each segmenter's candidates and traces; statuses as the
+    /// `boundary_matches` table of the evaluation says.
+    fn viewer(&self, id: &str, seq: &SequenceResult, traces: &[(String, Vec<Trace>, Vec<Threshold>)], tables: &[Table]) -> Result<ViewerSpec> {
+        let motion = &seq.motion;
+        let vm = ViewerMotion::from_motion(motion, &self.section.bones, Some(&self.section.root))?;
+        let mut spec = ViewerSpec::new(id, format!("{} — {}", seq.sequence, self.experiment), vm);
+        // (method, outcome, truth frame, found frame) rows of this sequence.
+        let outcomes: Vec<(String, String, Option<usize>, Option<usize>)> = match tables.iter().find(|t| t.name == "boundary_matches") {
+            Some(t) => {
+                let col = |c: &str, r: usize| t.column(c).map(|v| v.cell(r)).unwrap_or_default();
+                let frame = |c: &str, r: usize| col(c, r).parse::<f64>().ok().filter(|f| f.is_finite() && *f >= 0.0).map(|f| f as usize);
+                (0..t.n_rows())
+                    .filter(|&r| col("sequence", r) == seq.sequence)
+                    .map(|r| (col("method", r), col("outcome", r), frame("truth_frame", r), frame("found_frame", r)))
+                    .collect()
+            }
+            None => Vec::new(),
+        };
+        let judge = |lane: &mut EventLane, method: &str, truth_side: bool| {
+            for (_, outcome, truth, found) in outcomes.iter().filter(|o| o.0 == method) {
+                let judged = match (truth_side, outcome.as_str()) {
+                    (true, "missed") => truth.map(|f| (f, MarkStatus::Missed)),
+                    (true, o) if o.starts_with("matched") => truth.map(|f| (f, MarkStatus::Matched)),
+                    (false, "extra") => found.map(|f| (f, MarkStatus::FalsePositive)),
+                    (false, o) if o.starts_with("matched") => found.map(|f| (f, MarkStatus::Matched)),
+                    _ => None,
+                };
+                if let Some((f, status)) = judged {
+                    lane.set_status(f, status);
+                }
+            }
+        };
+        let fused = self.fuser.as_ref().and_then(|_| seq.methods.last());
+        if let Some(truth) = &seq.truth {
+            let tol = self.viewer_tolerance.map(|t| t.frames_at(motion.frame_rate()));
+            let mut lane = EventLane::truth("ground truth", truth, tol);
+            if let Some(f) = fused {
+                judge(&mut lane, &f.method, true);
+                lane.judged_against = Some(f.method.clone());
+            }
+            spec.lanes.push(Lane::Events(lane));
+        }
+        if let Some(f) = fused {
+            let mut lane = EventLane::new(f.method.clone(), EventKind::Fused, &f.candidates);
+            judge(&mut lane, &f.method, false);
+            spec.lanes.push(Lane::Events(lane));
+        }
+        for m in seq.methods.iter().take(self.segmenters.len()) {
+            let mut lane = EventLane::new(m.method.clone(), EventKind::Candidates, &m.candidates);
+            judge(&mut lane, &m.method, false);
+            spec.lanes.push(Lane::Events(lane));
+            if let Some((_, t, th)) = traces.iter().find(|(n, ..)| *n == m.method) {
+                spec.lanes.extend(TraceLane::from_traces(&m.method, t, th, motion.n_frames()).into_iter().map(Lane::Trace));
+            }
+        }
+        Ok(spec)
+    }
+
     fn figures(
         &self,
         id: &str,
