@@ -197,10 +197,11 @@ pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec
 /// Held-out choices per fold and method, and per method the oracle and held-out pooled rows.
 ///
 /// In each fold, each curve's combination is the one with the highest pooled F1 (summed
-/// counts) on the training sequences; ties go to the first in grid order, and combinations
-/// whose training F1 is NaN (nothing found, no truth) are never chosen. The held-out row pools
-/// the chosen combinations' test counts over all folds. The oracle row is `best_f1`'s choice
-/// (the highest pooled F1 over all sequences, first in grid order on ties).
+/// counts) on the training sequences; ties go to the last in grid order (the rule of
+/// `best_f1`, whose `Iterator::max_by` keeps the last maximum), and combinations whose
+/// training F1 is NaN (nothing found, no truth) are never chosen. The held-out row pools the
+/// chosen combinations' test counts over all folds. The oracle row is `best_f1`'s choice (the
+/// highest pooled F1 over all sequences, last in grid order on ties).
 pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, Vec<Summary>)> {
     let mut sequences: Vec<String> = Vec::new();
     for s in curves.iter().flat_map(|c| &c.points).flat_map(|p| &p.per_sequence).map(|(s, _)| s) {
@@ -216,7 +217,7 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
         let mut best: Option<(usize, f64)> = None;
         for (k, p) in c.points.iter().enumerate() {
             let f1 = pooled(p, train).ratios().2;
-            if f1.is_finite() && best.is_none_or(|(_, b)| f1 > b) {
+            if f1.is_finite() && best.is_none_or(|(_, b)| f1 >= b) {
                 best = Some((k, f1));
             }
         }
@@ -288,7 +289,7 @@ pub fn heldout_tables(combos: &[ComboOutput<'_>], methods: &[String], selection:
         )?,
         Table::from_records(
             "heldout_choices",
-            "The combination each fold chose on its training sequences (best pooled F1, first in grid order on ties) and its counts on the held-out sequence(s)",
+            "The combination each fold chose on its training sequences (best pooled F1, last in grid order on ties) and its counts on the held-out sequence(s)",
             &choices,
         )?,
     ])
@@ -341,17 +342,19 @@ mod tests {
     }
 
     #[test]
-    fn explicit_split_and_ties_take_first_in_grid_order() {
+    fn explicit_split_and_ties_take_last_in_grid_order() {
         // Train on B: comb 0 F1 0, comb 1 0.6 → comb 1; test on A: 6/10.
         let (choices, summaries) = heldout(&[curve()], &Selection::Train(vec!["B".into()])).unwrap();
         assert_eq!(choices.len(), 1);
         assert_eq!((choices[0].held_out.as_str(), choices[0].combination, choices[0].n_matched), ("A", 1, 6));
         assert_eq!(summaries[1].selection, "held-out (chosen on B)");
-        // Two identical points: the first wins.
+        // Two identical points: the last wins, as in best_f1.
         let mut tie = curve();
-        tie.points[1].per_sequence = tie.points[0].per_sequence.clone();
+        tie.points[0].per_sequence = tie.points[1].per_sequence.clone();
+        tie.points[0].combination = 7;
+        tie.points[1].combination = 8;
         let (choices, _) = heldout(&[tie], &Selection::Train(vec!["A".into()])).unwrap();
-        assert_eq!(choices[0].combination, 0);
+        assert_eq!(choices[0].combination, 8);
     }
 
     #[test]

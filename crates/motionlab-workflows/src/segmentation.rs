@@ -60,7 +60,7 @@ pub struct SegmentationSection {
     /// `"oracle"` (default: only `best_f1`, chosen on the evaluation data itself),
     /// `"leave_one_sequence_out"` (also `heldout_f1` and `heldout_choices`: for each sequence,
     /// each grid's focus method takes the combination with the best pooled F1 on the other
-    /// sequences — first in grid order on ties — and its counts on that sequence are pooled
+    /// sequences — the last in grid order on ties, as `best_f1` — and its counts on that sequence are pooled
     /// over all sequences) or `{ train = ["86_01", …] }` (choose on these sequences, report on
     /// the others).
     #[serde(default)]
