@@ -157,9 +157,12 @@ pub fn curves_from(combos: &[ComboOutput<'_>]) -> Vec<Curve> {
     curves
 }
 
+/// One fold: the sequences reported on (test) and those the combination is chosen on (train).
+pub type Fold = (Vec<String>, Vec<String>);
+
 /// The folds of a selection rule over `sequences` (in table order): (test, train) pairs, plus
 /// the `selection` column's text. `Oracle` gives none.
-pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec<(Vec<String>, Vec<String>)>)> {
+pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec<Fold>)> {
     match selection {
         Selection::Oracle => Ok((ORACLE.into(), Vec::new())),
         Selection::LeaveOneSequenceOut => {
