@@ -11,12 +11,14 @@
 //! - [`gait`] — `[gait]` (Osafune et al.): walk analysis, the paper's Tables 2–3, the control
 //!   of a skeleton walk and the leave-one-subject-out evaluation.
 //!
+//! [`heldout`] holds the segmentation sweeps' held-out selection (`selection = …`).
 //! [`drawing`] holds the figure-building helpers they share. Everything here is polars- and
 //! plotters-free: figures are specs (`motionlab-figure`), rendered by `motionlab-report`.
 
 pub mod drawing;
 pub mod features;
 pub mod gait;
+pub mod heldout;
 pub mod matching;
 pub mod segmentation;
 

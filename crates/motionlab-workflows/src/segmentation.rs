@@ -15,6 +15,7 @@ use motionlab_core::{
 };
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
 
+use crate::heldout::{heldout_tables, Selection};
 use crate::drawing::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip, time_axis, traces_charts};
 use motionlab_experiment::workflow::{build_evaluators, sanitize, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
 use motionlab_experiment::spec::StageSpec;
@@ -25,7 +26,9 @@ use motionlab_experiment::{build_stage, Datasets};
 /// domain), figures per sequence (each method's traces with thresholds and candidate bars and
 /// a close-up, the root path with candidates, the timeline with ground truth, a stick-figure
 /// strip of one segment) and, across a sweep, precision–recall curves with each method's
-/// best-F1 operating point (`best_f1`).
+/// best-F1 operating point (`best_f1`) — an oracle, chosen on the sequences it is reported
+/// on — and, with `selection`, operating points chosen on other sequences (`heldout_f1`,
+/// `heldout_choices`).
 ///
 /// Missing samples: as each segmenter treats them; figures leave gaps where a trace is NaN.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -54,6 +57,15 @@ pub struct SegmentationSection {
     /// `stick_strip`. Default: all.
     #[serde(default = "default_seg_figures")]
     pub figures: Vec<String>,
+    /// How a sweep chooses each method's operating point (used only across a `[[sweep]]`):
+    /// `"oracle"` (default: only `best_f1`, chosen on the evaluation data itself),
+    /// `"leave_one_sequence_out"` (also `heldout_f1` and `heldout_choices`: for each sequence,
+    /// each grid's focus method takes the combination with the best pooled F1 on the other
+    /// sequences — the last in grid order on ties, as `best_f1` — and its counts on that sequence are pooled
+    /// over all sequences) or `{ train = ["86_01", …] }` (choose on these sequences, report on
+    /// the others).
+    #[serde(default)]
+    pub selection: Selection,
 }
 
 fn default_root() -> String {
@@ -226,7 +238,9 @@ impl Workflow for SegmentationWorkflow {
         if combos.len() < 2 {
             return Ok(Output::default());
         }
-        pr_curves(combos, &self.method_names())
+        let mut out = pr_curves(combos, &self.method_names())?;
+        out.tables.extend(heldout_tables(combos, &self.method_names(), &self.section.selection)?);
+        Ok(out)
     }
 }
 
