@@ -21,6 +21,7 @@
 
 pub mod boundaries;
 pub mod boundary_pr;
+pub mod chance;
 pub mod consensus;
 mod sequences;
 pub mod transitions;
