@@ -21,6 +21,7 @@ const EXPECTED: &[(StageKind, &str)] = &[
     (StageKind::GroundTruth, "mocap6_labels"),
     (StageKind::Preprocessor, "add_centroid"),
     (StageKind::Preprocessor, "delay_points"),
+    (StageKind::Preprocessor, "distinct_points"),
     (StageKind::Preprocessor, "fill_gaps"),
     (StageKind::Preprocessor, "initial_pose_normalisation"),
     (StageKind::FeatureExtractor, "hull_volume"),

@@ -47,6 +47,7 @@
 //! missing; the synchroniser and the judgement only see what the matchers produced.
 
 pub mod delay;
+pub mod distinct_points;
 pub mod dp;
 pub mod initial_pose;
 pub mod input;
