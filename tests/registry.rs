@@ -43,6 +43,7 @@ const EXPECTED: &[(StageKind, &str)] = &[
     (StageKind::GaitCycleDetector, "heel_height"),
     (StageKind::WaveformAnalyzer, "waveform_parameters"),
     (StageKind::WalkSynthesizer, "feature_channel_control"),
+    (StageKind::Evaluator, "boundary_metrics"),
     (StageKind::Evaluator, "boundary_pr"),
     (StageKind::Evaluator, "change_rates"),
     (StageKind::Evaluator, "judgement"),

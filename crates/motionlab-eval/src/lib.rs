@@ -9,9 +9,12 @@
 //! - [`consensus`]: consensus ground truth from several annotators' marks (clustering by
 //!   chaining, one vote per annotator, `min_votes`, median frame, optional stop rule).
 //! - [`transitions`]: the paper's Table 3 (each labelled transition ○/×) and its evaluator plugin.
-//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled).
+//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled), with the
+//!   chance and periodic baselines of [`chance`] beside each method (p-value, above chance).
+//! - [`cpd_metrics`]: TCPDBench/TSSB's F1 with several annotators and segment covering;
+//!   [`boundary_metrics`]: evaluator plugin for them and for F1 at several tolerances.
 //!
-//! Evaluator plugins registered here: `boundary_pr`, `transitions`.
+//! Evaluator plugins registered here: `boundary_metrics`, `boundary_pr`, `transitions`.
 //!
 //! Written by hand: the two matching algorithms (a point–interval sweep and Hopcroft–Karp, each
 //! a few dozen lines, cross-checked against exhaustive search in the tests — see
@@ -20,9 +23,11 @@
 //! the consensus stop rule comes from `motionlab_features::speed`, the one definition of V.
 
 pub mod boundaries;
+pub mod boundary_metrics;
 pub mod boundary_pr;
 pub mod chance;
 pub mod consensus;
+pub mod cpd_metrics;
 mod sequences;
 pub mod transitions;
 

@@ -13,4 +13,5 @@ pub mod curvature;
 pub mod hull;
 pub mod virtual_markers;
 pub mod gap_fill;
+pub mod butterworth;
 mod simd;
