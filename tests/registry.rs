@@ -20,6 +20,7 @@ const EXPECTED: &[(StageKind, &str)] = &[
     (StageKind::GroundTruth, "cmu86_labels"),
     (StageKind::GroundTruth, "mocap6_labels"),
     (StageKind::Preprocessor, "add_centroid"),
+    (StageKind::Preprocessor, "butterworth"),
     (StageKind::Preprocessor, "delay_points"),
     (StageKind::Preprocessor, "distinct_points"),
     (StageKind::Preprocessor, "fill_gaps"),
