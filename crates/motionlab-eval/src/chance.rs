@@ -161,13 +161,13 @@ pub fn exact_expected_matches(k: usize, windows: &[TruthWindow], span: std::ops:
 
 /// The integer frames `[lo, hi]` of a window that lie in the span, or None.
 fn integer_frames(w: &TruthWindow, span: &std::ops::Range<usize>) -> Option<(usize, usize)> {
-    if span.is_empty() || !(w.lo <= w.hi) {
+    if span.is_empty() || w.lo.is_nan() || w.hi.is_nan() || w.lo > w.hi {
         return None;
     }
     let lo = w.lo.ceil().max(span.start as f64);
     let hi = w.hi.floor().min((span.end - 1) as f64);
     // Both are whole numbers inside the span here, so the casts are exact.
-    (lo <= hi).then(|| (lo as usize, hi as usize))
+    (lo <= hi).then_some((lo as usize, hi as usize))
 }
 
 /// The chance baseline of `k` candidates against `windows` over `span` (module docs):

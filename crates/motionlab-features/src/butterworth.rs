@@ -197,7 +197,6 @@ impl Preprocessor for Butterworth {
         let (f, m) = (motion.n_frames(), motion.n_points());
         let missing: Vec<bool> = (0..f).flat_map(|i| (0..m).map(move |k| (i, k))).map(|(i, k)| motion.is_missing(i, k)).collect();
         let positions = motion.positions_mut();
-        let mut series = Vec::with_capacity(f);
         for k in 0..m {
             let mut i = 0;
             while i < f {
@@ -209,14 +208,15 @@ impl Preprocessor for Butterworth {
                 while i < f && !missing[i * m + k] {
                     i += 1;
                 }
-                for c in 0..3 {
-                    series.clear();
-                    series.extend((start..i).map(|j| positions[j * m + k][c]));
-                    // Short runs (None) stay as captured (documented).
-                    if let Some(y) = filtfilt(&tf, &series) {
-                        for (j, v) in (start..i).zip(y) {
-                            positions[j * m + k][c] = v;
-                        }
+                // Short runs (None) stay as captured (documented).
+                let filtered: [Option<Vec<f64>>; 3] = std::array::from_fn(|c| {
+                    let series: Vec<f64> = (start..i).map(|j| positions[j * m + k][c]).collect();
+                    filtfilt(&tf, &series)
+                });
+                for (c, y) in filtered.iter().enumerate() {
+                    let Some(y) = y else { continue };
+                    for (j, &v) in (start..i).zip(y) {
+                        positions[j * m + k][c] = v;
                     }
                 }
             }

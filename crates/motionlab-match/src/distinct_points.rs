@@ -86,9 +86,9 @@ impl DistinctPoints {
             let g = groups.len();
             group_of[k] = Some(g);
             let mut members = vec![k];
-            for j in k + 1..m {
-                if group_of[j].is_none() && same(k, j) {
-                    group_of[j] = Some(g);
+            for (j, slot) in group_of.iter_mut().enumerate().skip(k + 1) {
+                if slot.is_none() && same(k, j) {
+                    *slot = Some(g);
                     members.push(j);
                 }
             }
@@ -133,7 +133,7 @@ mod tests {
             match k {
                 0 | 2 => [t, 0.0, 0.0],
                 1 => [t * t, 0.0, 0.0],
-                3 => if i == 2 { [f64::NAN; 3] } else { [5.0, 5.0, 5.0] },
+                3 if i == 2 => [f64::NAN; 3],
                 _ => [5.0, 5.0, 5.0],
             }
         });
