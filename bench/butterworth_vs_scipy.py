@@ -21,13 +21,9 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
-try:
-    import numpy  # noqa: F401
-    import scipy  # noqa: F401
-except ImportError:
-    from bench_env import ensure_venv
+from bench_env import ensure_modules  # noqa: E402
 
-    ensure_venv()
+ensure_modules("numpy", "scipy")
 
 import numpy as np  # noqa: E402
 from scipy.signal import butter, filtfilt  # noqa: E402

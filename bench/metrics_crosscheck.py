@@ -27,13 +27,9 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
-try:
-    import numpy  # noqa: F401
-    import ruptures  # noqa: F401
-except ImportError:
-    from bench_env import ensure_venv
+from bench_env import ensure_modules  # noqa: E402
 
-    ensure_venv()
+ensure_modules("numpy", "ruptures")
 
 from ruptures.metrics import hausdorff as rpt_hausdorff  # noqa: E402
 from ruptures.metrics import precision_recall as rpt_precision_recall  # noqa: E402
