@@ -77,7 +77,7 @@ pub struct ToleranceRow {
     /// Sequence name, or `pooled`.
     pub sequence: String,
     pub method: String,
-    /// The tolerance as given (`0.5 s`, `10 frames`).
+    /// The tolerance as given (`0.5 s`, `0.0833 s`, `10 frames`).
     pub tolerance: String,
     /// At this sequence's rate; None on pooled rows.
     pub tolerance_frames: Option<f64>,
@@ -87,6 +87,15 @@ pub struct ToleranceRow {
     pub precision: f64,
     pub recall: f64,
     pub f1: f64,
+}
+
+/// `0.0833 s` or `10 frames`: the tolerance as a short label (4 decimals of a second are
+/// finer than any frame period).
+fn tolerance_label(t: TimeSpan) -> String {
+    match t {
+        TimeSpan::Seconds(s) => format!("{} s", (s * 1e4).round() / 1e4),
+        TimeSpan::Frames(n) => format!("{n} frames"),
+    }
 }
 
 /// A row of `tcpd_metrics`.
@@ -127,7 +136,7 @@ impl Evaluator for BoundaryMetrics {
                     by_tol.push(ToleranceRow {
                         sequence: seq.sequence.clone(),
                         method: m.method.clone(),
-                        tolerance: tol.to_string(),
+                        tolerance: tolerance_label(tol),
                         tolerance_frames: Some(tol.frames_at(rate)),
                         n_truth: s.n_truth,
                         n_found: s.n_found,
@@ -166,7 +175,7 @@ impl Evaluator for BoundaryMetrics {
             by_tol.push(ToleranceRow {
                 sequence: "pooled".into(),
                 method,
-                tolerance: self.tolerances[ti].to_string(),
+                tolerance: tolerance_label(self.tolerances[ti]),
                 tolerance_frames: None,
                 n_truth,
                 n_found,
@@ -231,6 +240,9 @@ mod tests {
         assert_eq!(t.name, "boundary_f1_by_tolerance");
         assert_eq!(f64s(t, "n_matched"), [0.0, 1.0, 2.0, 0.0, 1.0, 2.0], "3 sequence rows, then 3 pooled");
         assert_eq!(f64s(t, "f1")[..3], [0.0, 0.5, 1.0]);
+        let labels: Vec<String> = (0..3).map(|i| t.column("tolerance").unwrap().cell(i)).collect();
+        assert_eq!(labels, ["2 frames", "5 frames", "0.25 s"]);
+        assert_eq!(tolerance_label(TimeSpan::Seconds(1.0 / 12.0)), "0.0833 s");
         let c = &tables[1];
         assert_eq!(c.name, "tcpd_metrics");
         // X = {0, 104, 320}, T = {0, 100, 300}, margin 5: 0↔0, 100↔104 → P = R = 2/3.
