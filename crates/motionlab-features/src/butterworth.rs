@@ -2,12 +2,17 @@
 //! `signal.butter` + `signal.filtfilt` (and MATLAB's `butter` + `filtfilt`, which the MoCap
 //! Toolbox's filtering functions call).
 //!
-//! Written here rather than taken from a crate: the IIR crates (`biquad`, `iir_filters`,
-//! `sci-rs`) either design only second-order sections with their own (audio) conventions, or
-//! pull in a large numeric stack for what is ~100 lines; none is gap-aware. What is needed is
-//! scipy's exact recipe — the analogue prototype, bilinear transform with prewarping,
-//! `lfilter_zi` initial conditions, odd extension — so that the numbers equal scipy's, which
-//! `bench/butterworth_vs_scipy.py` checks on real data (run by CI, `.ci/run`).
+//! Written here rather than taken from a crate: `sci-rs` (the one crate that mirrors scipy's
+//! Butterworth design and forward-backward filtering) filters second-order sections
+//! (`sosfiltfilt`), whose padding and rounding differ from `filtfilt` of the transfer function,
+//! and pulls in ndarray 0.15, an older nalgebra (0.32 beside the workspace's 0.35), lstsq,
+//! kalmanfilt and rustfft; the audio biquad crates design single second-order sections from a
+//! Q factor. None filters around gaps. What is needed is scipy's exact recipe — analogue
+//! prototype, bilinear transform with prewarping, `lfilter_zi` initial conditions, odd
+//! extension — ~100 lines here, so the numbers equal scipy's: `bench/butterworth_vs_scipy.py`
+//! checks them on real data (run by CI, `.ci/run`; 1e-14 relative for orders 2 and 4).
+//! Orders are limited to 8: the transfer-function form (as scipy's `filtfilt(b, a)`) loses
+//! precision at high orders with low cutoffs.
 
 use nalgebra::{Complex, DMatrix, DVector};
 use schemars::JsonSchema;
