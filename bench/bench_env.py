@@ -14,3 +14,15 @@ def ensure_venv():
     python = subprocess.run([os.path.join(HERE, "setup_venv.sh")], check=True, capture_output=True, text=True).stdout.strip()
     if os.path.realpath(sys.prefix) != os.path.realpath(os.path.dirname(os.path.dirname(python))):
         os.execv(python, [python] + sys.argv)
+
+
+def ensure_modules(*names):
+    """Runs in the current interpreter when it already has `names` (e.g. a CI venv with the
+    peers), else under bench/.venv (ensure_venv)."""
+    import importlib
+
+    try:
+        for name in names:
+            importlib.import_module(name)
+    except ImportError:
+        ensure_venv()

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Creates bench/.venv with the pinned Python peers (scipy, dtaidistance, tslearn, numpy).
+# Creates bench/.venv with the pinned Python peers (scipy, dtaidistance, tslearn, numpy, ruptures).
 # Idempotent: does nothing when the venv already satisfies requirements.txt.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)

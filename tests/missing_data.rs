@@ -219,6 +219,24 @@ delay = { frames = 5 }"#, w.clone())
     }
 }
 
+#[test]
+fn butterworth_and_distinct_points_keep_missing_samples_missing() {
+    let w = walk1();
+    // butterworth: the 27 real gaps stay missing, the runs around them are filtered separately
+    // (the values against scipy: bench/butterworth_vs_scipy.py).
+    let filtered = preprocess("butterworth", "cutoff_hz = 6.0", w.clone()).unwrap();
+    assert_eq!(filtered.missing_mask(), w.missing_mask());
+    let k = w.point_index("Head_FR").unwrap();
+    assert_ne!(filtered.position(150, k), w.position(150, k), "present samples are filtered");
+    for (gapped, _) in dance1_gaps() {
+        assert_eq!(preprocess("butterworth", "", gapped.clone()).unwrap().missing_mask(), gapped.missing_mask());
+    }
+    // distinct_points: no two markers of walk1 share a place, and a gap never merges points.
+    let distinct = preprocess("distinct_points", "", w.clone()).unwrap();
+    assert_eq!(distinct.point_names(), w.point_names());
+    assert_eq!(distinct.missing_mask(), w.missing_mask());
+}
+
 // ---------------------------------------------------------------------------------------------
 // Features
 // ---------------------------------------------------------------------------------------------

@@ -9,15 +9,17 @@
 //! - [`consensus`]: consensus ground truth from several annotators' marks (clustering by
 //!   chaining, one vote per annotator, `min_votes`, median frame, optional stop rule).
 //! - [`transitions`]: the paper's Table 3 (each labelled transition ○/×) and its evaluator plugin.
-//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled); [`span`]: its
-//!   option to count only found frames within the annotated span.
-//!
+//! - [`boundary_pr`]: evaluator plugin for Tables 1/2 (per sequence and pooled), with the
+//!   chance and periodic baselines of [`chance`] beside each method (p-value, above chance);
+//!   [`span`]: its option to count only found frames within the annotated span.
+//! - [`cpd_metrics`]: TCPDBench/TSSB's F1 with several annotators and segment covering;
+//!   [`boundary_metrics`]: evaluator plugin for them and for F1 at several tolerances.
 //! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
 //!   (`boundaries_csv`, `elan_eaf`; formats parsed in `motionlab-io`), one annotator or the
 //!   consensus of several.
 //!
-//! Evaluator plugins registered here: `boundary_pr`, `transitions`; ground-truth readers:
-//! `boundaries_csv`, `elan_eaf`.
+//! Evaluator plugins registered here: `boundary_metrics`, `boundary_pr`, `transitions`;
+//! ground-truth readers: `boundaries_csv`, `elan_eaf`.
 //!
 //! Written by hand: the two matching algorithms (a point–interval sweep and Hopcroft–Karp, each
 //! a few dozen lines, cross-checked against exhaustive search in the tests — see
@@ -28,11 +30,14 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 4;
+pub const PLUGIN_COUNT: usize = 5;
 
 pub mod boundaries;
+pub mod boundary_metrics;
 pub mod boundary_pr;
+pub mod chance;
 pub mod consensus;
+pub mod cpd_metrics;
 mod sequences;
 pub mod span;
 pub mod transitions;

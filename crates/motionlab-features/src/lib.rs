@@ -6,7 +6,7 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 10;
+pub const PLUGIN_COUNT: usize = 11;
 
 pub mod signal;
 pub mod smoothing;
@@ -18,4 +18,5 @@ pub mod curvature;
 pub mod hull;
 pub mod virtual_markers;
 pub mod gap_fill;
+pub mod butterworth;
 mod simd;

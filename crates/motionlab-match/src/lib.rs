@@ -51,9 +51,10 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 7;
+pub const PLUGIN_COUNT: usize = 8;
 
 pub mod delay;
+pub mod distinct_points;
 pub mod dp;
 pub mod initial_pose;
 pub mod input;

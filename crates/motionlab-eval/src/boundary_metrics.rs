@@ -1,0 +1,271 @@
+//! Evaluator plugin `boundary_metrics`: F1 at several tolerances in one table, and the
+//! change-point metrics of TCPDBench/TSSB (F1 with several annotators, segment covering).
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Result, Table, TimeSpan};
+
+use crate::boundaries::{MatchRule, evaluate_boundaries, ratios, tolerance_frames};
+use crate::cpd_metrics::{covering, tcpd_f_measure};
+use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
+
+/// The metrics people compare change-point detectors with, beside `boundary_pr`'s Table 1.
+///
+/// Output tables:
+/// - `boundary_f1_by_tolerance`: precision, recall and F1 of `boundary_pr` (time rule, maximum
+///   one-to-one matching, same empty-set rules) at **each** of `tolerances`, per sequence and
+///   method, then `pooled` rows per method and tolerance (ratios of summed counts).
+/// - `tcpd_metrics`: per sequence and method, TCPDBench's F1 (`tcpd_f1`, with
+///   `tcpd_precision`, `tcpd_recall`: frame 0 counted as a change point on both sides, greedy
+///   nearest matching within `margin`, precision over the union of the annotators, recall
+///   averaged over them) and its segment `covering` (Jaccard-weighted covering of each
+///   annotator's segments by the found ones, averaged) — definitions in the crate's
+///   `cpd_metrics` module, cross-checked with Python re-implementations by
+///   `tests/metrics_crosscheck.py`. Each annotator's truth is kept separately: a sequence's
+///   ground truth is one annotator today (`n_annotators` = 1); the functions take several.
+///   No pooled rows: TCPDBench reports per-series scores (average them if wanted).
+///
+/// Sequences without ground truth are skipped; it is an error when none has any.
+/// Missing samples: not read (only frame numbers are compared).
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryMetricsParams {
+    /// The match tolerances of `boundary_f1_by_tolerance`, in frames or seconds (each resolved
+    /// at the motion's rate). Default `[{ seconds = 0.0833… }, { seconds = 0.25 }, { seconds =
+    /// 0.5 }, { seconds = 1.0 }]` (1/12 s is `boundary_pr`'s default).
+    #[serde(default = "default_tolerances")]
+    pub tolerances: Vec<TimeSpan>,
+    /// TCPDBench's margin: a found frame within this many frames of a truth can count (whole
+    /// frames, rounded down, as TCPDBench's integer margin). Default `{ seconds = 0.5 }`.
+    #[serde(default = "default_margin")]
+    pub margin: TimeSpan,
+}
+
+fn default_tolerances() -> Vec<TimeSpan> {
+    vec![TimeSpan::Seconds(1.0 / 12.0), TimeSpan::Seconds(0.25), TimeSpan::Seconds(0.5), TimeSpan::Seconds(1.0)]
+}
+
+fn default_margin() -> TimeSpan {
+    TimeSpan::Seconds(0.5)
+}
+
+/// The validated evaluator.
+#[derive(Clone, Debug)]
+pub struct BoundaryMetrics {
+    tolerances: Vec<TimeSpan>,
+    margin: TimeSpan,
+}
+
+impl ParamGuard for BoundaryMetricsParams {
+    type Checked = BoundaryMetrics;
+    fn check(self) -> Result<BoundaryMetrics> {
+        if self.tolerances.is_empty() {
+            return Err(Error::new(ErrorKind::OutOfRange, "must list at least one tolerance").with_field("tolerances"));
+        }
+        let tolerances =
+            self.tolerances.into_iter().enumerate().map(|(i, t)| t.check(&format!("tolerances[{i}]"), false)).collect::<Result<_>>()?;
+        let margin = self.margin.check("margin", false)?;
+        Ok(BoundaryMetrics { tolerances, margin })
+    }
+}
+
+/// A row of `boundary_f1_by_tolerance`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ToleranceRow {
+    /// Sequence name, or `pooled`.
+    pub sequence: String,
+    pub method: String,
+    /// The tolerance as given (`0.5 s`, `0.0833 s`, `10 frames`).
+    pub tolerance: String,
+    /// At this sequence's rate; None on pooled rows.
+    pub tolerance_frames: Option<f64>,
+    pub n_truth: usize,
+    pub n_found: usize,
+    pub n_matched: usize,
+    pub precision: f64,
+    pub recall: f64,
+    pub f1: f64,
+}
+
+/// `0.0833 s` or `10 frames`: the tolerance as a short label (4 decimals of a second are
+/// finer than any frame period).
+fn tolerance_label(t: TimeSpan) -> String {
+    match t {
+        TimeSpan::Seconds(s) => format!("{} s", (s * 1e4).round() / 1e4),
+        TimeSpan::Frames(n) => format!("{n} frames"),
+    }
+}
+
+/// A row of `tcpd_metrics`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TcpdRow {
+    pub sequence: String,
+    pub method: String,
+    pub n_annotators: usize,
+    pub margin_frames: usize,
+    pub tcpd_f1: f64,
+    pub tcpd_precision: f64,
+    pub tcpd_recall: f64,
+    /// Segment covering in [0, 1].
+    pub covering: f64,
+}
+
+impl Evaluator for BoundaryMetrics {
+    fn domain(&self) -> EvalDomain {
+        EvalDomain::Segmentation
+    }
+
+    fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
+        let sequences = segmentation_input(input, "boundary_metrics")?;
+        let mut by_tol = Vec::new();
+        let mut tcpd = Vec::new();
+        // (method, tolerance index) → (truth, found, matched), in order of first appearance.
+        let mut pools: Vec<(String, usize, [usize; 3])> = Vec::new();
+        let mut n_evaluated = 0;
+        for seq in sequences {
+            let Some(truth) = truth_of(seq)? else { continue };
+            n_evaluated += 1;
+            let rate = seq.motion.frame_rate();
+            let annotators = vec![truth.frames()];
+            let margin_frames = tolerance_frames(self.margin, rate).floor() as usize;
+            for m in &seq.methods {
+                for (ti, &tol) in self.tolerances.iter().enumerate() {
+                    let s = evaluate_boundaries(&m.candidates, &truth.boundaries, &MatchRule::time(tolerance_frames(tol, rate)));
+                    by_tol.push(ToleranceRow {
+                        sequence: seq.sequence.clone(),
+                        method: m.method.clone(),
+                        tolerance: tolerance_label(tol),
+                        tolerance_frames: Some(tol.frames_at(rate)),
+                        n_truth: s.n_truth,
+                        n_found: s.n_found,
+                        n_matched: s.n_matched,
+                        precision: s.precision,
+                        recall: s.recall,
+                        f1: s.f1,
+                    });
+                    match pools.iter_mut().find(|(name, t, _)| *name == m.method && *t == ti) {
+                        Some((_, _, c)) => {
+                            c[0] += s.n_truth;
+                            c[1] += s.n_found;
+                            c[2] += s.n_matched;
+                        }
+                        None => pools.push((m.method.clone(), ti, [s.n_truth, s.n_found, s.n_matched])),
+                    }
+                }
+                let (f1, precision, recall) = tcpd_f_measure(&annotators, &m.candidates, margin_frames);
+                tcpd.push(TcpdRow {
+                    sequence: seq.sequence.clone(),
+                    method: m.method.clone(),
+                    n_annotators: annotators.len(),
+                    margin_frames,
+                    tcpd_f1: f1,
+                    tcpd_precision: precision,
+                    tcpd_recall: recall,
+                    covering: covering(&annotators, &m.candidates, seq.motion.n_frames()),
+                });
+            }
+        }
+        if n_evaluated == 0 {
+            return Err(nothing_to_evaluate("boundary_metrics", "ground truth", sequences.len()));
+        }
+        for (method, ti, [n_truth, n_found, n_matched]) in pools {
+            let (precision, recall, f1) = ratios(n_found, n_truth, n_matched);
+            by_tol.push(ToleranceRow {
+                sequence: "pooled".into(),
+                method,
+                tolerance: tolerance_label(self.tolerances[ti]),
+                tolerance_frames: None,
+                n_truth,
+                n_found,
+                n_matched,
+                precision,
+                recall,
+                f1,
+            });
+        }
+        Ok(vec![
+            Table::from_records(
+                "boundary_f1_by_tolerance",
+                "Precision, recall and F1 at several tolerances (time rule, maximum one-to-one matching)",
+                &by_tol,
+            )?,
+            Table::from_records(
+                "tcpd_metrics",
+                format!("TCPDBench F1 (margin {}) and segment covering per sequence and method", self.margin),
+                &tcpd,
+            )?,
+        ])
+    }
+}
+
+motionlab_core::register_plugin!(Evaluator, BoundaryMetricsParams, "boundary_metrics");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequences::fixtures::sequence;
+    use motionlab_core::ColumnValues;
+    use motionlab_core::registry::build_evaluator;
+
+    fn evaluator(toml_text: &str) -> Box<dyn Evaluator> {
+        let v: toml::Value = toml::from_str(toml_text).unwrap();
+        build_evaluator("boundary_metrics", &v).unwrap()
+    }
+
+    fn f64s(t: &Table, name: &str) -> Vec<f64> {
+        match t.column(name) {
+            Some(ColumnValues::F64(v)) => v.clone(),
+            Some(ColumnValues::I64(v)) => v.iter().map(|&x| x as f64).collect(),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn f1_grows_with_the_tolerance_and_tcpd_rows_follow_the_definitions() {
+        // 100 Hz, truths 100 and 300 (segments 0..100..300..600); found 104 and 320.
+        // Tolerance 2 frames: 0 matched; 5: 1; 25: 2.
+        let seqs = vec![sequence(
+            "a",
+            600,
+            100.0,
+            Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]),
+            &[("m", &[104, 320])],
+        )];
+        let tables = evaluator("tolerances = [{ frames = 2 }, { frames = 5 }, { seconds = 0.25 }]\nmargin = { frames = 5 }")
+            .evaluate(EvalInput::Segmentation(&seqs))
+            .unwrap();
+        let t = &tables[0];
+        assert_eq!(t.name, "boundary_f1_by_tolerance");
+        assert_eq!(f64s(t, "n_matched"), [0.0, 1.0, 2.0, 0.0, 1.0, 2.0], "3 sequence rows, then 3 pooled");
+        assert_eq!(f64s(t, "f1")[..3], [0.0, 0.5, 1.0]);
+        let labels: Vec<String> = (0..3).map(|i| t.column("tolerance").unwrap().cell(i)).collect();
+        assert_eq!(labels, ["2 frames", "5 frames", "0.25 s"]);
+        assert_eq!(tolerance_label(TimeSpan::Seconds(1.0 / 12.0)), "0.0833 s");
+        let c = &tables[1];
+        assert_eq!(c.name, "tcpd_metrics");
+        // X = {0, 104, 320}, T = {0, 100, 300}, margin 5: 0↔0, 100↔104 → P = R = 2/3.
+        assert!((f64s(c, "tcpd_precision")[0] - 2.0 / 3.0).abs() < 1e-15);
+        assert!((f64s(c, "tcpd_f1")[0] - 2.0 / 3.0).abs() < 1e-15);
+        // Covering: truth [0,100) by found [0,104): 100/104; [100,300) by [104,320): 196/220;
+        // [300,600) by [320,600): 280/300.
+        let expected = (100.0 * (100.0 / 104.0) + 200.0 * (196.0 / 220.0) + 300.0 * (280.0 / 300.0)) / 600.0;
+        assert!((f64s(c, "covering")[0] - expected).abs() < 1e-12);
+    }
+
+    #[test]
+    fn parameters_and_missing_truth_are_errors() {
+        let field = |t: &str| {
+            let v: toml::Value = toml::from_str(t).unwrap();
+            build_evaluator("boundary_metrics", &v).err().map(|e| e.location().field.clone().unwrap_or_default())
+        };
+        assert_eq!(field("tolerances = []").as_deref(), Some("tolerances"));
+        assert_eq!(field("tolerances = [{ frames = -1 }]").as_deref(), Some("tolerances[0]"));
+        assert_eq!(field("margin = { seconds = -1.0 }").as_deref(), Some("margin"));
+        let seqs = vec![sequence("x", 100, 50.0, None, &[("m", &[3])])];
+        assert_eq!(evaluator("").evaluate(EvalInput::Segmentation(&seqs)).unwrap_err().kind(), ErrorKind::MissingKey);
+        let entry = motionlab_core::registry::find("boundary_metrics").unwrap();
+        assert!(entry.doc().contains("Missing samples"));
+    }
+}
