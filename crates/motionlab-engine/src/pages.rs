@@ -259,7 +259,10 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
     let mut entries = Vec::new();
     for f in files {
         let Ok(text) = std::fs::read_to_string(&f) else { continue };
-        let Ok(file) = toml::from_str::<ExperimentFile>(&text) else { continue };
+        // Only the fixed part of the schema: the workflow section is the workflow's own.
+        let Ok(mut doc) = toml::from_str::<toml::Table>(&text) else { continue };
+        doc.retain(|k, _| motionlab_experiment::spec::FIXED_KEYS.iter().any(|f| k == *f));
+        let Ok(file) = toml::Value::Table(doc).try_into::<ExperimentFile>() else { continue };
         let exp_dir = reports.join(&file.experiment.name);
         let latest = std::fs::read_to_string(exp_dir.join("latest")).ok().map(|s| s.trim().to_string()).filter(|s| !s.is_empty());
         // Fall back to the committed run of record when nothing ran on this machine.
@@ -318,6 +321,22 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression: the index parsed whole experiment files as `ExperimentFile`, which rejects
+    /// the workflow section since workflows own their sections, and so listed nothing.
+    #[test]
+    fn the_index_lists_experiments_with_a_workflow_section() {
+        let root = std::env::temp_dir().join(format!("mlab-index-{}", std::process::id()));
+        let (experiments, reports) = (root.join("experiments"), root.join("reports"));
+        std::fs::create_dir_all(&experiments).unwrap();
+        std::fs::create_dir_all(&reports).unwrap();
+        let toml = "[experiment]\nname = \"listed_here\"\n\n[[dataset]]\nfiles = [\"x.bvh\"]\nloader = { type = \"bvh\" }\n\n[features]\nextractors = [{ type = \"marker_speed\" }]\n";
+        std::fs::write(experiments.join("listed.toml"), toml).unwrap();
+        let index = write_reproduction_index(&experiments, &reports, false).unwrap();
+        let html = std::fs::read_to_string(index).unwrap();
+        std::fs::remove_dir_all(&root).unwrap();
+        assert!(html.contains("listed_here"), "the index does not list the experiment");
+    }
 
     #[test]
     fn wildcards_match_whole_names() {
