@@ -106,6 +106,30 @@ fn osafune_fast_gives_tables_2_3_and_frequency_changes_that_numpy_recomputes() {
         }
     }
 
+    // A viewer page per trial (`[gait] viewers` defaults to "all"): one gait-cycle interval per
+    // cycle of the `trials` table, per side, each starting at one of the file's foot strikes of
+    // that side, and the knee angle drawn.
+    let pages = motionlab_testkit::viewer_pages(&run);
+    assert_eq!(pages.len(), 36);
+    let (sequences, left, right) = (text(&trials, "sequence"), num(&trials, "n_cycles_left"), num(&trials, "n_cycles_right"));
+    for (k, seq) in sequences.iter().enumerate() {
+        let name = format!("{}.html", seq.replace('/', "_"));
+        let page = &pages.iter().find(|p| p.0 == name).unwrap_or_else(|| panic!("no viewer {name}")).1;
+        for (side, n) in [("Left", left[k]), ("Right", right[k])] {
+            let cycles = motionlab_testkit::viewer_lane(page, &format!("gait cycles ({side})"))["intervals"].as_array().unwrap().clone();
+            assert_eq!(cycles.len() as f64, n, "{seq} {side}");
+            let strikes: Vec<u64> = motionlab_testkit::viewer_lane(page, &format!("{side} Foot Strike"))["marks"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|m| m["frame"].as_u64().unwrap())
+                .collect();
+            assert!(cycles.iter().all(|c| strikes.contains(&c[0].as_u64().unwrap())), "{seq} {side}: cycles {cycles:?}, strikes {strikes:?}");
+        }
+        let angles = motionlab_testkit::viewer_lane(page, "joint angles");
+        assert_eq!(angles["series"][0][0], "knee_l.flexion", "{seq}");
+    }
+
     // The independent numpy recomputation of K, μ, σ, CV and Tables 2-3 from the exported CSVs.
     match python() {
         Err(why) => println!("SKIPPED the numpy check: {why}"),
