@@ -112,8 +112,9 @@ fn the_timing_experiment_writes_its_tables_figures_and_verdict() {
     let (hr, ranks) = csv(&run, "timing_ranks");
     for (r, k) in reps[..6].iter().zip(&ranks[..6]) {
         let label = &r[col(&h, "repetition")];
-        let name: String = label.chars().filter(|c| c.is_ascii_alphanumeric() || *c == ' ').collect::<String>().split_whitespace().collect::<Vec<_>>().join("_");
-        let page = &pages.iter().find(|p| p.0 == format!("jumping_jacks_a_b_c_{name}.html")).unwrap_or_else(|| panic!("no viewer for {label}")).1;
+        let title = format!("jumping jacks (a)(b)(c) — {label} — matching");
+        let (name, page) = pages.iter().find(|p| p.1["title"] == title).unwrap_or_else(|| panic!("no viewer titled {title:?}"));
+        assert!(name.starts_with("jumping_jacks_a_b_c_"), "{name}");
         let lane = motionlab_testkit::viewer_lane(page, "matched [a, b]");
         let iv = &lane["intervals"][0];
         let frame = |c: &str| r[col(&h, c)].parse::<u64>().unwrap() - r[col(&h, "window_start_frame")].parse::<u64>().unwrap();

@@ -566,7 +566,9 @@ impl GaitWorkflow {
             if !(f.is_finite() && f >= 0.0 && (f as usize) < n) {
                 continue;
             }
-            let name = format!("{} {}", e.context.trim(), e.label.trim()).trim().to_string();
+            // Files number repeated labels (`Foot Strike1`, `Foot Strike2`): one lane for all.
+            let label = e.label.trim().trim_end_matches(|c: char| c.is_ascii_digit()).trim_end();
+            let name = format!("{} {label}", e.context.trim()).trim().to_string();
             let mark = Mark { frame: f as usize, label: format!("{name}, {:.3} s", e.time.value()), status: None };
             match lanes.iter_mut().find(|l| l.name == name) {
                 Some(l) => l.marks.push(mark),
@@ -577,17 +579,26 @@ impl GaitWorkflow {
                 }
             }
         }
-        for mut l in lanes {
-            l.marks.sort_by_key(|m| m.frame);
-            spec.lanes.push(Lane::Events(l));
-        }
-        let rate = motion.frame_rate().hz();
         let mut sides: Vec<&str> = Vec::new();
         for c in &r.cycles {
             if !sides.contains(&c.side.as_str()) {
                 sides.push(&c.side);
             }
         }
+        // A walk without file events (a skeleton walk, cycles from heel height): its detector's
+        // foot strikes, the cycles' bounds.
+        if lanes.is_empty() {
+            for side in &sides {
+                let mut frames: Vec<usize> = r.cycles.iter().filter(|c| c.side == *side).flat_map(|c| [c.start, c.end]).filter(|f| *f < n).collect();
+                frames.dedup();
+                lanes.push(EventLane::new(format!("{side} foot strikes (detected)"), EventKind::Other, &frames));
+            }
+        }
+        for mut l in lanes {
+            l.marks.sort_by_key(|m| m.frame);
+            spec.lanes.push(Lane::Events(l));
+        }
+        let rate = motion.frame_rate().hz();
         for side in sides {
             let intervals = r
                 .cycles

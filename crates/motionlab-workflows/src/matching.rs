@@ -77,6 +77,7 @@ use motionlab_core::{Threshold, Trace};
 use motionlab_figure::{BarRow, Chart, Figure, RefLine, Series};
 use motionlab_match::judgement::{ranks, scores, Scores};
 
+use crate::drawing::bones_of_merged_skeleton;
 use motionlab_experiment::workflow::{build_evaluators, sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
 use motionlab_experiment::{build_stage, BuiltDataset, Combo, Datasets, Source};
 use motionlab_experiment::spec::{Cut, StageSpec};
@@ -960,11 +961,26 @@ impl MatchingWorkflow {
     /// peaks, cut windows and matched stretches) and each repetition of an explicit take (its
     /// matched stretch). Every interval is labelled with its repetition, `H`, `R`, score and
     /// rank by score within the take (1 = most similar).
+    /// Bones for the viewer of a loaded (preprocessed) motion: its skeleton's, through the
+    /// points a preprocessor merged ([`bones_of_merged_skeleton`] of the file as loaded, read
+    /// again), or none (markers only) when the file has no skeleton or cannot be read again.
+    fn bones(&self, data: &Datasets, dataset: usize, file: usize, motion: &Motion) -> Vec<[String; 2]> {
+        if motion.skeleton.is_some() {
+            return Vec::new();
+        }
+        let d = &data.datasets[dataset];
+        match d.loader.load(&d.files[file]) {
+            Ok(raw) => bones_of_merged_skeleton(&raw, motion),
+            Err(_) => Vec::new(),
+        }
+    }
+
     fn viewers(&self, items: &[(WorkItem, ItemData)], results: &[ItemResult], data: &Datasets) -> Result<Vec<ViewerSpec>> {
         let mut out = Vec::new();
         let model = data.load(self.model, 0).map_err(|e| e.under_field("model"))?;
         let model_name = if items.iter().any(|(i, _)| i.id == "model") { "model_basic_motion" } else { "model" };
-        let mut spec = ViewerSpec::new(model_name, format!("model basic motion {} — matching", model.name), ViewerMotion::from_motion(&model.motion, &[], Some("root"))?);
+        let vm = ViewerMotion::from_motion(&model.motion, &self.bones(data, self.model, 0, &model.motion), Some("root"))?;
+        let mut spec = ViewerSpec::new(model_name, format!("model basic motion {} — matching", model.name), vm);
         spec.lanes.push(Lane::Intervals(IntervalLane {
             name: "model".into(),
             kind: IntervalKind::Other,
@@ -980,7 +996,7 @@ impl MatchingWorkflow {
             let n = r.repetitions.len();
             let label = |k: usize| {
                 let rep = &r.repetitions[k];
-                let group = rep.group.as_ref().map(|g| format!(" ({g})")).unwrap_or_default();
+                let group = rep.group.as_ref().filter(|g| !rep.label.contains(&format!("({g})"))).map(|g| format!(" ({g})")).unwrap_or_default();
                 format!("{}{group}: H {} mm, R {} frames², score {}, rank {} of {n}", rep.label, fmt(h[k]), fmt(rr[k]), fmt(score[k]), rank[k])
             };
             // `[a, b]` of repetition k in frames of a motion whose first frame is file frame `offset`.
@@ -992,7 +1008,7 @@ impl MatchingWorkflow {
                 TakeKind::Continuous { dataset, file, .. } => {
                     let loaded = data.load(*dataset, *file)?;
                     let offset = cut_offset(&data.datasets[*dataset], loaded.motion.frame_rate());
-                    let vm = ViewerMotion::from_motion(&loaded.motion, &[], Some("root"))?;
+                    let vm = ViewerMotion::from_motion(&loaded.motion, &self.bones(data, *dataset, *file, &loaded.motion), Some("root"))?;
                     let mut spec = ViewerSpec::new(item.id.clone(), format!("{} — matching", r.take), vm);
                     let mut peaks = EventLane::new("velocity peaks", EventKind::Other, &[]);
                     for rep in &r.repetitions {
@@ -1031,7 +1047,7 @@ impl MatchingWorkflow {
                     for (k, &(d, f)) in members.iter().enumerate().take(n) {
                         let loaded = data.load(d, f)?;
                         let offset = cut_offset(&data.datasets[d], loaded.motion.frame_rate());
-                        let vm = ViewerMotion::from_motion(&loaded.motion, &[], Some("root"))?;
+                        let vm = ViewerMotion::from_motion(&loaded.motion, &self.bones(data, d, f, &loaded.motion), Some("root"))?;
                         let name = format!("{}_{}", item.id, item_id(&r.repetitions[k].label));
                         let mut spec = ViewerSpec::new(name, format!("{} — {} — matching", r.take, r.repetitions[k].label), vm);
                         spec.lanes.push(Lane::Intervals(IntervalLane { name: "matched [a, b]".into(), kind: IntervalKind::Matched, intervals: vec![matched(k, offset)] }));
