@@ -997,7 +997,8 @@ impl MatchingWorkflow {
             let label = |k: usize| {
                 let rep = &r.repetitions[k];
                 let group = rep.group.as_ref().filter(|g| !rep.label.contains(&format!("({g})"))).map(|g| format!(" ({g})")).unwrap_or_default();
-                format!("{}{group}: H {} mm, R {} frames², score {}, rank {} of {n}", rep.label, fmt(h[k]), fmt(rr[k]), fmt(score[k]), rank[k])
+                let best = if rank[k] == 1 && n > 1 { ", most similar" } else { "" };
+                format!("{}{group}: rank {} of {n}{best} — score {}, H {} mm, R {} frames²", rep.label, rank[k], fmt(score[k]), fmt(h[k]), fmt(rr[k]))
             };
             // `[a, b]` of repetition k in frames of a motion whose first frame is file frame `offset`.
             let matched = |k: usize, offset: usize| {
