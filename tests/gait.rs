@@ -209,6 +209,18 @@ fn osafune_control_writes_a_retimed_bvh_fig5_and_the_loso_verdict() {
     }
     assert!(checked >= 4, "{checked} changed components");
     assert!(run.join("figures/fig5_131_01.png").is_file() && run.join("figures/fig5_131_01.svg").is_file());
+    // The control walk's viewer: its skeleton's bones, the detected foot strikes bounding its
+    // cycles, and the knee angle under its own (mapped) channel name.
+    let pages = motionlab_testkit::viewer_pages(&run);
+    let walk_page = &pages.iter().find(|p| p.0 == "131_01.html").expect("a viewer for the control walk").1;
+    assert_eq!(walk_page["bones"].as_array().unwrap().len() + 1, walk_page["point_names"].as_array().unwrap().len(), "a skeleton tree");
+    for side in ["Left", "Right"] {
+        let strikes = motionlab_testkit::viewer_lane(walk_page, &format!("{side} foot strikes (detected)"))["marks"].as_array().unwrap().clone();
+        let cycles = motionlab_testkit::viewer_lane(walk_page, &format!("gait cycles ({side})"))["intervals"].as_array().unwrap().clone();
+        assert!(!cycles.is_empty() && cycles.iter().all(|c| strikes.iter().any(|m| m["frame"] == c[0])), "{side}");
+    }
+    let knee = &motionlab_testkit::viewer_lane(walk_page, "joint angles")["series"];
+    assert!(knee.as_array().unwrap().iter().any(|s| s[0] == "LeftKnee.Xrotation"), "{knee}");
     assert_eq!(table(&run, "control_curves").n_rows(), 6 * b.n_frames());
 
     // Leave-one-subject-out: one row per subject plus the mean, and a verdict that follows it.

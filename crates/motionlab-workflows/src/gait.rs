@@ -56,7 +56,11 @@
 //! Figures: the mean gait cycle of each `figure_channels` channel per condition (across
 //! subjects), K_j per subject, the paper's Fig 5 (stick figures of the recorded normal and the
 //! synthesised walk), each changed control channel over time, and the leave-one-out RMS per
-//! subject.
+//! subject. Viewer pages (first combination; `[gait] viewers = "all" | "none" | [...]`):
+//! `viewers/<sequence>.html` per walk — markers (the skeleton for a skeleton walk), the file's
+//! events per side and label (foot strike, foot off; the detected strikes when it has none),
+//! the gait cycles per side and the `figure_channels` angles (the control walk's through its
+//! `channel_map`).
 //!
 //! Missing samples: a channel without a complete gait cycle in a trial (absent markers, gaps)
 //! has NaN parameters; the change-rate evaluator excludes those subject-channel pairs (flagged
@@ -613,11 +617,15 @@ impl GaitWorkflow {
                 .collect();
             spec.lanes.push(Lane::Intervals(IntervalLane { name: format!("gait cycles ({side})"), kind: IntervalKind::GaitCycle, intervals }));
         }
+        // The control walk names its channels after its skeleton: the figure channels through
+        // `[gait.control] channel_map`.
+        let map = self.control.as_ref().filter(|_| r.control).map(|c| &c.spec.channel_map);
         let traces: Vec<Trace> = self
             .section
             .figure_channels
             .iter()
             .filter_map(|ch| {
+                let ch = map.and_then(|m| m.get(ch)).unwrap_or(ch);
                 let k = r.curves.channels.iter().position(|c| c == ch)?;
                 let mut v = r.curves.values[k].clone();
                 v.resize(n, f64::NAN);

@@ -60,7 +60,11 @@
 //! check of §5.2.3 and whether it held). Figures: per continuous take the velocity function
 //! with threshold, peaks and windows (Fig. 2); per repetition two markers' warping paths (Fig.
 //! 4); per combination the `H`–`R` scatter (Fig. 5) and the normalised `H'`–`R'` scatter
-//! (Fig. 6).
+//! (Fig. 6). Viewer pages (first combination): `viewers/model.html`, one per continuous take
+//! (`<take>.html`: velocity peaks, matched stretches `[a, b]` labelled with rank by score, score,
+//! `H` and `R`, the cut windows, the velocity function with its threshold) and one per
+//! repetition of an explicit take (`<take>_<repetition>.html`: its matched stretch); the stick
+//! figure is the skeleton's, through the points `distinct_points` merged.
 
 use std::collections::BTreeMap;
 
