@@ -288,6 +288,18 @@ fn broken_gait_sections_fail_validation_with_one_located_line() {
     assert_eq!(code, 0, "{out}{err}");
 
     assert_invalid(d, "typo.toml", &ok.replace("normal_condition", "normal_conditon"), ":17: gait", "unknown field `normal_conditon`");
+    let viewers = |v: &str| ok.replace("normal_condition = \"normal\"", &format!("normal_condition = \"normal\"\nviewers = {v}"));
+    assert_invalid(d, "viewers.toml", &viewers("[\"nobody\"]"), ":18: gait.viewers[0]", "\"nobody\" is neither a sequence");
+    for v in ["\"none\"", "\"all\"", "[\"2014001\", \"fast/2014004_C5_01\"]"] {
+        std::fs::write(d.join("v.toml"), viewers(v).replace("{DATA}", &repo().join("data").to_string_lossy())).unwrap();
+        assert_eq!(motionlab(&["validate", d.join("v.toml").to_str().unwrap()]).0, 0, "viewers = {v}");
+    }
+    // A list picks by subject (both of 2014001's trials) and by sequence.
+    let (code, out, err) = motionlab(&["run", d.join("v.toml").to_str().unwrap(), "--quiet", "--reports", d.join("reports").to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let pages: Vec<String> = motionlab_testkit::viewer_pages(Path::new(out.split(": ").next().unwrap())).into_iter().map(|p| p.0).collect();
+    assert_eq!(pages.len(), 3, "{pages:?}");
+    assert!(pages.iter().filter(|p| p.contains("2014001")).count() == 2 && pages.contains(&"fast_2014004_C5_01.html".to_string()), "{pages:?}");
     assert_invalid(d, "condition.toml", &ok.replace("normal_condition = \"normal\"", "normal_condition = \"comfortable\""), ":17: gait.normal_condition", "conditions: [\"normal\", \"fast\"]");
     assert_invalid(d, "no_rates.toml", &format!("{BASE}{GAIT}"), "gait", "[[evaluate]] type = \"change_rates\"");
     assert_invalid(d, "bad_rates.toml", &format!("{ok}max_abs_cv_pct = -1\n"), ":24: evaluate[0].max_abs_cv_pct", "must be a finite number >= 0");
