@@ -106,6 +106,30 @@ fn osafune_fast_gives_tables_2_3_and_frequency_changes_that_numpy_recomputes() {
         }
     }
 
+    // A viewer page per trial (`[gait] viewers` defaults to "all"): one gait-cycle interval per
+    // cycle of the `trials` table, per side, each starting at one of the file's foot strikes of
+    // that side, and the knee angle drawn.
+    let pages = motionlab_testkit::viewer_pages(&run);
+    assert_eq!(pages.len(), 36);
+    let (sequences, left, right) = (text(&trials, "sequence"), num(&trials, "n_cycles_left"), num(&trials, "n_cycles_right"));
+    for (k, seq) in sequences.iter().enumerate() {
+        let name = format!("{}.html", seq.replace('/', "_"));
+        let page = &pages.iter().find(|p| p.0 == name).unwrap_or_else(|| panic!("no viewer {name}")).1;
+        for (side, n) in [("Left", left[k]), ("Right", right[k])] {
+            let cycles = motionlab_testkit::viewer_lane(page, &format!("gait cycles ({side})"))["intervals"].as_array().unwrap().clone();
+            assert_eq!(cycles.len() as f64, n, "{seq} {side}");
+            let strikes: Vec<u64> = motionlab_testkit::viewer_lane(page, &format!("{side} Foot Strike"))["marks"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|m| m["frame"].as_u64().unwrap())
+                .collect();
+            assert!(cycles.iter().all(|c| strikes.contains(&c[0].as_u64().unwrap())), "{seq} {side}: cycles {cycles:?}, strikes {strikes:?}");
+        }
+        let angles = motionlab_testkit::viewer_lane(page, "joint angles");
+        assert_eq!(angles["series"][0][0], "knee_l.flexion", "{seq}");
+    }
+
     // The independent numpy recomputation of K, μ, σ, CV and Tables 2-3 from the exported CSVs.
     match python() {
         Err(why) => println!("SKIPPED the numpy check: {why}"),
@@ -185,6 +209,18 @@ fn osafune_control_writes_a_retimed_bvh_fig5_and_the_loso_verdict() {
     }
     assert!(checked >= 4, "{checked} changed components");
     assert!(run.join("figures/fig5_131_01.png").is_file() && run.join("figures/fig5_131_01.svg").is_file());
+    // The control walk's viewer: its skeleton's bones, the detected foot strikes bounding its
+    // cycles, and the knee angle under its own (mapped) channel name.
+    let pages = motionlab_testkit::viewer_pages(&run);
+    let walk_page = &pages.iter().find(|p| p.0 == "131_01.html").expect("a viewer for the control walk").1;
+    assert_eq!(walk_page["bones"].as_array().unwrap().len() + 1, walk_page["point_names"].as_array().unwrap().len(), "a skeleton tree");
+    for side in ["Left", "Right"] {
+        let strikes = motionlab_testkit::viewer_lane(walk_page, &format!("{side} foot strikes (detected)"))["marks"].as_array().unwrap().clone();
+        let cycles = motionlab_testkit::viewer_lane(walk_page, &format!("gait cycles ({side})"))["intervals"].as_array().unwrap().clone();
+        assert!(!cycles.is_empty() && cycles.iter().all(|c| strikes.iter().any(|m| m["frame"] == c[0])), "{side}");
+    }
+    let knee = &motionlab_testkit::viewer_lane(walk_page, "joint angles")["series"];
+    assert!(knee.as_array().unwrap().iter().any(|s| s[0] == "LeftKnee.Xrotation"), "{knee}");
     assert_eq!(table(&run, "control_curves").n_rows(), 6 * b.n_frames());
 
     // Leave-one-subject-out: one row per subject plus the mean, and a verdict that follows it.
@@ -252,6 +288,18 @@ fn broken_gait_sections_fail_validation_with_one_located_line() {
     assert_eq!(code, 0, "{out}{err}");
 
     assert_invalid(d, "typo.toml", &ok.replace("normal_condition", "normal_conditon"), ":17: gait", "unknown field `normal_conditon`");
+    let viewers = |v: &str| ok.replace("normal_condition = \"normal\"", &format!("normal_condition = \"normal\"\nviewers = {v}"));
+    assert_invalid(d, "viewers.toml", &viewers("[\"nobody\"]"), ":18: gait.viewers[0]", "\"nobody\" is neither a sequence");
+    for v in ["\"none\"", "\"all\"", "[\"2014001\", \"fast/2014004_C5_01\"]"] {
+        std::fs::write(d.join("v.toml"), viewers(v).replace("{DATA}", &repo().join("data").to_string_lossy())).unwrap();
+        assert_eq!(motionlab(&["validate", d.join("v.toml").to_str().unwrap()]).0, 0, "viewers = {v}");
+    }
+    // A list picks by subject (both of 2014001's trials) and by sequence.
+    let (code, out, err) = motionlab(&["run", d.join("v.toml").to_str().unwrap(), "--quiet", "--reports", d.join("reports").to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let pages: Vec<String> = motionlab_testkit::viewer_pages(Path::new(out.split(": ").next().unwrap())).into_iter().map(|p| p.0).collect();
+    assert_eq!(pages.len(), 3, "{pages:?}");
+    assert!(pages.iter().filter(|p| p.contains("2014001")).count() == 2 && pages.contains(&"fast_2014004_C5_01.html".to_string()), "{pages:?}");
     assert_invalid(d, "condition.toml", &ok.replace("normal_condition = \"normal\"", "normal_condition = \"comfortable\""), ":17: gait.normal_condition", "conditions: [\"normal\", \"fast\"]");
     assert_invalid(d, "no_rates.toml", &format!("{BASE}{GAIT}"), "gait", "[[evaluate]] type = \"change_rates\"");
     assert_invalid(d, "bad_rates.toml", &format!("{ok}max_abs_cv_pct = -1\n"), ":24: evaluate[0].max_abs_cv_pct", "must be a finite number >= 0");

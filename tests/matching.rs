@@ -102,6 +102,26 @@ fn the_timing_experiment_writes_its_tables_figures_and_verdict() {
         assert!(run.join("figures").join(format!("{f}.png")).is_file(), "{f}");
         assert!(run.join("figures").join(format!("{f}.svg")).is_file(), "{f}");
     }
+    // Viewer pages (combination 0): the model, and each repetition of the explicit take with
+    // its matched stretch — the `repetitions` table's [a, b] from its window's start — labelled
+    // with its rank by score among the six (`timing_ranks`).
+    let pages = motionlab_testkit::viewer_pages(&run);
+    assert_eq!(pages.len(), 7, "{:?}", pages.iter().map(|p| &p.0).collect::<Vec<_>>());
+    assert!(pages.iter().any(|p| p.0 == "model.html"));
+    let (h, reps) = csv(&run, "repetitions");
+    let (hr, ranks) = csv(&run, "timing_ranks");
+    for (r, k) in reps[..6].iter().zip(&ranks[..6]) {
+        let label = &r[col(&h, "repetition")];
+        let title = format!("jumping jacks (a)(b)(c) — {label} — matching");
+        let (name, page) = pages.iter().find(|p| p.1["title"] == title).unwrap_or_else(|| panic!("no viewer titled {title:?}"));
+        assert!(name.starts_with("jumping_jacks_a_b_c_"), "{name}");
+        let lane = motionlab_testkit::viewer_lane(page, "matched [a, b]");
+        let iv = &lane["intervals"][0];
+        let frame = |c: &str| r[col(&h, c)].parse::<u64>().unwrap() - r[col(&h, "window_start_frame")].parse::<u64>().unwrap();
+        assert_eq!((iv[0].as_u64().unwrap(), iv[1].as_u64().unwrap()), (frame("a_frame"), frame("b_frame")), "{label}");
+        let rank = format!("rank {} of 6", k[col(&hr, "rank_score")]);
+        assert!(iv[2].as_str().unwrap().contains(&rank), "{label}: {} lacks {rank}", iv[2]);
+    }
 }
 
 fn rows_judgement(run: &Path) -> Vec<(Vec<String>, Vec<String>)> {
@@ -149,6 +169,31 @@ fn a_sharded_exercises_run_merges_to_the_plain_run() {
     assert_eq!(takes, ["13_29", "13_29", "13_29", "13_31", "13_31"]);
     assert!(rows.iter().all(|r| r[col(&h, "peak_frames")].split(';').count() == 2), "{rows:?}");
     assert!(plain.join("figures/13_29_velocity.png").is_file());
+
+    // Viewer pages: the model and each take. A take's matched stretches are the `repetitions`
+    // table's [a, b] in frames of the loaded (cut) take — 13_31 is cut from frame 2749 — with
+    // the table's H in their labels, and two velocity peaks per repetition.
+    let pages = motionlab_testkit::viewer_pages(&plain);
+    let names: Vec<&str> = pages.iter().map(|p| p.0.as_str()).collect();
+    assert_eq!(names, ["13_29.html", "13_31.html", "model.html"]);
+    assert_eq!(pages, motionlab_testkit::viewer_pages(&sharded), "merged viewers must equal the plain run's");
+    for (page, cut) in [(&pages[0].1, 0), (&pages[1].1, 2749)] {
+        let take = page["title"].as_str().unwrap().split(' ').next().unwrap().to_string();
+        let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[col(&h, "take")] == take).collect();
+        let stretches = motionlab_testkit::viewer_lane(page, "matched [a, b]")["intervals"].as_array().unwrap().clone();
+        assert_eq!(stretches.len(), mine.len(), "{take}");
+        for (iv, r) in stretches.iter().zip(&mine) {
+            let frame = |c: &str| r[col(&h, c)].parse::<u64>().unwrap() - cut;
+            assert_eq!((iv[0].as_u64().unwrap(), iv[1].as_u64().unwrap()), (frame("a_frame"), frame("b_frame")), "{take}");
+            let h_mm: f64 = r[col(&h, "H_mm")].parse().unwrap();
+            let label = iv[2].as_str().unwrap();
+            assert!(label.starts_with(&r[col(&h, "repetition")]) && label.contains(&format!("H {} mm", motionlab_core::table::fmt_num(h_mm))), "{label} vs H {h_mm}");
+        }
+        let peaks = motionlab_testkit::viewer_lane(page, "velocity peaks")["marks"].as_array().unwrap().len();
+        assert_eq!(peaks, 2 * mine.len(), "{take}");
+        let velocity = motionlab_testkit::viewer_lane(page, "velocity function");
+        assert_eq!(velocity["thresholds"].as_array().unwrap().len(), 1, "the detector's threshold is drawn");
+    }
 }
 
 #[test]

@@ -2,7 +2,9 @@
 # Browser test of the HTML reports: needs Debian's chromium and chromium-driver.
 # Usage: tests/browser/run.sh REPORTS_DIR RUN_DIR   (exit 0 = pass, 1 = fail, 77 = skipped)
 # Checks reports/index.html and RUN_DIR/index.html (check_pages.py), then one viewer page
-# (check_viewer.py): CMU 86_01 of sonoda_table1 when REPORTS_DIR has it, else the first found.
+# (check_viewer.py): CMU 86_01 of sonoda_table1 when REPORTS_DIR has it, else the first found;
+# then, when REPORTS_DIR has a yabe_exercises run, its 13_29 matching viewer (screenshot beside
+# it: the committed docs/ screenshot stays the segmentation viewer's).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 chromium=${CHROMIUM:-/usr/bin/chromium}
@@ -22,4 +24,10 @@ if [ -z "$viewer" ]; then
   echo "viewer test SKIPPED: no viewers/*.html under $1"
   exit 0
 fi
-exec "$venv/bin/python" "$here/check_viewer.py" "$viewer"
+"$venv/bin/python" "$here/check_viewer.py" "$viewer"
+matching=$(ls "$1"/yabe_exercises/*/viewers/13_29.html 2>/dev/null | head -1 || true)
+if [ -z "$matching" ]; then
+  echo "matching viewer test SKIPPED: no yabe_exercises/*/viewers/13_29.html under $1"
+  exit 0
+fi
+exec "$venv/bin/python" "$here/check_viewer.py" "$matching"

@@ -359,7 +359,12 @@ function drawIntervalLane(ctx, l, box, w) {
     const x = xOf(a, w), x2 = xOf(b + 1, w);
     ctx.fillStyle = l.kind === "matched" ? "rgba(44,160,44,0.45)" : (k % 2 ? "rgba(31,119,180,0.35)" : "rgba(31,119,180,0.55)");
     ctx.fillRect(x, box.y + 4, Math.max(1, x2 - x), box.h - 8);
-    if (label && x2 - x > 40) { ctx.fillStyle = "#123"; ctx.textBaseline = "middle"; ctx.fillText(label, x + 3, box.y + box.h / 2); }
+    // Clipped to its stretch (long labels — a repetition's H, R and rank — show whole on hover).
+    if (label && x2 - x > 40) {
+      ctx.save(); ctx.beginPath(); ctx.rect(x, box.y, x2 - x - 2, box.h); ctx.clip();
+      ctx.fillStyle = "#123"; ctx.textBaseline = "middle"; ctx.fillText(label, x + 3, box.y + box.h / 2);
+      ctx.restore();
+    }
   });
 }
 
@@ -526,8 +531,10 @@ function wireInput() {
       return;
     }
     const hit = hitMark(e.offsetX, e.offsetY);
+    const stretch = hit ? null : hitInterval(e.offsetX, e.offsetY);
     document.getElementById("hover").textContent = hit
       ? `${hit.lane.name}: frame ${hit.mark.frame} (${(hit.mark.frame / RATE).toFixed(2)} s)` + (hit.mark.status ? ` — ${hit.mark.status.replace("_", " ")}` : "") + (hit.mark.label ? ` — ${hit.mark.label}` : "")
+      : stretch ? `${stretch.lane}: frames ${stretch.a}–${stretch.b} (${(stretch.a / RATE).toFixed(2)}–${(stretch.b / RATE).toFixed(2)} s)` + (stretch.label ? ` — ${stretch.label}` : "")
       : (e.offsetX > LABEL_W ? `frame ${Math.round(frameOf(e.offsetX, w))}` : "");
   });
   lanesCanvas.addEventListener("pointerup", e => {
@@ -559,6 +566,16 @@ function hitMark(x, y) {
   let best = null, bd = 6;
   for (const m of l.marks) { const d = Math.abs(xOf(m.frame, w) - x); if (d < bd) { bd = d; best = m; } }
   return best ? { lane: l, mark: best, index: box.index } : null;
+}
+
+// The interval under (x, y) on an interval lane, or null.
+function hitInterval(x, y) {
+  const box = laneBoxes.find(b => y >= b.y && y < b.y + b.h);
+  const l = box && meta.lanes[box.index];
+  if (!l || l.type !== "intervals" || x <= LABEL_W) return null;
+  const f = frameOf(x, lanesCanvas.clientWidth);
+  const hit = l.intervals.find(([a, b]) => f >= a && f < b + 1);
+  return hit ? { lane: l.name, a: hit[0], b: hit[1], label: hit[2] } : null;
 }
 
 // ---- start ------------------------------------------------------------------------------------

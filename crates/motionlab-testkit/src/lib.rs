@@ -107,3 +107,45 @@ pub fn gait_trial(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64;
         },
     }
 }
+
+/// Every viewer page of a run directory (`viewers/*.html`, sorted by file name) with its
+/// embedded metadata (the `viewer-meta` JSON: frame count, point names, lanes). Panics — these
+/// are test helpers — when the folder or a page's metadata is missing, or when a lane's mark or
+/// interval lies outside the motion's frames or an interval ends before it starts (what
+/// `ViewerSpec::validate` refuses before a page is written: a page that breaks it was not
+/// validated).
+pub fn viewer_pages(run: &std::path::Path) -> Vec<(String, serde_json::Value)> {
+    let dir = run.join("viewers");
+    let mut pages: Vec<(String, serde_json::Value)> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "html"))
+        .map(|p| {
+            let page = std::fs::read_to_string(&p).unwrap();
+            let start = page.find(r#"id="viewer-meta">"#).unwrap_or_else(|| panic!("{}: no viewer-meta", p.display())) + 17;
+            let end = start + page[start..].find("</script>").unwrap();
+            let meta: serde_json::Value = serde_json::from_str(&page[start..end].replace("<\\/", "</")).unwrap();
+            (p.file_name().unwrap().to_string_lossy().into_owned(), meta)
+        })
+        .collect();
+    pages.sort_by(|a, b| a.0.cmp(&b.0));
+    for (name, meta) in &pages {
+        let n = meta["n_frames"].as_u64().unwrap_or_else(|| panic!("{name}: no n_frames"));
+        assert!(n > 0 && !meta["point_names"].as_array().unwrap().is_empty(), "{name}: empty motion");
+        for lane in meta["lanes"].as_array().unwrap() {
+            for m in lane["marks"].as_array().into_iter().flatten() {
+                assert!(m["frame"].as_u64().unwrap() < n, "{name}: lane {}: mark {m} outside 0..{n}", lane["name"]);
+            }
+            for i in lane["intervals"].as_array().into_iter().flatten() {
+                let (a, b) = (i[0].as_u64().unwrap(), i[1].as_u64().unwrap());
+                assert!(a <= b && b < n, "{name}: lane {}: interval [{a}, {b}] outside 0..{n}", lane["name"]);
+            }
+        }
+    }
+    pages
+}
+
+/// The lane named `name` of a viewer page's metadata (see [`viewer_pages`]).
+pub fn viewer_lane<'a>(meta: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
+    meta["lanes"].as_array().unwrap().iter().find(|l| l["name"] == name).unwrap_or_else(|| panic!("no lane {name:?} in {}", meta["title"]))
+}

@@ -113,3 +113,38 @@ pub fn stick_strip(title: String, bones: Vec<(usize, usize)>, rows: Vec<StickRow
 pub fn axis_name(i: usize) -> &'static str {
     ["x", "y", "z"][i.min(2)]
 }
+
+/// The skeleton bones of `raw` (a motion as its loader read it) as pairs of point names of
+/// `kept`, the same motion after preprocessors that dropped points standing at the same place
+/// as another (`distinct_points`) and with them the skeleton: a dropped point stands for the
+/// kept point that coincides with it in `raw`'s first frame (within 1e-3 mm). Bones that
+/// collapse to one point, repeat, or touch a point with no stand-in are left out. Empty when
+/// `raw` has no skeleton.
+pub fn bones_of_merged_skeleton(raw: &Motion, kept: &Motion) -> Vec<[String; 2]> {
+    let Some(s) = &raw.skeleton else { return Vec::new() };
+    let names = raw.point_names();
+    if s.skeleton.point_names() != names || raw.n_frames() == 0 {
+        return Vec::new();
+    }
+    let stand_in = |j: usize| -> Option<String> {
+        if kept.point_names().contains(&names[j]) {
+            return Some(names[j].clone());
+        }
+        let p = raw.position(0, j);
+        (0..names.len()).find_map(|k| {
+            let q = raw.position(0, k);
+            let d = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
+            (k != j && d <= 1e-3 && kept.point_names().contains(&names[k])).then(|| names[k].clone())
+        })
+    };
+    let mut out: Vec<[String; 2]> = Vec::new();
+    for (a, b) in s.skeleton.bones() {
+        if let (Some(a), Some(b)) = (stand_in(a), stand_in(b))
+            && a != b
+            && !out.iter().any(|x| (x[0] == a && x[1] == b) || (x[0] == b && x[1] == a))
+        {
+            out.push([a, b]);
+        }
+    }
+    out
+}

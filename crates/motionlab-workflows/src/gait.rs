@@ -56,7 +56,11 @@
 //! Figures: the mean gait cycle of each `figure_channels` channel per condition (across
 //! subjects), K_j per subject, the paper's Fig 5 (stick figures of the recorded normal and the
 //! synthesised walk), each changed control channel over time, and the leave-one-out RMS per
-//! subject.
+//! subject. Viewer pages (first combination; `[gait] viewers = "all" | "none" | [...]`):
+//! `viewers/<sequence>.html` per walk — markers (the skeleton for a skeleton walk), the file's
+//! events per side and label (foot strike, foot off; the detected strikes when it has none),
+//! the gait cycles per side and the `figure_channels` angles (the control walk's through its
+//! `channel_map`).
 //!
 //! Missing samples: a channel without a complete gait cycle in a trial (absent markers, gaps)
 //! has NaN parameters; the change-rate evaluator excludes those subject-channel pairs (flagged
@@ -81,6 +85,9 @@ use motionlab_gait::change_rates::{ChangeRateAnalysis, Component, StudyChanges};
 use motionlab_gait::loso::{leave_one_subject_out, LosoResult};
 use motionlab_gait::study::{study_of, AnalysedWalk, SubjectWalk, Walk};
 use motionlab_figure::{Chart, Figure, Pose, RefLine, Series, StickRow};
+
+use motionlab_core::viewer::{EventKind, EventLane, Interval, IntervalKind, IntervalLane, Lane, Mark, TraceLane, ViewerMotion, ViewerSpec};
+use motionlab_core::Trace;
 
 use crate::drawing::{axis_name, main_floor_axis, stick_strip};
 use motionlab_experiment::workflow::{build_evaluators, sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
@@ -134,6 +141,46 @@ pub struct GaitSection {
     /// `[gait.loso]`: leave-one-subject-out evaluation. Default: none.
     #[serde(default)]
     pub loso: Option<LosoSection>,
+    /// Which walks get a viewer page (`viewers/<sequence>.html`: markers, foot events, gait
+    /// cycles per side, the `figure_channels` angles): `"all"` (default), `"none"`, or a list
+    /// of sequence names (`normal/2014001_C4_05`, as in the `trials` table) and subject ids
+    /// (`2014001`: every trial of that subject). The control walk is `"all"`'s too.
+    #[serde(default)]
+    pub viewers: ViewerChoice,
+}
+
+/// `[gait] viewers`: `"all"`, `"none"` or a list of sequences and subjects.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema, PartialEq)]
+#[serde(untagged)]
+pub enum ViewerChoice {
+    /// `"all"` or `"none"`.
+    Keyword(ViewerKeyword),
+    /// Sequence names and subject ids.
+    Only(Vec<String>),
+}
+
+/// `"all"` or `"none"`.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, JsonSchema, PartialEq)]
+#[serde(rename_all = "snake_case")]
+pub enum ViewerKeyword {
+    All,
+    None,
+}
+
+impl Default for ViewerChoice {
+    fn default() -> Self {
+        ViewerChoice::Keyword(ViewerKeyword::All)
+    }
+}
+
+impl ViewerChoice {
+    /// Whether the walk `sequence` of `subject` (empty for the control walk) gets a viewer.
+    fn wants(&self, sequence: &str, subject: &str) -> bool {
+        match self {
+            ViewerChoice::Keyword(k) => *k == ViewerKeyword::All,
+            ViewerChoice::Only(list) => list.iter().any(|x| x == sequence || (!subject.is_empty() && x == subject)),
+        }
+    }
 }
 
 fn default_condition_tag() -> String {
@@ -391,6 +438,18 @@ impl WorkflowPlugin for GaitWorkflow {
                 }
             }
         }
+        if let ViewerChoice::Only(list) = &section.viewers {
+            for (k, x) in list.iter().enumerate() {
+                let known = data.datasets.iter().any(|d| (0..d.files.len()).any(|f| d.sequence_name(f) == *x))
+                    || subjects.iter().flatten().any(|s| s == x);
+                if !known {
+                    return Err(here(
+                        &format!("gait.viewers[{k}]"),
+                        Error::new(ErrorKind::UnknownName, format!("{x:?} is neither a sequence (`normal/2014001_C4_05`) nor a subject id of this experiment")),
+                    ));
+                }
+            }
+        }
         let conditions: Vec<&str> = roles
             .iter()
             .filter_map(|r| match r {
@@ -494,6 +553,91 @@ impl WorkflowPlugin for GaitWorkflow {
 motionlab_experiment::register_workflow!(GaitWorkflow, "gait");
 
 impl GaitWorkflow {
+    /// The viewer page of one walk: its markers (or skeleton), the file's events (foot strike,
+    /// foot off) per side, the gait cycles per side (foot strike to the next of the same foot)
+    /// and the `figure_channels` angles the walk has.
+    fn viewer(&self, item: &WorkItem, r: &WalkRecord, data: &Datasets) -> Result<ViewerSpec> {
+        let loaded = data.load(item.dataset, item.file)?;
+        let motion = &loaded.motion;
+        let n = motion.n_frames();
+        let vm = ViewerMotion::from_motion(motion, &[], None)?;
+        let what = if r.control { "control walk".to_string() } else { format!("subject {}, {}", r.subject, r.condition) };
+        let mut spec = ViewerSpec::new(viewer_name(&r.sequence), format!("{} — {what}", r.sequence), vm);
+        // Events per "context label" (`Left Foot Strike`), in order of first appearance.
+        let mut lanes: Vec<EventLane> = Vec::new();
+        for e in &motion.events {
+            let f = e.frame.round();
+            if !(f.is_finite() && f >= 0.0 && (f as usize) < n) {
+                continue;
+            }
+            // Files number repeated labels (`Foot Strike1`, `Foot Strike2`): one lane for all.
+            let label = e.label.trim().trim_end_matches(|c: char| c.is_ascii_digit()).trim_end();
+            let name = format!("{} {label}", e.context.trim()).trim().to_string();
+            let mark = Mark { frame: f as usize, label: format!("{name}, {:.3} s", e.time.value()), status: None };
+            match lanes.iter_mut().find(|l| l.name == name) {
+                Some(l) => l.marks.push(mark),
+                None => {
+                    let mut l = EventLane::new(name, EventKind::Other, &[]);
+                    l.marks.push(mark);
+                    lanes.push(l);
+                }
+            }
+        }
+        let mut sides: Vec<&str> = Vec::new();
+        for c in &r.cycles {
+            if !sides.contains(&c.side.as_str()) {
+                sides.push(&c.side);
+            }
+        }
+        // A walk without file events (a skeleton walk, cycles from heel height): its detector's
+        // foot strikes, the cycles' bounds.
+        if lanes.is_empty() {
+            for side in &sides {
+                let mut frames: Vec<usize> = r.cycles.iter().filter(|c| c.side == *side).flat_map(|c| [c.start, c.end]).filter(|f| *f < n).collect();
+                frames.dedup();
+                lanes.push(EventLane::new(format!("{side} foot strikes (detected)"), EventKind::Other, &frames));
+            }
+        }
+        for mut l in lanes {
+            l.marks.sort_by_key(|m| m.frame);
+            spec.lanes.push(Lane::Events(l));
+        }
+        let rate = motion.frame_rate().hz();
+        for side in sides {
+            let intervals = r
+                .cycles
+                .iter()
+                .filter(|c| c.side == side && c.start < n)
+                .enumerate()
+                .map(|(k, c)| Interval {
+                    start: c.start,
+                    end: c.end.min(n - 1).max(c.start),
+                    label: format!("{side} cycle {}: {:.2} s", k + 1, c.end.saturating_sub(c.start) as f64 / rate),
+                })
+                .collect();
+            spec.lanes.push(Lane::Intervals(IntervalLane { name: format!("gait cycles ({side})"), kind: IntervalKind::GaitCycle, intervals }));
+        }
+        // The control walk names its channels after its skeleton: the figure channels through
+        // `[gait.control] channel_map`.
+        let map = self.control.as_ref().filter(|_| r.control).map(|c| &c.spec.channel_map);
+        let traces: Vec<Trace> = self
+            .section
+            .figure_channels
+            .iter()
+            .filter_map(|ch| {
+                let ch = map.and_then(|m| m.get(ch)).unwrap_or(ch);
+                let k = r.curves.channels.iter().position(|c| c == ch)?;
+                let mut v = r.curves.values[k].clone();
+                v.resize(n, f64::NAN);
+                Some(Trace::new(ch.clone(), "deg", v))
+            })
+            .collect();
+        if !traces.is_empty() {
+            spec.lanes.extend(TraceLane::from_traces("joint angles", &traces, &[], n).into_iter().map(Lane::Trace));
+        }
+        Ok(spec)
+    }
+
     /// An error about the configuration at key `path` (file, line, key path).
     fn config_error(&self, path: &str, err: Error) -> Error {
         self.source.locate(err, path, &self.doc)
@@ -539,8 +683,12 @@ impl Workflow for GaitWorkflow {
     fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, draw: bool) -> Result<Output> {
         let mut trials: Vec<WalkRecord> = Vec::new();
         let mut control_walk: Option<WalkRecord> = None;
-        for (_, value) in items {
+        let mut viewers = Vec::new();
+        for (item, value) in items {
             let r: WalkRecord = value.decode()?;
+            if draw && self.section.viewers.wants(&r.sequence, &r.subject) {
+                viewers.push(self.viewer(item, &r, data)?);
+            }
             if r.control {
                 control_walk = Some(r);
             } else {
@@ -557,7 +705,7 @@ impl Workflow for GaitWorkflow {
             })
             .collect();
         let study = study_of(&normal, &walks);
-        let mut out = Output::default();
+        let mut out = Output { viewers, ..Output::default() };
         out.tables.push(trials_table(&trials)?);
         let mut change_rates: Option<Box<ChangeRateAnalysis>> = None;
         for (name, e) in &self.evaluators {
@@ -592,6 +740,12 @@ impl Workflow for GaitWorkflow {
         }
         Ok(out)
     }
+}
+
+/// A viewer page's file stem for a sequence (`normal/2014001_C4_05` → `normal_2014001_C4_05`).
+fn viewer_name(sequence: &str) -> String {
+    let name: String = sequence.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect();
+    if name.is_empty() { "walk".into() } else { name }
 }
 
 // ---------------------------------------------------------------------------------------------
