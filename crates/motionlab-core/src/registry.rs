@@ -13,6 +13,11 @@
 //! ([`ParamGuard`], as linfa does) — so a bad parameter is reported when the experiment is
 //! validated, before any work runs.
 //!
+//! A stage kind defined outside this table — a trait in a researcher's own crate — registers
+//! its plugins with [`register_custom_plugin!`](crate::register_custom_plugin) under the kind's
+//! name and builds them with [`build_custom::<dyn Trait>`](build_custom), which downcasts and
+//! names the closest kinds or plugins when a name is unknown.
+//!
 //! Caveat: a crate that the final binary never names is not linked, and its plugins vanish
 //! silently. The CLI names every plugin crate, and a registry test lists every expected name.
 
@@ -397,11 +402,11 @@ pub type CustomBuildFn = fn(&toml::Value) -> Result<Box<dyn std::any::Any + Send
 
 /// One registered plugin of a kind defined outside core (a trait in a researcher's crate),
 /// registered with [`register_custom_plugin!`](crate::register_custom_plugin) and built with
-/// [`build_custom`]. Core knows the kind only by its name (`"segment_classifier"`).
+/// [`build_custom`]. Core knows the kind only by its name (`"pose_labeller"`).
 pub struct CustomPluginEntry {
-    /// The name used in TOML (`type = "by_duration"`); unique across built-in and custom plugins.
+    /// The name used in TOML (`type = "by_height"`); unique across built-in and custom plugins.
     pub name: &'static str,
-    /// The kind's name (`segment_classifier`), as `motionlab list` and `describe` show it.
+    /// The kind's name (`pose_labeller`), as `motionlab list` and `describe` show it.
     pub kind: &'static str,
     /// The kind's trait, as written in the registration (for type-mismatch errors).
     pub trait_name: &'static str,
@@ -452,7 +457,7 @@ pub fn find_custom(name: &str) -> Option<&'static CustomPluginEntry> {
 }
 
 /// Builds a plugin of a custom kind from its TOML table (without the `type` key), as the
-/// kind's trait object: `build_custom::<dyn SegmentClassifier>("segment_classifier", "by_duration", &params)`.
+/// kind's trait object: `build_custom::<dyn PoseLabeller>("pose_labeller", "by_height", &params)`.
 ///
 /// Errors ([`ErrorKind::UnknownPlugin`]): the kind is not registered (closest kinds named), no
 /// plugin of that kind has this name (closest names of the kind), the name belongs to another
@@ -501,7 +506,7 @@ pub fn build_custom<T: ?Sized + 'static>(kind: &str, name: &str, params: &toml::
 }
 
 /// Registers a plugin of a stage kind defined outside core:
-/// `register_custom_plugin!(SegmentClassifier, ByDurationParams, "by_duration", kind = "segment_classifier");`
+/// `register_custom_plugin!(PoseLabeller, ByHeightParams, "by_height", kind = "pose_labeller");`
 ///
 /// The trait must be `Send + Sync` (make them supertraits) and the params type must implement
 /// [`ParamGuard`] whose `Checked` type implements the trait. Build it with
