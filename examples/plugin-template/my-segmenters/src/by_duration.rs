@@ -51,14 +51,9 @@ motionlab_core::register_custom_plugin!(SegmentClassifier, ByDurationParams, "by
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::segment_classifier::build_segment_classifier;
-    use motionlab_core::{Axis, ErrorKind, FrameRate, PointKind};
-
-    fn still(n_frames: usize, rate_hz: f64) -> Motion {
-        let rate = FrameRate::new(rate_hz).unwrap();
-        Motion::new("still", rate, Axis::Z, PointKind::Marker, vec!["m".into()], vec![[0.0; 3]; n_frames]).unwrap()
-    }
+    use crate::test_support::still;
+    use motionlab_core::ErrorKind;
 
     #[test]
     fn short_below_the_threshold_long_from_it_on() {
