@@ -132,20 +132,27 @@ pub struct PluginEntry {
 
 inventory::collect!(PluginEntry);
 
-impl PluginEntry {
-    /// The plugin's documentation: the params struct's doc comment (title + description).
-    pub fn doc(&self) -> String {
-        schema_doc(&(self.schema)(), self.params_type)
-    }
-    /// First line of [`PluginEntry::doc`].
-    pub fn summary(&self) -> String {
-        self.doc().lines().next().unwrap_or("").to_string()
-    }
-    /// The parameters: name, type, default and description, in declaration order.
-    pub fn params(&self) -> Vec<ParamDoc> {
-        schema_params(&(self.schema)())
-    }
+/// `doc`, `summary` and `params` of a registry entry type with `schema` and `params_type`.
+macro_rules! documented_entry {
+    ($($entry:ty),*) => {$(
+        impl $entry {
+            /// The plugin's documentation: the params struct's doc comment (title + description).
+            pub fn doc(&self) -> String {
+                schema_doc(&(self.schema)(), self.params_type)
+            }
+            /// First line of the plugin's documentation.
+            pub fn summary(&self) -> String {
+                self.doc().lines().next().unwrap_or("").to_string()
+            }
+            /// The parameters: name, type, default and description, in declaration order.
+            pub fn params(&self) -> Vec<ParamDoc> {
+                schema_params(&(self.schema)())
+            }
+        }
+    )*};
 }
+
+documented_entry!(PluginEntry, CustomPluginEntry);
 
 /// The documentation in a params type's schema: its doc comment (title + description).
 /// `type_name` is the Rust type's name, which schemars uses as the title when there is none.
@@ -421,21 +428,6 @@ pub struct CustomPluginEntry {
 }
 
 inventory::collect!(CustomPluginEntry);
-
-impl CustomPluginEntry {
-    /// The plugin's documentation: the params struct's doc comment (title + description).
-    pub fn doc(&self) -> String {
-        schema_doc(&(self.schema)(), self.params_type)
-    }
-    /// First line of [`CustomPluginEntry::doc`].
-    pub fn summary(&self) -> String {
-        self.doc().lines().next().unwrap_or("").to_string()
-    }
-    /// The parameters: name, type, default and description, in declaration order.
-    pub fn params(&self) -> Vec<ParamDoc> {
-        schema_params(&(self.schema)())
-    }
-}
 
 /// Every registered custom-kind plugin, sorted by kind then name.
 pub fn custom_plugins() -> Vec<&'static CustomPluginEntry> {
