@@ -24,6 +24,14 @@ pub fn list() -> String {
             let _ = writeln!(out, "  {:<28} {}", p.name, p.summary());
         }
     }
+    // Kinds defined outside core (`register_custom_plugin!`), under their kind's name.
+    let custom = registry::custom_plugins();
+    for kind in registry::custom_kinds() {
+        let _ = writeln!(out, "{kind} (custom kind):");
+        for p in custom.iter().filter(|p| p.kind == kind) {
+            let _ = writeln!(out, "  {:<28} {}", p.name, p.summary());
+        }
+    }
     out
 }
 
@@ -35,6 +43,15 @@ pub fn describe(name: &str) -> Result<String> {
         let _ = writeln!(out, "{}\n", w.doc());
         write_params(&mut out, w.params());
         let _ = writeln!(out, "\nIn an experiment: a [{}] section with these keys.", w.name);
+        return Ok(out);
+    }
+    if let Some(p) = registry::find_custom(name) {
+        let mut out = String::new();
+        let _ = writeln!(out, "{} ({}, a custom kind, from {})\n", p.name, p.kind, p.crate_name);
+        let _ = writeln!(out, "{}\n", p.doc());
+        if write_params(&mut out, p.params()) {
+            let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }} where a {} is expected", p.name, p.kind);
+        }
         return Ok(out);
     }
     let p = registry::find(name)?;

@@ -13,6 +13,11 @@
 //! ([`ParamGuard`], as linfa does) — so a bad parameter is reported when the experiment is
 //! validated, before any work runs.
 //!
+//! A stage kind defined outside this table — a trait in a researcher's own crate — registers
+//! its plugins with [`register_custom_plugin!`](crate::register_custom_plugin) under the kind's
+//! name and builds them with [`build_custom::<dyn Trait>`](build_custom), which downcasts and
+//! names the closest kinds or plugins when a name is unknown.
+//!
 //! Caveat: a crate that the final binary never names is not linked, and its plugins vanish
 //! silently. The CLI names every plugin crate, and a registry test lists every expected name.
 
@@ -127,20 +132,27 @@ pub struct PluginEntry {
 
 inventory::collect!(PluginEntry);
 
-impl PluginEntry {
-    /// The plugin's documentation: the params struct's doc comment (title + description).
-    pub fn doc(&self) -> String {
-        schema_doc(&(self.schema)(), self.params_type)
-    }
-    /// First line of [`PluginEntry::doc`].
-    pub fn summary(&self) -> String {
-        self.doc().lines().next().unwrap_or("").to_string()
-    }
-    /// The parameters: name, type, default and description, in declaration order.
-    pub fn params(&self) -> Vec<ParamDoc> {
-        schema_params(&(self.schema)())
-    }
+/// `doc`, `summary` and `params` of a registry entry type with `schema` and `params_type`.
+macro_rules! documented_entry {
+    ($($entry:ty),*) => {$(
+        impl $entry {
+            /// The plugin's documentation: the params struct's doc comment (title + description).
+            pub fn doc(&self) -> String {
+                schema_doc(&(self.schema)(), self.params_type)
+            }
+            /// First line of the plugin's documentation.
+            pub fn summary(&self) -> String {
+                self.doc().lines().next().unwrap_or("").to_string()
+            }
+            /// The parameters: name, type, default and description, in declaration order.
+            pub fn params(&self) -> Vec<ParamDoc> {
+                schema_params(&(self.schema)())
+            }
+        }
+    )*};
 }
+
+documented_entry!(PluginEntry, CustomPluginEntry);
 
 /// The documentation in a params type's schema: its doc comment (title + description).
 /// `type_name` is the Rust type's name, which schemars uses as the title when there is none.
@@ -391,6 +403,130 @@ macro_rules! register_plugin {
     };
 }
 
+/// A builder of a custom-kind plugin: the stage as `Box<dyn Trait>`, boxed again as `Any` so
+/// that one registry holds every kind (the kind's trait is not known to core).
+pub type CustomBuildFn = fn(&toml::Value) -> Result<Box<dyn std::any::Any + Send + Sync>>;
+
+/// One registered plugin of a kind defined outside core (a trait in a researcher's crate),
+/// registered with [`register_custom_plugin!`](crate::register_custom_plugin) and built with
+/// [`build_custom`]. Core knows the kind only by its name (`"pose_labeller"`).
+pub struct CustomPluginEntry {
+    /// The name used in TOML (`type = "by_height"`); unique across built-in and custom plugins.
+    pub name: &'static str,
+    /// The kind's name (`pose_labeller`), as `motionlab list` and `describe` show it.
+    pub kind: &'static str,
+    /// The kind's trait, as written in the registration (for type-mismatch errors).
+    pub trait_name: &'static str,
+    /// The Rust params type (for docs and error messages).
+    pub params_type: &'static str,
+    /// The crate that registered it.
+    pub crate_name: &'static str,
+    /// JSON schema of the parameters, with doc comments as descriptions and defaults.
+    pub schema: fn() -> schemars::Schema,
+    /// Builds `Box<Box<dyn Trait>>` as `Box<dyn Any>`.
+    pub build: CustomBuildFn,
+}
+
+inventory::collect!(CustomPluginEntry);
+
+/// Every registered custom-kind plugin, sorted by kind then name.
+pub fn custom_plugins() -> Vec<&'static CustomPluginEntry> {
+    let mut v: Vec<&'static CustomPluginEntry> = inventory::iter::<CustomPluginEntry>.into_iter().collect();
+    v.sort_by_key(|p| (p.kind, p.name));
+    v
+}
+
+/// The custom kinds' names, sorted, each once.
+pub fn custom_kinds() -> Vec<&'static str> {
+    let mut kinds: Vec<&'static str> = custom_plugins().iter().map(|p| p.kind).collect();
+    kinds.dedup();
+    kinds
+}
+
+/// The custom-kind plugin registered under `name`, if any.
+pub fn find_custom(name: &str) -> Option<&'static CustomPluginEntry> {
+    custom_plugins().into_iter().find(|p| p.name == name)
+}
+
+/// Builds a plugin of a custom kind from its TOML table (without the `type` key), as the
+/// kind's trait object: `build_custom::<dyn PoseLabeller>("pose_labeller", "by_height", &params)`.
+///
+/// Errors ([`ErrorKind::UnknownPlugin`]): the kind is not registered (closest kinds named), no
+/// plugin of that kind has this name (closest names of the kind), the name belongs to another
+/// kind, or the plugin builds another trait object than `T`.
+pub fn build_custom<T: ?Sized + 'static>(kind: &str, name: &str, params: &toml::Value) -> Result<Box<T>> {
+    let all = custom_plugins();
+    let hint = |close: Vec<String>| {
+        if close.is_empty() {
+            " (run `motionlab list` to see them all)".to_string()
+        } else {
+            format!("; did you mean {}?", close.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(" or "))
+        }
+    };
+    if !all.iter().any(|p| p.kind == kind) {
+        let close = closest_names(kind, custom_kinds());
+        return Err(Error::new(ErrorKind::UnknownPlugin, format!("no custom stage kind {kind:?} is registered{}", hint(close))));
+    }
+    let entry = match all.iter().find(|p| p.name == name) {
+        Some(p) if p.kind == kind => *p,
+        Some(p) => {
+            let msg = format!("{name:?} is a {}, but a {kind} is expected here", p.kind);
+            return Err(Error::new(ErrorKind::UnknownPlugin, msg));
+        }
+        None => {
+            if let Some(p) = plugins().into_iter().find(|p| p.name == name) {
+                let msg = format!("{name:?} is a {}, but a {kind} is expected here", p.kind.label());
+                return Err(Error::new(ErrorKind::UnknownPlugin, msg));
+            }
+            let close = closest_names(name, all.iter().filter(|p| p.kind == kind).map(|p| p.name));
+            return Err(Error::new(ErrorKind::UnknownPlugin, format!("no {kind} named {name:?} is registered{}", hint(close))));
+        }
+    };
+    let built = (entry.build)(params)?;
+    match built.downcast::<Box<T>>() {
+        Ok(stage) => Ok(*stage),
+        Err(_) => Err(Error::new(
+            ErrorKind::UnknownPlugin,
+            format!(
+                "{name:?} ({kind}, from {}) builds a `dyn {}`, but `{}` was asked for",
+                entry.crate_name,
+                entry.trait_name,
+                std::any::type_name::<T>()
+            ),
+        )),
+    }
+}
+
+/// Registers a plugin of a stage kind defined outside core:
+/// `register_custom_plugin!(PoseLabeller, ByHeightParams, "by_height", kind = "pose_labeller");`
+///
+/// The trait must be `Send + Sync` (make them supertraits) and the params type must implement
+/// [`ParamGuard`] whose `Checked` type implements the trait. Build it with
+/// [`build_custom::<dyn Trait>(kind, name, params)`](build_custom).
+#[macro_export]
+macro_rules! register_custom_plugin {
+    ($trait:path, $params:ty, $name:literal, kind = $kind:literal) => {
+        const _: () = {
+            fn build(value: &$crate::toml::Value) -> $crate::Result<::std::boxed::Box<dyn ::std::any::Any + Send + Sync>> {
+                let params: $params = $crate::registry::parse_params(value)?;
+                let stage: ::std::boxed::Box<dyn $trait> = ::std::boxed::Box::new($crate::registry::ParamGuard::check(params)?);
+                Ok(::std::boxed::Box::new(stage))
+            }
+            $crate::inventory::submit! {
+                $crate::registry::CustomPluginEntry {
+                    name: $name,
+                    kind: $kind,
+                    trait_name: stringify!($trait),
+                    params_type: stringify!($params),
+                    crate_name: env!("CARGO_PKG_NAME"),
+                    schema: $crate::registry::schema_of::<$params>,
+                    build,
+                }
+            }
+        };
+    };
+}
+
 /// An empty parameter table (every parameter at its default).
 pub fn default_params() -> toml::Value {
     toml::Value::Table(toml::Table::new())
@@ -401,27 +537,33 @@ pub fn default_params() -> toml::Value {
 /// either build or fail only for a missing required key.
 pub fn check_registry() -> Vec<String> {
     let mut problems = Vec::new();
-    let all = plugins();
+    let builtin = plugins().into_iter().map(|p| (p.name, p.kind.label().to_string(), p.params_type, p.doc(), p.params()));
+    let custom = custom_plugins().into_iter().map(|p| (p.name, p.kind.to_string(), p.params_type, p.doc(), p.params()));
+    let snake = |s: &str| {
+        s.chars().next().is_some_and(|c| c.is_ascii_lowercase()) && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+    };
+    for kind in custom_kinds() {
+        if !snake(kind) || StageKind::ALL.iter().any(|k| k.label() == kind) {
+            problems.push(format!("custom kind {kind:?} is not a snake_case name distinct from the built-in kinds"));
+        }
+    }
     let mut seen = std::collections::HashSet::new();
-    for p in &all {
-        if !seen.insert(p.name) {
-            problems.push(format!("{:?} is registered twice", p.name));
+    for (name, kind, params_type, doc, params) in builtin.chain(custom) {
+        if !seen.insert(name) {
+            problems.push(format!("{name:?} is registered twice"));
         }
-        let valid = !p.name.is_empty()
-            && p.name.chars().next().is_some_and(|c| c.is_ascii_lowercase())
-            && p.name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
-        if !valid {
-            problems.push(format!("{:?} is not a snake_case name", p.name));
+        if !snake(name) {
+            problems.push(format!("{name:?} is not a snake_case name"));
         }
-        if p.doc().len() < 20 {
-            problems.push(format!("{:?} ({}) has no doc comment on {}", p.name, p.kind.label(), p.params_type));
+        if doc.len() < 20 {
+            problems.push(format!("{name:?} ({kind}) has no doc comment on {params_type}"));
         }
-        for param in p.params() {
+        for param in params {
             if param.description.is_empty() {
-                problems.push(format!("{:?}: parameter {:?} has no doc comment", p.name, param.name));
+                problems.push(format!("{name:?}: parameter {:?} has no doc comment", param.name));
             }
             if !param.required && param.default.is_none() && !param.type_name.contains("optional") {
-                problems.push(format!("{:?}: parameter {:?} is optional but documents no default", p.name, param.name));
+                problems.push(format!("{name:?}: parameter {:?} is optional but documents no default", param.name));
             }
         }
     }

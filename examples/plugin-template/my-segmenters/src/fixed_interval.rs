@@ -73,12 +73,7 @@ motionlab_core::register_plugin!(Segmenter, FixedIntervalParams, "fixed_interval
 mod tests {
     use super::*;
     use motionlab_core::registry::build_segmenter;
-    use motionlab_core::{Axis, FrameRate, PointKind};
-
-    fn still(n_frames: usize, rate_hz: f64) -> Motion {
-        let rate = FrameRate::new(rate_hz).unwrap();
-        Motion::new("still", rate, Axis::Z, PointKind::Marker, vec!["m".into()], vec![[0.0; 3]; n_frames]).unwrap()
-    }
+    use crate::test_support::still;
 
     #[test]
     fn candidates_every_interval_after_the_offset() {
