@@ -260,9 +260,8 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
     for f in files {
         let Ok(text) = std::fs::read_to_string(&f) else { continue };
         // Only the fixed part of the schema: the workflow section is the workflow's own.
-        let Ok(mut doc) = toml::from_str::<toml::Table>(&text) else { continue };
-        doc.retain(|k, _| motionlab_experiment::spec::FIXED_KEYS.contains(&k));
-        let Ok(file) = toml::Value::Table(doc).try_into::<ExperimentFile>() else { continue };
+        let Ok(doc) = toml::from_str::<toml::Table>(&text) else { continue };
+        let Ok(file) = toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into::<ExperimentFile>() else { continue };
         let exp_dir = reports.join(&file.experiment.name);
         let latest = std::fs::read_to_string(exp_dir.join("latest")).ok().map(|s| s.trim().to_string()).filter(|s| !s.is_empty());
         // Fall back to the committed run of record when nothing ran on this machine.

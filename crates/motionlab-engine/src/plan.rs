@@ -110,9 +110,7 @@ pub fn build_stages_in_memory(source: &Source, workflow: &WorkflowEntry, combo: 
 /// workflows (which parse their sections themselves when they are built).
 fn deserialize_file(source: &Source, doc: &toml::Table) -> Result<ExperimentFile> {
     let workflow = workflow::workflow_section(source, doc)?;
-    let mut fixed = doc.clone();
-    let sections = ExperimentFile::section_names(doc);
-    fixed.retain(|k, _| !sections.iter().any(|s| s == k));
+    let fixed = ExperimentFile::fixed_part(doc);
     let mut file: ExperimentFile = deserialize_section(source, doc, toml::Value::Table(fixed), &KeyPath::default())?;
     file.workflow = workflow.name.to_string();
     Ok(file)

@@ -203,6 +203,10 @@ impl ExperimentFile {
     pub fn section_names(doc: &toml::Table) -> Vec<String> {
         doc.keys().filter(|k| !FIXED_KEYS.contains(&k.as_str())).cloned().collect()
     }
+    /// The document without its workflow sections: what deserialises as an `ExperimentFile`.
+    pub fn fixed_part(doc: &toml::Table) -> toml::Table {
+        doc.iter().filter(|(k, _)| FIXED_KEYS.contains(&k.as_str())).map(|(k, v)| (k.clone(), v.clone())).collect()
+    }
 }
 
 impl StageSpec {
