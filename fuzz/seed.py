@@ -19,7 +19,7 @@ FIXTURES = ROOT / "tests" / "fixtures"
 sys.path.insert(0, str(FIXTURES))
 from c3d_edit import C3d  # noqa: E402
 
-TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "experiment_toml"]
+TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "boundaries_csv", "elan_eaf", "experiment_toml"]
 
 
 def read(p: Path) -> bytes:
@@ -92,11 +92,17 @@ def main() -> None:
     for p in sorted((DATA / "mocap6/truelabels").glob("*.txt")):
         seeds["mocap6_labels"][p.name] = read(p)
 
+    # The user-annotation readers: the shipped example annotations (CSV and ELAN).
+    for p in sorted((FIXTURES / "annotations").glob("*.csv")):
+        seeds["boundaries_csv"][p.name] = read(p)
+    for p in sorted((FIXTURES / "annotations").glob("*.eaf")):
+        seeds["elan_eaf"][p.name] = read(p)
+
     for p in sorted((ROOT / "experiments").glob("*.toml")):
         seeds["experiment_toml"][p.name] = read(p)
 
     # The malformed corpus, by extension.
-    by_ext = {".bvh": "bvh", ".asf": "asf", ".amc": "amc", ".c3d": "c3d", ".tsv": "qualisys_tsv", ".toml": "experiment_toml"}
+    by_ext = {".bvh": "bvh", ".asf": "asf", ".amc": "amc", ".c3d": "c3d", ".tsv": "qualisys_tsv", ".toml": "experiment_toml", ".csv": "boundaries_csv", ".eaf": "elan_eaf"}
     for d in [FIXTURES / "malformed", FIXTURES / "fuzz"]:
         for p in sorted(d.glob("*")) if d.is_dir() else []:
             name = p.name
