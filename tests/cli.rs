@@ -25,6 +25,12 @@ fn list_and_describe_print_plugins_from_their_docs() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("did you mean \"speed_minima\""), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
+    // Defaults come from serde (`default 0`), or — decided at run time — the field's
+    // `x-default` note; never from prose in the description.
+    let out = motionlab().args(["describe", "boundaries_csv"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("first_frame : integer  (default 0)"), "{text}");
+    assert!(text.contains("frame_rate_hz : float (optional)  (default: the motion's own rate (frames are motion frames))"), "{text}");
     let _ = repo();
 }
 

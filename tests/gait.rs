@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use motionlab_core::{ColumnValues, Table};
-use motionlab_engine::pages::read_table_csv;
+use motionlab_report::pages::read_table_csv;
 
 fn repo() -> PathBuf {
     motionlab_testkit::repo_root()

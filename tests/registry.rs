@@ -72,3 +72,120 @@ fn stage_kinds_have_distinct_labels() {
         assert!(!labels[..i].contains(l), "two stage kinds are labelled {l:?}");
     }
 }
+
+/// A default stated in prose: the word `default(s)` …
+/// 1. as a label: followed by `:` or `=` ("Default: none", "default = 3");
+/// 2. followed by a value — after optional `(`, `,`, `is`, `of`, `to`, and an optional
+///    backtick — a number, a quote, `[`, `{`, or `true`/`false`/`none`/`off`/`on`/`empty`/
+///    `all`/`every` ("Default 0.5", "default `\"root\"`", "Default `{ seconds = 1.0 }`",
+///    "defaults to 3"; a backticked name is not a value: "the default is `boundary_pr`'s");
+/// 3. in parentheses after a value it marks ("`\"auto\"` (default)", "(default; the paper's)").
+///
+/// Prose about a default that names no value — "the default is the paper's value", "the default
+/// reads the paper's 5 frames as one duration" — is allowed: it says why, and `describe` prints
+/// the value from the serde default beside it.
+const PROSE_DEFAULT: &str = r#"(?ix)
+      \bdefaults?\s*[:=]
+    | \bdefaults?\b [\s(,]* (?:is\s+|of\s+|to\s+)? `?
+      (?: [-+.0-9"'\[{] | \b(?:true|false|none|off|on|empty|all|every)\b )
+    | \(\s*defaults?\s*[);,]
+"#;
+
+/// Every string a schema documents: titles and descriptions of the type, its fields, nested
+/// types (`$defs`) and enum variants, each with where it is.
+fn documented_strings(value: &serde_json::Value, at: &str, out: &mut Vec<(String, String)>) {
+    match value {
+        serde_json::Value::Object(m) => {
+            for (k, v) in m {
+                match (k.as_str(), v) {
+                    ("title" | "description", serde_json::Value::String(s)) => out.push((at.to_string(), s.clone())),
+                    _ => documented_strings(v, &format!("{at}/{k}"), out),
+                }
+            }
+        }
+        serde_json::Value::Array(a) => {
+            for (i, v) in a.iter().enumerate() {
+                documented_strings(v, &format!("{at}/{i}"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Defaults have one source, the serde default that `describe` prints: no doc comment of a
+/// plugin or workflow (its own, its parameters', nested types' and enum variants') repeats one
+/// in prose ([`PROSE_DEFAULT`] is the rule), and `x-default` notes only say what an unset
+/// optional key means.
+#[test]
+fn no_doc_comment_states_a_default_in_prose() {
+    let rule = regex::Regex::new(PROSE_DEFAULT).unwrap();
+    let mut schemas = Vec::new();
+    for p in registry::plugins() {
+        schemas.push((format!("plugin {}", p.name), (p.schema)()));
+    }
+    for p in registry::custom_plugins() {
+        schemas.push((format!("plugin {}", p.name), (p.schema)()));
+    }
+    for w in workflows() {
+        schemas.push((format!("workflow [{}]", w.name), (w.schema)()));
+    }
+    assert!(schemas.len() > 40, "only {} schemas: the registry is not linked", schemas.len());
+    let mut problems = Vec::new();
+    for (who, schema) in &schemas {
+        let mut texts = Vec::new();
+        documented_strings(schema.as_value(), "", &mut texts);
+        for (at, text) in texts {
+            for m in rule.find_iter(&text) {
+                let start = text[..m.start()].char_indices().rev().nth(40).map_or(0, |(i, _)| i);
+                let end = text[m.end()..].char_indices().nth(40).map_or(text.len(), |(i, _)| m.end() + i);
+                problems.push(format!("{who} {at}: …{}…", text[start..end].replace('\n', " ")));
+            }
+        }
+        for p in registry::schema_params(schema) {
+            if let Some(problem) = registry::default_note_problem(&p) {
+                problems.push(format!("{who}.{}: {problem}", p.name));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "defaults stated in prose (delete them: `describe` prints the serde default):\n{}", problems.join("\n"));
+}
+
+/// The rule catches the ways a default has been written in prose, and lets prose about a
+/// default without a value through.
+#[test]
+fn the_prose_default_rule_has_known_answers() {
+    let rule = regex::Regex::new(PROSE_DEFAULT).unwrap();
+    for caught in [
+        "Default 0.5.",
+        "Default: none (off).",
+        "Default: the motion's own.",
+        "default `\"root\"`",
+        "Default `{ seconds = 0.25 }`",
+        "(`name = \"…\"`, default: the type)",
+        "`\"auto\"` (default) or one of",
+        "The group's first candidate (default; the paper's reading).",
+        "defaults to 3 frames",
+        "the default is 120 Hz",
+        "Default true.",
+        "Default: all.",
+        "(default -1)",
+        "Default `true`.",
+        "default `[\"a\"]`",
+    ] {
+        assert!(rule.is_match(caught), "not caught: {caught:?}");
+    }
+    for allowed in [
+        "the default tolerance is chosen by the paper's rule",
+        "The default reads the paper's 5 frames (ballet) and 10 frames (street dance) as one duration.",
+        "Sonoda's default is the paper's value (§2.2).",
+        "every parameter at its default",
+        "scipy's `CubicSpline` default)",
+        "writes 0 into unfilled edges by default; here",
+        "`filtfilt(b, a, x)` with its defaults — the run extended",
+        "The default `max_distance_mm` accepts the rounding of forward kinematics",
+        "the default is `boundary_pr`'s, which says why",
+        "Why the defaults (`motionlab describe butterworth` lists them)",
+    ] {
+        assert!(!rule.is_match(allowed), "wrongly caught: {allowed:?}");
+    }
+}

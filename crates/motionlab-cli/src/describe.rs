@@ -73,10 +73,11 @@ fn write_params(out: &mut String, params: Vec<ParamDoc>) -> bool {
     }
     let _ = writeln!(out, "Parameters:");
     for d in params {
-        let default = match (&d.default, d.required) {
-            (_, true) => "required".to_string(),
-            (Some(v), _) => format!("default {v}"),
-            (None, _) => "optional".to_string(),
+        let default = match (&d.default_note, &d.default, d.required) {
+            (_, _, true) => "required".to_string(),
+            (Some(note), _, _) => format!("default: {note}"),
+            (None, Some(v), _) => format!("default {v}"),
+            (None, None, _) => "optional".to_string(),
         };
         let _ = writeln!(out, "  {} : {}  ({default})", d.name, d.type_name);
         for line in d.description.lines() {

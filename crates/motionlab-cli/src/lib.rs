@@ -303,7 +303,7 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Index { experiments, reports, records } => {
-            let p = motionlab_engine::pages::write_reproduction_index(&experiments, &reports, records)?;
+            let p = motionlab_report::pages::write_reproduction_index(&experiments, &reports, records)?;
             println!("wrote {}", p.display());
             Ok(ExitCode::SUCCESS)
         }
@@ -312,7 +312,7 @@ fn dispatch(command: Command) -> Result<ExitCode> {
 
 fn print_summary(s: &RunSummary) {
     if s.complete {
-        println!("{}: {} item(s), {} table file(s), {} figure file(s)", s.run_dir.display(), s.items, s.tables.len(), s.figures.len());
+        println!("{}: {} item(s), {} table file(s), {} figure file(s)", s.run_dir.display(), s.items, s.written.tables.len(), s.written.figures.len());
     } else {
         println!("{}: shard done ({} item(s)); run `motionlab merge {}` when every shard has finished", s.run_dir.display(), s.items, s.run_dir.display());
     }
@@ -345,11 +345,11 @@ fn reproduce(dir: &Path, args: &RunArgs, record: bool, only: Option<&str>) -> Re
         print_summary(&summary);
         if record {
             let dest = args.reports.join(&plan.file.experiment.name).join("record");
-            motionlab_engine::pages::write_record(&summary.run_dir, &dest, &plan.file)?;
+            motionlab_report::pages::write_record(&summary.run_dir, &dest, &plan.file)?;
             println!("  recorded into {}", dest.display());
         }
     }
-    let index = motionlab_engine::pages::write_reproduction_index(dir, &args.reports, record)?;
+    let index = motionlab_report::pages::write_reproduction_index(dir, &args.reports, record)?;
     println!("wrote {}", index.display());
     Ok(ExitCode::SUCCESS)
 }

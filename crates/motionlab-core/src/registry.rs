@@ -20,6 +20,14 @@
 //!
 //! Caveat: a crate that the final binary never names is not linked, and its plugins vanish
 //! silently. The CLI names every plugin crate, and a registry test lists every expected name.
+//!
+//! **Defaults have one source.** A parameter's default is its `#[serde(default = ...)]`, which
+//! schemars copies into the schema and `motionlab describe` prints; doc comments do not repeat
+//! it (the registry test rejects a description that states a default in prose). An optional key
+//! whose absence means something decided at run time — "the motion's frame rate", "every other
+//! method" — says so with the [`DEFAULT_NOTE_KEY`] schema extension on the field,
+//! `#[schemars(extend("x-default" = "the motion's frame rate"))]`, which `describe` prints in the
+//! default's place ([`ParamDoc::default_note`]).
 
 use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
@@ -184,6 +192,7 @@ pub fn schema_params(schema: &schemars::Schema) -> Vec<ParamDoc> {
             name: name.clone(),
             type_name: type_name(p, defs),
             default: p.get("default").map(toml_like),
+            default_note: p.get(DEFAULT_NOTE_KEY).and_then(|d| d.as_str()).map(|d| d.trim().to_string()),
             required: required.contains(&name.as_str()),
             description: p
                 .get("description")
@@ -196,12 +205,20 @@ pub fn schema_params(schema: &schemars::Schema) -> Vec<ParamDoc> {
         .collect()
 }
 
+/// The schema key of a default that serde cannot hold: on an optional field (serde default
+/// `None` or an empty collection), what leaving the key out means, in words.
+pub const DEFAULT_NOTE_KEY: &str = "x-default";
+
 /// One documented parameter.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ParamDoc {
     pub name: String,
     pub type_name: String,
+    /// The serde default, written as TOML (`(none)` for an unset optional key).
     pub default: Option<String>,
+    /// What leaving the key out means when serde cannot say it (the [`DEFAULT_NOTE_KEY`]
+    /// extension: decided at run time, like "the motion's frame rate").
+    pub default_note: Option<String>,
     pub required: bool,
     pub description: String,
 }
@@ -284,6 +301,7 @@ fn enum_values(p: &serde_json::Value) -> Option<String> {
 /// Renders a JSON default as TOML would write it.
 fn toml_like(v: &serde_json::Value) -> String {
     match v {
+        serde_json::Value::Object(m) if m.is_empty() => "{}".into(),
         serde_json::Value::Object(m) => {
             let parts: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {}", toml_like(v))).collect();
             format!("{{ {} }}", parts.join(", "))
@@ -527,6 +545,22 @@ macro_rules! register_custom_plugin {
     };
 }
 
+/// Why a parameter's [`DEFAULT_NOTE_KEY`] note is misplaced, if it is: a note may only say what
+/// an *unset* key means (serde default `None`, `[]` or `{}`), never shadow a real default value,
+/// and it must say something.
+pub fn default_note_problem(param: &ParamDoc) -> Option<String> {
+    let note = param.default_note.as_deref()?;
+    if note.is_empty() {
+        return Some(format!("its {DEFAULT_NOTE_KEY:?} note is empty"));
+    }
+    match param.default.as_deref() {
+        Some("(none)" | "[]" | "{}") => None,
+        Some(value) => Some(format!("has the serde default {value} and also a {DEFAULT_NOTE_KEY:?} note ({note:?}); keep one")),
+        None if param.required => Some(format!("is required but has a {DEFAULT_NOTE_KEY:?} note")),
+        None => None,
+    }
+}
+
 /// An empty parameter table (every parameter at its default).
 pub fn default_params() -> toml::Value {
     toml::Value::Table(toml::Table::new())
@@ -564,6 +598,9 @@ pub fn check_registry() -> Vec<String> {
             }
             if !param.required && param.default.is_none() && !param.type_name.contains("optional") {
                 problems.push(format!("{name:?}: parameter {:?} is optional but documents no default", param.name));
+            }
+            if let Some(problem) = default_note_problem(&param) {
+                problems.push(format!("{name:?}: parameter {:?}: {problem}", param.name));
             }
         }
     }

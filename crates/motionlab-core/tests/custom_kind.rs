@@ -17,7 +17,7 @@ trait Other: Send + Sync {}
 #[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct TimesParams {
-    /// The factor, > 0. Default 2.
+    /// The factor, > 0.
     #[serde(default = "two")]
     factor: f64,
 }

@@ -8,7 +8,7 @@ use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
 use motionlab_core::table::fmt_num;
 use motionlab_report::html::{write_compare_page, ComparePage, MetricDiff};
 
-use crate::pages::read_table_csv;
+use motionlab_report::pages::read_table_csv;
 
 /// Flattens a TOML document into `key.path = value` pairs.
 fn flatten(prefix: &str, v: &toml::Value, out: &mut BTreeMap<String, String>) {

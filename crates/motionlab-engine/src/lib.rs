@@ -2,17 +2,17 @@
 //!
 //! Experiments as data: a TOML file is parsed and validated in full before any work ([`plan`]:
 //! every file, plugin and parameter, with errors naming the file, line and key path), expanded
-//! over its `[sweep]` grid, and run as a map–reduce of work items ([`run`]) into a fresh run
-//! directory ([`rundir`]) with provenance and pages ([`pages`], [`compare`]).
+//! over its `[sweep]` grid, and run as a map–reduce of work items ([`run`]), sharded or not,
+//! into a fresh run directory ([`rundir`]) with its provenance; [`compare`] diffs two runs.
 //!
 //! It knows no workflow: the experiment's workflow section names a registered
 //! [`Workflow`](motionlab_experiment::Workflow) plugin (`motionlab-experiment` holds the trait
 //! and the schema; the built-in workflows are in `motionlab-workflows`). What a workflow returns
-//! — tables, figure specs, files — is handed to `motionlab-report` to write and render; the
-//! engine depends on no polars or plotters directly.
+//! is handed whole to `motionlab-report` ([`motionlab_report::output::write`]), which also
+//! writes the run's page, runs of record and the reproduction index
+//! ([`motionlab_report::pages`]); the engine depends on no polars or plotters directly.
 
 pub mod compare;
-pub mod pages;
 pub mod plan;
 pub mod run;
 pub mod rundir;

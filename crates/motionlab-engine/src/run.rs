@@ -1,6 +1,6 @@
 //! Running a plan: items in parallel (rayon), item results persisted under `items/`, then
-//! `finish` per sweep combination, `summarize` across them, and every table and figure written
-//! into the run directory with its provenance.
+//! `finish` per sweep combination, `summarize` across them, every output handed to
+//! `motionlab-report` to write ([`motionlab_report::output::write`]), and the run's provenance.
 //!
 //! A sharded run (`--shard i/n --run-dir DIR`) computes only the items `k ≡ i (mod n)` of the
 //! deterministic item list and writes `shards/shard-i-of-n.json`; `merge` then finishes from
@@ -14,9 +14,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
-use motionlab_report::{figures::render, write_table, Figure};
+use motionlab_report::output::{FileLists, Written};
+use motionlab_report::pages::write_run_html;
 
-use crate::pages::{write_run_html, FigureEntry};
 use crate::plan::{plan, Plan};
 use crate::rundir::{sha256_bytes, sha256_file, utc_iso, write_atomic, RunDir};
 use motionlab_experiment::workflow::{ComboOutput, ItemData, Output, WorkItem};
@@ -65,8 +65,8 @@ impl Default for RunOptions {
 #[derive(Clone, Debug)]
 pub struct RunSummary {
     pub run_dir: PathBuf,
-    pub tables: Vec<PathBuf>,
-    pub figures: Vec<PathBuf>,
+    /// Everything its items and combinations wrote (paths relative to `run_dir`).
+    pub written: Written,
     pub items: usize,
     /// False for a shard that still awaits `merge`.
     pub complete: bool,
@@ -114,8 +114,9 @@ struct Provenance {
     combinations: Vec<String>,
     items: usize,
     inputs: Vec<InputFile>,
-    tables: Vec<String>,
-    figures: Vec<String>,
+    /// What the run wrote, as `motionlab-report` lists it.
+    #[serde(flatten)]
+    outputs: FileLists,
 }
 
 /// The canonical text of the resolved configuration (hashed to check shards belong together).
@@ -143,8 +144,13 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
 }
 
 /// One finished item: its index in the full item list, its combination, the item, its result
-/// and the figure files it rendered.
-type DoneItem = (usize, usize, WorkItem, ItemData, Vec<PathBuf>);
+/// and what its output wrote.
+type DoneItem = (usize, usize, WorkItem, ItemData, Written);
+
+/// Where an item's result and the record of its written output are persisted.
+fn item_files(items_dir: &Path, c: usize, item: &WorkItem) -> (PathBuf, PathBuf) {
+    (items_dir.join(format!("c{c}-{}.msgpack", item.id)), items_dir.join(format!("c{c}-{}.output.json", item.id)))
+}
 
 /// Runs a validated plan.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
@@ -174,7 +180,6 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let mine: Vec<(usize, usize, WorkItem)> =
         items.iter().enumerate().filter(|(k, _)| k % shards == shard).map(|(k, (c, i))| (k, *c, i.clone())).collect();
     let items_dir = rundir.subdir("items")?;
-    let figures_dir = rundir.subdir("figures")?;
     opts.progress.begin(&format!("{} items", plan.file.experiment.name), mine.len() as u64);
     let pool = thread_pool(opts.threads)?;
     let results: Vec<Result<DoneItem>> = pool.install(|| {
@@ -183,23 +188,14 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
                 let built = &plan.built[*c];
                 // Per-item figures are drawn for the base combination only: a sweep would
                 // otherwise multiply them by its size.
-                let out = built.workflow.run_item(item, &built.data, *c == 0).map_err(|e| e.under_field(format!("item {}", item.id)))?;
-                let path = items_dir.join(format!("c{c}-{}.msgpack", item.id));
-                write_atomic(&path, &out.result.0)?;
-                let mut figs = Vec::new();
-                for f in &out.figures {
-                    figs.extend(render(f, &figures_dir)?);
-                }
-                let entries: Vec<FigureEntry> = out.figures.iter().map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() }).collect();
-                write_atomic(&items_dir.join(format!("c{c}-{}.figures.json", item.id)), &json_bytes(&entries)?)?;
-                if !out.files.is_empty() {
-                    let dir = rundir.subdir("files")?;
-                    for (name, bytes) in &out.files {
-                        write_atomic(&dir.join(name), bytes)?;
-                    }
-                }
+                let (result, output) =
+                    built.workflow.run_item(item, &built.data, *c == 0).map_err(|e| e.under_field(format!("item {}", item.id)))?.into_parts();
+                let (result_path, written_path) = item_files(&items_dir, *c, item);
+                write_atomic(&result_path, &result.0)?;
+                let written = motionlab_report::output::write(&rundir.work, &output)?;
+                write_atomic(&written_path, &json_bytes(&written)?)?;
                 opts.progress.advance(&item.id);
-                Ok((*k, *c, item.clone(), out.result, figs))
+                Ok((*k, *c, item.clone(), result, written))
             })
             .collect()
     });
@@ -208,7 +204,6 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     for r in results {
         done.push(r?);
     }
-    let mut figure_paths: Vec<PathBuf> = done.iter().flat_map(|d| d.4.clone()).collect();
     if opts.shard.is_some() {
         let m = ShardManifest {
             shard,
@@ -219,18 +214,39 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         };
         let dir = rundir.subdir("shards")?;
         write_atomic(&dir.join(format!("shard-{shard}-of-{shards}.json")), &json_bytes(&m)?)?;
-        return Ok(RunSummary { run_dir: rundir.target.clone(), tables: vec![], figures: figure_paths, items: done.len(), complete: false });
+        let written = Written::concat(done.iter().map(|d| &d.4));
+        return Ok(RunSummary { run_dir: rundir.target.clone(), written, items: done.len(), complete: false });
     }
+    let item_outputs: Vec<(PathBuf, Written)> = done.iter().map(|d| (item_files(&items_dir, d.1, &d.2).1, d.4.clone())).collect();
     let by_combo = group_by_combo(plan, done.into_iter().map(|d| (d.1, d.2, d.3)).collect());
-    let finished = finish_all(plan, &rundir, by_combo, opts)?;
-    figure_paths.extend(finished.figure_paths.iter().cloned());
-    write_provenance(plan, opts, &rundir, started, &config, items.len(), None, &finished.table_paths, &figure_paths)?;
-    let figure_entries = all_figure_entries(&rundir.work.join("items"), finished.figures)?;
-    write_atomic(&rundir.work.join("figures").join("index.json"), &json_bytes(&figure_entries)?)?;
-    let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    write_run_html(&rundir.work, &plan.file, &config, &finished.tables, &figure_entries, &run_id)?;
+    let written = complete(plan, opts, &rundir, started, None, by_combo, item_outputs)?;
     let target = rundir.finalize()?;
-    Ok(RunSummary { run_dir: target, tables: finished.table_paths, figures: figure_paths, items: items.len(), complete: true })
+    Ok(RunSummary { run_dir: target, written, items: items.len(), complete: true })
+}
+
+/// The end of a run, single-machine or merged from shards: `finish` and `summarize`, their
+/// output written, the provenance (every item's files in item order, then the combinations'),
+/// and the run page (listing the combinations' output first, then every item's in item-file
+/// order).
+/// `item_outputs` pairs each item's persisted record of its output with that record's path.
+fn complete(
+    plan: &Plan,
+    opts: &RunOptions,
+    rundir: &RunDir,
+    started: (SystemTime, Instant),
+    shards: Option<usize>,
+    by_combo: Vec<Vec<(WorkItem, ItemData)>>,
+    mut item_outputs: Vec<(PathBuf, Written)>,
+) -> Result<Written> {
+    let total_items = item_outputs.len();
+    let (tables, finished) = finish_all(plan, rundir, by_combo, opts)?;
+    let in_item_order = Written::concat(item_outputs.iter().map(|(_, w)| w).chain([&finished]));
+    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order))?;
+    item_outputs.sort_by(|a, b| a.0.cmp(&b.0));
+    let page_order: Vec<&Written> = [&finished].into_iter().chain(item_outputs.iter().map(|(_, w)| w)).collect();
+    let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    write_run_html(&rundir.work, &plan.file, &config_text(plan), &tables, &page_order, &run_id)?;
+    Ok(in_item_order)
 }
 
 fn group_by_combo(plan: &Plan, done: Vec<(usize, WorkItem, ItemData)>) -> Vec<Vec<(WorkItem, ItemData)>> {
@@ -246,31 +262,10 @@ fn group_by_combo(plan: &Plan, done: Vec<(usize, WorkItem, ItemData)>) -> Vec<Ve
     by
 }
 
-/// What [`finish_all`] wrote.
-struct Finished {
-    tables: Vec<Table>,
-    table_paths: Vec<PathBuf>,
-    figures: Vec<FigureEntry>,
-    figure_paths: Vec<PathBuf>,
-}
-
-/// The combination-level figures first, then every item's, in item-file order.
-fn all_figure_entries(items_dir: &Path, mut figures: Vec<FigureEntry>) -> Result<Vec<FigureEntry>> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(items_dir)
-        .map_err(|e| Error::io(items_dir, e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.to_string_lossy().ends_with(".figures.json"))
-        .collect();
-    files.sort();
-    for f in files {
-        let entries: Vec<FigureEntry> = read_json(&f)?;
-        figures.extend(entries);
-    }
-    Ok(figures)
-}
-
-/// `finish` per combination, sweep columns, concatenation, `summarize`, and writing.
-fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemData)>>, opts: &RunOptions) -> Result<Finished> {
+/// `finish` per combination, sweep columns, concatenation, `summarize`; then the run's whole
+/// output ([`Output::of_run`]) handed to `motionlab-report` to write. Returns the tables (for
+/// the run page) and what was written.
+fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemData)>>, opts: &RunOptions) -> Result<(Vec<Table>, Written)> {
     opts.progress.begin("finishing", by_combo.len() as u64);
     let outputs: Vec<Output> = by_combo
         .iter()
@@ -296,32 +291,10 @@ fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemDat
     }
     let combos: Vec<ComboOutput<'_>> = outputs.iter().enumerate().map(|(c, o)| ComboOutput { combo: &plan.combos[c], output: o }).collect();
     let summary = plan.built[0].workflow.summarize(&combos)?;
-    tables.extend(summary.tables);
-    let mut figures: Vec<Figure> = outputs.first().map(|o| o.figures.clone()).unwrap_or_default();
-    figures.extend(summary.figures);
-    let tables_dir = rundir.subdir("tables")?;
-    let figures_dir = rundir.subdir("figures")?;
-    let mut table_paths = Vec::new();
-    for t in &tables {
-        let w = write_table(t, &tables_dir)?;
-        table_paths.extend([w.csv, w.parquet, w.markdown]);
-    }
-    let figure_paths: Vec<PathBuf> =
-        figures.par_iter().map(|f| render(f, &figures_dir)).collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
-    let files: Vec<&(String, Vec<u8>)> = outputs.iter().flat_map(|o| o.files.iter()).chain(summary.files.iter()).collect();
-    if !files.is_empty() {
-        let dir = rundir.subdir("files")?;
-        for (name, bytes) in files {
-            write_atomic(&dir.join(name), bytes)?;
-        }
-    }
-    // Viewers of the base combination only, like per-item figures.
-    if let Some(first) = outputs.first().filter(|o| !o.viewers.is_empty()) {
-        let dir = rundir.subdir("viewers")?;
-        first.viewers.par_iter().map(|v| motionlab_report::viewer::write(&dir, v).map(|_| ())).collect::<Result<Vec<_>>>()?;
-    }
-    let figures = figures.iter().map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() }).collect();
-    Ok(Finished { tables, table_paths, figures, figure_paths })
+    drop(combos);
+    let all = Output::of_run(tables, outputs, summary);
+    let written = motionlab_report::output::write(&rundir.work, &all)?;
+    Ok((all.tables, written))
 }
 
 /// Prepends `sweep`, `combination` and `parameters` columns.
@@ -333,17 +306,14 @@ fn with_sweep_columns(mut t: Table, combo: &crate::plan::Combo) -> Result<Table>
     Ok(t)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn write_provenance(
     plan: &Plan,
     opts: &RunOptions,
     rundir: &RunDir,
     started: (SystemTime, Instant),
-    _config: &str,
     items: usize,
     shards: Option<usize>,
-    tables: &[PathBuf],
-    figures: &[PathBuf],
+    outputs: FileLists,
 ) -> Result<()> {
     let inputs = plan
         .input_files()
@@ -357,7 +327,6 @@ fn write_provenance(
         })
         .collect::<Result<Vec<_>>>()?;
     let (git_revision, git_dirty) = git_state(&plan.source.base_dir());
-    let rel = |p: &PathBuf| p.strip_prefix(&rundir.work).unwrap_or(p).to_string_lossy().into_owned();
     let prov = Provenance {
         motionlab_version: env!("CARGO_PKG_VERSION"),
         git_revision,
@@ -375,8 +344,7 @@ fn write_provenance(
         combinations: plan.combos.iter().map(|c| c.label()).collect(),
         items,
         inputs,
-        tables: tables.iter().map(rel).collect(),
-        figures: figures.iter().map(rel).collect(),
+        outputs,
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
 }
@@ -405,7 +373,7 @@ fn git_state(dir: &Path) -> (String, Option<bool>) {
 }
 
 /// Finishes a sharded run: checks every shard is present and was produced by the same
-/// configuration, then writes exactly the tables and figures a single-machine run writes.
+/// configuration, then finishes exactly as a single-machine run does.
 pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     let started = (SystemTime::now(), Instant::now());
     let loc = |p: &Path| Location::file(p);
@@ -453,25 +421,18 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     let items = all_items(&plan);
     let items_dir = run_dir.join("items");
     let mut done = Vec::with_capacity(items.len());
+    let mut item_outputs = Vec::with_capacity(items.len());
     for (c, item) in items {
-        let p = items_dir.join(format!("c{c}-{}.msgpack", item.id));
-        let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+        let (result_path, written_path) = item_files(&items_dir, c, &item);
+        let bytes = std::fs::read(&result_path).map_err(|e| Error::io(&result_path, e))?;
+        item_outputs.push((written_path.clone(), read_json::<Written>(&written_path)?));
         done.push((c, item, ItemData(bytes)));
     }
     let total = done.len();
     let rundir = RunDir::shared(run_dir)?;
     let by_combo = group_by_combo(&plan, done);
-    let finished = finish_all(&plan, &rundir, by_combo, opts)?;
-    let mut all_figures: Vec<PathBuf> = std::fs::read_dir(run_dir.join("figures"))
-        .map(|r| r.filter_map(|e| e.ok().map(|e| e.path())).collect())
-        .unwrap_or_default();
-    all_figures.sort();
-    write_provenance(&plan, opts, &rundir, started, &config, total, Some(n), &finished.table_paths, &all_figures)?;
-    let figure_entries = all_figure_entries(&items_dir, finished.figures)?;
-    write_atomic(&run_dir.join("figures").join("index.json"), &json_bytes(&figure_entries)?)?;
-    let run_id = run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    write_run_html(run_dir, &plan.file, &config, &finished.tables, &figure_entries, &run_id)?;
-    Ok(RunSummary { run_dir: run_dir.to_path_buf(), tables: finished.table_paths, figures: all_figures, items: total, complete: true })
+    let written = complete(&plan, opts, &rundir, started, Some(n), by_combo, item_outputs)?;
+    Ok(RunSummary { run_dir: run_dir.to_path_buf(), written, items: total, complete: true })
 }
 
 fn read_json<T: for<'de> Deserialize<'de>>(p: &Path) -> Result<T> {

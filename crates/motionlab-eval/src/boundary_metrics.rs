@@ -33,12 +33,11 @@ use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 #[serde(deny_unknown_fields)]
 pub struct BoundaryMetricsParams {
     /// The match tolerances of `boundary_f1_by_tolerance`, in frames or seconds (each resolved
-    /// at the motion's rate). Default `[{ seconds = 0.0833… }, { seconds = 0.25 }, { seconds =
-    /// 0.5 }, { seconds = 1.0 }]` (1/12 s is `boundary_pr`'s default).
+    /// at the motion's rate). The default list starts with `boundary_pr`'s default tolerance.
     #[serde(default = "default_tolerances")]
     pub tolerances: Vec<TimeSpan>,
     /// TCPDBench's margin: a found frame within this many frames of a truth can count (whole
-    /// frames, rounded down, as TCPDBench's integer margin). Default `{ seconds = 0.5 }`.
+    /// frames, rounded down, as TCPDBench's integer margin).
     #[serde(default = "default_margin")]
     pub margin: TimeSpan,
 }

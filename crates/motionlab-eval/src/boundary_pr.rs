@@ -60,44 +60,46 @@ use crate::span::{Span, counted};
 #[serde(deny_unknown_fields)]
 pub struct BoundaryPrParams {
     /// Largest offset between a found frame and a truth that still matches, in frames or
-    /// seconds (resolved at each motion's rate). Default `{ seconds = 0.0833… }` = 1/12 s: the
-    /// paper's 5 frames (ballet) and 10 frames (street dance) read as 60 Hz and 120 Hz captures.
+    /// seconds (resolved at each motion's rate). The default reads the paper's 5 frames
+    /// (ballet) and 10 frames (street dance) as one duration: 60 Hz and 120 Hz captures.
     #[serde(default = "default_tolerance")]
     pub tolerance: TimeSpan,
     /// Also accept a found frame anywhere in the truth's annotated transition window (CMU-86
-    /// labels give one per boundary), widened by `tolerance`. Default false (points only, as in
-    /// the paper).
+    /// labels give one per boundary), widened by `tolerance`; off, only points count, as in the
+    /// paper.
     #[serde(default)]
     pub use_windows: bool,
     /// Second match rule: two frames also match when their root-aligned mean marker distance is
-    /// below this many mm. Default: none (time rule only).
+    /// below this many mm.
     #[serde(default)]
+    #[schemars(extend("x-default" = "the time rule only"))]
     pub pose_mm: Option<Millimetres>,
     /// Limit the pose rule to frames at most this far apart (the paper sets no limit, which in
-    /// repetitive motion lets a pose match a truth far away). Default: none (no limit).
+    /// repetitive motion lets a pose match a truth far away).
     #[serde(default)]
+    #[schemars(extend("x-default" = "no limit"))]
     pub pose_max_gap: Option<TimeSpan>,
-    /// The point subtracted before comparing poses. Default `"root"` (the CMU skeletons' root
-    /// joint; marker sets without one can add it with the `add_centroid` preprocessor).
+    /// The point subtracted before comparing poses (the CMU skeletons have a `root` joint;
+    /// marker sets without one can add it with the `add_centroid` preprocessor).
     #[serde(default = "default_root")]
     pub root: String,
     /// The single methods the fused method's recall is compared with in `claim_fused_recall`
     /// (the paper compares its fusion with the methods it fuses, not with baselines).
-    /// Default: none = every other method.
     #[serde(default)]
+    #[schemars(extend("x-default" = "every other method"))]
     pub claim_against: Option<Vec<String>>,
     /// Which found frames count: `"whole"` (every one) or `"annotated"` (only those from the
     /// first to the last annotation of the sequence, ± `tolerance`: recordings start and end
-    /// with stretches nobody annotated). Default `"whole"`.
+    /// with stretches nobody annotated).
     #[serde(default)]
     pub span: Span,
     /// Number of random draws of the chance baseline's Monte Carlo (p-value, and the expectation
-    /// when truth windows overlap), ≥ 100. Default 2000 (p-values down to 1/2001). Cost per
+    /// when truth windows overlap), ≥ 100; N draws resolve p-values down to 1/(N + 1). Cost per
     /// method and sequence at 86_01's size: 0.4 ms for 2 candidates to 81 ms for 278
     /// (`examples/chance_timing.rs`, debug build).
     #[serde(default = "default_chance_draws")]
     pub chance_draws: usize,
-    /// Base seed of the chance draws (mixed with the sequence and method names). Default 16.
+    /// Base seed of the chance draws (mixed with the sequence and method names).
     #[serde(default = "default_chance_seed")]
     pub chance_seed: u64,
 }

@@ -34,7 +34,7 @@
 //! the Monte Carlo mean and its standard error `sd(M)/√N` is reported.
 //!
 //! The **p-value** is always Monte Carlo: `N` draws with a fixed seed (parameters of
-//! `boundary_pr`, default `N = 2000`, seed 16), one-sided,
+//! `boundary_pr`: `chance_draws` and `chance_seed`), one-sided,
 //! `p = (1 + #{draws with M ≥ M_method}) / (1 + N)` (the add-one rule makes it a valid p-value
 //! for a finite number of draws, never 0). The seed of each (sequence, method) is the base seed
 //! mixed with a hash of both names, so results do not depend on the order of the experiment and

@@ -43,16 +43,18 @@ use crate::boundaries::tolerance_frames;
 #[serde(deny_unknown_fields)]
 pub struct ConsensusParams {
     /// Marks at most this far after the previous mark (all annotators pooled, in time order)
-    /// belong to the same point. Default `{ seconds = 0.25 }` (the paper gives no number; a
-    /// quarter second allows for the spread of people clicking on a playing animation).
+    /// belong to the same point. The paper gives no number; the default allows for the spread
+    /// of people clicking on a playing animation.
     #[serde(default = "default_tolerance")]
     pub tolerance: TimeSpan,
-    /// A point is kept when at least this many distinct annotators marked it (≥ 1). Default:
-    /// none = half the annotators, rounded up (the paper: 4 of 8).
+    /// A point is kept when at least this many distinct annotators marked it (≥ 1; the paper:
+    /// 4 of 8).
     #[serde(default)]
+    #[schemars(extend("x-default" = "half the annotators, rounded up"))]
     pub min_votes: Option<usize>,
-    /// Keep points with fewer votes where the motion fully stops. Default: none (off).
+    /// Keep points with fewer votes where the motion fully stops.
     #[serde(default)]
+    #[schemars(extend("x-default" = "off"))]
     pub stop_rule: Option<StopRuleParams>,
 }
 
@@ -61,9 +63,9 @@ pub struct ConsensusParams {
 #[serde(deny_unknown_fields)]
 pub struct StopRuleParams {
     /// The body counts as stopped where the fastest-marker speed V (mm/s) is at most this.
-    /// Required (no default: the noise floor of V depends on the capture system).
+    /// Required: the noise floor of V depends on the capture system.
     pub max_speed: MillimetresPerSecond,
-    /// A stopped point still needs this many annotators (≥ 1). Default 1.
+    /// A stopped point still needs this many annotators (≥ 1).
     #[serde(default = "default_stop_votes")]
     pub min_votes: usize,
 }

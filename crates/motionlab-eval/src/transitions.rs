@@ -77,15 +77,15 @@ pub fn detect_transitions(
 #[serde(deny_unknown_fields)]
 pub struct TransitionsParams {
     /// Largest offset between a transition and a candidate that still detects it, in frames or
-    /// seconds. Default `{ seconds = 0.0833… }` = 1/12 s (see `boundary_pr`).
+    /// seconds (the default is `boundary_pr`'s, which says why).
     #[serde(default = "default_tolerance")]
     pub tolerance: TimeSpan,
-    /// The method whose candidates are judged. Default: none = the last method, i.e. the fuser's
-    /// output (the paper uses the fused result).
+    /// The method whose candidates are judged (the paper judges the fused result).
     #[serde(default)]
+    #[schemars(extend("x-default" = "the last method, i.e. the fuser's output"))]
     pub method: Option<String>,
     /// Also accept a candidate anywhere in the boundary's annotated transition window (CMU-86
-    /// labels), widened by `tolerance`. Default false.
+    /// labels), widened by `tolerance`.
     #[serde(default)]
     pub use_windows: bool,
 }

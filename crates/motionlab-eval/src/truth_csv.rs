@@ -42,8 +42,8 @@ use crate::truth_annotators::Annotators;
 /// **Annotators**: with one annotator (or no `annotator` column) its marks are the truth; with
 /// several, `annotator = "…"` evaluates one of them (sweep it for per-annotator results) and
 /// `consensus = { … }` combines them all (`motionlab describe` of the consensus rule: marks
-/// chained within `tolerance`, one vote per annotator, kept with ≥ `min_votes`, default half
-/// the annotators rounded up; the truth then carries each point's spread as its window).
+/// chained within `tolerance`, one vote per annotator, kept with ≥ `min_votes`; the truth then
+/// carries each point's spread as its window).
 ///
 /// **Errors** (one line naming the file, the line and the column): no header or an unknown,
 /// repeated, missing or mixed time column; a non-numeric, negative or non-finite cell; a
@@ -58,26 +58,26 @@ use crate::truth_annotators::Annotators;
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BoundariesCsvParams {
-    /// The sequence whose rows to read. Default: the motion file's stem (its name when it was
-    /// not loaded from a file).
+    /// The sequence whose rows to read.
     #[serde(default)]
+    #[schemars(extend("x-default" = "the motion file's stem (its name when it was not loaded from a file)"))]
     pub sequence: Option<String>,
-    /// Evaluate this annotator's rows only. Default: none (the file's only annotator).
+    /// Evaluate this annotator's rows only.
     #[serde(default)]
+    #[schemars(extend("x-default" = "the file's only annotator"))]
     pub annotator: Option<String>,
-    /// Combine every annotator's marks by consensus (k of N within a tolerance). Default: none.
+    /// Combine every annotator's marks by consensus (k of N within a tolerance).
     #[serde(default)]
     pub consensus: Option<ConsensusParams>,
-    /// Rate of the `frame` / `start_frame` / `end_frame` numbers, Hz. Default: the motion's
-    /// own rate (frames are motion frames).
+    /// Rate of the `frame` / `start_frame` / `end_frame` numbers, Hz.
     #[serde(default)]
+    #[schemars(extend("x-default" = "the motion's own rate (frames are motion frames)"))]
     pub frame_rate_hz: Option<f64>,
-    /// The number the file gives the motion's first frame (frames). Default 0; 1 for tools
-    /// that count from 1.
+    /// The number the file gives the motion's first frame (frames): 1 for tools that count
+    /// from 1.
     #[serde(default)]
     pub first_frame: u32,
     /// Check that every `sequence` in the file names a motion file beside the one read.
-    /// Default true.
     #[serde(default = "default_true")]
     pub check_sequences: bool,
 }

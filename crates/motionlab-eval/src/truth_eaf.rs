@@ -38,14 +38,14 @@ use crate::truth_annotators::Annotators;
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ElanEafParams {
-    /// The tier (`TIER_ID`) to read. Default: none (the file's only time-aligned tier).
+    /// The tier (`TIER_ID`) to read.
     #[serde(default)]
+    #[schemars(extend("x-default" = "the file's only time-aligned tier"))]
     pub tier: Option<String>,
-    /// Combine every time-aligned tier as one annotator each, by consensus. Default: none.
+    /// Combine every time-aligned tier as one annotator each, by consensus.
     #[serde(default)]
     pub consensus: Option<ConsensusParams>,
     /// ELAN time of the motion's first frame, ms (video and mocap rarely start together).
-    /// Default 0.
     #[serde(default)]
     pub offset_ms: f64,
 }

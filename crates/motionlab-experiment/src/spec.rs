@@ -103,7 +103,7 @@ pub enum Cut {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DatasetSpec {
-    /// Name used in tables; default: the file stem (one name per file when a glob matches
+    /// Name used in tables; unset, the file stem (one name per file when a glob matches
     /// several files).
     #[serde(default)]
     pub name: Option<String>,
@@ -129,7 +129,7 @@ pub struct DatasetSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SweepGrid {
-    /// Label of this grid in result tables; default `sweep<k>`.
+    /// Label of this grid in result tables; unset, `sweep<k>`.
     #[serde(default)]
     pub name: Option<String>,
     /// The method the grid is about (e.g. the segmenter whose threshold it sweeps), for

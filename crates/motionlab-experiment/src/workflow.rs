@@ -70,6 +70,11 @@ impl ItemOutput {
     pub fn new(result: ItemData, figures: Vec<Figure>) -> Self {
         ItemOutput { result, figures, files: Vec::new() }
     }
+
+    /// The result to persist (what `finish` is later given) and the output to write now.
+    pub fn into_parts(self) -> (ItemData, Output) {
+        (self.result, Output { figures: self.figures, files: self.files, ..Output::default() })
+    }
 }
 
 /// What a combination (or the whole sweep) produced.
@@ -81,6 +86,29 @@ pub struct Output {
     pub files: Vec<(String, Vec<u8>)>,
     /// Interactive viewer pages, one per sequence, written as `viewers/<name>.html`.
     pub viewers: Vec<motionlab_core::viewer::ViewerSpec>,
+}
+
+impl Output {
+    /// A run's whole output from its combinations' (the base combination first) and the
+    /// summary's: `tables` — the combinations' tables as the engine joined them (with sweep
+    /// columns) — then the summary's; the base combination's figures and viewers (the others
+    /// ran with `draw_figures` false: a sweep would multiply them); every combination's files;
+    /// then the summary's figures and files.
+    pub fn of_run(tables: Vec<Table>, combos: Vec<Output>, summary: Output) -> Output {
+        let mut all = Output { tables, ..Output::default() };
+        for (c, out) in combos.into_iter().enumerate() {
+            if c == 0 {
+                all.figures = out.figures;
+                all.viewers = out.viewers;
+            }
+            all.files.extend(out.files);
+        }
+        all.tables.extend(summary.tables);
+        all.figures.extend(summary.figures);
+        all.files.extend(summary.files);
+        all.viewers.extend(summary.viewers);
+        all
+    }
 }
 
 /// A completed combination, for [`Workflow::summarize`].

@@ -32,10 +32,10 @@ pub struct ExternalFeaturesParams {
     /// program name without `/` is looked up on PATH; relative paths resolve against the
     /// current directory (where motionlab runs), not the experiment's folder.
     pub command: Vec<String>,
-    /// Seconds the program may run for one motion before it is killed. Default 60 s.
+    /// Seconds the program may run for one motion before it is killed.
     #[serde(default = "default_timeout_s")]
     pub timeout_s: f64,
-    /// Any table, passed unchanged to the program as `params` in `meta.json`. Default: empty.
+    /// Any table, passed unchanged to the program as `params` in `meta.json`.
     #[serde(default)]
     pub params: Map<String, Value>,
 }

@@ -13,7 +13,7 @@
 //! type = "external"
 //! name = "speed_minima_py"
 //! command = ["python3", "examples/external-segmenter/speed_minima.py"]
-//! timeout_s = 60                                   # default
+//! timeout_s = 120                                  # seconds per motion
 //! params = { v_low = { fraction_of_p90 = 0.15 } }  # passed through unchanged
 //! ```
 //!

@@ -33,11 +33,12 @@ use motionlab_core::{Error, ErrorKind, Motion, Preprocessor, Result};
 /// filtered motion stay where they are) and squares its gain: the result is of order
 /// `2·order`, −6 dB (not −3 dB) at the cutoff.
 ///
-/// Defaults: order 2 and 6 Hz. Marker data of human movement hold little beyond 6 Hz
-/// (Winter, *Biomechanics and Motor Control of Human Movement*: 6 Hz for walking markers;
-/// 6–10 Hz is the usual range, higher for fast hand movement); the noise of raw positions is
-/// broadband, and it is what makes speed minima appear a frame after every peak at 120 Hz.
-/// Order 2 forward and backward is the common 4th-order zero-phase filter of biomechanics.
+/// Why the defaults (`motionlab describe butterworth` lists them): marker data of human
+/// movement hold little beyond 6 Hz (Winter, *Biomechanics and Motor Control of Human
+/// Movement*: 6 Hz for walking markers; 6–10 Hz is the usual range, higher for fast hand
+/// movement); the noise of raw positions is broadband, and it is what makes speed minima appear
+/// a frame after every peak at 120 Hz. Order 2 forward and backward is the common 4th-order
+/// zero-phase filter of biomechanics.
 ///
 /// Missing samples (gap-aware): each coordinate of each marker is filtered **per contiguous
 /// run of present samples**, separately — a gap is never bridged and stays missing (NaN); a
@@ -48,11 +49,10 @@ use motionlab_core::{Error, ErrorKind, Motion, Preprocessor, Result};
 #[serde(deny_unknown_fields)]
 pub struct ButterworthParams {
     /// Order of the designed filter (1–8); the forward-backward result has twice this order.
-    /// Default 2.
     #[serde(default = "default_order")]
     pub order: usize,
     /// Cutoff frequency in Hz (−3 dB of one pass, −6 dB of the zero-phase result); must be
-    /// below half the motion's frame rate. Default 6 Hz.
+    /// below half the motion's frame rate.
     #[serde(default = "default_cutoff_hz")]
     pub cutoff_hz: f64,
 }

@@ -106,18 +106,18 @@ pub(crate) fn default_min_leg_mm() -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct RootCurvatureParams {
     /// Name of the root marker or joint (for marker sets without one, add it with the
-    /// `add_centroid` preprocessor). Default `"root"`.
+    /// `add_centroid` preprocessor).
     #[serde(default = "default_root")]
     pub root: String,
-    /// The lag L between `q[i]` and `q[i±L]`. Default `{ seconds = 0.125 }` (the paper's
-    /// 15 frames at 120 fps).
+    /// The lag L between `q[i]` and `q[i±L]` (the default is the paper's 15 frames at 120 fps).
     #[serde(default = "default_lag")]
     pub lag: TimeSpan,
-    /// The paper's T, mm: C is undefined when either leg is shorter. Default 100.
+    /// The paper's T, mm: C is undefined when either leg is shorter.
     #[serde(default = "default_min_leg_mm")]
     pub min_leg_mm: f64,
-    /// Up axis to drop for the floor plane (`"x"`, `"y"`, `"z"`). Default: the motion's own.
+    /// Up axis to drop for the floor plane (`"x"`, `"y"`, `"z"`).
     #[serde(default)]
+    #[schemars(extend("x-default" = "the motion's own up axis"))]
     pub up_axis: Option<Axis>,
 }
 

@@ -74,16 +74,16 @@ fn location_of(motion: &Motion) -> Location {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct C3dEventsParams {
-    /// Which foot's cycles: `"left"`, `"right"` or `"both"`. Default `"both"`.
+    /// Which foot's cycles: `"left"`, `"right"` or `"both"`.
     #[serde(default)]
     pub side: CycleSide,
-    /// Label of the foot-strike events. Default `"Foot Strike"`.
+    /// Label of the foot-strike events.
     #[serde(default = "default_strike_label")]
     pub strike_label: String,
-    /// Event context of the left foot. Default `"Left"`.
+    /// Event context of the left foot.
     #[serde(default = "default_left_context")]
     pub left_context: String,
-    /// Event context of the right foot. Default `"Right"`.
+    /// Event context of the right foot.
     #[serde(default = "default_right_context")]
     pub right_context: String,
 }
@@ -200,7 +200,7 @@ pub enum StrikeRule {
 /// The heel comes down when `h` falls through `contact` (`h[i−1] > contact ≥ h[i]`) after having
 /// risen above `swing` since the previous strike — or, before the first strike, when the
 /// recording starts with the heel above `contact`. With `rule = "height"` that instant (linearly
-/// interpolated) is the strike. With `rule = "height_then_speed"` (default) the strike is the
+/// interpolated) is the strike. With `rule = "height_then_speed"` the strike is the
 /// first instant at or after it at which the heel's horizontal speed `v` (central difference
 /// of the floor-plane position, mm/s) falls to `strike_speed_mm_per_s` (interpolated between
 /// frames); a recording that starts with the heel already low but still moving faster than that
@@ -221,34 +221,33 @@ pub enum StrikeRule {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HeelHeightParams {
-    /// Left heel marker (or joint). Default `"L_FCC"` (ISB calcaneus marker).
+    /// Left heel marker (or joint); the default is the ISB calcaneus marker.
     #[serde(default = "default_left_heel")]
     pub left_heel: String,
-    /// Right heel marker (or joint). Default `"R_FCC"`.
+    /// Right heel marker (or joint).
     #[serde(default = "default_right_heel")]
     pub right_heel: String,
-    /// Which foot's cycles: `"left"`, `"right"` or `"both"`. Default `"both"`.
+    /// Which foot's cycles: `"left"`, `"right"` or `"both"`.
     #[serde(default)]
     pub side: CycleSide,
-    /// Contact level as a fraction of the heel's height range (dimensionless). Default 0.05.
+    /// Contact level as a fraction of the heel's height range (dimensionless).
     #[serde(default = "default_contact_fraction")]
     pub contact_fraction: f64,
-    /// Swing level (the heel must rise above it between strikes), fraction of the range. Default 0.5.
+    /// Swing level (the heel must rise above it between strikes), fraction of the range.
     #[serde(default = "default_swing_fraction")]
     pub swing_fraction: f64,
     /// The heel must rise at least this far above its floor (mm), else the motion is not a
-    /// walk for this foot. Default 30.
+    /// walk for this foot.
     #[serde(default = "default_min_rise_mm")]
     pub min_rise_mm: f64,
     /// Centred moving average on the heel height and horizontal speed before detection
-    /// (`{ frames = 3 }` or `{ seconds = 0.03 }`). Default: none.
+    /// (`{ frames = 3 }` or `{ seconds = 0.03 }`).
     #[serde(default)]
     pub smoothing: Option<TimeSpan>,
-    /// `"height_then_speed"` or `"height"` (see above). Default `"height_then_speed"`.
+    /// `"height_then_speed"` or `"height"` (see above).
     #[serde(default)]
     pub rule: StrikeRule,
     /// Horizontal heel speed (mm/s) at which the heel has landed (rule `height_then_speed`).
-    /// Default 500.
     #[serde(default = "default_strike_speed")]
     pub strike_speed_mm_per_s: f64,
 }

@@ -27,7 +27,7 @@ use motionlab_core::{Error, ErrorKind, Motion, Point3, Preprocessor, Result, Tim
 ///   toward a straight line and does not restore even a cubic trajectory.)
 ///
 /// Gaps touching the start or the end of the recording have only one side: with
-/// `edges = "leave"` (default) they stay missing; with `"hold"` they take the nearest present
+/// `edges = "leave"` they stay missing; with `"hold"` they take the nearest present
 /// value (`mcfillgaps(…, 'fillall')`), again only when ≤ `max_gap`. A marker missing in every
 /// frame stays missing. `mcfillgaps` instead writes 0 into unfilled edges by default; here a
 /// sample is never invented as 0.
@@ -38,21 +38,21 @@ use motionlab_core::{Error, ErrorKind, Motion, Point3, Preprocessor, Result, Tim
 #[serde(deny_unknown_fields)]
 pub struct FillGapsParams {
     /// The longest run of missing frames that is filled, in frames or seconds (resolved at the
-    /// motion's rate; a run of n frames is filled when n ≤ max_gap). Default
-    /// `{ seconds = 0.2 }`, short occlusions. Measured on gaps cut into the complete MoCap
+    /// motion's rate; a run of n frames is filled when n ≤ max_gap); the default fills short
+    /// occlusions. Measured on gaps cut into the complete MoCap
     /// Toolbox recordings walk2, dance1 and dance2 (`examples/gap_fill_accuracy.rs`): `cubic`
     /// restores 0.2 s gaps to 6–8 mm RMS (95 % of samples within 16 mm), 0.3 s gaps to
     /// 12.5–15 mm and 0.5 s gaps only to 27–49 mm; `linear` is 2–3× worse at 0.2 s.
     #[serde(default = "default_max_gap")]
     pub max_gap: TimeSpan,
-    /// `"linear"` or `"cubic"`. Default `"cubic"`.
+    /// `"linear"` or `"cubic"`.
     #[serde(default)]
     pub method: GapFillMethod,
-    /// Present samples used on each side of a gap by `cubic` (≥ 2). Default 4.
+    /// Present samples used on each side of a gap by `cubic` (≥ 2).
     #[serde(default = "default_support")]
     pub support: usize,
     /// Gaps at the start or end of the recording: `"leave"` them missing or `"hold"` the
-    /// nearest present value. Default `"leave"`.
+    /// nearest present value.
     #[serde(default)]
     pub edges: EdgeFill,
 }

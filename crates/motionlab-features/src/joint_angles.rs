@@ -262,8 +262,8 @@ pub enum HipCentre {
 /// direction from the first to the last frame's centroid of all present markers (the lab's
 /// first horizontal axis when that displacement is under 200 mm, e.g. on a treadmill), Z = X × Y.
 ///
-/// Angles: `R = R_proximalᵀ · R_distal = R_a1(θ1) R_a2(θ2) R_a3(θ3)` for `sequence` (default
-/// `zxy`: flexion about the proximal Z, ab/adduction about the floating X, axial rotation about
+/// Angles: `R = R_proximalᵀ · R_distal = R_a1(θ1) R_a2(θ2) R_a3(θ3)` for `sequence` (`zxy`:
+/// flexion about the proximal Z, ab/adduction about the floating X, axial rotation about
 /// the distal Y — Grood & Suntay / ISB), then reported per axis with anatomical signs (`α`
 /// about Z, `β` about X, `γ` about Y; left-side `β` and `γ` are negated so a positive value
 /// means the same motion on both sides):
@@ -295,28 +295,27 @@ pub enum HipCentre {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct IsbJointAnglesParams {
-    /// Joints to compute; bilateral joints give both sides. Default: all nine
-    /// (`pelvis`, `thorax`, `lumbar`, `hip`, `knee`, `ankle`, `shoulder`, `elbow`, `wrist`: 45 channels).
+    /// Joints to compute; bilateral joints give both sides (all nine joints: 45 channels).
     #[serde(default = "all_joints")]
     pub joints: Vec<JointName>,
-    /// Cardan sequence of the decomposition (intrinsic, proximal axis first). Default `"zxy"`.
+    /// Cardan sequence of the decomposition (intrinsic, proximal axis first).
     #[serde(default)]
     pub sequence: CardanSequence,
-    /// Hip joint centre regression. Default `"harrington2007"`.
+    /// Hip joint centre regression.
     #[serde(default)]
     pub hip_centre: HipCentre,
     /// Shoulder centre below the acromion marker SAE, as a fraction of the distance between
-    /// the two SAE markers (dimensionless). Default 0.17 (Rab et al. 2002).
+    /// the two SAE markers (dimensionless; the default is Rab et al. 2002's).
     #[serde(default = "default_shoulder_drop")]
     pub shoulder_centre_drop: f64,
-    /// Label prefix of the left-side markers. Default `"L_"`.
+    /// Label prefix of the left-side markers.
     #[serde(default = "default_left_prefix")]
     pub left_prefix: String,
-    /// Label prefix of the right-side markers. Default `"R_"`.
+    /// Label prefix of the right-side markers.
     #[serde(default = "default_right_prefix")]
     pub right_prefix: String,
     /// A marker label absent from the file: `"error"` or `"nan"` (the channels that need it are
-    /// NaN). Default `"error"`.
+    /// NaN).
     #[serde(default)]
     pub absent_markers: AbsentMarkers,
 }
@@ -882,7 +881,7 @@ pub fn motion_angle_curves(motion: &Motion, naming: ChannelNaming) -> Result<Ang
 #[serde(deny_unknown_fields)]
 pub struct SkeletonJointAnglesParams {
     /// Channel spelling: `"auto"` (BVH spelling for BVH files, ASF spelling otherwise),
-    /// `"bvh"` or `"short"`. Default `"auto"`.
+    /// `"bvh"` or `"short"`.
     #[serde(default)]
     pub naming: ChannelNaming,
 }

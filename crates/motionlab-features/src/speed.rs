@@ -154,10 +154,11 @@ pub fn cached_marker_speeds(
 #[serde(deny_unknown_fields)]
 pub struct MarkerSpeedParams {
     /// Centred moving-average window applied to positions before differentiating
-    /// (`{ frames = 5 }` or `{ seconds = 0.05 }`). Default: none (raw positions).
+    /// (`{ frames = 5 }` or `{ seconds = 0.05 }`).
     #[serde(default)]
+    #[schemars(extend("x-default" = "raw positions"))]
     pub smoothing: Option<TimeSpan>,
-    /// Also output every marker's own speed as `v_<marker>_mm_per_s`. Default: false.
+    /// Also output every marker's own speed as `v_<marker>_mm_per_s`.
     #[serde(default)]
     pub per_marker: bool,
 }

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum MissingIf {
-    /// Missing when any listed marker is missing (default): the centroid of a subset sits
+    /// Missing when any listed marker is missing: the centroid of a subset sits
     /// elsewhere, and its jump would read as root motion (false curvature and path length).
     #[default]
     Any,
@@ -23,7 +23,7 @@ pub enum MissingIf {
 /// `{ type = "add_centroid", name = "root", markers = ["Hip_FL", "Hip_FR", "Hip_BL", "Hip_BR"] }`.
 ///
 /// `p_new[i] = (1/n) Σ_k p[i][k]` over the listed markers. Missing samples: with
-/// `missing_if = "any"` (default) the new marker is missing at every frame where any listed
+/// `missing_if = "any"` the new marker is missing at every frame where any listed
 /// marker is missing; with `"all"` it is the centroid of the markers valid at that frame and
 /// missing only when none is. Nothing is interpolated.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
@@ -33,7 +33,7 @@ pub struct AddCentroidParams {
     pub name: String,
     /// Markers to average (at least one). Required.
     pub markers: Vec<String>,
-    /// `"any"` or `"all"`: when the centroid is missing (see above). Default `"any"`.
+    /// `"any"` or `"all"`: when the centroid is missing (see above).
     #[serde(default)]
     pub missing_if: MissingIf,
 }

@@ -46,10 +46,10 @@ pub enum AmplitudeDefinition {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WaveformParametersParams {
-    /// `"half_peak_to_peak"` or `"first_harmonic"`. Default `"half_peak_to_peak"`.
+    /// `"half_peak_to_peak"` or `"first_harmonic"`.
     #[serde(default)]
     pub amplitude: AmplitudeDefinition,
-    /// Samples of the time-normalised gait cycle (0 % … 100 %, both ends). Default 101.
+    /// Samples of the time-normalised gait cycle (0 % … 100 %, both ends).
     #[serde(default = "default_points")]
     pub points: usize,
 }

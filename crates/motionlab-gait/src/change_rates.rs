@@ -40,16 +40,16 @@ use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evalua
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ChangeRatesParams {
-    /// A channel-component is a feature when `|CV| ≤` this (%). Default 250 (the paper's value).
+    /// A channel-component is a feature when `|CV| ≤` this (%; the default is the paper's value).
     #[serde(default = "default_max_abs_cv")]
     pub max_abs_cv_pct: f64,
-    /// Exclude a subject's DC change when its normal DC is closer to 0 than this (degrees). Default 5.
+    /// Exclude a subject's DC change when its normal DC is closer to 0 than this (degrees).
     #[serde(default = "default_min_dc")]
     pub min_abs_normal_dc_deg: f64,
-    /// Exclude a subject's amplitude change when its normal amplitude is below this (degrees). Default 2.
+    /// Exclude a subject's amplitude change when its normal amplitude is below this (degrees).
     #[serde(default = "default_min_amplitude")]
     pub min_normal_amplitude_deg: f64,
-    /// A channel-component needs at least this many valid subjects to be a feature. Default 5.
+    /// A channel-component needs at least this many valid subjects to be a feature.
     #[serde(default = "default_min_subjects")]
     pub min_subjects: usize,
 }

@@ -56,12 +56,12 @@ pub enum Interpolation {
 #[derive(Clone, Debug, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FeatureChannelControlParams {
-    /// `"linear"` or `"cubic"` (Catmull–Rom). Default `"linear"`.
+    /// `"linear"` or `"cubic"` (Catmull–Rom).
     #[serde(default)]
     pub interpolation: Interpolation,
     /// Change-rate channel → walk channel (e.g. `"knee_l.flexion" = "LeftLeg.Xrotation"`).
-    /// Default: empty (the names are the walk's own).
     #[serde(default)]
+    #[schemars(extend("x-default" = "the walk's own names"))]
     pub channel_map: BTreeMap<String, String>,
 }
 

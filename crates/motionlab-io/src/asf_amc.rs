@@ -56,7 +56,7 @@ use crate::text::{NumberLines, strip_bom};
 /// is `C·M·C⁻¹` (ASF/AMC "Acclaim" convention, as in the CMU viewer). Bone translation or
 /// length dofs (`tx`, `l`) are refused.
 ///
-/// AMC: optional `#` comments and `:FULLY-SPECIFIED`, `:DEGREES`/`:RADIANS` (default: the
+/// AMC: optional `#` comments and `:FULLY-SPECIFIED`, `:DEGREES`/`:RADIANS` (without them: the
 /// ASF's angle unit), then for each frame a frame-number line followed by one `bone v1 v2 …`
 /// line per bone with dofs (values in the bone's `dof` order; root translations in ASF length
 /// units, converted to mm). Frame numbers must count up by one. CRLF and LF files load alike.
@@ -69,12 +69,13 @@ use crate::text::{NumberLines, strip_bom};
 #[serde(deny_unknown_fields)]
 pub struct AsfAmcParams {
     /// Path of the ASF skeleton, relative to the AMC file's folder (an absolute path also
-    /// works). Default: discovered — `<subject>.asf` in the AMC's folder, then in `../asf/`
+    /// works). Unset, it is discovered: `<subject>.asf` in the AMC's folder, then in `../asf/`
     /// (also `.asf.gz`), where the subject is the AMC file name up to its first `_`
     /// (`86_01.amc` → `86.asf`).
     #[serde(default)]
+    #[schemars(extend("x-default" = "discovered beside the AMC file (see above)"))]
     pub skeleton: Option<String>,
-    /// Frame rate in Hz (frames per second): AMC files do not store one. Default 120, the
+    /// Frame rate in Hz (frames per second): AMC files do not store one; the default is the
     /// rate of the CMU motion-capture database.
     #[serde(default = "default_frame_rate_hz")]
     pub frame_rate_hz: f64,

@@ -87,11 +87,11 @@ impl LengthUnitSetting {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BvhParams {
-    /// Unit of OFFSET and position-channel values: `"auto"` (default) or one of
+    /// Unit of OFFSET and position-channel values: `"auto"` or one of
     /// `"millimetre"`, `"centimetre"`, `"metre"`, `"inch"`, `"cmu_unit"`.
     #[serde(default)]
     pub length_unit: LengthUnitSetting,
-    /// The axis pointing up in the file. Default `"y"` (the BVH convention).
+    /// The axis pointing up in the file (the default is the BVH convention).
     #[serde(default = "default_up_axis")]
     pub up_axis: Axis,
 }

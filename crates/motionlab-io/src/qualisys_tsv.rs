@@ -50,8 +50,8 @@ use motionlab_core::{Error, ErrorKind, Event, Loader, Motion, PointKind, Result}
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct QualisysTsvParams {
-    /// The axis of the lab frame that points up. Default `"z"` (Qualisys labs, including the
-    /// shipped MoCap Toolbox recordings, are Z-up).
+    /// The axis of the lab frame that points up (Qualisys labs, including the shipped MoCap
+    /// Toolbox recordings, are Z-up).
     #[serde(default = "default_up_axis")]
     pub up_axis: Axis,
 }

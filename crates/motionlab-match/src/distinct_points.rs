@@ -22,8 +22,8 @@ use motionlab_core::{Error, ErrorKind, Millimetres, Motion, Preprocessor, Result
 /// both are present at most `max_distance_mm` apart — a property of the data, so it works for
 /// marker sets and for motions whose skeleton a preprocessor has already dropped (by
 /// skeleton offsets alone, a zero-length bone in one frame could not be told from a joint
-/// that is merely close). The default 1e-6 mm accepts the rounding of forward kinematics and
-/// no two real markers. From each group the point **first in the motion's order** is kept
+/// that is merely close). The default `max_distance_mm` accepts the rounding of forward
+/// kinematics and no two real markers. From each group the point **first in the motion's order** is kept
 /// under its own name (`root`, `lowerneck`, `lhand`, `rhand` above); the others are
 /// dropped, the order of the kept points is unchanged.
 ///
@@ -34,7 +34,7 @@ use motionlab_core::{Error, ErrorKind, Millimetres, Motion, Preprocessor, Result
 #[serde(deny_unknown_fields)]
 pub struct DistinctPointsParams {
     /// Largest distance (mm) at which two points still count as the same place, in every frame.
-    /// Default 1e-6 mm (the rounding of forward kinematics; no two real markers are that close).
+    /// The default is the rounding of forward kinematics; no two real markers are that close.
     #[serde(default = "default_max_distance")]
     pub max_distance_mm: Millimetres,
 }

@@ -46,11 +46,12 @@ use crate::simd::{self, Level};
 #[serde(deny_unknown_fields)]
 pub struct MultistreamTwoStageParams {
     /// Names of the markers (or joints) to match, in the order of the per-marker distances and
-    /// paths in the result. Default: every point of the model, in the model's order.
+    /// paths in the result.
     #[serde(default)]
+    #[schemars(extend("x-default" = "every point of the model, in the model's order"))]
     pub points: Option<Vec<String>>,
     /// Keep each marker's warping path (needed by the `synchronisation` stage; costs
-    /// O(n·(b−a+1)) memory per marker while it is computed). Default: true.
+    /// O(n·(b−a+1)) memory per marker while it is computed).
     #[serde(default = "default_keep_paths")]
     pub keep_paths: bool,
 }

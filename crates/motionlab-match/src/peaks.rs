@@ -41,14 +41,13 @@ pub struct VelocityPeaksParams {
     /// `N`: number of repetitions in the take, i.e. of peaks to find. Required, ≥ 1.
     pub count: usize,
     /// Window length before each point (`{ seconds = 1.0 }` or `{ frames = 120 }`).
-    /// Default: `{ seconds = 1.0 }`.
     #[serde(default = "default_span")]
     pub before: TimeSpan,
-    /// Window length after each point. Default: `{ seconds = 1.0 }`.
+    /// Window length after each point.
     #[serde(default = "default_span")]
     pub after: TimeSpan,
     /// Centred moving-average window applied to the marker's positions before the velocity is
-    /// taken (**choice**; the paper does not smooth). Default: none.
+    /// taken (**choice**; the paper does not smooth).
     #[serde(default)]
     pub smoothing: Option<TimeSpan>,
 }

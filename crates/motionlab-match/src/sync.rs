@@ -22,7 +22,7 @@ use motionlab_core::{Alignment, Error, ErrorKind, Result, Synchronisation, Synch
 /// `k` frames are distinct.
 ///
 /// **Choice** (the paper is silent): a path may match model frame `i` to several target frames
-/// (a run of target steps); `tie` picks their mean (default), the first or the last.
+/// (a run of target steps); `tie` picks their mean, the first or the last.
 ///
 /// Missing samples: none reach this stage — it reads the matcher's paths, and the matchers
 /// refuse missing samples. It fails when the matcher kept no paths (`keep_paths = false`).
@@ -30,11 +30,11 @@ use motionlab_core::{Alignment, Error, ErrorKind, Result, Synchronisation, Synch
 #[serde(deny_unknown_fields)]
 pub struct SynchronisationParams {
     /// `k`: number of model frames examined (they divide the model into `k + 1` equal
-    /// sections). Default: 8, the paper's value (§5.2.2).
+    /// sections; the default is the paper's value, §5.2.2).
     #[serde(default = "default_k")]
     pub k: usize,
     /// Which target frame stands for model frame `i` when the path matches it to several:
-    /// `"mean"` (their mean, fractional), `"first"` or `"last"`. Default: `"mean"`.
+    /// `"mean"` (their mean, fractional), `"first"` or `"last"`.
     #[serde(default)]
     pub tie: TieRule,
 }

@@ -24,21 +24,21 @@ use motionlab_features::signal::is_local_max;
 #[serde(deny_unknown_fields)]
 pub struct DirectionChangeParams {
     /// Root marker or joint (add one to marker sets without it with `add_centroid`).
-    /// Default `"root"`.
     #[serde(default = "default_root")]
     pub root: String,
-    /// The lag L. Default `{ seconds = 0.125 }` (the paper's 15 frames at 120 fps).
+    /// The lag L (the default is the paper's 15 frames at 120 fps).
     #[serde(default = "default_lag")]
     pub lag: TimeSpan,
-    /// The paper's T, mm: C is undefined when either leg is shorter. Default 100.
+    /// The paper's T, mm: C is undefined when either leg is shorter.
     #[serde(default = "default_min_leg_mm")]
     pub min_leg_mm: f64,
     /// A local maximum of C counts when C ≥ this (dimensionless, −1 … 1; 0 = a turn of 90° or
-    /// sharper). Default 0.0.
+    /// sharper).
     #[serde(default)]
     pub c_min: f64,
-    /// Up axis to drop for the floor plane (`"x"`, `"y"`, `"z"`). Default: the motion's own.
+    /// Up axis to drop for the floor plane (`"x"`, `"y"`, `"z"`).
     #[serde(default)]
+    #[schemars(extend("x-default" = "the motion's own up axis"))]
     pub up_axis: Option<Axis>,
 }
 

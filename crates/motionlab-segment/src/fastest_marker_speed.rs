@@ -90,15 +90,15 @@ pub fn track_fastest_marker(speeds: &MarkerSpeeds, v_high: f64, v_low: f64) -> T
 #[serde(deny_unknown_fields)]
 pub struct FastestMarkerSpeedParams {
     /// A local maximum of V starts a followed stretch when V ≥ this ("sufficiently large").
-    /// Default `{ fraction_of_p90 = 0.5 }`: half the speed the body exceeds only 10 % of the
-    /// time, i.e. a real movement whatever the dancer's overall tempo.
+    /// `{ fraction_of_p90 = 0.5 }` is half the speed the body exceeds only 10 % of the time,
+    /// i.e. a real movement whatever the dancer's overall tempo.
     #[serde(default = "default_v_high")]
     pub v_high: SpeedThreshold,
     /// The followed marker's minimum `j` is a candidate when V[j] ≤ this ("sufficiently small").
-    /// Default `{ fraction_of_p90 = 0.15 }` (the same as `speed_minima`, for a fair comparison).
+    /// The default is `speed_minima`'s, for a fair comparison.
     #[serde(default = "default_v_low")]
     pub v_low: SpeedThreshold,
-    /// Centred moving-average window on positions before differentiating. Default: none.
+    /// Centred moving-average window on positions before differentiating.
     #[serde(default)]
     pub smoothing: Option<TimeSpan>,
 }

@@ -36,7 +36,7 @@ pub fn volume_change_candidates(d: &[f64], t: f64) -> Vec<usize> {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HullVolumeChangeParams {
-    /// The threshold t on D. Default `{ fraction_of_p90 = 1.0 }`: D must jump from below to
+    /// The threshold t on D. With `{ fraction_of_p90 = 1.0 }` D must jump from below to
     /// above its own 90th percentile — the onset of one of the sequence's 10 % fastest volume
     /// changes (chosen once from the paper's "small now, large next"; at 0.5 real takes gave
     /// a candidate every ~1 s of steady motion).

@@ -155,22 +155,21 @@ pub fn pca_error_rise(motion: &Motion, p: PcaErrorRiseFrames) -> (Vec<usize>, Ve
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PcaErrorRiseParams {
-    /// Frames used to choose r at the start of each segment. Default `{ seconds = 2.0 }`
-    /// (Barbič et al.: 240 frames at 120 fps).
+    /// Frames used to choose r at the start of each segment (the default is Barbič et al.'s
+    /// 240 frames at 120 fps).
     #[serde(default = "default_initial")]
     pub initial: TimeSpan,
-    /// The lag ℓ of the error derivative `d_i = e_i − e_{i−ℓ}`. Default `{ seconds = 0.5 }`.
+    /// The lag ℓ of the error derivative `d_i = e_i − e_{i−ℓ}`.
     #[serde(default = "default_lag")]
     pub lag: TimeSpan,
     /// Evaluate e every this many frames (rounded; 1 = every frame as in the paper, slowest).
-    /// Default `{ seconds = 0.05 }`.
     #[serde(default = "default_step")]
     pub step: TimeSpan,
-    /// Fraction of the variance the r components keep (Barbič et al.'s τ). Default 0.9.
+    /// Fraction of the variance the r components keep (Barbič et al.'s τ).
     #[serde(default = "default_variance_kept")]
     pub variance_kept: f64,
     /// Cut when the derivative exceeds its running mean by this many standard deviations
-    /// (Barbič et al.'s k_σ). Default 3.0.
+    /// (Barbič et al.'s k_σ).
     #[serde(default = "default_k_sigma")]
     pub k_sigma: f64,
 }

@@ -26,10 +26,10 @@ use crate::thresholds::SpeedThreshold;
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SpeedMinimaParams {
-    /// A local minimum of V counts when V ≤ this. Default `{ fraction_of_p90 = 0.15 }`.
+    /// A local minimum of V counts when V ≤ this.
     #[serde(default = "default_v_low")]
     pub v_low: SpeedThreshold,
-    /// Centred moving-average window on positions before differentiating. Default: none.
+    /// Centred moving-average window on positions before differentiating.
     #[serde(default)]
     pub smoothing: Option<TimeSpan>,
 }

@@ -10,7 +10,7 @@ use motionlab_core::{Error, ErrorKind, Fuser, MethodCandidates, Motion, Result};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Representative {
-    /// The group's first candidate (default; the paper's reading).
+    /// The group's first candidate (the paper's reading).
     #[default]
     Earliest,
     /// The group's candidate nearest to the middle of its first and last frame (the earlier of
@@ -81,22 +81,21 @@ fn representative(group: &[usize], rep: Representative) -> usize {
 /// through them in time order, a candidate joins the previous one's group when the root's 3-D
 /// path length between the two frames is below `merge_mm` (single linkage between consecutive
 /// candidates: a chain of close candidates is one group even when its ends are farther apart).
-/// Each group is replaced by one frame: its earliest (default), middle or latest candidate.
+/// Each group is replaced by one frame: its earliest, middle or latest candidate.
 ///
 /// Missing samples: the root's path skips missing samples and bridges each gap with the
 /// straight line between the valid samples around it (a lower bound of the true path length).
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct UnionMergeParams {
-    /// Root marker or joint whose path length decides merging. Default `"root"`.
+    /// Root marker or joint whose path length decides merging.
     #[serde(default = "default_root")]
     pub root: String,
-    /// Candidates closer than this root path length (mm) are one. Default 100 — the paper's
+    /// Candidates closer than this root path length (mm) are one. The default is the paper's
     /// T of §2.2, the distance below which it considers the root "hardly moving".
     #[serde(default = "default_merge_mm")]
     pub merge_mm: f64,
     /// `"earliest"`, `"middle"` or `"latest"`: the frame that stands for a merged group.
-    /// Default `"earliest"`.
     #[serde(default)]
     pub representative: Representative,
 }

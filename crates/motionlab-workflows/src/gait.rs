@@ -113,13 +113,13 @@ pub const TABLE_SIZE: &str = "table3_size";
 #[serde(deny_unknown_fields)]
 pub struct GaitSection {
     /// The dataset tag that holds a trial's condition (`tags = { condition = "fast" }`). Every
-    /// dataset with this tag holds trials; default `"condition"`.
+    /// dataset with this tag holds trials.
     #[serde(default = "default_condition_tag")]
     pub condition_tag: String,
     /// The normal condition G (a value of the condition tag); every other condition X is
     /// compared with it: `K = (X − G) / G × 100`.
     pub normal_condition: String,
-    /// How the subject id is read from a trial's file stem. Default: field 0 split at `_`.
+    /// How the subject id is read from a trial's file stem.
     #[serde(default)]
     pub subject: SubjectRule,
     /// Angle source of the trials: a feature extractor whose `deg` traces are joint angles.
@@ -131,18 +131,17 @@ pub struct GaitSection {
     /// Walk synthesizer used by `[gait.control]` and `[gait.loso]` (required by either).
     #[serde(default)]
     pub synthesizer: Option<StageSpec>,
-    /// Channels whose mean gait cycle (across subjects, per condition) is drawn. Default:
-    /// `knee_l.flexion`, `hip_l.flexion`, `ankle_l.flexion`.
+    /// Channels whose mean gait cycle (across subjects, per condition) is drawn.
     #[serde(default = "default_figure_channels")]
     pub figure_channels: Vec<String>,
-    /// `[gait.control]`: synthesise a changed skeleton walk. Default: none.
+    /// `[gait.control]`: synthesise a changed skeleton walk.
     #[serde(default)]
     pub control: Option<ControlSection>,
-    /// `[gait.loso]`: leave-one-subject-out evaluation. Default: none.
+    /// `[gait.loso]`: leave-one-subject-out evaluation.
     #[serde(default)]
     pub loso: Option<LosoSection>,
     /// Which walks get a viewer page (`viewers/<sequence>.html`: markers, foot events, gait
-    /// cycles per side, the `figure_channels` angles): `"all"` (default), `"none"`, or a list
+    /// cycles per side, the `figure_channels` angles): `"all"`, `"none"`, or a list
     /// of sequence names (`normal/2014001_C4_05`, as in the `trials` table) and subject ids
     /// (`2014001`: every trial of that subject). The control walk is `"all"`'s too.
     #[serde(default)]
@@ -192,14 +191,14 @@ fn default_figure_channels() -> Vec<String> {
 }
 
 /// The subject id is field `field` (0-based) of the file stem split at `separator`
-/// (`2014001_C4_05.c3d.gz` → `2014001` with the defaults `"_"` and 0).
+/// (`2014001_C4_05.c3d.gz` → `2014001` with `separator = "_"` and `field = 0`).
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SubjectRule {
-    /// Separator of the stem's fields. Default `"_"`.
+    /// Separator of the stem's fields.
     #[serde(default = "default_separator")]
     pub separator: String,
-    /// The field holding the subject id, 0-based. Default 0.
+    /// The field holding the subject id, 0-based.
     #[serde(default)]
     pub field: usize,
 }
@@ -242,19 +241,20 @@ pub struct ControlSection {
     pub cycles: StageSpec,
     /// Trial channel → walk channel.
     pub channel_map: BTreeMap<String, String>,
-    /// Walk channel → its value (degrees) at the trial channel's zero. Default: none (0).
+    /// Walk channel → its value (degrees) at the trial channel's zero.
     #[serde(default)]
+    #[schemars(extend("x-default" = "0 for every channel"))]
     pub offset_deg: BTreeMap<String, f64>,
-    /// Fig 5: a stick figure every this many frames. Default 5 (the paper's).
+    /// Fig 5: a stick figure every this many frames (the default is the paper's).
     #[serde(default = "default_strip_every")]
     pub strip_every_frames: usize,
-    /// Fig 5: poses per walk. Default 10.
+    /// Fig 5: poses per walk.
     #[serde(default = "default_strip_poses")]
     pub strip_poses: usize,
     /// Fig 5 starts, inside the walk's middle gait cycle, at the frame where these two walk
-    /// channels are closest (the paper: both hips' X rotation — the thighs overlap). Default:
-    /// the middle cycle's first frame.
+    /// channels are closest (the paper: both hips' X rotation — the thighs overlap).
     #[serde(default)]
+    #[schemars(extend("x-default" = "the middle cycle's first frame"))]
     pub strip_start: Option<[String; 2]>,
 }
 
@@ -271,7 +271,7 @@ fn default_strip_poses() -> usize {
 pub struct LosoSection {
     /// The condition to synthesise from each held-out subject's normal walk.
     pub condition: String,
-    /// Samples of the time-normalised mean gait cycle compared (101 = every 1 %). Default 101.
+    /// Samples of the time-normalised mean gait cycle compared (101 = every 1 %).
     #[serde(default = "default_points")]
     pub points: usize,
 }

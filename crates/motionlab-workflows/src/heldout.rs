@@ -18,7 +18,7 @@ use motionlab_experiment::workflow::ComboOutput;
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Selection {
-    /// `"oracle"` (the default): only `best_f1`, each method's best pooled F1 over all
+    /// `"oracle"`: only `best_f1`, each method's best pooled F1 over all
     /// sequences — chosen on the evaluation data itself.
     #[default]
     Oracle,

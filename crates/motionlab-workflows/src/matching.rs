@@ -106,32 +106,34 @@ pub struct MatchingSection {
     /// single file). It must resolve to exactly one file, usually cut to one repetition.
     pub model: String,
     /// Markers (or joints) to match, in this order (the order of the per-part tables). Model and
-    /// takes are reduced to them before matching. Default: every point of the model.
+    /// takes are reduced to them before matching.
     #[serde(default)]
+    #[schemars(extend("x-default" = "every point of the model"))]
     pub points: Option<Vec<String>>,
     /// `{ type = "velocity_peaks", … }`: finds the repetitions of continuous takes. Its `count`
     /// is set per take by this workflow (from the `repetitions` tag), so it must not be given.
     /// Required when there is a continuous take.
     #[serde(default)]
     pub point_detector: Option<StageSpec>,
-    /// Velocity peaks per repetition (2 for a back-and-forth movement). Default 1 (the paper).
+    /// Velocity peaks per repetition (2 for a back-and-forth movement; the default is the
+    /// paper's).
     #[serde(default = "one")]
     pub peaks_per_repetition: usize,
-    /// The matcher. Default `{ type = "multistream_two_stage" }` (the paper's method).
+    /// The matcher (the default is the paper's method).
     #[serde(default = "default_matcher")]
     pub matcher: StageSpec,
-    /// The synchroniser. Default `{ type = "synchronisation" }` (k = 8, the paper's).
+    /// The synchroniser (the default is the paper's, with its parameters at their defaults).
     #[serde(default = "default_synchroniser")]
     pub synchroniser: StageSpec,
     /// Per-take override of the number of repetitions `N`: `{ "13_29" = 3 }` (take = sequence
     /// name). Wins over the dataset tag `repetitions`.
     #[serde(default)]
     pub repetitions: BTreeMap<String, usize>,
-    /// The two markers whose warping paths are drawn (Fig. 4). Default: per repetition, the two
-    /// most out of step (largest summed difference of matched frames at the examined frames).
+    /// The two markers whose warping paths are drawn (Fig. 4).
     #[serde(default)]
+    #[schemars(extend("x-default" = "per repetition, the two most out of step (largest summed difference of matched frames at the examined frames)"))]
     pub path_markers: Option<[String; 2]>,
-    /// Which figures to draw: any of `velocity`, `paths`, `scatter`. Default: all.
+    /// Which figures to draw: any of `velocity`, `paths`, `scatter`.
     #[serde(default = "default_figures")]
     pub figures: Vec<String>,
 }

@@ -35,30 +35,30 @@ use motionlab_experiment::{build_stage, Datasets};
 #[serde(deny_unknown_fields)]
 pub struct SegmentationSection {
     /// The segmenters (`[[segmentation.segmenter]]`, `{ type = "<segmenter>", … }`); names
-    /// (`name = "…"`, default the type) must be unique. At least one is required.
+    /// (`name = "…"`, else the type) must be unique. At least one is required.
     #[serde(rename = "segmenter")]
     pub segmenters: Vec<StageSpec>,
-    /// The fuser combining the segmenters' candidates. Default: none.
+    /// The fuser combining the segmenters' candidates.
     #[serde(default)]
     pub fuser: Option<StageSpec>,
-    /// Names of the segmenters whose candidates the fuser combines. Default: all of them.
+    /// Names of the segmenters whose candidates the fuser combines.
     #[serde(default)]
+    #[schemars(extend("x-default" = "all of them"))]
     pub fuse: Option<Vec<String>>,
-    /// Marker pairs joined in stick figures (`[["Head_FL", "Head_FR"], …]`). Default: the
-    /// skeleton's bones when the source has one.
+    /// Marker pairs joined in stick figures (`[["Head_FL", "Head_FR"], …]`).
     #[serde(default)]
+    #[schemars(extend("x-default" = "the skeleton's bones, when the source has one"))]
     pub bones: Vec<[String; 2]>,
     /// The root point (after preprocessing) for the floor-path figure and the stick figures.
-    /// Default `"root"`.
     #[serde(default = "default_root")]
     pub root: String,
     /// Which figures to draw per sequence: any of `traces`, `root_path`, `timeline`,
     /// `timeline_poses` (the timeline with the pose at each fused boundary underneath) and
-    /// `stick_strip`. Default: all.
+    /// `stick_strip`.
     #[serde(default = "default_seg_figures")]
     pub figures: Vec<String>,
     /// How a sweep chooses each method's operating point (used only across a `[[sweep]]`):
-    /// `"oracle"` (default: only `best_f1`, chosen on the evaluation data itself),
+    /// `"oracle"` (only `best_f1`, chosen on the evaluation data itself),
     /// `"leave_one_sequence_out"` (also `heldout_f1` and `heldout_choices`: for each sequence,
     /// each grid's focus method takes the combination with the best pooled F1 on the other
     /// sequences — the last in grid order on ties, as `best_f1` — and its counts on that sequence are pooled

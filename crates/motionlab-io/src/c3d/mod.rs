@@ -73,20 +73,20 @@ use raw::{header_offset, C3dFile, DataLayout, Param};
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct C3dParams {
-    /// The axis of the file's lab frame that points up. Default `"z"` (Vicon and Qualisys
-    /// labs, including every shipped C3D, are Z-up).
+    /// The axis of the file's lab frame that points up (Vicon and Qualisys labs, including
+    /// every shipped C3D, are Z-up).
     #[serde(default = "default_up_axis")]
     pub up_axis: Axis,
     /// Treat a point whose X, Y and Z are all exactly 0 as missing (a convention of some old
-    /// writers). Default `false`: a marker at the lab origin is data.
+    /// writers); off, a marker at the lab origin is data.
     #[serde(default)]
     pub zero_means_missing: bool,
     /// Drop a subject prefix from marker labels: Vicon writes `Subject:Marker`, and the subject
     /// name changes between sessions (`vsk2:LFWT` in one file, `vsk:LFWT` in the next), so
     /// one experiment can address markers by their plain names across files. Everything up
     /// to the last `:` is removed; two labels that become equal (two subjects in one file) is
-    /// an error naming both — set `false` to keep the prefixes then. Default `true` (no
-    /// shipped C3D has a prefix, so their names are unchanged).
+    /// an error naming both — set `false` to keep the prefixes then. No shipped C3D has a
+    /// prefix, so their names are unchanged either way.
     #[serde(default = "default_strip_subject_prefix")]
     pub strip_subject_prefix: bool,
 }

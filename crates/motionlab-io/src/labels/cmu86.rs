@@ -32,11 +32,11 @@ use motionlab_core::{Boundary, Error, ErrorKind, FrameRate, GroundTruthReader, M
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Cmu86LabelsParams {
-    /// The trial to read, as `"86_01"` or `"86 01"`. Default: the motion's name (the AMC file
-    /// stem, e.g. `86_01`).
+    /// The trial to read, as `"86_01"` or `"86 01"`.
     #[serde(default)]
+    #[schemars(extend("x-default" = "the motion's name (the AMC file stem, e.g. `86_01`)"))]
     pub trial: Option<String>,
-    /// Frame rate of the frame numbers in the file, Hz. Default 120 (the CMU capture rate).
+    /// Frame rate of the frame numbers in the file, Hz (the default is the CMU capture rate).
     #[serde(default = "default_label_rate_hz")]
     pub label_rate_hz: f64,
 }

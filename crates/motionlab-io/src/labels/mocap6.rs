@@ -46,7 +46,7 @@ pub const MOCAP6_ACTIONS: [&str; 12] = [
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Mocap6LabelsParams {
-    /// Motion frames per label block (frames, ≥ 1). Default 12 (120 fps → 10 fps).
+    /// Motion frames per label block (frames, ≥ 1; the default turns 120 fps into 10 fps).
     #[serde(default = "default_block_frames")]
     pub block_frames: usize,
 }

@@ -17,7 +17,6 @@ use crate::segment_classifier::SegmentClassifier;
 #[serde(deny_unknown_fields)]
 pub struct ByDurationParams {
     /// Segments shorter than this are "short" (`{ seconds = 2.0 }` or `{ frames = 240 }`), > 0.
-    /// Default 2 s.
     #[serde(default = "default_threshold")]
     pub threshold: TimeSpan,
 }

@@ -19,10 +19,10 @@ use motionlab_core::{Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, 
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FixedIntervalParams {
-    /// Time between two candidates (`{ seconds = 2.0 }` or `{ frames = 240 }`), > 0. Default 2 s.
+    /// Time between two candidates (`{ seconds = 2.0 }` or `{ frames = 240 }`), > 0.
     #[serde(default = "default_interval")]
     pub interval: TimeSpan,
-    /// Shift of every candidate, ≥ 0 (the first is at offset + interval). Default 0 s.
+    /// Shift of every candidate, ≥ 0 (the first is at offset + interval).
     #[serde(default = "default_offset")]
     pub offset: TimeSpan,
 }

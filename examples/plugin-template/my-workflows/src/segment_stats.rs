@@ -25,13 +25,13 @@ use my_segmenters::segment_classifier::{build_segment_classifier, SegmentClassif
 #[serde(deny_unknown_fields)]
 pub struct SegmentStatsSection {
     /// The segmenters (`[[segment_stats.segmenter]]`, `{ type = "<segmenter>", … }`); names
-    /// (`name = "…"`, default the type) must be unique. At least one is required.
+    /// (`name = "…"`, else the type) must be unique. At least one is required.
     #[serde(rename = "segmenter")]
     pub segmenters: Vec<StageSpec>,
     /// The segment classifier labelling each segment (`{ type = "by_duration", … }`, a
     /// `segment_classifier`: see `motionlab list`). Required.
     pub classifier: StageSpec,
-    /// The point (after preprocessing) whose path and speed describe a segment. Default `"root"`.
+    /// The point (after preprocessing) whose path and speed describe a segment.
     #[serde(default = "default_root")]
     pub root: String,
 }

@@ -1,31 +1,33 @@
-//! Assembling the HTML pages: each run's `index.html` and the reproduction index
-//! `reports/index.html` (every experiment, its latest run, headline numbers, and the papers'
-//! published numbers beside ours, read from the experiment files' `[[published]]` tables).
+//! Assembling the HTML pages: each run's `index.html`, a run of record, and the reproduction
+//! index `reports/index.html` (every experiment, its latest run, headline numbers, and the
+//! papers' published numbers beside ours, read from the experiment files' `[[published]]`
+//! tables).
 
 use std::path::{Path, PathBuf};
 
-use motionlab_core::{ColumnValues, Result, Table};
-use motionlab_report::html::{compare_published, viewer_links, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
+use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
 
+use crate::html::{compare_published, viewer_links, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
+use crate::output::{FigureEntry, Written};
 use motionlab_experiment::spec::{ExperimentFile, Headline};
 
-/// A figure already rendered into `figures/`, with its title.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct FigureEntry {
-    pub name: String,
-    pub title: String,
-}
-
-/// Writes `<run_dir>/index.html` from the run's tables, figures and provenance.
+/// Writes a finished run's page: `<run_dir>/index.html` from its tables, the figures of
+/// `outputs` (in that order; also saved as `figures/index.json`, which a run of record reads)
+/// and the provenance already in `run_dir`. `config_toml` is the resolved experiment shown on
+/// the page.
 pub fn write_run_html(
     run_dir: &Path,
     file: &ExperimentFile,
     config_toml: &str,
     tables: &[Table],
-    figures: &[FigureEntry],
+    outputs: &[&Written],
     run_id: &str,
 ) -> Result<PathBuf> {
-    write_page(run_dir, file, config_toml, tables, figures, run_id, false)
+    let listing: Vec<FigureEntry> = outputs.iter().flat_map(|w| w.listing.iter().cloned()).collect();
+    let index = run_dir.join("figures").join("index.json");
+    let json = serde_json::to_vec_pretty(&listing).map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))?;
+    std::fs::write(&index, json).map_err(|e| Error::io(&index, e))?;
+    write_page(run_dir, file, config_toml, tables, &listing, run_id, false)
 }
 
 fn write_page(
