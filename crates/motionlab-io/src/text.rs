@@ -225,7 +225,9 @@ fn plain_decimal_swar(w: &[u8; LINE_WINDOW], start: usize) -> Option<(f64, usize
 /// [`parse_plain_decimal`] on a window, with masked indices: the same grammar, limits and
 /// arithmetic (so the same bits), but it gives up (`None`) on more than 19 digits or more than
 /// four exponent digits instead of reading on, so it stays inside the window. Returns the
-/// value and the index just past it.
+/// value and the index just past it. Kept apart from `parse_plain_decimal` on purpose: one
+/// generic body over a byte accessor measured 11 % more instructions in BVH parsing and 3.5 %
+/// more in the AMC fast path.
 #[inline(always)]
 fn plain_decimal_in_window(w: &[u8; LINE_WINDOW], start: usize) -> Option<(f64, usize)> {
     let at = |i: usize| w[i % LINE_WINDOW];
