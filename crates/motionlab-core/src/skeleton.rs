@@ -307,21 +307,41 @@ fn axis_matrix(axis: usize, s: f64, c: f64) -> Mat3 {
 /// way. The result then has no −0 entry either, so the products chain.
 #[inline(always)]
 fn times_axis_rotation(m: &Mat3, axis: usize, s: f64, c: f64) -> Option<Mat3> {
-    let mut out = *m;
-    // Columns (p, q) rotated, in ascending index order, with R's entries for them.
-    let (p, q, pp, qp, pq, qq) = match axis {
-        0 => (1, 2, c, s, -s, c),   // Rx: R11 = c, R21 = s, R12 = −s, R22 = c
-        1 => (0, 2, c, -s, s, c),   // Ry: R00 = c, R20 = −s, R02 = s, R22 = c
-        _ => (0, 1, c, s, -s, c),   // Rz: R00 = c, R10 = s, R01 = −s, R11 = c
-    };
+    // Each row is built whole (`[x, y, z, 0]`) rather than patched entry by entry in memory,
+    // so the dense product that reads it next gets it from registers or from one full-width
+    // store (a row loaded across several narrower stores stalls store-to-load forwarding).
+    // Per axis, the rotated columns (p, q) and R's entries for them:
+    //   Rx: (1, 2), R11 = c, R21 = s, R12 = −s, R22 = c
+    //   Ry: (0, 2), R00 = c, R20 = −s, R02 = s, R22 = c
+    //   Rz: (0, 1), R00 = c, R10 = s, R01 = −s, R11 = c
+    // and each new entry is `m_p · R_pp' + m_q · R_qp'`, as in the full product.
+    let mut out = [[0.0; 4]; 3];
     let mut zero = false;
-    for row in out.iter_mut() {
-        let (mp, mq) = (row[p], row[q]);
-        let a = mp * pp + mq * qp;
-        let b = mp * pq + mq * qq;
-        zero |= a == 0.0 || b == 0.0;
-        row[p] = a;
-        row[q] = b;
+    match axis {
+        0 => {
+            for (o, row) in out.iter_mut().zip(m) {
+                let a = row[1] * c + row[2] * s;
+                let b = row[1] * -s + row[2] * c;
+                zero |= a == 0.0 || b == 0.0;
+                *o = [row[0], a, b, 0.0];
+            }
+        }
+        1 => {
+            for (o, row) in out.iter_mut().zip(m) {
+                let a = row[0] * c + row[2] * -s;
+                let b = row[0] * s + row[2] * c;
+                zero |= a == 0.0 || b == 0.0;
+                *o = [a, row[1], b, 0.0];
+            }
+        }
+        _ => {
+            for (o, row) in out.iter_mut().zip(m) {
+                let a = row[0] * c + row[1] * s;
+                let b = row[0] * -s + row[1] * c;
+                zero |= a == 0.0 || b == 0.0;
+                *o = [a, b, row[2], 0.0];
+            }
+        }
     }
     (!zero).then_some(out)
 }

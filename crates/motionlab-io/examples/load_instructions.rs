@@ -11,7 +11,9 @@
 //! ```
 //!
 //! `amc` loads CMU 86_01 (4579 frames, 31 joints, 38 points), `bvh` loads CMU 131_01 (994
-//! frames). callgrind's "I refs" divided by the frame count (times `passes`) is the
+//! frames); a third argument names another file for the same loader (`amc 1
+//! data/mocap6/amc/13_29.amc.gz`), which is how the checksums of every shipped take are
+//! compared before and after a change. callgrind's "I refs" divided by the frame count (times `passes`) is the
 //! instructions per frame quoted in `crates/motionlab-io/benches/README.md`; the inclusive
 //! counts of `read_bytes` (gunzip), `parse_amc`/`parse_bvh_channels` (scanner) and
 //! `SkeletonMotion::positions` (forward kinematics) split it by step.
@@ -25,11 +27,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let which = args.next().unwrap_or_else(|| "amc".to_string());
     let passes: usize = args.next().map(|s| s.parse()).transpose()?.unwrap_or(1);
     let data = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data");
-    let (loader, path) = match which.as_str() {
+    let (loader, default_path) = match which.as_str() {
         "amc" => ("asf_amc", data.join("cmu86/86_01.amc.gz")),
         "bvh" => ("bvh", data.join("cmu131/131_01.bvh.gz")),
         other => return Err(format!("unknown workload {other:?}; expected amc or bvh").into()),
     };
+    // An optional third argument loads another take (to compare checksums on every shipped file).
+    let path = args.next().map_or(default_path, std::path::PathBuf::from);
     let loader = build_loader(loader, &default_params())?;
     let mut checksum = 0u64;
     let mut frames = 0;

@@ -39,7 +39,7 @@ use motionlab_core::{
     SkeletonMotion,
 };
 
-use crate::text::{NumberLines, strip_bom};
+use crate::text::{LineWord, NumberLines, read_plain_line, strip_bom};
 
 /// Loads a CMU/Acclaim AMC motion with its ASF skeleton: every frame's bone rotations and the
 /// world positions of every joint (bone start) and leaf-bone tip (`<bone>_end`) by forward
@@ -599,9 +599,58 @@ struct Slot {
     n: usize,
 }
 
+/// The bone-line fast path of [`parse_amc`]: from the second frame on, bone lines are expected
+/// in the previous frame's order, and each that is the usual `bone v1 v2 …` line is read in one
+/// pass by [`read_plain_line`]. Kept out of line so its loop has the registers to itself.
+struct FastBoneLines<'a> {
+    /// Joint of each bone line of the first frame, in file order.
+    order: &'a [usize],
+    words: &'a [Option<LineWord>],
+    slots: &'a [Slot],
+    scale: &'a [f64],
+}
+
+impl FastBoneLines<'_> {
+    /// Reads consecutive bone lines that follow `order` from `order_pos` on into `frame_values`
+    /// (one frame's channels), marking each joint seen in frame `frame`; stops at the first
+    /// line that is not such a line (left unread, for the general path) and returns how many it
+    /// read. A joint already seen in this frame also stops it, so the general path reports the
+    /// duplicate.
+    #[inline(never)]
+    fn read(&self, cursor: &mut NumberLines<'_>, order_pos: usize, frame_values: &mut [f64], seen: &mut [usize], frame: usize) -> usize {
+        let mut read = 0;
+        for &j in &self.order[order_pos.min(self.order.len())..] {
+            if !cursor.skip_empty_lines() || seen[j] == frame {
+                break;
+            }
+            let (Some(window), Some(word)) = (cursor.window(), &self.words[j]) else { break };
+            let slot = self.slots[j];
+            let Some(used) = read_plain_line(
+                window,
+                Some(word),
+                &mut frame_values[slot.first..slot.first + slot.n],
+                &self.scale[slot.first..slot.first + slot.n],
+            ) else {
+                break;
+            };
+            seen[j] = frame;
+            cursor.skip_read_line(used);
+            read += 1;
+        }
+        read
+    }
+}
+
 /// Parses AMC text against an ASF skeleton into channel values (root translations in mm,
 /// rotations in degrees, in the skeleton's channel order). `origin` names the AMC in errors.
 pub fn parse_amc(text: &str, origin: &Path, asf: &AsfSkeleton) -> Result<SkeletonMotion> {
+    parse_amc_with(text, origin, asf, true).map(|(motion, _)| motion)
+}
+
+/// [`parse_amc`], with the bone-line fast path ([`FastBoneLines`]) switched off when
+/// `fast_path` is false — for the test that the two read every shipped take bit for bit alike.
+/// Also returns how many bone lines the fast path read.
+fn parse_amc_with(text: &str, origin: &Path, asf: &AsfSkeleton, fast_path: bool) -> Result<(SkeletonMotion, usize)> {
     let text = strip_bom(text);
     let skeleton = &asf.skeleton;
     let n_channels = skeleton.n_channels();
@@ -613,6 +662,8 @@ pub fn parse_amc(text: &str, origin: &Path, asf: &AsfSkeleton) -> Result<Skeleto
         by_name.insert(joint.name.as_str(), j);
         at += joint.channels.len();
     }
+    // Each joint's name as the bone-line fast path matches it.
+    let line_words: Vec<Option<LineWord>> = skeleton.joints.iter().map(|j| LineWord::new(j.name.as_bytes())).collect();
     let bytes = text.as_bytes();
     let mut cursor = NumberLines::new(bytes, 0, 1, origin);
     let mut radians = asf.angles_in_radians;
@@ -627,6 +678,7 @@ pub fn parse_amc(text: &str, origin: &Path, asf: &AsfSkeleton) -> Result<Skeleto
     let mut order: Vec<usize> = Vec::with_capacity(skeleton.joints.len());
     let mut order_pos = 0usize;
     let mut first_order_done = false;
+    let mut fast_lines = 0usize;
 
     let check_frame_complete = |seen: &[usize], n_frames: usize, frame_number: u64, frame_line: usize| -> Result<()> {
         if n_frames == 0 {
@@ -644,6 +696,18 @@ pub fn parse_amc(text: &str, origin: &Path, asf: &AsfSkeleton) -> Result<Skeleto
     };
 
     while cursor.skip_empty_lines() {
+        // The usual bone line — the bone the previous frame had at this place, then its
+        // values — in one pass; anything else (and any error) goes the general way below.
+        if fast_path && first_order_done && order_pos < order.len() {
+            let frame = n_frames - 1;
+            let fast = FastBoneLines { order: &order, words: &line_words, slots: &slots, scale: &scale };
+            let read = fast.read(&mut cursor, order_pos, &mut values[frame * n_channels..(frame + 1) * n_channels], &mut seen, frame);
+            if read > 0 {
+                order_pos += read;
+                fast_lines += read;
+                continue;
+            }
+        }
         let word = cursor.peek_word();
         let line = cursor.line();
         match word.first() {
@@ -787,7 +851,7 @@ pub fn parse_amc(text: &str, origin: &Path, asf: &AsfSkeleton) -> Result<Skeleto
     if n_frames == 0 {
         return Err(Error::at_line(ErrorKind::EmptySequence, origin, cursor.line(), "no frames; expected a frame number line then bone lines"));
     }
-    SkeletonMotion::new(skeleton.clone(), values).map_err(|e| e.in_file(origin))
+    SkeletonMotion::new(skeleton.clone(), values).map(|m| (m, fast_lines)).map_err(|e| e.in_file(origin))
 }
 
 /// Turns AMC channel values into a [`Motion`] by forward kinematics (Y up, mm); the name is
@@ -932,6 +996,73 @@ mod tests {
         assert_eq!(e.kind(), ErrorKind::Syntax);
         let e = parse_asf(&ASF[..ASF.find("  end\n  begin\n    name b").unwrap()], Path::new("t.asf")).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Truncated);
+    }
+
+    /// The bone-line fast path reads every shipped AMC take to the same bits as the general
+    /// scanner (every channel value, via `f64::to_bits`), and reads all its bone lines but the
+    /// first frame's.
+    #[test]
+    fn fast_path_reads_every_shipped_take_like_the_general_scanner() {
+        let takes = [
+            "cmu86/86_01.amc.gz",
+            "cmu86/86_09.amc.gz",
+            "mocap6/amc/13_29.amc.gz",
+            "mocap6/amc/13_30.amc.gz",
+            "mocap6/amc/13_31.amc.gz",
+            "mocap6/amc/14_14.amc.gz",
+            "mocap6/amc/14_20.amc.gz",
+        ];
+        for take in takes {
+            let path = motionlab_testkit::data_path(take);
+            let asf_path = discover_asf(&path).unwrap();
+            let asf = parse_asf(&crate::read::read_text(&asf_path).unwrap(), &asf_path).unwrap();
+            let text = crate::read::read_text(&path).unwrap();
+            let (fast, fast_lines) = parse_amc_with(&text, &path, &asf, true).unwrap();
+            let (general, no_lines) = parse_amc_with(&text, &path, &asf, false).unwrap();
+            assert!(fast.n_frames() > 1000, "{take}");
+            // Every bone line goes the fast way on these files but the first frame's (no order
+            // yet) and those in the last 256 bytes (the window does not fit).
+            let bones_with_dofs = asf.skeleton.joints.iter().filter(|j| !j.channels.is_empty()).count();
+            let most = (fast.n_frames() - 1) * bones_with_dofs;
+            assert!(fast_lines <= most && fast_lines + bones_with_dofs >= most, "{take}: {fast_lines} of {most}");
+            assert_eq!(no_lines, 0);
+            let bits = |m: &SkeletonMotion| m.channel_values().iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+            assert_eq!(bits(&fast), bits(&general), "{take}");
+        }
+    }
+
+    /// Lines the fast path must leave to the general scanner still give its errors, with the
+    /// same line, also after frames it read fast.
+    #[test]
+    fn fast_path_leaves_odd_lines_to_the_general_scanner() {
+        let s = asf();
+        // Enough frames that the fast path's window fits (it needs 256 bytes ahead).
+        let frame = |n: usize| format!("{n}\nroot 1 0 0 0 0 0\na 0.5 -1.25\nb 2.0\n");
+        let frames: String = (1..=20).map(frame).collect();
+        let ok = parse_amc(&frames, Path::new("t.amc"), &s).unwrap();
+        assert_eq!(ok.frame_values(19)[6..9], [0.5f64.to_degrees(), (-1.25f64).to_degrees(), 2f64.to_degrees()]);
+        // Frame 3 is lines 9–12: its `a` line is line 11, its `b` line 12.
+        let cases = [
+            ("a 0.5 -1.25\n", "a 0.5 -1.25 7\n", ErrorKind::WrongValueCount, 11),
+            ("a 0.5 -1.25\n", "a 0.5\n", ErrorKind::WrongValueCount, 11),
+            ("a 0.5 -1.25\n", "a 0.5 -1.2x5\n", ErrorKind::Syntax, 11),
+            ("a 0.5 -1.25\n", "a 0.5 nan\n", ErrorKind::NonFinite, 11),
+            ("a 0.5 -1.25\n", "c 0.5 -1.25\n", ErrorKind::UnknownName, 11),
+            ("a 0.5 -1.25\n", "b 0.5\n", ErrorKind::DuplicateName, 12),
+        ];
+        for (from, to, kind, line) in cases {
+            let mut text = String::new();
+            for n in 1..=20 {
+                let f = frame(n);
+                text.push_str(&if n == 3 { f.replacen(from, to, 1) } else { f });
+            }
+            let e = parse_amc(&text, Path::new("t.amc"), &s).unwrap_err();
+            assert_eq!((e.kind(), e.location().line), (kind, Some(line)), "{to:?}: {e}");
+        }
+        // Values the fast path hands over (exponents, long mantissas, a `+`, CRLF) read alike.
+        let odd = frames.replace("a 0.5 -1.25\n", "a 5e-1 -1.2500000000000000000001\r\n").replace("b 2.0\n", "b\t+2.0 \n");
+        let odd = parse_amc(&odd, Path::new("t.amc"), &s).unwrap();
+        assert_eq!(odd.channel_values(), ok.channel_values());
     }
 
     #[test]

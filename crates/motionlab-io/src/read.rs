@@ -10,6 +10,12 @@ use motionlab_core::{Error, ErrorKind, Location, Result};
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if raw.starts_with(&[0x1f, 0x8b]) {
+        if let Some(out) = gunzip_single_member(&raw) {
+            return Ok(out);
+        }
+        // Not one whole member (several members, trailing bytes, a corrupt stream): flate2,
+        // which reads every member and names what is wrong.
+        //
         // The gzip trailer's ISIZE is the last member's length mod 2³², so for the usual
         // one-member file it sizes the buffer exactly (no regrowth copies); it is only a hint.
         let isize = raw.last_chunk::<4>().map_or(0, |b| u32::from_le_bytes(*b) as usize);
@@ -24,6 +30,55 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
         Err(Error::new(ErrorKind::Syntax, "file name ends in .gz but the content is not gzip").with_location(Location::file(path)))
     } else {
         Ok(raw)
+    }
+}
+
+/// A gzip file of exactly one member, inflated by libdeflate in one call into a buffer of the
+/// size its trailer states (ISIZE); `None` when the data is not exactly that — a corrupt or
+/// truncated stream, a CRC or size mismatch, several members or bytes after the member — so the
+/// caller can fall back to the streaming decoder, which handles those (or reports them).
+/// libdeflate checks the member's CRC-32 and ISIZE itself.
+fn gunzip_single_member(raw: &[u8]) -> Option<Vec<u8>> {
+    let isize = raw.last_chunk::<4>().map(|b| u32::from_le_bytes(*b) as usize)?;
+    // DEFLATE expands at most 1032:1; a larger ISIZE is a corrupt trailer (or a member of
+    // 4 GiB or more, whose size ISIZE only gives mod 2³²): leave it to the streaming decoder.
+    if isize == 0 || isize > raw.len().saturating_mul(1032) {
+        return None;
+    }
+    let (mut used_in, mut used_out) = (0usize, 0usize);
+    // SAFETY: the decompressor is checked non-null and freed by the guard; libdeflate reads
+    // `raw.len()` bytes from `raw` and writes at most `isize` bytes into `out`'s allocation (its
+    // capacity), reporting in `used_out` how many it wrote — the only ones `set_len` exposes.
+    unsafe {
+        struct Decompressor(*mut libdeflate_sys::libdeflate_decompressor);
+        impl Drop for Decompressor {
+            fn drop(&mut self) {
+                // SAFETY: allocated by libdeflate_alloc_decompressor, freed once.
+                unsafe { libdeflate_sys::libdeflate_free_decompressor(self.0) }
+            }
+        }
+        let d = Decompressor(libdeflate_sys::libdeflate_alloc_decompressor());
+        if d.0.is_null() {
+            return None;
+        }
+        // Allocated after the decompressor's small block, so freeing that block does not leave
+        // free memory above the output at the top of the heap (which glibc would give back to
+        // the system and fault in again at the next load).
+        let mut out: Vec<u8> = Vec::with_capacity(isize);
+        let result = libdeflate_sys::libdeflate_gzip_decompress_ex(
+            d.0,
+            raw.as_ptr().cast(),
+            raw.len(),
+            out.as_mut_ptr().cast(),
+            isize,
+            &mut used_in,
+            &mut used_out,
+        );
+        if result != libdeflate_sys::libdeflate_result_LIBDEFLATE_SUCCESS || used_in != raw.len() || used_out != isize {
+            return None;
+        }
+        out.set_len(used_out);
+        Some(out)
     }
 }
 
@@ -73,6 +128,64 @@ mod tests {
         let fake = dir.join("c.txt.gz");
         std::fs::write(&fake, "not gzip").unwrap();
         assert_eq!(read_text(&fake).unwrap_err().kind(), ErrorKind::Syntax);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// flate2's multi-member decoder, the reference for [`gunzip_single_member`].
+    fn flate2_gunzip(raw: &[u8]) -> std::io::Result<Vec<u8>> {
+        let mut out = Vec::new();
+        flate2::bufread::MultiGzDecoder::new(raw).read_to_end(&mut out)?;
+        Ok(out)
+    }
+
+    #[test]
+    fn libdeflate_inflates_every_shipped_gz_like_flate2() {
+        let data = motionlab_testkit::data_path("");
+        let mut gz: Vec<std::path::PathBuf> = Vec::new();
+        let mut dirs = vec![data];
+        while let Some(d) = dirs.pop() {
+            for e in std::fs::read_dir(&d).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    dirs.push(p);
+                } else if p.extension().is_some_and(|e| e == "gz") {
+                    gz.push(p);
+                }
+            }
+        }
+        assert!(gz.len() >= 10, "{gz:?}");
+        for p in gz {
+            let raw = std::fs::read(&p).unwrap();
+            let fast = gunzip_single_member(&raw).unwrap_or_else(|| panic!("{}: not taken", p.display()));
+            assert!(fast == flate2_gunzip(&raw).unwrap(), "{}", p.display());
+        }
+    }
+
+    #[test]
+    fn anything_but_one_whole_member_goes_to_flate2() {
+        let member = |text: &str| {
+            let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+            enc.write_all(text.as_bytes()).unwrap();
+            enc.finish().unwrap()
+        };
+        let one = member("one member\n");
+        assert_eq!(gunzip_single_member(&one).as_deref(), Some(&b"one member\n"[..]));
+        // Two members: libdeflate would stop after the first; the fallback reads both.
+        let two = [member("first\n"), member("second\n")].concat();
+        assert_eq!(gunzip_single_member(&two), None);
+        let dir = std::env::temp_dir().join(format!("mlab-read-members-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("two.txt.gz");
+        std::fs::write(&path, &two).unwrap();
+        assert_eq!(read_text(&path).unwrap(), "first\nsecond\n");
+        // A flipped CRC or a cut stream: not taken, and the fallback reports it.
+        let mut bad_crc = one.clone();
+        let n = bad_crc.len();
+        bad_crc[n - 8] ^= 1;
+        assert_eq!(gunzip_single_member(&bad_crc), None);
+        assert_eq!(gunzip_single_member(&one[..one.len() - 3]), None);
+        std::fs::write(&path, &one[..one.len() / 2]).unwrap();
+        assert_eq!(read_text(&path).unwrap_err().kind(), ErrorKind::Truncated);
         std::fs::remove_dir_all(&dir).ok();
     }
 }
