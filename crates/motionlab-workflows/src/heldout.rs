@@ -193,9 +193,10 @@ pub struct Summary {
     /// The oracle row's combination (chosen on all sequences); `per fold: heldout_choices` on
     /// held-out rows.
     pub parameters: String,
-    /// On held-out rows, how many folds chose the oracle row's combination (of `n_folds`).
-    pub folds_choosing_it: Option<usize>,
-    pub n_folds: Option<usize>,
+    /// How many of the `n_folds` folds chose the oracle row's combination (the same on both
+    /// rows of a method).
+    pub folds_choosing_it: usize,
+    pub n_folds: usize,
     pub n_truth: usize,
     pub n_found: usize,
     pub n_matched: usize,
@@ -406,19 +407,19 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
     let mut summaries = Vec::new();
     for c in curves {
         let oracle = best_on(c, &sequences).map(|(k, _)| k);
+        let fold_choices: Vec<Option<(usize, f64)>> = folds.iter().map(|(_, train)| best_on(c, train)).collect();
+        let n_folds = fold_choices.iter().flatten().count();
+        let agreeing = fold_choices.iter().flatten().filter(|(k, _)| Some(*k) == oracle).count();
         if let Some(k) = oracle {
             let p = &c.points[k];
             let parts: Vec<(&Point, &str)> = sequences.iter().map(|s| (p, s.as_str())).collect();
             let chance = ChanceColumns::of(&c.method, &parts);
-            summaries.push(summary(c, ORACLE, p.parameters.clone(), None, pooled(p, &sequences), chance));
+            summaries.push(summary(c, ORACLE, p.parameters.clone(), (agreeing, n_folds), pooled(p, &sequences), chance));
         }
         let mut total = Counts::default();
         let mut parts: Vec<(&Point, &str)> = Vec::new();
-        let (mut n_folds, mut agreeing) = (0, 0);
-        for (test, train) in &folds {
-            let Some((k, train_f1)) = best_on(c, train) else { continue };
-            n_folds += 1;
-            agreeing += usize::from(Some(k) == oracle);
+        for ((test, _), choice) in folds.iter().zip(&fold_choices) {
+            let Some((k, train_f1)) = *choice else { continue };
             let p = &c.points[k];
             let counts = pooled(p, test);
             total = total.add(counts);
@@ -447,20 +448,20 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
             });
         }
         let chance = ChanceColumns::of(&c.method, &parts);
-        summaries.push(summary(c, &label, "per fold: heldout_choices".into(), Some((agreeing, n_folds)), total, chance));
+        summaries.push(summary(c, &label, "per fold: heldout_choices".into(), (agreeing, n_folds), total, chance));
     }
     Ok((choices, summaries))
 }
 
-fn summary(c: &Curve, selection: &str, parameters: String, agreement: Option<(usize, usize)>, counts: Counts, chance: ChanceColumns) -> Summary {
+fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, usize), counts: Counts, chance: ChanceColumns) -> Summary {
     let (precision, recall, f1) = counts.ratios();
     Summary {
         method: c.method.clone(),
         sweep: c.sweep.clone(),
         selection: selection.into(),
         parameters,
-        folds_choosing_it: agreement.map(|a| a.0),
-        n_folds: agreement.map(|a| a.1),
+        folds_choosing_it: agreement.0,
+        n_folds: agreement.1,
         n_truth: counts.n_truth,
         n_found: counts.n_found,
         n_matched: counts.n_matched,
@@ -659,7 +660,9 @@ mod tests {
         let e = 2.0 * (1.0 - 391.0 * 390.0 / (400.0 * 399.0));
         assert!((row(&tables[0][0], a, "chance_matched") - e).abs() < 1e-12);
         let held = &summaries[1];
-        assert_eq!(held.n_folds, Some(2));
+        assert_eq!((held.n_folds, oracle.n_folds), (2, 2));
+        // Combination 1 (the oracle's) was chosen when A was held out, not when B was.
+        assert_eq!((held.folds_choosing_it, oracle.folds_choosing_it), (1, 1));
         assert!(held.chance_f1 > 0.0 && held.chance_f1 < held.f1 && held.p_value > 0.0 && held.p_value <= 1.0);
     }
 }
