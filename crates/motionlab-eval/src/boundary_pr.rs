@@ -10,7 +10,7 @@ use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Millime
 use crate::boundaries::{
     MatchRule, PoseRule, TruthWindow, default_tolerance, evaluate_boundaries, max_matching_windows, ratios, tolerance_frames,
 };
-use crate::chance::{ChanceCounts, ChanceSettings, chance_counts, periodic_candidates, row_seed};
+use crate::chance::{ChanceCounts, ChanceScores, ChanceSettings, chance_counts, periodic_candidates, row_seed};
 use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
 use crate::span::{Span, counted};
 
@@ -116,9 +116,6 @@ fn default_chance_draws() -> usize {
 fn default_chance_seed() -> u64 {
     ChanceSettings::default().seed
 }
-
-/// Significance level of `above_chance`.
-const ALPHA: f64 = 0.05;
 
 fn default_root() -> String {
     "root".into()
@@ -236,17 +233,15 @@ struct Baselines {
 
 impl Baselines {
     fn fill(&self, row: &mut PrecisionRecallRow) {
-        let c = &self.chance;
-        let m = c.expected_matched;
-        let div = |num: f64, den: usize| if den == 0 { f64::NAN } else { num / den as f64 };
-        row.chance_expectation = if c.exact { "exact" } else { "monte_carlo" };
-        row.chance_matched = m;
-        row.chance_precision = div(m, c.n_found);
-        row.chance_recall = div(m, self.n_truth);
-        row.chance_f1 = div(2.0 * m, c.n_found + self.n_truth);
-        row.chance_f1_se = div(2.0 * c.expected_matched_se, c.n_found + self.n_truth);
-        row.p_value = c.p_value(self.method_time_matched);
-        row.above_chance = if row.p_value < ALPHA { "yes" } else { "no" };
+        let c = ChanceScores::of(&self.chance, self.n_truth, self.method_time_matched);
+        row.chance_expectation = c.expectation;
+        row.chance_matched = c.matched;
+        row.chance_precision = c.precision;
+        row.chance_recall = c.recall;
+        row.chance_f1 = c.f1;
+        row.chance_f1_se = c.f1_se;
+        row.p_value = c.p_value;
+        row.above_chance = c.above;
         let (p, r, f) = ratios(self.periodic_found, self.n_truth, self.periodic_matched);
         row.periodic_n_found = self.periodic_found;
         (row.periodic_precision, row.periodic_recall, row.periodic_f1) = (p, r, f);

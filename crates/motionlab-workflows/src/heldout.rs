@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
 use motionlab_eval::boundaries::TruthWindow;
-use motionlab_eval::chance::{ChanceCounts, chance_counts, row_seed};
+use motionlab_eval::chance::{ChanceCounts, ChanceScores, chance_counts, row_seed};
 use motionlab_experiment::workflow::ComboOutput;
 
 /// How a sweep chooses each method's operating point (`[segmentation] selection = …`).
@@ -83,70 +83,25 @@ pub struct ChanceSetup {
     pub seed: u64,
 }
 
-/// The chance columns of a `heldout_f1` or `heldout_choices` row.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ChanceColumns {
-    /// `exact` or `monte_carlo` (as boundary_pr's `chance_expectation`); empty without a
-    /// null model.
-    pub expectation: &'static str,
-    pub matched: f64,
-    pub precision: f64,
-    pub recall: f64,
-    pub f1: f64,
-    pub f1_se: f64,
-    pub p_value: f64,
-    pub above: &'static str,
-}
-
-/// Significance level of `above_chance` (boundary_pr's).
-const ALPHA: f64 = 0.05;
-
-impl ChanceColumns {
-    fn none() -> Self {
-        ChanceColumns {
-            expectation: "",
-            matched: f64::NAN,
-            precision: f64::NAN,
-            recall: f64::NAN,
-            f1: f64::NAN,
-            f1_se: f64::NAN,
-            p_value: f64::NAN,
-            above: "",
-        }
+/// The chance columns of a `heldout_f1` or `heldout_choices` row: the chance baseline of
+/// `method` at the (point, sequence) pairs `parts`, pooled — each part redrawn with
+/// boundary_pr's seed for that sequence and method and the point's own found count; none when a
+/// part has no null model.
+fn chance_at(method: &str, parts: &[(&Point, &str)]) -> ChanceScores {
+    let mut draws = Vec::new();
+    let mut counts = Counts::default();
+    for (p, seq) in parts {
+        let (Some((_, c)), Some((_, setup))) = (p.per_sequence.iter().find(|(s, _)| s == seq), p.chance.iter().find(|(s, _)| s == seq))
+        else {
+            return ChanceScores::none();
+        };
+        counts = counts.add(*c);
+        draws.push(chance_counts(c.n_found, &setup.windows, setup.span.clone(), setup.draws, row_seed(setup.seed, seq, method)));
     }
-
-    /// The chance baseline of `method` at the (point, sequence) pairs `parts`, pooled: each
-    /// part redrawn with boundary_pr's seed for that sequence and method and the point's own
-    /// found count; none when a part has no null model.
-    fn of(method: &str, parts: &[(&Point, &str)]) -> Self {
-        let mut draws = Vec::new();
-        let mut counts = Counts::default();
-        for (p, seq) in parts {
-            let (Some((_, c)), Some((_, setup))) = (p.per_sequence.iter().find(|(s, _)| s == seq), p.chance.iter().find(|(s, _)| s == seq))
-            else {
-                return ChanceColumns::none();
-            };
-            counts = counts.add(*c);
-            draws.push(chance_counts(c.n_found, &setup.windows, setup.span.clone(), setup.draws, row_seed(setup.seed, seq, method)));
-        }
-        if draws.is_empty() {
-            return ChanceColumns::none();
-        }
-        let pooled = ChanceCounts::pooled(&draws);
-        let m = pooled.expected_matched;
-        let div = |num: f64, den: usize| if den == 0 { f64::NAN } else { num / den as f64 };
-        let p_value = pooled.p_value(counts.n_matched.saturating_sub(counts.n_matched_by_pose));
-        ChanceColumns {
-            expectation: if pooled.exact { "exact" } else { "monte_carlo" },
-            matched: m,
-            precision: div(m, pooled.n_found),
-            recall: div(m, counts.n_truth),
-            f1: div(2.0 * m, pooled.n_found + counts.n_truth),
-            f1_se: div(2.0 * pooled.expected_matched_se, pooled.n_found + counts.n_truth),
-            p_value,
-            above: if p_value < ALPHA { "yes" } else { "no" },
-        }
+    if draws.is_empty() {
+        return ChanceScores::none();
     }
+    ChanceScores::of(&ChanceCounts::pooled(&draws), counts.n_truth, counts.n_matched.saturating_sub(counts.n_matched_by_pose))
 }
 
 /// One method's curve over one sweep grid, in grid order.
@@ -413,7 +368,7 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
         if let Some(k) = oracle {
             let p = &c.points[k];
             let parts: Vec<(&Point, &str)> = sequences.iter().map(|s| (p, s.as_str())).collect();
-            let chance = ChanceColumns::of(&c.method, &parts);
+            let chance = chance_at(&c.method, &parts);
             summaries.push(summary(c, ORACLE, p.parameters.clone(), (agreeing, n_folds), pooled(p, &sequences), chance));
         }
         let mut total = Counts::default();
@@ -424,7 +379,7 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
             let counts = pooled(p, test);
             total = total.add(counts);
             let fold_parts: Vec<(&Point, &str)> = test.iter().map(|s| (p, s.as_str())).collect();
-            let chance = ChanceColumns::of(&c.method, &fold_parts);
+            let chance = chance_at(&c.method, &fold_parts);
             parts.extend(fold_parts);
             let (precision, recall, f1) = counts.ratios();
             choices.push(Choice {
@@ -447,13 +402,13 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
                 above_chance: chance.above,
             });
         }
-        let chance = ChanceColumns::of(&c.method, &parts);
+        let chance = chance_at(&c.method, &parts);
         summaries.push(summary(c, &label, "per fold: heldout_choices".into(), (agreeing, n_folds), total, chance));
     }
     Ok((choices, summaries))
 }
 
-fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, usize), counts: Counts, chance: ChanceColumns) -> Summary {
+fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, usize), counts: Counts, chance: ChanceScores) -> Summary {
     let (precision, recall, f1) = counts.ratios();
     Summary {
         method: c.method.clone(),
