@@ -7,13 +7,14 @@ external segmenter (protocol 1: `motionlab describe external`).
 It follows crates/motionlab-segment/src/speed_minima.rs and the functions it calls operation by
 operation, so that its candidates (and its V trace, bit for bit) equal the built-in's:
 
-- smoothing (optional, `params.smoothing = {frames = n}` or `{seconds = s}`): rounded half away
+- smoothing (`params.smoothing = {frames = n}` or `{seconds = s}`, default {seconds = 0.2} as
+  the built-in's; {seconds = 0.0} for none): rounded half away
   from zero to whole frames at the motion's rate (TimeSpan::whole_frames_at); a window > 1 is a
   centred moving average per marker, shrunk at the ends, skipping missing samples, summed in
   frame order (features/src/smoothing.rs);
 - v[i][k] = sqrt((dx*dx + dy*dy) + dz*dz) * fps for i < F-1, NaN at the last frame and where a
   marker is missing at i or i+1; V[i] = the largest valid v[i][k], NaN when none (speed.rs);
-- v_low (`params.v_low`, default {fraction_of_p90 = 0.15}): mm/s, or a fraction of the 90th
+- v_low (`params.v_low`, default {fraction_of_p90 = 0.3}, the built-in's): mm/s, or a fraction of the 90th
   percentile of V's finite values, linear interpolation between order statistics computed as
   lo + (hi - lo) * (rank - floor(rank)) (signal.rs percentile, thresholds.rs);
 - candidate i when V[i-1] > V[i] < V[i+1] (strict; any NaN fails) and V[i] <= v_low.
@@ -106,11 +107,11 @@ def main():
     p = np.load(os.path.join(folder, meta["positions"]["file"]))
     if p.shape[0] < 3:
         sys.exit(f"speed_minima needs at least 3 frames, found {p.shape[0]}")
-    window = whole_frames(params.get("smoothing"), rate)
+    window = whole_frames(params.get("smoothing", {"seconds": 0.2}), rate)
     if window > 1:
         p = moving_average(p, window)
     v = fastest_speed(p, rate)
-    v_low = v_low_of(params.get("v_low", {"fraction_of_p90": 0.15}), v)
+    v_low = v_low_of(params.get("v_low", {"fraction_of_p90": 0.3}), v)
     with np.errstate(invalid="ignore"):  # comparisons with NaN are False, as in Rust
         is_min = (v[:-2] > v[1:-1]) & (v[1:-1] < v[2:]) & (v[1:-1] <= v_low)
     candidates = (np.flatnonzero(is_min) + 1).tolist()

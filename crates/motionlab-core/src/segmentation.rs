@@ -30,6 +30,10 @@ pub struct Segmentation {
     pub boundaries: Vec<Boundary>,
     /// Labelled segments in order (may be empty when the source only marks points).
     pub segments: Vec<Segment>,
+    /// Each annotator's own boundary frames (sorted), when `boundaries` combine several (a
+    /// consensus); empty when they are one annotator's. Metrics defined over several
+    /// annotators (TCPDBench's F1 and covering) read these, kept separately.
+    pub annotators: Vec<Vec<usize>>,
 }
 
 impl Segmentation {
@@ -45,10 +49,15 @@ impl Segmentation {
             }
         }
         let boundaries = segments.iter().skip(1).map(|s| Boundary { frame: s.start, window: None }).collect();
-        Ok(Segmentation { frame_rate, boundaries, segments })
+        Ok(Segmentation { frame_rate, boundaries, segments, annotators: Vec::new() })
     }
     pub fn frames(&self) -> Vec<usize> {
         self.boundaries.iter().map(|b| b.frame).collect()
+    }
+    /// Each annotator's boundary frames: [`Segmentation::annotators`], or the boundaries as the
+    /// one annotator's when there is no list.
+    pub fn annotator_frames(&self) -> Vec<Vec<usize>> {
+        if self.annotators.is_empty() { vec![self.frames()] } else { self.annotators.clone() }
     }
     /// Consecutive pairs of labelled segments: the transitions of the paper's Table 3.
     pub fn transitions(&self) -> Vec<Transition> {

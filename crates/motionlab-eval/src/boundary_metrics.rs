@@ -23,8 +23,10 @@ use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 ///   averaged over them) and its segment `covering` (Jaccard-weighted covering of each
 ///   annotator's segments by the found ones, averaged) — definitions in the crate's
 ///   `cpd_metrics` module, cross-checked with Python re-implementations by
-///   `tests/metrics_crosscheck.py`. Each annotator's truth is kept separately: a sequence's
-///   ground truth is one annotator today (`n_annotators` = 1); the functions take several.
+///   `bench/metrics_crosscheck.py`. Each annotator's truth is kept separately: when the ground
+///   truth is the consensus of several annotators (`boundaries_csv` with an annotator column,
+///   `elan_eaf` with several tiers, `consensus = { … }`), these metrics take every annotator's
+///   own boundaries (`n_annotators` of them), not the consensus; otherwise the one annotator's.
 ///   No pooled rows: TCPDBench reports per-series scores (average them if wanted).
 ///
 /// Sequences without ground truth are skipped; it is an error when none has any.
@@ -127,7 +129,7 @@ impl Evaluator for BoundaryMetrics {
             let Some(truth) = truth_of(seq)? else { continue };
             n_evaluated += 1;
             let rate = seq.motion.frame_rate();
-            let annotators = vec![truth.frames()];
+            let annotators = truth.annotator_frames();
             let margin_frames = tolerance_frames(self.margin, rate).floor() as usize;
             for m in &seq.methods {
                 for (ti, &tol) in self.tolerances.iter().enumerate() {
@@ -251,6 +253,27 @@ mod tests {
         // [300,600) by [320,600): 280/300.
         let expected = (100.0 * (100.0 / 104.0) + 200.0 * (196.0 / 220.0) + 300.0 * (280.0 / 300.0)) / 600.0;
         assert!((f64s(c, "covering")[0] - expected).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tcpd_metrics_keep_each_annotator_of_a_consensus_separately() {
+        // Consensus truth 100 from two annotators, [100] and [100, 300]; found 104; margin 5.
+        // X = {0, 104}; union {0, 100, 300}: P = 2/2. Recall per annotator: {0, 100} 2/2,
+        // {0, 100, 300} 2/3 → R = 5/6 (the consensus alone would give R = 1).
+        let mut seqs = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 600, "y")]), &[("m", &[104])])];
+        if let Some(t) = seqs[0].truth.as_mut() {
+            t.annotators = vec![vec![100], vec![100, 300]];
+        }
+        let tables = evaluator("margin = { frames = 5 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let c = &tables[1];
+        assert_eq!(f64s(c, "n_annotators"), [2.0]);
+        assert_eq!(f64s(c, "tcpd_precision"), [1.0]);
+        assert!((f64s(c, "tcpd_recall")[0] - 5.0 / 6.0).abs() < 1e-15);
+        let (f, _, _) = tcpd_f_measure(&[vec![100], vec![100, 300]], &[104], 5);
+        assert_eq!(f64s(c, "tcpd_f1"), [f]);
+        // Covering averaged over the two annotators' partitions.
+        let expected = (covering(&[vec![100]], &[104], 600) + covering(&[vec![100, 300]], &[104], 600)) / 2.0;
+        assert!((f64s(c, "covering")[0] - expected).abs() < 1e-15);
     }
 
     #[test]

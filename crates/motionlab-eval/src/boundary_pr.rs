@@ -10,7 +10,7 @@ use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Millime
 use crate::boundaries::{
     MatchRule, PoseRule, TruthWindow, default_tolerance, evaluate_boundaries, max_matching_windows, ratios, tolerance_frames,
 };
-use crate::chance::{ChanceCounts, ChanceSettings, chance_counts, periodic_candidates, row_seed};
+use crate::chance::{ChanceCounts, ChanceScores, ChanceSettings, chance_counts, periodic_candidates, row_seed};
 use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
 use crate::span::{Span, counted};
 
@@ -49,6 +49,13 @@ use crate::span::{Span, counted};
 ///   the pooled p-value from the per-draw sums over sequences).
 /// - `boundary_matches`: every truth (matched, matched_by_pose or missed) and every unmatched
 ///   found frame (extra), with the offset found − truth in seconds.
+/// - `chance_windows`: the chance baseline's null model per sequence — the evaluated span
+///   (`span_start..span_end`, frames), each truth's time-rule window `[window_lo, window_hi]`
+///   (frames; one row per truth, one row without a window when a sequence has none), and
+///   `chance_draws`, `chance_seed`. With these and [`crate::chance::chance_counts`] anyone can
+///   redraw the baseline of any number of candidates; the `[segmentation]` workflow does so for
+///   the held-out operating points of a sweep (`heldout_f1`), which get the same draws as this
+///   table's row of the chosen combination.
 /// - `claim_fused_recall` (when there are ≥ 2 methods): does the last method — the fuser's
 ///   output, which the engine appends after the segmenters — reach a higher pooled recall than
 ///   every other method? (The paper's central claim.)
@@ -111,9 +118,6 @@ fn default_chance_draws() -> usize {
 fn default_chance_seed() -> u64 {
     ChanceSettings::default().seed
 }
-
-/// Significance level of `above_chance`.
-const ALPHA: f64 = 0.05;
 
 fn default_root() -> String {
     "root".into()
@@ -231,17 +235,15 @@ struct Baselines {
 
 impl Baselines {
     fn fill(&self, row: &mut PrecisionRecallRow) {
-        let c = &self.chance;
-        let m = c.expected_matched;
-        let div = |num: f64, den: usize| if den == 0 { f64::NAN } else { num / den as f64 };
-        row.chance_expectation = if c.exact { "exact" } else { "monte_carlo" };
-        row.chance_matched = m;
-        row.chance_precision = div(m, c.n_found);
-        row.chance_recall = div(m, self.n_truth);
-        row.chance_f1 = div(2.0 * m, c.n_found + self.n_truth);
-        row.chance_f1_se = div(2.0 * c.expected_matched_se, c.n_found + self.n_truth);
-        row.p_value = c.p_value(self.method_time_matched);
-        row.above_chance = if row.p_value < ALPHA { "yes" } else { "no" };
+        let c = ChanceScores::of(&self.chance, self.n_truth, self.method_time_matched);
+        row.chance_expectation = c.expectation;
+        row.chance_matched = c.matched;
+        row.chance_precision = c.precision;
+        row.chance_recall = c.recall;
+        row.chance_f1 = c.f1;
+        row.chance_f1_se = c.f1_se;
+        row.p_value = c.p_value;
+        row.above_chance = c.above;
         let (p, r, f) = ratios(self.periodic_found, self.n_truth, self.periodic_matched);
         row.periodic_n_found = self.periodic_found;
         (row.periodic_precision, row.periodic_recall, row.periodic_f1) = (p, r, f);
@@ -294,6 +296,25 @@ pub struct BoundaryMatchRow {
     pub offset_s: Option<f64>,
 }
 
+/// A row of `chance_windows`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ChanceWindowRow {
+    pub sequence: String,
+    /// The evaluated span `span_start..span_end` (frames, end exclusive).
+    pub span_start: usize,
+    pub span_end: usize,
+    /// The truth's own frame (None on the row of a sequence without truths).
+    pub truth_frame: Option<usize>,
+    /// The truth's time-rule window, fractional frames.
+    pub window_lo: Option<f64>,
+    pub window_hi: Option<f64>,
+    /// Monte Carlo draws.
+    pub chance_draws: usize,
+    /// Base seed (mixed with the sequence and method names by `chance::row_seed`), in decimal:
+    /// text, because a table's integer column holds only `i64`.
+    pub chance_seed: String,
+}
+
 /// The one row of `claim_fused_recall`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FusedRecallClaim {
@@ -330,6 +351,7 @@ impl Evaluator for BoundaryPr {
         let sequences = segmentation_input(input, "boundary_pr")?;
         let mut rows = Vec::new();
         let mut match_rows = Vec::new();
+        let mut window_rows = Vec::new();
         // Per method, in order of first appearance.
         let mut pools: Vec<(String, Pool)> = Vec::new();
         let mut n_evaluated = 0;
@@ -366,6 +388,20 @@ impl Evaluator for BoundaryPr {
                 .iter()
                 .map(|b| TruthWindow::from_boundary(b, rule.tolerance_frames, rule.use_windows))
                 .collect();
+            let window_row = |w: Option<&TruthWindow>| ChanceWindowRow {
+                sequence: seq.sequence.clone(),
+                span_start: span.start,
+                span_end: span.end,
+                truth_frame: w.map(|w| w.frame),
+                window_lo: w.map(|w| w.lo),
+                window_hi: w.map(|w| w.hi),
+                chance_draws: self.chance.draws,
+                chance_seed: self.chance.seed.to_string(),
+            };
+            if windows.is_empty() {
+                window_rows.push(window_row(None));
+            }
+            window_rows.extend(windows.iter().map(|w| window_row(Some(w))));
             let periodic = periodic_candidates(windows.len(), span.clone());
             let periodic_matched = max_matching_windows(&periodic, &windows).len();
             for m in &seq.methods {
@@ -488,6 +524,11 @@ impl Evaluator for BoundaryPr {
                 &[claim],
             )?);
         }
+        tables.push(Table::from_records(
+            "chance_windows",
+            "The chance baseline's null model: evaluated span and truth windows (frames) per sequence, draws and seed",
+            &window_rows,
+        )?);
         Ok(tables)
     }
 }
@@ -703,7 +744,8 @@ mod tests {
         assert_eq!(strs(t, "truth_frame"), ["100", "200", "NaN"]);
         assert_eq!(strs(t, "found_frame"), ["103", "NaN", "400"]);
         assert!((t.column("offset_s").unwrap().cell(0).parse::<f64>().unwrap() - 0.03).abs() < 1e-12);
-        assert_eq!(tables.len(), 2, "one method: no claim table");
+        assert_eq!(tables.len(), 3, "one method: no claim table");
+        assert_eq!(tables[2].name, "chance_windows");
     }
 
     #[test]

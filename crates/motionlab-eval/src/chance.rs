@@ -116,6 +116,51 @@ impl ChanceCounts {
     }
 }
 
+/// Significance level of `above_chance`.
+pub const ALPHA: f64 = 0.05;
+
+/// A row's chance columns: the expected precision, recall and F1 of the baseline's `n_found`
+/// random frames against `n_truth` truths, and the p-value of `observed` (time-rule) matches.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChanceScores {
+    /// `exact` or `monte_carlo`; empty when there is no baseline.
+    pub expectation: &'static str,
+    pub matched: f64,
+    pub precision: f64,
+    pub recall: f64,
+    pub f1: f64,
+    /// Standard error of `f1` (0 when exact).
+    pub f1_se: f64,
+    pub p_value: f64,
+    /// `yes` when `p_value < ALPHA`, else `no`; empty when there is no baseline.
+    pub above: &'static str,
+}
+
+impl ChanceScores {
+    /// No baseline: NaN numbers, empty labels.
+    pub fn none() -> Self {
+        let nan = f64::NAN;
+        ChanceScores { expectation: "", matched: nan, precision: nan, recall: nan, f1: nan, f1_se: nan, p_value: nan, above: "" }
+    }
+
+    /// The columns of `chance` against `n_truth` truths, with `observed` matches for the p-value.
+    pub fn of(chance: &ChanceCounts, n_truth: usize, observed: usize) -> Self {
+        let m = chance.expected_matched;
+        let div = |num: f64, den: usize| if den == 0 { f64::NAN } else { num / den as f64 };
+        let p_value = chance.p_value(observed);
+        ChanceScores {
+            expectation: if chance.exact { "exact" } else { "monte_carlo" },
+            matched: m,
+            precision: div(m, chance.n_found),
+            recall: div(m, n_truth),
+            f1: div(2.0 * m, chance.n_found + n_truth),
+            f1_se: div(2.0 * chance.expected_matched_se, chance.n_found + n_truth),
+            p_value,
+            above: if p_value < ALPHA { "yes" } else { "no" },
+        }
+    }
+}
+
 /// The seed of one (sequence, method): the base seed mixed with an FNV-1a hash of both names
 /// (so the draws do not depend on the order of sequences or methods).
 pub fn row_seed(base: u64, sequence: &str, method: &str) -> u64 {

@@ -260,7 +260,15 @@ impl Consensus {
             .into_iter()
             .map(|p| Boundary { frame: p.cluster.frame, window: Some((p.cluster.first, p.cluster.last)) })
             .collect();
-        Ok(Segmentation { frame_rate: motion.frame_rate(), boundaries, segments: Vec::new() })
+        let annotators = annotators
+            .iter()
+            .map(|a| {
+                let mut a = a.clone();
+                a.sort_unstable();
+                a
+            })
+            .collect();
+        Ok(Segmentation { frame_rate: motion.frame_rate(), boundaries, segments: Vec::new(), annotators })
     }
 }
 

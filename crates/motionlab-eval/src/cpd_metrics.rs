@@ -4,7 +4,7 @@
 //!
 //! Both are re-implemented here exactly as TCPDBench's `analysis/scripts/metrics.py` computes
 //! them, operation for operation, so that the numbers agree to the last bits
-//! (`tests/metrics_crosscheck.py` compares them, and the max-matching P/R and Hausdorff
+//! (`bench/metrics_crosscheck.py` compares them, and the max-matching P/R and Hausdorff
 //! distance of [`crate::boundaries`], with independent Python implementations and ruptures on
 //! random cases; run by CI).
 //!

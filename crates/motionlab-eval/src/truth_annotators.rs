@@ -2,9 +2,11 @@
 //! `boundaries_csv` and `elan_eaf` readers): pick one annotator, combine them all with the
 //! [`Consensus`] rule, or take the only one there is.
 //!
-//! A [`Segmentation`] holds one annotator's boundaries, so several annotators become one ground
-//! truth here, at read time: per-annotator evaluation is one run per annotator
-//! (`annotator = "…"`, which a sweep can vary), consensus is `consensus = { … }`.
+//! A [`Segmentation`]'s boundaries are one ground truth, so several annotators become one here,
+//! at read time: per-annotator evaluation is one run per annotator (`annotator = "…"`, which a
+//! sweep can vary), consensus is `consensus = { … }`. A consensus keeps every annotator's own
+//! boundaries beside it ([`Segmentation::annotators`]), for the metrics defined over several
+//! annotators (`boundary_metrics`' TCPDBench F1 and covering).
 
 use std::path::Path;
 
@@ -115,7 +117,16 @@ mod tests {
         assert_eq!(run(Annotators::Named("ben".into())).unwrap(), vec![103]);
         // Default min_votes = 2 of 3, tolerance 5 frames: 98, 100, 103 chain (median 100); 200 and 250 alone.
         let c: ConsensusParams = motionlab_core::registry::parse_params(&toml::from_str("tolerance = { frames = 5 }").unwrap()).unwrap();
-        assert_eq!(run(Annotators::from_params(None, Some(c), "annotator").unwrap()).unwrap(), vec![100]);
+        let consensus = Annotators::from_params(None, Some(c), "annotator").unwrap();
+        assert_eq!(run(consensus.clone()).unwrap(), vec![100]);
+        // Each annotator's own marks stay beside the consensus (for TCPDBench's metrics).
+        let kept = consensus.truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file").unwrap();
+        assert_eq!(kept.annotators, vec![vec![100, 200], vec![103], vec![98, 250]]);
+        assert_eq!(kept.annotator_frames().len(), 3);
+        // One named annotator is one annotator's truth.
+        let one = Annotators::Named("ana".into()).truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file").unwrap();
+        assert!(one.annotators.is_empty());
+        assert_eq!(one.annotator_frames(), vec![vec![100, 200]]);
         let e = run(Annotators::Only).unwrap_err();
         assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, Some("annotator")));
         assert!(e.to_string().contains("\"ana\", \"ben\", \"cy\""), "{e}");

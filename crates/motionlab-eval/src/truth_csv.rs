@@ -43,7 +43,8 @@ use crate::truth_annotators::Annotators;
 /// several, `annotator = "…"` evaluates one of them (sweep it for per-annotator results) and
 /// `consensus = { … }` combines them all (`motionlab describe` of the consensus rule: marks
 /// chained within `tolerance`, one vote per annotator, kept with ≥ `min_votes`; the truth then
-/// carries each point's spread as its window).
+/// carries each point's spread as its window, and every annotator's own marks for
+/// `boundary_metrics`' TCPDBench F1 and covering).
 ///
 /// **Errors** (one line naming the file, the line and the column): no header or an unknown,
 /// repeated, missing or mixed time column; a non-numeric, negative or non-finite cell; a

@@ -26,8 +26,9 @@ use crate::truth_annotators::Annotators;
 /// Tiers: `tier = "…"` reads that tier; without it the file must have exactly one
 /// time-aligned tier with annotations; `consensus = { … }` treats every such tier as one
 /// annotator and combines them (the consensus rule: marks chained within `tolerance`, one vote
-/// per tier, kept with ≥ `min_votes`). Dependent tiers of reference annotations carry no times
-/// and are skipped.
+/// per tier, kept with ≥ `min_votes`; each tier's own marks stay beside the consensus for
+/// `boundary_metrics`' TCPDBench F1 and covering). Dependent tiers of reference annotations
+/// carry no times and are skipped.
 ///
 /// Errors name the file, the line and the attribute: XML that does not parse, a root that is
 /// not `ANNOTATION_DOCUMENT`, `TIME_UNITS` other than milliseconds, a slot used but not

@@ -20,21 +20,39 @@ use motionlab_features::signal::is_local_max;
 /// Missing samples: `C[i]` is undefined when the root is missing at `i−L`, `i` or `i+L`; an
 /// undefined value is never a local maximum and never a neighbour of one. Nothing is
 /// interpolated (fill gaps first with `fill_gaps` to bridge them).
+///
+/// **Defaults, and the protocol that chose them**: the defaults of `lag` and `c_min` (their
+/// values are in the parameter list, from the one serde source) were chosen from the grid `c_min` ∈ {−0.5, −0.25, 0, 0.25, 0.5} × `lag` ∈ {0.125, 0.25, 0.5, 1}
+/// s (`min_leg_mm` stays the paper's T = 100); 4 of the 7 folds chose the same. Held out:
+/// pooled F1 0.07 against 0.13 for as many random frames — below chance: on these labels a
+/// turn of the root path is no sign of an action change. Earlier defaults: `lag` 0.125 s (the
+/// paper's 15 frames at 120 fps), `c_min` 0.
+///
+/// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
+/// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):
+/// leave-one-sequence-out over the seven labelled takes (CMU 86_01, 86_09; mocap6 13_29–13_31,
+/// 14_14, 14_20). Objective: pooled F1 (summed counts) of `boundary_pr` at a 0.5 s tolerance
+/// (sonoda_table1's, suited to these action-level labels). Rule: the grid combination with the
+/// best objective on the training takes, ties to the last in grid order. The default is that
+/// rule applied to all seven takes; the same rule applied in each fold to the other six and
+/// scored on the held-out take estimates how well it does on unseen takes (the held-out
+/// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DirectionChangeParams {
     /// Root marker or joint (add one to marker sets without it with `add_centroid`).
     #[serde(default = "default_root")]
     pub root: String,
-    /// The lag L (the default is the paper's 15 frames at 120 fps).
+    /// The lag L (the default is chosen by the protocol above; the paper's 15 frames are
+    /// 0.125 s at 120 fps, 0.5 s at 30 fps).
     #[serde(default = "default_lag")]
     pub lag: TimeSpan,
     /// The paper's T, mm: C is undefined when either leg is shorter.
     #[serde(default = "default_min_leg_mm")]
     pub min_leg_mm: f64,
     /// A local maximum of C counts when C ≥ this (dimensionless, −1 … 1; 0 = a turn of 90° or
-    /// sharper).
-    #[serde(default)]
+    /// sharper; the default is chosen by the protocol above).
+    #[serde(default = "default_c_min")]
     pub c_min: f64,
     /// Up axis to drop for the floor plane (`"x"`, `"y"`, `"z"`).
     #[serde(default)]
@@ -46,7 +64,10 @@ fn default_root() -> String {
     "root".into()
 }
 fn default_lag() -> TimeSpan {
-    TimeSpan::Seconds(0.125)
+    TimeSpan::Seconds(0.5)
+}
+fn default_c_min() -> f64 {
+    0.25
 }
 fn default_min_leg_mm() -> f64 {
     100.0
@@ -93,6 +114,12 @@ mod tests {
     use motionlab_core::registry::build_segmenter;
     use motionlab_testkit::named_motion;
 
+    /// The paper's lag (15 frames at 120 fps) and c_min = 0, which these hand-made cases are
+    /// built around.
+    fn paper() -> toml::Value {
+        toml::from_str("lag = { seconds = 0.125 }\nc_min = 0.0").unwrap()
+    }
+
     /// A root walking a square of side 1.5 m at 15 mm/frame (100 frames a side, 120 fps),
     /// starting mid-side so all four corners are interior, plus a marker that does not matter.
     fn square_walk() -> (Motion, Vec<usize>) {
@@ -118,14 +145,14 @@ mod tests {
     #[test]
     fn candidates_are_the_corners_of_a_square_walk() {
         let (m, corners) = square_walk();
-        let out = build_segmenter("direction_change", &toml::Value::Table(Default::default()))
+        let out = build_segmenter("direction_change", &paper())
             .unwrap()
             .segment(&m, &FeatureCache::new())
             .unwrap();
         assert_eq!(out.candidates, corners);
         assert_eq!(corners, vec![50, 150, 250, 350]);
         // 90° turns: C = 0 exactly at the corners, so c_min above 0 rejects them all.
-        let strict: toml::Value = toml::from_str("c_min = 0.01").unwrap();
+        let strict: toml::Value = toml::from_str("c_min = 0.01\nlag = { seconds = 0.125 }").unwrap();
         let out = build_segmenter("direction_change", &strict).unwrap().segment(&m, &FeatureCache::new()).unwrap();
         assert!(out.candidates.is_empty(), "{:?}", out.candidates);
     }
@@ -136,7 +163,7 @@ mod tests {
         let mut pos = m.positions().to_vec();
         pos[150 * 2] = [f64::NAN; 3]; // the root at the second corner
         let gappy = named_motion(m.n_frames(), 120.0, &["root", "head"], |i, k| pos[i * 2 + k]);
-        let out = build_segmenter("direction_change", &toml::Value::Table(Default::default()))
+        let out = build_segmenter("direction_change", &paper())
             .unwrap()
             .segment(&gappy, &FeatureCache::new())
             .unwrap();
@@ -156,8 +183,7 @@ mod tests {
     #[test]
     fn real_straight_walk_has_no_turn_and_gaps_leave_curvature_undefined() {
         let m = crate::test_data::walk1();
-        let empty = toml::Value::Table(Default::default());
-        let out = build_segmenter("direction_change", &empty).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let out = build_segmenter("direction_change", &paper()).unwrap().segment(&m, &FeatureCache::new()).unwrap();
         // A straight walk: C near −1 wherever defined, so no candidate.
         let c = &out.traces[0].values;
         assert!(c.iter().filter(|v| v.is_finite()).count() > 200);
@@ -165,7 +191,7 @@ mod tests {
         assert!(out.candidates.is_empty());
         // With a root that has gaps (Shoulder_R, missing at 304–319), C is undefined exactly
         // where i−L, i or i+L is missing (L = 8 frames at 60 Hz), besides slow stretches and ends.
-        let p: toml::Value = toml::from_str("root = \"Shoulder_R\"").unwrap();
+        let p: toml::Value = toml::from_str("root = \"Shoulder_R\"\nlag = { seconds = 0.125 }").unwrap();
         let out = build_segmenter("direction_change", &p).unwrap().segment(&m, &FeatureCache::new()).unwrap();
         let c = &out.traces[0].values;
         let k = m.point_index("Shoulder_R").unwrap();

@@ -12,6 +12,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
+use motionlab_eval::boundaries::TruthWindow;
+use motionlab_eval::chance::{ChanceCounts, ChanceScores, chance_counts, row_seed};
 use motionlab_experiment::workflow::ComboOutput;
 
 /// How a sweep chooses each method's operating point (`[segmentation] selection = …`).
@@ -37,11 +39,18 @@ pub struct Counts {
     pub n_truth: usize,
     pub n_found: usize,
     pub n_matched: usize,
+    /// Pairs only the pose rule allowed (0 without it).
+    pub n_matched_by_pose: usize,
 }
 
 impl Counts {
     fn add(self, o: Counts) -> Counts {
-        Counts { n_truth: self.n_truth + o.n_truth, n_found: self.n_found + o.n_found, n_matched: self.n_matched + o.n_matched }
+        Counts {
+            n_truth: self.n_truth + o.n_truth,
+            n_found: self.n_found + o.n_found,
+            n_matched: self.n_matched + o.n_matched,
+            n_matched_by_pose: self.n_matched_by_pose + o.n_matched_by_pose,
+        }
     }
     /// (precision, recall, F1) as the boundary_pr evaluator defines them: matched / found,
     /// matched / truth, 2·matched / (found + truth); NaN where the denominator is 0.
@@ -59,6 +68,40 @@ pub struct Point {
     pub parameters: String,
     /// (sequence, counts) for every sequence evaluated.
     pub per_sequence: Vec<(String, Counts)>,
+    /// (sequence, chance null model) of this combination (boundary_pr's `chance_windows`);
+    /// empty when the combination has no such table.
+    pub chance: Vec<(String, ChanceSetup)>,
+}
+
+/// The chance baseline's null model on one sequence: what `motionlab_eval::chance::chance_counts`
+/// needs besides the number of candidates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChanceSetup {
+    pub span: std::ops::Range<usize>,
+    pub windows: Vec<TruthWindow>,
+    pub draws: usize,
+    pub seed: u64,
+}
+
+/// The chance columns of a `heldout_f1` or `heldout_choices` row: the chance baseline of
+/// `method` at the (point, sequence) pairs `parts`, pooled — each part redrawn with
+/// boundary_pr's seed for that sequence and method and the point's own found count; none when a
+/// part has no null model.
+fn chance_at(method: &str, parts: &[(&Point, &str)]) -> ChanceScores {
+    let mut draws = Vec::new();
+    let mut counts = Counts::default();
+    for (p, seq) in parts {
+        let (Some((_, c)), Some((_, setup))) = (p.per_sequence.iter().find(|(s, _)| s == seq), p.chance.iter().find(|(s, _)| s == seq))
+        else {
+            return ChanceScores::none();
+        };
+        counts = counts.add(*c);
+        draws.push(chance_counts(c.n_found, &setup.windows, setup.span.clone(), setup.draws, row_seed(setup.seed, seq, method)));
+    }
+    if draws.is_empty() {
+        return ChanceScores::none();
+    }
+    ChanceScores::of(&ChanceCounts::pooled(&draws), counts.n_truth, counts.n_matched.saturating_sub(counts.n_matched_by_pose))
 }
 
 /// One method's curve over one sweep grid, in grid order.
@@ -86,6 +129,13 @@ pub struct Choice {
     pub precision: f64,
     pub recall: f64,
     pub f1: f64,
+    /// Chance (same found count, same sequence, boundary_pr's draws): expected P/R/F1.
+    pub chance_precision: f64,
+    pub chance_recall: f64,
+    pub chance_f1: f64,
+    /// One-sided Monte Carlo p-value that the held-out matches exceed chance.
+    pub p_value: f64,
+    pub above_chance: &'static str,
 }
 
 /// A row of `heldout_f1`.
@@ -93,13 +143,35 @@ pub struct Choice {
 pub struct Summary {
     pub method: String,
     pub sweep: String,
+    /// `oracle (chosen on the evaluation data)` or `held-out (…)`.
     pub selection: String,
+    /// The oracle row's combination (chosen on all sequences); `per fold: heldout_choices` on
+    /// held-out rows.
+    pub parameters: String,
+    /// How many of the `n_folds` folds chose the oracle row's combination (the same on both
+    /// rows of a method).
+    pub folds_choosing_it: usize,
+    pub n_folds: usize,
     pub n_truth: usize,
     pub n_found: usize,
     pub n_matched: usize,
     pub precision: f64,
     pub recall: f64,
     pub f1: f64,
+    /// `exact` or `monte_carlo`: how the chance expectation was computed.
+    pub chance_expectation: &'static str,
+    /// Chance: the same number of uniformly random distinct frames on each of the row's
+    /// sequences (and folds), boundary_pr's null model and draws, pooled.
+    pub chance_matched: f64,
+    pub chance_precision: f64,
+    pub chance_recall: f64,
+    pub chance_f1: f64,
+    /// Standard error of `chance_f1` (0 when exact).
+    pub chance_f1_se: f64,
+    /// One-sided Monte Carlo p-value that the row's pooled matches exceed chance.
+    pub p_value: f64,
+    /// `yes` when `p_value < 0.05`.
+    pub above_chance: &'static str,
 }
 
 pub const ORACLE: &str = "oracle (chosen on the evaluation data)";
@@ -115,46 +187,106 @@ fn pooled(p: &Point, sequences: &[String]) -> Counts {
 pub fn curves_from(combos: &[ComboOutput<'_>]) -> Vec<Curve> {
     let mut curves: Vec<Curve> = Vec::new();
     for co in combos {
-        let Some(t) = co.output.tables.iter().find(|t| ["sequence", "method", "n_truth", "n_found", "n_matched"].iter().all(|c| t.column(c).is_some()))
-        else {
-            continue;
-        };
-        let (Some(ColumnValues::Str(seq)), Some(ColumnValues::Str(meth))) = (t.column("sequence"), t.column("method")) else { continue };
-        let count = |c: &str| match t.column(c) {
-            Some(ColumnValues::I64(v)) => v.iter().map(|x| usize::try_from(*x).ok()).collect(),
-            _ => vec![None; t.n_rows()],
-        };
-        let (truth, found, matched) = (count("n_truth"), count("n_found"), count("n_matched"));
         let sweep = co.combo.sweep.clone().unwrap_or_default();
-        for i in 0..t.n_rows() {
-            let (Some(s), Some(m), Some(n_truth), Some(n_found), Some(n_matched)) = (&seq[i], &meth[i], truth[i], found[i], matched[i]) else {
-                continue;
-            };
-            if s == "pooled" || co.combo.focus.as_ref().is_some_and(|fm| fm != m) {
-                continue;
-            }
-            let ci = match curves.iter().position(|c| c.method == *m && c.sweep == sweep) {
-                Some(ci) => ci,
-                None => {
-                    curves.push(Curve { method: m.clone(), sweep: sweep.clone(), points: Vec::new() });
-                    curves.len() - 1
-                }
-            };
-            let points = &mut curves[ci].points;
-            let pi = match points.iter().position(|p| p.combination == co.combo.index) {
-                Some(pi) => pi,
-                None => {
-                    points.push(Point { combination: co.combo.index, parameters: co.combo.label(), per_sequence: Vec::new() });
-                    points.len() - 1
-                }
-            };
-            points[pi].per_sequence.push((s.clone(), Counts { n_truth, n_found, n_matched }));
-        }
+        add_points(&mut curves, co.combo.index, &sweep, co.combo.focus.as_deref(), &co.combo.label(), &co.output.tables);
     }
     for c in &mut curves {
         c.points.sort_by_key(|p| p.combination);
     }
     curves
+}
+
+/// Adds one combination's points (its tables) to the curves.
+fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: Option<&str>, label: &str, tables: &[Table]) {
+    {
+        let Some(t) = tables.iter().find(|t| ["sequence", "method", "n_truth", "n_found", "n_matched"].iter().all(|c| t.column(c).is_some()))
+        else {
+            return;
+        };
+        let (Some(ColumnValues::Str(seq)), Some(ColumnValues::Str(meth))) = (t.column("sequence"), t.column("method")) else { return };
+        let count = |c: &str| match t.column(c) {
+            Some(ColumnValues::I64(v)) => v.iter().map(|x| usize::try_from(*x).ok()).collect(),
+            _ => vec![None; t.n_rows()],
+        };
+        let (truth, found, matched) = (count("n_truth"), count("n_found"), count("n_matched"));
+        let by_pose = count("n_matched_by_pose");
+        let chance = tables.iter().find(|t| t.name == "chance_windows").map(chance_setups).unwrap_or_default();
+        for i in 0..t.n_rows() {
+            let (Some(s), Some(m), Some(n_truth), Some(n_found), Some(n_matched)) = (&seq[i], &meth[i], truth[i], found[i], matched[i]) else {
+                continue;
+            };
+            if s == "pooled" || focus.is_some_and(|fm| fm != m) {
+                continue;
+            }
+            let ci = match curves.iter().position(|c| c.method == *m && c.sweep == sweep) {
+                Some(ci) => ci,
+                None => {
+                    curves.push(Curve { method: m.clone(), sweep: sweep.to_string(), points: Vec::new() });
+                    curves.len() - 1
+                }
+            };
+            let points = &mut curves[ci].points;
+            let pi = match points.iter().position(|p| p.combination == combination) {
+                Some(pi) => pi,
+                None => {
+                    points.push(Point {
+                        combination,
+                        parameters: label.to_string(),
+                        per_sequence: Vec::new(),
+                        chance: chance.clone(),
+                    });
+                    points.len() - 1
+                }
+            };
+            let n_matched_by_pose = by_pose[i].unwrap_or(0);
+            points[pi].per_sequence.push((s.clone(), Counts { n_truth, n_found, n_matched, n_matched_by_pose }));
+        }
+    }
+}
+
+/// The per-sequence null models of boundary_pr's `chance_windows` table (rows without a
+/// window give the span of a sequence without truths); a sequence whose rows cannot be read is
+/// left out, so its rows get no chance columns rather than wrong ones.
+fn chance_setups(t: &Table) -> Vec<(String, ChanceSetup)> {
+    let nums = |c: &str| -> Vec<Option<f64>> {
+        match t.column(c) {
+            Some(ColumnValues::I64(v)) => v.iter().map(|&x| Some(x as f64)).collect(),
+            Some(ColumnValues::F64(v)) => v.iter().map(|&x| x.is_finite().then_some(x)).collect(),
+            _ => vec![None; t.n_rows()],
+        }
+    };
+    let Some(ColumnValues::Str(seq)) = t.column("sequence") else { return Vec::new() };
+    let seeds: Vec<Option<u64>> = match t.column("chance_seed") {
+        Some(ColumnValues::Str(v)) => v.iter().map(|x| x.as_deref().and_then(|x| x.parse().ok())).collect(),
+        Some(ColumnValues::I64(v)) => v.iter().map(|&x| u64::try_from(x).ok()).collect(),
+        _ => vec![None; t.n_rows()],
+    };
+    let (start, end, frame, lo, hi, draws) =
+        (nums("span_start"), nums("span_end"), nums("truth_frame"), nums("window_lo"), nums("window_hi"), nums("chance_draws"));
+    let mut out: Vec<(String, Option<ChanceSetup>)> = Vec::new();
+    for i in 0..t.n_rows() {
+        let Some(s) = &seq[i] else { continue };
+        let at = match out.iter().position(|(n, _)| n == s) {
+            Some(at) => at,
+            None => {
+                // Spans and draws are whole non-negative numbers written by boundary_pr.
+                let setup = match (start[i], end[i], draws[i], seeds[i]) {
+                    (Some(a), Some(b), Some(d), Some(seed)) if a >= 0.0 && b >= a && d >= 1.0 => {
+                        Some(ChanceSetup { span: a as usize..b as usize, windows: Vec::new(), draws: d as usize, seed })
+                    }
+                    _ => None,
+                };
+                out.push((s.clone(), setup));
+                out.len() - 1
+            }
+        };
+        match (&mut out[at].1, frame[i], lo[i], hi[i]) {
+            (Some(setup), Some(f), Some(lo), Some(hi)) if f >= 0.0 => setup.windows.push(TruthWindow { frame: f as usize, lo, hi }),
+            (_, None, None, None) => {}
+            (setup, ..) => *setup = None,
+        }
+    }
+    out.into_iter().filter_map(|(s, c)| c.map(|c| (s, c))).collect()
 }
 
 /// One fold: the sequences reported on (test) and those the combination is chosen on (train).
@@ -229,16 +361,26 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
     let mut choices = Vec::new();
     let mut summaries = Vec::new();
     for c in curves {
-        if let Some((k, _)) = best_on(c, &sequences) {
-            let counts = pooled(&c.points[k], &sequences);
-            summaries.push(summary(c, ORACLE, counts));
+        let oracle = best_on(c, &sequences).map(|(k, _)| k);
+        let fold_choices: Vec<Option<(usize, f64)>> = folds.iter().map(|(_, train)| best_on(c, train)).collect();
+        let n_folds = fold_choices.iter().flatten().count();
+        let agreeing = fold_choices.iter().flatten().filter(|(k, _)| Some(*k) == oracle).count();
+        if let Some(k) = oracle {
+            let p = &c.points[k];
+            let parts: Vec<(&Point, &str)> = sequences.iter().map(|s| (p, s.as_str())).collect();
+            let chance = chance_at(&c.method, &parts);
+            summaries.push(summary(c, ORACLE, p.parameters.clone(), (agreeing, n_folds), pooled(p, &sequences), chance));
         }
         let mut total = Counts::default();
-        for (test, train) in &folds {
-            let Some((k, train_f1)) = best_on(c, train) else { continue };
+        let mut parts: Vec<(&Point, &str)> = Vec::new();
+        for ((test, _), choice) in folds.iter().zip(&fold_choices) {
+            let Some((k, train_f1)) = *choice else { continue };
             let p = &c.points[k];
             let counts = pooled(p, test);
             total = total.add(counts);
+            let fold_parts: Vec<(&Point, &str)> = test.iter().map(|s| (p, s.as_str())).collect();
+            let chance = chance_at(&c.method, &fold_parts);
+            parts.extend(fold_parts);
             let (precision, recall, f1) = counts.ratios();
             choices.push(Choice {
                 held_out: test.join(", "),
@@ -253,25 +395,42 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
                 precision,
                 recall,
                 f1,
+                chance_precision: chance.precision,
+                chance_recall: chance.recall,
+                chance_f1: chance.f1,
+                p_value: chance.p_value,
+                above_chance: chance.above,
             });
         }
-        summaries.push(summary(c, &label, total));
+        let chance = chance_at(&c.method, &parts);
+        summaries.push(summary(c, &label, "per fold: heldout_choices".into(), (agreeing, n_folds), total, chance));
     }
     Ok((choices, summaries))
 }
 
-fn summary(c: &Curve, selection: &str, counts: Counts) -> Summary {
+fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, usize), counts: Counts, chance: ChanceScores) -> Summary {
     let (precision, recall, f1) = counts.ratios();
     Summary {
         method: c.method.clone(),
         sweep: c.sweep.clone(),
         selection: selection.into(),
+        parameters,
+        folds_choosing_it: agreement.0,
+        n_folds: agreement.1,
         n_truth: counts.n_truth,
         n_found: counts.n_found,
         n_matched: counts.n_matched,
         precision,
         recall,
         f1,
+        chance_expectation: chance.expectation,
+        chance_matched: chance.matched,
+        chance_precision: chance.precision,
+        chance_recall: chance.recall,
+        chance_f1: chance.f1,
+        chance_f1_se: chance.f1_se,
+        p_value: chance.p_value,
+        above_chance: chance.above,
     }
 }
 
@@ -287,12 +446,12 @@ pub fn heldout_tables(combos: &[ComboOutput<'_>], methods: &[String], selection:
     Ok(vec![
         Table::from_records(
             "heldout_f1",
-            "Each method's pooled precision, recall and F1 at the oracle operating point (chosen on the evaluation data) and at held-out ones (chosen on other sequences)",
+            "Each method's pooled precision, recall and F1 at the oracle operating point (chosen on the evaluation data) and at held-out ones (chosen on other sequences), each beside the chance baseline of its own found counts",
             &summaries,
         )?,
         Table::from_records(
             "heldout_choices",
-            "The combination each fold chose on its training sequences (best pooled F1, last in grid order on ties) and its counts on the held-out sequence(s)",
+            "The combination each fold chose on its training sequences (best pooled F1, last in grid order on ties), its counts on the held-out sequence(s) and their chance baseline",
             &choices,
         )?,
     ])
@@ -303,7 +462,7 @@ mod tests {
     use super::*;
 
     fn c(n_truth: usize, n_found: usize, n_matched: usize) -> Counts {
-        Counts { n_truth, n_found, n_matched }
+        Counts { n_truth, n_found, n_matched, n_matched_by_pose: 0 }
     }
 
     /// Two sequences A, B; two thresholds. Combination 0 is great on A only, combination 1 is
@@ -321,8 +480,18 @@ mod tests {
             method: "speed".into(),
             sweep: "speed v_low".into(),
             points: vec![
-                Point { combination: 0, parameters: "v=0.1".into(), per_sequence: vec![("A".into(), c(10, 10, 10)), ("B".into(), c(10, 10, 0))] },
-                Point { combination: 1, parameters: "v=0.2".into(), per_sequence: vec![("A".into(), c(10, 10, 6)), ("B".into(), c(10, 10, 6))] },
+                Point {
+                    combination: 0,
+                    parameters: "v=0.1".into(),
+                    per_sequence: vec![("A".into(), c(10, 10, 10)), ("B".into(), c(10, 10, 0))],
+                    chance: Vec::new(),
+                },
+                Point {
+                    combination: 1,
+                    parameters: "v=0.2".into(),
+                    per_sequence: vec![("A".into(), c(10, 10, 6)), ("B".into(), c(10, 10, 6))],
+                    chance: Vec::new(),
+                },
             ],
         }
     }
@@ -385,5 +554,70 @@ mod tests {
         let s: S = toml::from_str("selection = { train = [\"86_01\"] }").unwrap();
         assert_eq!(s.selection, Selection::Train(vec!["86_01".into()]));
         assert!(toml::from_str::<S>("selection = \"best\"").is_err());
+    }
+
+    /// The held-out rows' chance columns redraw boundary_pr's own: each fold's equal the
+    /// `table1_precision_recall` row of the chosen combination and held-out sequence, and a
+    /// row pooled over every sequence at one combination equals its `pooled` row.
+    #[test]
+    fn chance_columns_are_boundary_prs_own_draws() {
+        use motionlab_core::{EvalInput, FrameRate, MethodResult, Segment, Segmentation, SequenceResult};
+        fn seq(name: &str, cuts: &[usize], found: &[usize]) -> SequenceResult {
+            let mut motion = motionlab_testkit::motion_from_fn(400, 100.0, 1, |_, _| [0.0; 3]);
+            motion.name = name.into();
+            let mut bounds = vec![0];
+            bounds.extend_from_slice(cuts);
+            bounds.push(400);
+            let segments = bounds.windows(2).map(|w| Segment { start: w[0], end: w[1], label: "x".into() }).collect();
+            SequenceResult {
+                sequence: name.into(),
+                motion: std::sync::Arc::new(motion),
+                truth: Some(Segmentation::from_segments(FrameRate::new(100.0).unwrap(), segments).unwrap()),
+                methods: vec![MethodResult { method: "speed".into(), candidates: found.to_vec() }],
+            }
+        }
+        let v: toml::Value = toml::from_str("tolerance = { frames = 4 }\nchance_draws = 500").unwrap();
+        let pr = motionlab_core::registry::build_evaluator("boundary_pr", &v).unwrap();
+        // Two combinations: the first finds the truths of A only, the second a bit of both.
+        let combos = [
+            vec![seq("A", &[100, 250], &[101, 249]), seq("B", &[80, 300], &[10, 200, 390])],
+            vec![seq("A", &[100, 250], &[103, 180, 330]), seq("B", &[80, 300], &[82, 302])],
+        ];
+        let mut curves = Vec::new();
+        let mut tables = Vec::new();
+        for (i, seqs) in combos.iter().enumerate() {
+            let t = pr.evaluate(EvalInput::Segmentation(seqs)).unwrap();
+            add_points(&mut curves, i, "grid", Some("speed"), &format!("c={i}"), &t);
+            tables.push(t);
+        }
+        assert_eq!(curves[0].points[0].chance.len(), 2);
+        assert_eq!(curves[0].points[0].chance[0].1.windows.len(), 2);
+        let (choices, summaries) = heldout(&curves, &Selection::LeaveOneSequenceOut).unwrap();
+        let row = |t: &Table, r: usize, c: &str| t.column(c).unwrap().cell(r).parse::<f64>().unwrap();
+        let seq_row = |t: &Table, s: &str| (0..t.n_rows()).find(|&r| t.column("sequence").unwrap().cell(r) == s).unwrap();
+        for ch in &choices {
+            let t = &tables[ch.combination][0];
+            let r = seq_row(t, &ch.held_out);
+            assert_eq!(ch.chance_f1, row(t, r, "chance_f1"), "fold {}", ch.held_out);
+            assert_eq!(ch.chance_precision, row(t, r, "chance_precision"));
+            assert_eq!(ch.p_value, row(t, r, "p_value"));
+        }
+        // The oracle row is one combination over all sequences: boundary_pr's pooled row.
+        let oracle = &summaries[0];
+        assert_eq!(oracle.selection, ORACLE);
+        let k: usize = oracle.parameters.trim_start_matches("c=").parse().unwrap();
+        let t = &tables[k][0];
+        let r = seq_row(t, "pooled");
+        assert_eq!((oracle.chance_f1, oracle.p_value, oracle.chance_recall), (row(t, r, "chance_f1"), row(t, r, "p_value"), row(t, r, "chance_recall")));
+        // By hand: A's truths 100 and 250 with tolerance 4 are windows of 9 frames in 0..400; 2
+        // random frames hit a given window with probability 1 − (391·390)/(400·399).
+        let a = seq_row(&tables[0][0], "A");
+        let e = 2.0 * (1.0 - 391.0 * 390.0 / (400.0 * 399.0));
+        assert!((row(&tables[0][0], a, "chance_matched") - e).abs() < 1e-12);
+        let held = &summaries[1];
+        assert_eq!((held.n_folds, oracle.n_folds), (2, 2));
+        // Combination 1 (the oracle's) was chosen when A was held out, not when B was.
+        assert_eq!((held.folds_choosing_it, oracle.folds_choosing_it), (1, 1));
+        assert!(held.chance_f1 > 0.0 && held.chance_f1 < held.f1 && held.p_value > 0.0 && held.p_value <= 1.0);
     }
 }

@@ -106,6 +106,7 @@ pub fn track_segmentation(
         frame_rate: rate,
         boundaries: boundaries.into_iter().map(|frame| Boundary { frame, window: None }).collect(),
         segments,
+        annotators: Vec::new(),
     })
 }
 
