@@ -25,8 +25,9 @@ use motionlab_features::signal::is_local_max;
 /// values are in the parameter list, from the one serde source) were chosen from the grid `c_min` ∈ {−0.5, −0.25, 0, 0.25, 0.5} × `lag` ∈ {0.125, 0.25, 0.5, 1}
 /// s (`min_leg_mm` stays the paper's T = 100); 4 of the 7 folds chose the same. Held out:
 /// pooled F1 0.07 against 0.13 for as many random frames — below chance: on these labels a
-/// turn of the root path is no sign of an action change. Earlier defaults: `lag` 0.125 s (the
-/// paper's 15 frames at 120 fps), `c_min` 0.
+/// turn of the root path is no sign of an action change. Table 1's values, which the
+/// paper-reproduction experiments pin: `lag` 0.125 s (the paper's 15 frames at 120 fps),
+/// `c_min` 0.
 ///
 /// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
 /// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):

@@ -92,8 +92,8 @@ pub fn track_fastest_marker(speeds: &MarkerSpeeds, v_high: f64, v_low: f64) -> T
 /// from the grid
 /// `v_low` ∈ {0.1, 0.2, 0.3, 0.4, 0.45} × `v_high` ∈ {0.5, 0.75, 1.0} (fractions of p90) ×
 /// `smoothing` ∈ {0, 0.1, 0.2} s; 6 of the 7 folds chose the same. Held out: pooled F1 0.22
-/// against 0.18 for as many random frames (p ≈ 0.08, not above chance at α = 0.05). Earlier
-/// defaults (Table 1's values): `v_low` 0.15, no smoothing.
+/// against 0.18 for as many random frames (p ≈ 0.08, not above chance at α = 0.05). Table 1's
+/// values, which the paper-reproduction experiments pin: `v_low` 0.15, no smoothing.
 ///
 /// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
 /// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):

@@ -37,7 +37,7 @@ pub fn volume_change_candidates(d: &[f64], t: f64) -> Vec<usize> {
 /// **Default, and the protocol that chose it**: the default of `t` (its value is in the
 /// parameter list, from the one serde source) was chosen from the grid `t` ∈ {0.25, 0.5, 0.75, 1, 1.5, 2} (fractions of p90); 5 of the 7 folds chose the
 /// same. Held out: pooled F1 0.12 against 0.17 for as many random frames — below chance on
-/// these labels. Earlier default (Table 1's value): 1.0.
+/// these labels. Table 1's value, which the paper-reproduction experiments pin: 1.0.
 ///
 /// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
 /// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):

@@ -28,8 +28,9 @@ use crate::thresholds::SpeedThreshold;
 /// (their values are in the parameter list, from the one serde source) were chosen from the
 /// grid `v_low` ∈ {0.05, 0.1, 0.15, 0.2, 0.3}
 /// (fractions of p90) × `smoothing` ∈ {0, 0.1, 0.2} s; all 7 folds chose the same. Held out:
-/// pooled F1 0.11 against 0.12 for as many random frames — not above chance. Earlier defaults
-/// (Table 1's values, those of `fastest_marker_speed` then): `v_low` 0.15, no smoothing.
+/// pooled F1 0.11 against 0.12 for as many random frames — not above chance. Table 1's
+/// values (those of `fastest_marker_speed`), which the paper-reproduction experiments pin:
+/// `v_low` 0.15, no smoothing.
 ///
 /// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
 /// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):

@@ -91,8 +91,8 @@ fn representative(group: &[usize], rep: Representative) -> usize {
 /// `merge_mm` ∈ {0, 50, 100, 200, 400, 800} with the three inputs (`fastest_marker_speed`,
 /// `direction_change`, `hull_volume_change`) at their own defaults; 4 of the 7 folds chose the
 /// same. Held out: pooled F1 0.19 against 0.18 for as many random frames (p ≈ 0.44, not above
-/// chance). Earlier default (Table 1's value): 100 mm, the paper's T of §2.2, the distance
-/// below which it considers the root "hardly moving".
+/// chance). Table 1's value, which the paper-reproduction experiments pin: 100 mm,
+/// the paper's T of §2.2, the distance below which it considers the root "hardly moving".
 ///
 /// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
 /// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):
