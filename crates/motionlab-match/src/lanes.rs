@@ -361,6 +361,55 @@ fn backward_block<V: Vector, const STEPS: bool>(model: &[Frame8], target: &[Fram
     }
 }
 
+/// The cost of matching the whole model to the single target frame `j`, for every `j`, per
+/// lane: `c[j] = d(0, j) + (d(1, j) + (… + (0 + d(n−1, j))))`, the model's frames taken from
+/// the last, as [`backward_block`] accumulates its last column. So `c[b]` is bit for bit the
+/// backward pass's cost of the start `a = b` when anchored at `b` (the path down column `b`).
+#[inline(always)]
+fn column_block<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    let Some((s_last, rows)) = model.split_last() else { return };
+    let s = model_frame::<V>(s_last);
+    for (cj, t) in c.iter_mut().zip(target) {
+        V::zero().add(distance(s, t)).store(&mut cj.0);
+    }
+    for si in rows.iter().rev() {
+        let s = model_frame::<V>(si);
+        for (cj, t) in c.iter_mut().zip(target) {
+            distance(s, t).add(V::load(&cj.0)).store(&mut cj.0);
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn column_avx512(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    column_block::<avx512::Zmm>(model, target, c)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn column_avx2(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    column_block::<Portable>(model, target, c)
+}
+
+/// [`column_block`] at the given level: `c` is resized to `target.len()` and holds, per lane,
+/// the cost of matching every model frame to target frame `j` (empty model: `c` left empty).
+pub(crate) fn column(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
+    c.clear();
+    if model.is_empty() {
+        return;
+    }
+    c.resize(target.len(), Cell8::default());
+    match level {
+        // SAFETY: `level` comes from `crate::simd::level`, which detected the feature.
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { column_avx512(model, target, c) },
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx2 => unsafe { column_avx2(model, target, c) },
+        _ => column_block::<Portable>(model, target, c),
+    }
+}
+
 #[cfg(all(test, target_arch = "x86_64"))]
 #[target_feature(enable = "avx512f")]
 unsafe fn sqrt_avx512(x: &Lanes) -> Lanes {
