@@ -10,7 +10,8 @@
 //! how many windows each mode matched.
 //!
 //! `cargo run --release -p motionlab-match --example retrieval_timing -- MODEL.amc.gz FIRST LAST
-//! --export DIR --repeats R --window 250 --stride 31 --k 5 TAKE.amc.gz…`
+//! --export DIR --repeats R --window 250 --stride 31 --k 5 [--k-dissimilar K] TAKE.amc.gz…`
+//! (`--k` sets both lists' length, `--k-dissimilar` the dissimilar list's alone.)
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -97,7 +98,7 @@ fn listed(r: &Retrieval) -> (Vec<Listed>, Vec<Listed>) {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut positional = Vec::new();
-    let (mut export_dir, mut repeats, mut window, mut stride, mut k) = (None, 3usize, 250usize, 31usize, 5usize);
+    let (mut export_dir, mut repeats, mut window, mut stride, mut k, mut kd) = (None, 3usize, 250usize, 31usize, 5usize, None);
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().cloned().unwrap_or_else(|| fail(format!("{a} needs a value")));
@@ -108,6 +109,7 @@ fn main() {
             "--window" => window = number(value()),
             "--stride" => stride = number(value()),
             "--k" => k = number(value()),
+            "--k-dissimilar" => kd = Some(number(value())),
             _ => positional.push(a.clone()),
         }
     }
@@ -131,7 +133,7 @@ fn main() {
         });
         std::fs::write(dir.join("meta.json"), meta.to_string()).unwrap_or_else(|e| fail(e.to_string()));
     }
-    let settings = |pruning| RetrievalSettings { k_similar: k, k_dissimilar: k, window_frames: window, stride_frames: stride, pruning };
+    let settings = |pruning| RetrievalSettings { k_similar: k, k_dissimilar: kd.unwrap_or(k), window_frames: window, stride_frames: stride, pruning };
     let time = |pruning: bool| {
         let mut times = Vec::new();
         let mut last = None;
