@@ -392,6 +392,59 @@ unsafe fn column_avx2(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
     column_block::<Portable>(model, target, c)
 }
 
+/// The cost of the lockstep path ending at target frame `b` — model frame `i` matched to
+/// target frame `b − (n − 1 − i)` — for every `b ≥ n − 1`, per lane, added as the backward pass
+/// adds along that path: `c[b] = d(0, b−n+1) + (d(1, b−n+2) + (… + (0 + d(n−1, b))))`. So the
+/// backward pass anchored at `b` computes a cost `≤ c[b]` for the start `b − n + 1` (its cells
+/// are minima over paths of these sums, and the float addition of non-negative numbers is
+/// monotone). `c[b]` for `b < n − 1` (no such path) is left `+∞`.
+#[inline(always)]
+fn diagonal_block<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    let n = model.len();
+    for (b, cb) in c.iter_mut().enumerate() {
+        if b + 1 < n {
+            *cb = Cell8([f64::INFINITY; LANES]);
+            continue;
+        }
+        let start = b + 1 - n;
+        let mut acc = V::zero();
+        for (si, t) in model.iter().zip(&target[start..=b]).rev() {
+            acc = distance(model_frame::<V>(si), t).add(acc);
+        }
+        acc.store(&mut cb.0);
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn diagonal_avx512(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    diagonal_block::<avx512::Zmm>(model, target, c)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn diagonal_avx2(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    diagonal_block::<Portable>(model, target, c)
+}
+
+/// [`diagonal_block`] at the given level: `c` is resized to `target.len()` (empty model: `c`
+/// left empty).
+pub(crate) fn diagonal(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
+    c.clear();
+    if model.is_empty() {
+        return;
+    }
+    c.resize(target.len(), Cell8::default());
+    match level {
+        // SAFETY: `level` comes from `crate::simd::level`, which detected the feature.
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { diagonal_avx512(model, target, c) },
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx2 => unsafe { diagonal_avx2(model, target, c) },
+        _ => diagonal_block::<Portable>(model, target, c),
+    }
+}
+
 /// [`column_block`] at the given level: `c` is resized to `target.len()` and holds, per lane,
 /// the cost of matching every model frame to target frame `j` (empty model: `c` left empty).
 pub(crate) fn column(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {

@@ -43,14 +43,19 @@
 //!   `1 ± γ_L`; the bound used is therefore `min G* · (1 − 4(N + L + 2)·u)`, below
 //!   `(1−γ_N)(1−γ_L)/((1+γ_N)(1+γ_L)) · min G*` by a margin that also covers the product's own
 //!   rounding ([`lower_bound_factor`]).
-//! - **Upper bound (dissimilar list).** The stretch `[b, b]` (every model frame matched to frame
-//!   `b`, the path down column `b`) is one of the starts the two-stage match compares, so
-//!   `H = Σ_l C_l(a, b) ≤ Σ_l C_l(b, b) = U(b) ≤ max_{j ∈ window} U(j)`. `U(j)` is computed by
-//!   the backward pass's own additions in its own order ([`crate::lanes`]), so `U(b)` is bit
-//!   for bit the summed backward cost of the start `b`, of which the computed `H` is the
-//!   minimum: the bound holds exactly in floating point, with no margin.
+//! - **Upper bound (dissimilar list).** `H` is the least summed cost over the starts the
+//!   two-stage match compares at its end `b`, and each start's cost is at most that of any one
+//!   path. Two paths ending at `b`: down column `b` (every model frame matched to frame `b`,
+//!   start `b`), summed over markers `U(b)`; and the lockstep path (model frame `i` to frame
+//!   `b − n + 1 + i`, start `b − n + 1`, when that is inside the window), `D(b)`. So
+//!   `H ≤ min(U(b), D(b)) ≤ max_{j ∈ window} min(U(j), D(j))` (`D` left out where its start
+//!   falls before the window). `U` and `D` are added by the backward pass's own additions in
+//!   its own order ([`crate::lanes`]), and the computed DP cells are minima over paths of such
+//!   sums (float addition of non-negative numbers is monotone): the bound holds exactly in
+//!   floating point, with no margin.
 //!
-//! The bounds cost one pass over each take (`n·m·L` cells for `G*`, as many distances for `U`),
+//! The bounds cost one pass over each take (`n·m·L` cells for `G*`, twice as many distances for
+//! `U` and `D`),
 //! against `≈ 2·W/stride` passes for matching every window. Matching in the lazy phase runs a
 //! fixed batch of [`BATCH`] queue entries at a time in parallel (an entry matched early only
 //! makes its key exact sooner; the selection does not change), and the bound passes run in
@@ -234,14 +239,14 @@ impl Prepared {
         Ok(Matched { start: c.window_start + a.start, end: c.window_start + a.end, total_distance: a.total_distance })
     }
 
-    /// `U(j)` for every frame of take `k` (module docs: the summed backward cost of start `j`
-    /// when anchored at `j`, markers added in order).
-    fn column_costs(&self, k: usize) -> Vec<f64> {
+    /// `U(j)` (with `pass = lanes::column`) or `D(j)` (`lanes::diagonal`) for every frame of
+    /// take `k`, markers added in order as the two-stage match adds its start costs.
+    fn path_costs(&self, k: usize, pass: fn(Level, &[lanes::Frame8], &[lanes::Frame8], &mut Vec<Cell8>)) -> Vec<f64> {
         let t = &self.takes[k];
         let mut u = vec![0.0; t.frames()];
         let mut cells: Vec<Cell8> = Vec::new();
         for b in 0..self.model.block_count() {
-            lanes::column(self.level, self.model.block(b), t.block(b), &mut cells);
+            pass(self.level, self.model.block(b), t.block(b), &mut cells);
             for (acc, c) in u.iter_mut().zip(&cells) {
                 for v in &c.0[..self.model.used(b)] {
                     *acc += v;
@@ -254,20 +259,27 @@ impl Prepared {
     /// Fills the bounds of every candidate (parallel over takes).
     fn bound(&mut self, lower: bool, upper: bool) {
         let factor = lower_bound_factor(self.model.frames() + self.candidates.iter().map(|c| c.window_end - c.window_start).max().unwrap_or(0), self.model.markers());
-        let per_take: Vec<(Option<Vec<f64>>, Option<Vec<f64>>)> = (0..self.takes.len())
+        type PathCosts = (Vec<f64>, Vec<f64>);
+        let per_take: Vec<(Option<Vec<f64>>, Option<PathCosts>)> = (0..self.takes.len())
             .into_par_iter()
             .map(|k| {
                 let t = &self.takes[k];
                 let g = lower.then(|| summed_end_costs(self.level, &self.model, t, 0..t.frames(), &mut Vec::new()));
-                let u = upper.then(|| self.column_costs(k));
+                let u = upper.then(|| (self.path_costs(k, lanes::column), self.path_costs(k, lanes::diagonal)));
                 (g, u)
             })
             .collect();
+        let n = self.model.frames();
         for c in &mut self.candidates {
             let (g, u) = &per_take[c.take];
             let span = c.window_start..c.window_end;
             c.lower_bound = g.as_ref().map(|g| g[span.clone()].iter().copied().fold(f64::INFINITY, f64::min) * factor);
-            c.upper_bound = u.as_ref().map(|u| u[span].iter().copied().fold(f64::NEG_INFINITY, f64::max));
+            // The lockstep path ending at b starts at b − n + 1: inside the window or not a path.
+            c.upper_bound = u.as_ref().map(|(column, diagonal)| {
+                span.clone()
+                    .map(|b| if b + 1 >= c.window_start + n { column[b].min(diagonal[b]) } else { column[b] })
+                    .fold(f64::NEG_INFINITY, f64::max)
+            });
         }
     }
 
