@@ -491,11 +491,7 @@ fn candidates_figure(r: &ItemResult) -> Figure {
     Figure::chart(
         "retrieval_candidates",
         Chart {
-            title: format!(
-                "Every window of the corpus against the model: bounds, H where matched ({} of {}), the most similar and dissimilar stretches by rank",
-                r.matched_candidates,
-                r.candidates.len()
-            ),
+            title: format!("Corpus windows against the model: bounds on H, H where matched ({} of {}), the listed stretches", r.matched_candidates, r.candidates.len()),
             x_label: "time in the corpus, takes end to end (s)".into(),
             y_label: "H, distance summed over markers and path (mm)".into(),
             lines,
