@@ -454,7 +454,10 @@ mod tests {
         RetrievalSettings { k_similar: k, k_dissimilar: k, window_frames: window, stride_frames: stride, pruning }
     }
 
-    fn summary(r: &Retrieval) -> (Vec<(usize, usize, usize, f64)>, Vec<(usize, usize, usize, f64)>) {
+    /// (take, a, b, H) of each listed stretch.
+    type Listed = Vec<(usize, usize, usize, f64)>;
+
+    fn summary(r: &Retrieval) -> (Listed, Listed) {
         let s = |h: &[Hit]| h.iter().map(|x| (x.take, x.window_start + x.alignment.start, x.window_start + x.alignment.end, x.alignment.total_distance)).collect();
         (s(&r.similar), s(&r.dissimilar))
     }
