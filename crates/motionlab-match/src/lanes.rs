@@ -380,18 +380,6 @@ fn column_block<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8])
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn column_avx512(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
-    column_block::<avx512::Zmm>(model, target, c)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn column_avx2(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
-    column_block::<Portable>(model, target, c)
-}
-
 /// The cost of the lockstep path ending at target frame `b` — model frame `i` matched to
 /// target frame `b − (n − 1 − i)` — for every `b ≥ n − 1`, per lane, added as the backward pass
 /// adds along that path: `c[b] = d(0, b−n+1) + (d(1, b−n+2) + (… + (0 + d(n−1, b))))`. So the
@@ -415,21 +403,46 @@ fn diagonal_block<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8
     }
 }
 
+/// A pass over one block that sums the cost of one fixed path per target frame (the bounds of
+/// [`crate::retrieval`]), generic over the lane arithmetic so one dispatch serves each.
+trait PathPass {
+    fn run<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]);
+}
+
+/// [`column_block`].
+struct Column;
+/// [`diagonal_block`].
+struct Diagonal;
+
+impl PathPass for Column {
+    #[inline(always)]
+    fn run<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+        column_block::<V>(model, target, c)
+    }
+}
+
+impl PathPass for Diagonal {
+    #[inline(always)]
+    fn run<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+        diagonal_block::<V>(model, target, c)
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn diagonal_avx512(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
-    diagonal_block::<avx512::Zmm>(model, target, c)
+unsafe fn path_pass_avx512<P: PathPass>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    P::run::<avx512::Zmm>(model, target, c)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn diagonal_avx2(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
-    diagonal_block::<Portable>(model, target, c)
+unsafe fn path_pass_avx2<P: PathPass>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    P::run::<Portable>(model, target, c)
 }
 
-/// [`diagonal_block`] at the given level: `c` is resized to `target.len()` (empty model: `c`
-/// left empty).
-pub(crate) fn diagonal(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
+/// A [`PathPass`] at the given level: `c` is resized to `target.len()` (empty model: `c` left
+/// empty).
+fn path_pass<P: PathPass>(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
     c.clear();
     if model.is_empty() {
         return;
@@ -438,29 +451,21 @@ pub(crate) fn diagonal(level: Level, model: &[Frame8], target: &[Frame8], c: &mu
     match level {
         // SAFETY: `level` comes from `crate::simd::level`, which detected the feature.
         #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { diagonal_avx512(model, target, c) },
+        Level::Avx512 => unsafe { path_pass_avx512::<P>(model, target, c) },
         #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { diagonal_avx2(model, target, c) },
-        _ => diagonal_block::<Portable>(model, target, c),
+        Level::Avx2 => unsafe { path_pass_avx2::<P>(model, target, c) },
+        _ => P::run::<Portable>(model, target, c),
     }
 }
 
-/// [`column_block`] at the given level: `c` is resized to `target.len()` and holds, per lane,
-/// the cost of matching every model frame to target frame `j` (empty model: `c` left empty).
+/// [`column_block`] at the given level, per lane, into `c` (resized to `target.len()`).
 pub(crate) fn column(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
-    c.clear();
-    if model.is_empty() {
-        return;
-    }
-    c.resize(target.len(), Cell8::default());
-    match level {
-        // SAFETY: `level` comes from `crate::simd::level`, which detected the feature.
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { column_avx512(model, target, c) },
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { column_avx2(model, target, c) },
-        _ => column_block::<Portable>(model, target, c),
-    }
+    path_pass::<Column>(level, model, target, c)
+}
+
+/// [`diagonal_block`] at the given level, per lane, into `c` (resized to `target.len()`).
+pub(crate) fn diagonal(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
+    path_pass::<Diagonal>(level, model, target, c)
 }
 
 #[cfg(all(test, target_arch = "x86_64"))]
