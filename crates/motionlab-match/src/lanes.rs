@@ -361,6 +361,113 @@ fn backward_block<V: Vector, const STEPS: bool>(model: &[Frame8], target: &[Fram
     }
 }
 
+/// The cost of matching the whole model to the single target frame `j`, for every `j`, per
+/// lane: `c[j] = d(0, j) + (d(1, j) + (… + (0 + d(n−1, j))))`, the model's frames taken from
+/// the last, as [`backward_block`] accumulates its last column. So `c[b]` is bit for bit the
+/// backward pass's cost of the start `a = b` when anchored at `b` (the path down column `b`).
+#[inline(always)]
+fn column_block<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    let Some((s_last, rows)) = model.split_last() else { return };
+    let s = model_frame::<V>(s_last);
+    for (cj, t) in c.iter_mut().zip(target) {
+        V::zero().add(distance(s, t)).store(&mut cj.0);
+    }
+    for si in rows.iter().rev() {
+        let s = model_frame::<V>(si);
+        for (cj, t) in c.iter_mut().zip(target) {
+            distance(s, t).add(V::load(&cj.0)).store(&mut cj.0);
+        }
+    }
+}
+
+/// The cost of the lockstep path ending at target frame `b` — model frame `i` matched to
+/// target frame `b − (n − 1 − i)` — for every `b ≥ n − 1`, per lane, added as the backward pass
+/// adds along that path: `c[b] = d(0, b−n+1) + (d(1, b−n+2) + (… + (0 + d(n−1, b))))`. So the
+/// backward pass anchored at `b` computes a cost `≤ c[b]` for the start `b − n + 1` (its cells
+/// are minima over paths of these sums, and the float addition of non-negative numbers is
+/// monotone). `c[b]` for `b < n − 1` (no such path) is left `+∞`.
+#[inline(always)]
+fn diagonal_block<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    let n = model.len();
+    for (b, cb) in c.iter_mut().enumerate() {
+        if b + 1 < n {
+            *cb = Cell8([f64::INFINITY; LANES]);
+            continue;
+        }
+        let start = b + 1 - n;
+        let mut acc = V::zero();
+        for (si, t) in model.iter().zip(&target[start..=b]).rev() {
+            acc = distance(model_frame::<V>(si), t).add(acc);
+        }
+        acc.store(&mut cb.0);
+    }
+}
+
+/// A pass over one block that sums the cost of one fixed path per target frame (the bounds of
+/// [`crate::retrieval`]), generic over the lane arithmetic so one dispatch serves each.
+trait PathPass {
+    fn run<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]);
+}
+
+/// [`column_block`].
+struct Column;
+/// [`diagonal_block`].
+struct Diagonal;
+
+impl PathPass for Column {
+    #[inline(always)]
+    fn run<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+        column_block::<V>(model, target, c)
+    }
+}
+
+impl PathPass for Diagonal {
+    #[inline(always)]
+    fn run<V: Vector>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+        diagonal_block::<V>(model, target, c)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn path_pass_avx512<P: PathPass>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    P::run::<avx512::Zmm>(model, target, c)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn path_pass_avx2<P: PathPass>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8]) {
+    P::run::<Portable>(model, target, c)
+}
+
+/// A [`PathPass`] at the given level: `c` is resized to `target.len()` (empty model: `c` left
+/// empty).
+fn path_pass<P: PathPass>(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
+    c.clear();
+    if model.is_empty() {
+        return;
+    }
+    c.resize(target.len(), Cell8::default());
+    match level {
+        // SAFETY: `level` comes from `crate::simd::level`, which detected the feature.
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { path_pass_avx512::<P>(model, target, c) },
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx2 => unsafe { path_pass_avx2::<P>(model, target, c) },
+        _ => P::run::<Portable>(model, target, c),
+    }
+}
+
+/// [`column_block`] at the given level, per lane, into `c` (resized to `target.len()`).
+pub(crate) fn column(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
+    path_pass::<Column>(level, model, target, c)
+}
+
+/// [`diagonal_block`] at the given level, per lane, into `c` (resized to `target.len()`).
+pub(crate) fn diagonal(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>) {
+    path_pass::<Diagonal>(level, model, target, c)
+}
+
 #[cfg(all(test, target_arch = "x86_64"))]
 #[target_feature(enable = "avx512f")]
 unsafe fn sqrt_avx512(x: &Lanes) -> Lanes {

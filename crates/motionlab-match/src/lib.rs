@@ -16,6 +16,10 @@
 //! | `u_l(i)` from the paths, `r_q`, `R` | `synchronisation` | synchroniser | [`sync`] |
 //! | `H'`, `R'`, score, rank; `h'_l`, `r'_q` | `judgement` | evaluator | [`judgement`] |
 //!
+//! Across a corpus, [`retrieval`] finds the `k` most similar and most dissimilar stretches of
+//! many takes to one model with the same two-stage match, pruned by bounds that provably never
+//! drop a true result (the `[retrieval]` workflow of `motionlab-workflows`).
+//!
 //! The DP kernels are in [`dp`]: the paper's forward subsequence pass (free start, free end),
 //! its backward pass anchored at the common end, a full DTW with path (also used by
 //! `motionlab-gait` on joint-angle curves through [`dp::dtw_full`] / [`dp::dtw_full_1d`]), all
@@ -62,6 +66,7 @@ pub mod judgement;
 pub mod lanes;
 pub mod multistream;
 pub mod peaks;
+pub mod retrieval;
 pub mod simd;
 pub mod subsequence;
 pub mod sync;

@@ -1,5 +1,7 @@
 //! Matcher `multistream_two_stage`: the two-stage DP over every marker (Yabe & Tanaka §3.1.3).
 
+use std::ops::Range;
+
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -88,7 +90,7 @@ pub struct TwoStageMatch {
 }
 
 /// Checks the per-marker trajectories and regroups them eight markers to a block.
-fn marker_blocks(model: &[Trajectory3], target: &[Trajectory3]) -> Result<(MarkerBlocks, MarkerBlocks)> {
+pub(crate) fn marker_blocks(model: &[Trajectory3], target: &[Trajectory3]) -> Result<(MarkerBlocks, MarkerBlocks)> {
     let (Some(s0), Some(t0)) = (model.first(), target.first()) else {
         return Err(Error::new(ErrorKind::EmptySequence, "two-stage matching needs at least one marker"));
     };
@@ -117,11 +119,18 @@ fn marker_blocks(model: &[Trajectory3], target: &[Trajectory3]) -> Result<(Marke
     Ok((gather(model)?, gather(target)?))
 }
 
-/// Stage 1 over marker blocks: `G(j) = Σ_l h_l(j)`, markers added in order.
-fn summed_end_costs(level: Level, model: &MarkerBlocks, target: &MarkerBlocks, cells: &mut Vec<Cell8>) -> Vec<f64> {
-    let mut end_costs = vec![0.0; target.frames()];
+/// Stage 1 over marker blocks: `G(j) = Σ_l h_l(j)`, markers added in order, for the target's
+/// frames `frames` (index 0 of the result is frame `frames.start`).
+pub(crate) fn summed_end_costs(
+    level: Level,
+    model: &MarkerBlocks,
+    target: &MarkerBlocks,
+    frames: Range<usize>,
+    cells: &mut Vec<Cell8>,
+) -> Vec<f64> {
+    let mut end_costs = vec![0.0; frames.len()];
     for k in 0..model.block_count() {
-        lanes::forward(level, model.block(k), target.block(k), cells);
+        lanes::forward(level, model.block(k), &target.block(k)[frames.clone()], cells);
         let used = model.used(k);
         for (g, h) in end_costs.iter_mut().zip(cells.iter()) {
             for v in &h.0[..used] {
@@ -135,7 +144,7 @@ fn summed_end_costs(level: Level, model: &MarkerBlocks, target: &MarkerBlocks, c
 /// Stage 1 alone: `G(j)` for every target frame (mm), O(m) memory.
 pub fn end_costs(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<f64>> {
     let (s, t) = marker_blocks(model, target)?;
-    Ok(summed_end_costs(simd::level(), &s, &t, &mut Vec::new()))
+    Ok(summed_end_costs(simd::level(), &s, &t, 0..t.frames(), &mut Vec::new()))
 }
 
 /// The two-stage match of per-marker model trajectories against the same markers' target
@@ -147,19 +156,28 @@ pub fn end_costs(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<f6
 /// [`crate::dp`]'s kernels.
 pub fn two_stage(model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
     let (s, t) = marker_blocks(model, target)?;
-    two_stage_at(simd::level(), &s, &t, keep_paths)
+    two_stage_at(simd::level(), &s, &t, 0..t.frames(), keep_paths)
 }
 
 /// [`two_stage`] at a chosen instruction-set level (capped at what the CPU runs), to compare
 /// the levels' speed; every level gives the same numbers.
 pub fn two_stage_at_level(level: Level, model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
     let (s, t) = marker_blocks(model, target)?;
-    two_stage_at(level.min(simd::level()), &s, &t, keep_paths)
+    two_stage_at(level.min(simd::level()), &s, &t, 0..t.frames(), keep_paths)
 }
 
-fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, keep_paths: bool) -> Result<TwoStageMatch> {
+/// The two-stage match of the model against the target's frames `frames` (a window of a take:
+/// the result's frame indices count from `frames.start`, as when the window is cut out first).
+/// `frames` must be a nonempty range within the target.
+pub(crate) fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, frames: Range<usize>, keep_paths: bool) -> Result<TwoStageMatch> {
+    if frames.is_empty() || frames.end > t.frames() {
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("frames {}..{} are not a nonempty stretch of the target's {} frames", frames.start, frames.end, t.frames()),
+        ));
+    }
     let mut cells = Vec::new();
-    let end_costs = summed_end_costs(level, s, t, &mut cells);
+    let end_costs = summed_end_costs(level, s, t, frames.clone(), &mut cells);
     let end = argmin_first(&end_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "G(j) is NaN everywhere"))?;
     // Stage 2: backward from b; each block's cost per start is kept to read h_l at a, and its
     // path decisions to walk the paths.
@@ -168,7 +186,7 @@ fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, keep_paths: bo
     let mut steps: Vec<Vec<Step8>> = Vec::with_capacity(blocks);
     for k in 0..blocks {
         let (mut c, mut st) = (Vec::new(), Vec::new());
-        lanes::backward(level, s.block(k), &t.block(k)[..=end], &mut c, keep_paths.then_some(&mut st));
+        lanes::backward(level, s.block(k), &t.block(k)[frames.start..=frames.start + end], &mut c, keep_paths.then_some(&mut st));
         costs.push(c);
         steps.push(st);
     }

@@ -8,6 +8,8 @@
 //!   paper's figures, precision–recall curves across a sweep.
 //! - [`matching`] — `[matching]` (Yabe & Tanaka): a model against a user's repetitions, the
 //!   paper's figures and its (a)/(b)/(c) timing test.
+//! - [`retrieval`] — `[retrieval]` (Yabe & Tanaka's match across a corpus): the stretches of
+//!   every take most similar and most dissimilar to one model, exactly pruned.
 //! - [`gait`] — `[gait]` (Osafune et al.): walk analysis, the paper's Tables 2–3, the control
 //!   of a skeleton walk and the leave-one-subject-out evaluation.
 //!
@@ -20,8 +22,9 @@ pub mod features;
 pub mod gait;
 pub mod heldout;
 pub mod matching;
+pub mod retrieval;
 pub mod segmentation;
 
 /// How many workflows this crate registers (checked by the registry test, `tests/registry.rs`,
 /// so a workflow that silently vanishes from the binary fails it).
-pub const WORKFLOW_COUNT: usize = 4;
+pub const WORKFLOW_COUNT: usize = 5;

@@ -360,11 +360,11 @@ fn stage_points(spec: &StageSpec) -> Option<Vec<String>> {
     }
 }
 
-fn dataset_label(d: &BuiltDataset) -> String {
+pub(crate) fn dataset_label(d: &BuiltDataset) -> String {
     d.spec.name.clone().unwrap_or_else(|| (0..d.files.len()).map(|k| d.sequence_name(k)).collect::<Vec<_>>().join(", "))
 }
 
-fn find_model(name: &str, data: &Datasets) -> Result<usize> {
+pub(crate) fn find_model(name: &str, data: &Datasets) -> Result<usize> {
     let hits: Vec<&BuiltDataset> = data
         .datasets
         .iter()
@@ -533,7 +533,7 @@ fn item_id(name: &str) -> String {
 
 /// First frame of a loaded file within the original file (the dataset's `cut`, rounded as
 /// [`Datasets::load`] rounds it).
-fn cut_offset(d: &BuiltDataset, rate: FrameRate) -> usize {
+pub(crate) fn cut_offset(d: &BuiltDataset, rate: FrameRate) -> usize {
     match d.spec.cut {
         Some(Cut::Frames([a, _])) => a,
         Some(Cut::Seconds([a, _])) => rate.seconds_to_frames(Seconds(a)).round() as usize,
