@@ -46,6 +46,9 @@ pub struct RunOptions {
     pub progress: Arc<dyn Progress>,
     /// The command line, for provenance.
     pub command: Vec<String>,
+    /// The on-disk cache of loaded inputs and stage outputs (`None`: compute everything; each
+    /// input is still loaded once per run).
+    pub cache: Option<motionlab_cache::Cache>,
 }
 
 impl Default for RunOptions {
@@ -57,6 +60,7 @@ impl Default for RunOptions {
             run_dir: None,
             progress: Arc::new(Silent),
             command: std::env::args().collect(),
+            cache: None,
         }
     }
 }
@@ -116,6 +120,49 @@ struct Provenance {
     inputs: Vec<InputFile>,
     tables: Vec<String>,
     figures: Vec<String>,
+    /// Where each input and cached stage output of each combination came from (`computed`,
+    /// `memory`: shared within this run, `disk`: the on-disk cache).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cache: Option<serde_json::Value>,
+}
+
+/// Per combination and input, where each logged stage came from (the items' phase only: the
+/// evaluation's reloads are always shared from memory or disk), and the totals.
+fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value> {
+    use motionlab_experiment::Origin;
+    use serde_json::{json, Map, Value};
+    let mut rows = Vec::new();
+    let mut totals: std::collections::BTreeMap<String, usize> = Default::default();
+    for (c, b) in plan.built.iter().enumerate() {
+        let mut by_input: Vec<((usize, usize), Map<String, Value>)> = Vec::new();
+        for (d, f, stage, origin) in b.data.take_log() {
+            let slot = match by_input.iter_mut().position(|(k, _)| *k == (d, f)) {
+                Some(i) => &mut by_input[i].1,
+                None => {
+                    let mut m = Map::new();
+                    m.insert("combination".into(), json!(c));
+                    m.insert("input".into(), json!(b.data.datasets[d].sequence_name(f)));
+                    by_input.push(((d, f), m));
+                    &mut by_input.last_mut()?.1
+                }
+            };
+            // A stage used twice for one input (a model take shared by items) reads as
+            // computed when either use computed it.
+            if slot.get(&stage).is_some_and(|v| *v == json!(Origin::Computed)) {
+                continue;
+            }
+            slot.insert(stage, json!(origin));
+            *totals.entry(format!("{origin:?}").to_lowercase()).or_default() += 1;
+        }
+        by_input.sort_by_key(|(k, _)| *k);
+        rows.extend(by_input.into_iter().map(|(_, m)| Value::Object(m)));
+    }
+    Some(json!({
+        "dir": opts.cache.as_ref().map(|c| c.dir().to_string_lossy().into_owned()),
+        "loads_from_files": plan.cache.loads(),
+        "totals": totals,
+        "stages": rows,
+    }))
 }
 
 /// The canonical text of the resolved configuration (hashed to check shards belong together).
@@ -171,8 +218,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     };
     write_atomic(&rundir.work.join("run.json"), &json_bytes(&manifest)?)?;
     write_atomic(&rundir.work.join("config.toml"), config.as_bytes())?;
-    let mine: Vec<(usize, usize, WorkItem)> =
+    let mut mine: Vec<(usize, usize, WorkItem)> =
         items.iter().enumerate().filter(|(k, _)| k % shards == shard).map(|(k, (c, i))| (k, *c, i.clone())).collect();
+    // By input file, then combination: each take is loaded once and is live for one stretch
+    // of the run (threads take contiguous runs of this list), whatever the memory budget.
+    mine.sort_by_key(|(k, c, i)| (i.dataset, i.file, *c, *k));
+    plan.cache.set_disk(opts.cache.clone());
     let items_dir = rundir.subdir("items")?;
     let figures_dir = rundir.subdir("figures")?;
     opts.progress.begin(&format!("{} items", plan.file.experiment.name), mine.len() as u64);
@@ -208,6 +259,8 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     for r in results {
         done.push(r?);
     }
+    done.sort_by_key(|d| d.0);
+    let cache_record = cache_provenance(plan, opts);
     let mut figure_paths: Vec<PathBuf> = done.iter().flat_map(|d| d.4.clone()).collect();
     if opts.shard.is_some() {
         let m = ShardManifest {
@@ -222,9 +275,11 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         return Ok(RunSummary { run_dir: rundir.target.clone(), tables: vec![], figures: figure_paths, items: done.len(), complete: false });
     }
     let by_combo = group_by_combo(plan, done.into_iter().map(|d| (d.1, d.2, d.3)).collect());
-    let finished = finish_all(plan, &rundir, by_combo, opts)?;
+    let finished = finish_all(plan, &rundir, by_combo, opts);
+    plan.cache.clear_memory();
+    let finished = finished?;
     figure_paths.extend(finished.figure_paths.iter().cloned());
-    write_provenance(plan, opts, &rundir, started, &config, items.len(), None, &finished.table_paths, &figure_paths)?;
+    write_provenance(plan, opts, &rundir, started, items.len(), None, cache_record, &finished.table_paths, &figure_paths)?;
     let figure_entries = all_figure_entries(&rundir.work.join("items"), finished.figures)?;
     write_atomic(&rundir.work.join("figures").join("index.json"), &json_bytes(&figure_entries)?)?;
     let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -339,9 +394,9 @@ fn write_provenance(
     opts: &RunOptions,
     rundir: &RunDir,
     started: (SystemTime, Instant),
-    _config: &str,
     items: usize,
     shards: Option<usize>,
+    cache: Option<serde_json::Value>,
     tables: &[PathBuf],
     figures: &[PathBuf],
 ) -> Result<()> {
@@ -377,6 +432,7 @@ fn write_provenance(
         inputs,
         tables: tables.iter().map(rel).collect(),
         figures: figures.iter().map(rel).collect(),
+        cache,
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
 }
@@ -466,7 +522,7 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
         .map(|r| r.filter_map(|e| e.ok().map(|e| e.path())).collect())
         .unwrap_or_default();
     all_figures.sort();
-    write_provenance(&plan, opts, &rundir, started, &config, total, Some(n), &finished.table_paths, &all_figures)?;
+    write_provenance(&plan, opts, &rundir, started, total, Some(n), None, &finished.table_paths, &all_figures)?;
     let figure_entries = all_figure_entries(&items_dir, finished.figures)?;
     write_atomic(&run_dir.join("figures").join("index.json"), &json_bytes(&figure_entries)?)?;
     let run_id = run_dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();

@@ -79,6 +79,9 @@ fn default_seg_figures() -> Vec<String> {
 pub struct SegmentationWorkflow {
     section: SegmentationSection,
     segmenters: Vec<(String, Box<dyn Segmenter>)>,
+    /// Each segmenter's type and parameters as resolved in this combination: its key in the
+    /// on-disk cache, under the input's.
+    segmenter_params: Vec<String>,
     fuser: Option<(String, Box<dyn Fuser>)>,
     /// Indices into `segmenters` that the fuser combines.
     fuse: Vec<usize>,
@@ -154,9 +157,10 @@ impl WorkflowPlugin for SegmentationWorkflow {
             None => None,
         };
         let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
+        let segmenter_params = section.segmenters.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
         let viewer_tolerance = combo.file.evaluators.iter().find_map(|e| e.params.get("tolerance")?.clone().try_into::<TimeSpan>().ok());
         let experiment = combo.file.experiment.name.clone();
-        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, experiment, viewer_tolerance })
+        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, experiment, viewer_tolerance })
     }
 }
 
@@ -175,8 +179,12 @@ impl Workflow for SegmentationWorkflow {
         let file = motion.source.clone().unwrap_or_default();
         let cache = FeatureCache::new();
         let mut outputs: Vec<(String, SegmenterOutput)> = Vec::new();
-        for (name, s) in &self.segmenters {
-            let out = s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
+        for ((name, s), params) in self.segmenters.iter().zip(&self.segmenter_params) {
+            // The output depends on the input and the segmenter's parameters only: cached on
+            // disk under both (the features it computes on the way are not kept).
+            let out = data.stage_cached(&loaded, (item.dataset, item.file), &format!("segmenter {name}"), "segmenter", params, || {
+                s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))
+            })?;
             outputs.push((name.clone(), out));
         }
         let mut methods: Vec<MethodRecord> = outputs
@@ -187,6 +195,8 @@ impl Workflow for SegmentationWorkflow {
             let inputs: Vec<MethodCandidates<'_>> =
                 self.fuse.iter().map(|&i| MethodCandidates { method: &outputs[i].0, frames: &outputs[i].1.candidates }).collect();
             let fused = fuser.fuse(motion, &inputs).map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
+            // Cheap (a merge of candidate lists): never cached, logged for the provenance.
+            data.record(item.dataset, item.file, &format!("fuser {name}"), motionlab_experiment::Origin::Computed);
             methods.push(MethodRecord { method: name.clone(), candidates: fused, flagged_frames: 0 });
         }
         let figures = if draw { self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)? } else { Vec::new() };
