@@ -110,14 +110,14 @@ fn cached_runs_equal_uncached_ones_and_a_changed_parameter_recomputes_only_its_s
 
     // One segmenter parameter changed: only that segmenter (and the fuser and evaluation,
     // which are never cached) is recomputed.
-    let changed = run(&cache, &reports, &["segmentation.segmenter[direction].c_min=0.1"]);
+    let changed = run(&cache, &reports, &["segmentation.segmenter[direction].lag={seconds=2.0}"]);
     for (c, input, stages) in origins(&changed) {
         let computed: Vec<&str> = stages.iter().filter(|(_, o)| o == "computed").map(|(s, _)| s.as_str()).collect();
         // The new direction output is computed once (combination 0) and shared from disk.
         let expected: &[&str] = if c == 0 { &["fuser fused", "segmenter direction"] } else { &["fuser fused"] };
         assert_eq!(computed, expected, "{input} combination {c}: {stages:?}");
     }
-    let again = run(&cache, &reports, &["--no-cache", "segmentation.segmenter[direction].c_min=0.1"]);
+    let again = run(&cache, &reports, &["--no-cache", "segmentation.segmenter[direction].lag={seconds=2.0}"]);
     assert_eq!(tables(&changed), tables(&again));
     assert_ne!(tables(&changed), tables(&plain), "the parameter matters");
 
