@@ -42,8 +42,11 @@ fn tables(run: &Path) -> Vec<(String, Vec<u8>)> {
     v
 }
 
+/// One row of the provenance's cache record: combination, input, (stage, origin) pairs.
+type OriginRow = (u64, String, Vec<(String, String)>);
+
 /// `(combination, input) → {stage: origin}` from the run's provenance.
-fn origins(run: &Path) -> Vec<(u64, String, Vec<(String, String)>)> {
+fn origins(run: &Path) -> Vec<OriginRow> {
     let p: Value = serde_json::from_slice(&std::fs::read(run.join("provenance.json")).unwrap()).unwrap();
     p["cache"]["stages"]
         .as_array()
@@ -197,7 +200,7 @@ fn a_process_killed_mid_write_leaves_no_trusted_entry() {
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
     assert_eq!(temporary(), 1);
-    assert!(walk(&cache).iter().all(|p| !p.extension().is_some_and(|e| e == "bin")), "no entry is in place");
+    assert!(walk(&cache).iter().all(|p| p.extension().is_none_or(|e| e != "bin")), "no entry is in place");
     let info = ok(motionlab(&cache).args(["cache", "info"]));
     assert!(info.contains("total: 0 entries") && info.contains("1 temporary file"), "{info}");
     // The next run ignores the leftover and computes everything.
