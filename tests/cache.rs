@@ -1,6 +1,6 @@
 //! The run cache (issue 20): tables are byte-identical with and without the on-disk cache;
-//! a warm run reads every load and segmenter output from disk; changing one segmenter
-//! parameter recomputes only that segmenter (and the uncached fuser and evaluation); damaged
+//! a warm run reads every load, segmenter output and evaluation from disk; changing one
+//! segmenter parameter recomputes only that segmenter, the fuser and the evaluation; damaged
 //! entries (a flipped byte, a truncation, two entries swapped) are recomputed, never trusted;
 //! two concurrent processes share one cache; a process killed mid-write leaves no entry.
 
@@ -108,16 +108,18 @@ fn cached_runs_equal_uncached_ones_and_a_changed_parameter_recomputes_only_its_s
     assert_eq!(stage_origins(&warm, "segmenter speed"), ["disk", "disk", "disk"]);
     assert_eq!(stage_origins(&warm, "segmenter direction"), ["disk", "disk", "disk"]);
     assert_eq!(stage_origins(&warm, "fuser fused"), ["computed", "computed", "computed"]);
+    assert_eq!(stage_origins(&cold, "evaluate boundary_pr"), ["computed", "computed", "computed"]);
+    assert_eq!(stage_origins(&warm, "evaluate boundary_pr"), ["disk", "disk", "disk"]);
     assert_eq!(entries(&cache, "motion").len(), 1);
     assert_eq!(entries(&cache, "segmenter").len(), 4);
 
-    // One segmenter parameter changed: only that segmenter (and the fuser and evaluation,
-    // which are never cached) is recomputed.
+    // One segmenter parameter changed: only that segmenter, the fuser (never cached) and the
+    // evaluation (its input, the fused candidates, changed) are recomputed.
     let changed = run(&cache, &reports, &["segmentation.segmenter[direction].lag={seconds=2.0}"]);
     for (c, input, stages) in origins(&changed) {
         let computed: Vec<&str> = stages.iter().filter(|(_, o)| o == "computed").map(|(s, _)| s.as_str()).collect();
         // The new direction output is computed once (combination 0) and shared from disk.
-        let expected: &[&str] = if c == 0 { &["fuser fused", "segmenter direction"] } else { &["fuser fused"] };
+        let expected: &[&str] = if c == 0 { &["evaluate boundary_pr", "fuser fused", "segmenter direction"] } else { &["evaluate boundary_pr", "fuser fused"] };
         assert_eq!(computed, expected, "{input} combination {c}: {stages:?}");
     }
     let again = run(&cache, &reports, &["--no-cache", "segmentation.segmenter[direction].lag={seconds=2.0}"]);

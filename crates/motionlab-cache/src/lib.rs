@@ -47,6 +47,7 @@ use std::sync::OnceLock;
 use sha2::{Digest, Sha256};
 
 pub mod motion;
+pub mod table;
 
 /// The entry magic.
 pub const MAGIC: &[u8; 8] = b"MLCACHE\0";

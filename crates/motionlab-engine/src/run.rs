@@ -126,8 +126,9 @@ struct Provenance {
     cache: Option<serde_json::Value>,
 }
 
-/// Per combination and input, where each logged stage came from (the items' phase only: the
-/// evaluation's reloads are always shared from memory or disk), and the totals.
+/// Per combination and input, where each logged stage came from (a stage logged twice — the
+/// evaluation reloads each input — keeps its first origin unless the second computed it),
+/// and the totals.
 fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value> {
     use motionlab_experiment::Origin;
     use serde_json::{json, Map, Value};
@@ -146,15 +147,17 @@ fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value>
                     &mut by_input.last_mut()?.1
                 }
             };
-            // A stage used twice for one input (a model take shared by items) reads as
-            // computed when either use computed it.
-            if slot.get(&stage).is_some_and(|v| *v == json!(Origin::Computed)) {
+            if slot.contains_key(&stage) && origin != Origin::Computed {
                 continue;
             }
             slot.insert(stage, json!(origin));
-            *totals.entry(format!("{origin:?}").to_lowercase()).or_default() += 1;
         }
         by_input.sort_by_key(|(k, _)| *k);
+        for (_, m) in &by_input {
+            for (_, v) in m.iter().filter(|(k, _)| *k != "combination" && *k != "input") {
+                *totals.entry(v.as_str().unwrap_or_default().to_string()).or_default() += 1;
+            }
+        }
         rows.extend(by_input.into_iter().map(|(_, m)| Value::Object(m)));
     }
     Some(json!({
@@ -260,7 +263,6 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         done.push(r?);
     }
     done.sort_by_key(|d| d.0);
-    let cache_record = cache_provenance(plan, opts);
     let mut figure_paths: Vec<PathBuf> = done.iter().flat_map(|d| d.4.clone()).collect();
     if opts.shard.is_some() {
         let m = ShardManifest {
@@ -278,6 +280,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let finished = finish_all(plan, &rundir, by_combo, opts);
     plan.cache.clear_memory();
     let finished = finished?;
+    let cache_record = cache_provenance(plan, opts);
     figure_paths.extend(finished.figure_paths.iter().cloned());
     write_provenance(plan, opts, &rundir, started, items.len(), None, cache_record, &finished.table_paths, &figure_paths)?;
     let figure_entries = all_figure_entries(&rundir.work.join("items"), finished.figures)?;

@@ -27,7 +27,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
-use motionlab_cache::{Cache, Key, KeyBuilder};
+pub use motionlab_cache::Key;
+use motionlab_cache::{Cache, KeyBuilder};
 use motionlab_core::{Error, Motion, Result};
 
 use crate::context::LoadedItem;
@@ -199,6 +200,22 @@ impl RunCache {
         let v = compute()?;
         if let Ok(bytes) = rmp_serde::to_vec(&v) {
             let _ = c.put(kind, &k, &bytes);
+        }
+        Ok((v, Origin::Computed))
+    }
+}
+
+impl RunCache {
+    /// Tables (an evaluation's) from disk under `key`, else computed (and stored).
+    pub(crate) fn tables(&self, key: Option<Key>, compute: impl FnOnce() -> Result<Vec<motionlab_core::Table>>) -> Result<(Vec<motionlab_core::Table>, Origin)> {
+        let disk = self.disk();
+        let (Some(c), Some(k)) = (disk, key) else { return Ok((compute()?, Origin::Computed)) };
+        if let Some(v) = c.get("evaluation", &k).and_then(|b| motionlab_cache::table::decode(&b).ok()) {
+            return Ok((v, Origin::Disk));
+        }
+        let v = compute()?;
+        if let Ok(bytes) = motionlab_cache::table::encode(&v) {
+            let _ = c.put("evaluation", &k, &bytes);
         }
         Ok((v, Origin::Computed))
     }
