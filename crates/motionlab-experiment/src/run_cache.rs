@@ -18,9 +18,11 @@
 //! With a [`motionlab_cache::Cache`] set ([`RunCache::set_disk`]), a loaded input is also
 //! stored on disk under a content key — SHA-256 of the motion file's and the ground-truth
 //! file's bytes, the recipe without the folder path, and the binary's build fingerprint — and
-//! stages that opt in through [`Datasets::stage_cached`](crate::Datasets::stage_cached) store
-//! their outputs under their resolved parameters and the input's key. Every use is logged with
-//! its [`Origin`] for the run's provenance.
+//! stages that opt in through [`Datasets::stage_cached`](crate::Datasets::stage_cached) (one
+//! input: the segmentation workflow's segmenters) or
+//! [`Datasets::tables_cached`](crate::Datasets::tables_cached) (several inputs: its
+//! evaluation) store their outputs under their resolved parameters and the inputs' keys. Every
+//! use is logged with its [`Origin`] for the run's provenance.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
