@@ -520,7 +520,12 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     let total = done.len();
     let rundir = RunDir::shared(run_dir)?;
     let by_combo = group_by_combo(&plan, done);
-    let finished = finish_all(&plan, &rundir, by_combo, opts)?;
+    // The evaluation reloads every input (once, shared by the combinations) and may find its
+    // tables on disk, as in a plain run.
+    plan.cache.set_disk(opts.cache.clone());
+    let finished = finish_all(&plan, &rundir, by_combo, opts);
+    plan.cache.clear_memory();
+    let finished = finished?;
     let mut all_figures: Vec<PathBuf> = std::fs::read_dir(run_dir.join("figures"))
         .map(|r| r.filter_map(|e| e.ok().map(|e| e.path())).collect())
         .unwrap_or_default();
