@@ -147,6 +147,12 @@ enum Command {
     },
     /// Parameter and metric differences between two runs of one experiment (text and HTML).
     Compare { run_a: PathBuf, run_b: PathBuf },
+    /// The on-disk cache of loaded motions and stage outputs (`$MOTIONLAB_CACHE_DIR`, else
+    /// `$XDG_CACHE_HOME/motionlab`, else `~/.cache/motionlab`).
+    Cache {
+        #[command(subcommand)]
+        action: CacheAction,
+    },
     /// Rebuild reports/index.html from experiments/ and the runs under reports/.
     Index {
         #[arg(long, default_value = "experiments")]
@@ -157,6 +163,14 @@ enum Command {
         #[arg(long)]
         records: bool,
     },
+}
+
+#[derive(Subcommand)]
+enum CacheAction {
+    /// Where the cache is, its entries and bytes per kind.
+    Info,
+    /// Remove every entry (and temporary files of interrupted writes).
+    Clear,
 }
 
 #[derive(clap::Args, Clone)]
@@ -170,6 +184,10 @@ struct RunArgs {
     /// No progress bars.
     #[arg(long, short)]
     quiet: bool,
+    /// Neither read nor write the on-disk cache of loaded motions and stage outputs (each
+    /// input is still loaded once per run).
+    #[arg(long)]
+    no_cache: bool,
 }
 
 fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
@@ -188,7 +206,8 @@ fn options(args: &RunArgs) -> RunOptions {
     } else {
         Arc::new(motionlab_engine::Silent)
     };
-    RunOptions { reports_dir: args.reports.clone(), threads: args.threads, progress, command: std::env::args().collect(), ..Default::default() }
+    let cache = if args.no_cache { None } else { motionlab_cache::Cache::open_default() };
+    RunOptions { reports_dir: args.reports.clone(), threads: args.threads, progress, command: std::env::args().collect(), cache, ..Default::default() }
 }
 
 /// The `motionlab` command on this process's arguments, with every plugin linked into the binary.
@@ -300,6 +319,30 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             print!("{}", motionlab_engine::compare::compare_text(&page));
             let path = motionlab_engine::compare::write_compare(&run_a, &run_b, &page)?;
             println!("wrote {}", path.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Cache { action } => {
+            let Some(cache) = motionlab_cache::Cache::open_default() else {
+                return Err(Error::new(ErrorKind::MissingKey, "no cache folder: set MOTIONLAB_CACHE_DIR (or HOME)"));
+            };
+            let io = |e: std::io::Error| Error::io(cache.dir(), e);
+            match action {
+                CacheAction::Info => {
+                    let info = cache.info().map_err(io)?;
+                    println!("cache: {}", cache.dir().display());
+                    for (kind, n, bytes) in &info.kinds {
+                        println!("  {kind}: {n} entries, {bytes} bytes");
+                    }
+                    println!("total: {} entries, {} bytes ({:.1} MiB)", info.entries, info.bytes, info.bytes as f64 / 1048576.0);
+                    if info.temporary > 0 {
+                        println!("{} temporary file(s) of interrupted writes (never read; `motionlab cache clear` removes them)", info.temporary);
+                    }
+                }
+                CacheAction::Clear => {
+                    let info = cache.clear().map_err(io)?;
+                    println!("removed {} entries ({} bytes) from {}", info.entries, info.bytes, cache.dir().display());
+                }
+            }
             Ok(ExitCode::SUCCESS)
         }
         Command::Index { experiments, reports, records } => {

@@ -7,12 +7,14 @@
 //! and line) and resolve every input file.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use motionlab_core::registry;
 use motionlab_core::{Error, ErrorKind, Location, Result};
 use motionlab_experiment::spec::{ExperimentFile, SweepGrid};
 use motionlab_experiment::toml_paths::{parse_override, set_path, syntax_error_line, KeyPath};
 use motionlab_experiment::workflow::{self, Workflow, WorkflowEntry};
+use motionlab_experiment::RunCache;
 
 // What workflows are given, defined beside the Workflow trait (polars-free).
 pub use motionlab_experiment::context::{build_stage, deserialize_section, BuiltDataset, Combo, Datasets, LoadedItem, Source};
@@ -28,6 +30,8 @@ pub struct Plan {
     pub workflow: &'static WorkflowEntry,
     pub combos: Vec<Combo>,
     pub built: Vec<BuiltCombo>,
+    /// Shared by every combination's datasets: each input is loaded once per run.
+    pub cache: Arc<RunCache>,
 }
 
 /// One combination's built stages.
@@ -55,12 +59,13 @@ pub fn plan(path: &Path, overrides: &[String]) -> Result<Plan> {
     let source = Source::read(path)?;
     let ParsedExperiment { doc, file, workflow, combos } = parse_experiment(&source, overrides)?;
     let mut built = Vec::with_capacity(combos.len());
+    let cache = Arc::new(RunCache::default());
     for combo in &combos {
-        let data = build_datasets(&source, combo, Inputs::Resolve)?;
+        let data = build_datasets(&source, combo, Inputs::Resolve, &cache)?;
         let built_workflow = workflow::build(workflow, &source, combo, &data)?;
         built.push(BuiltCombo { data, workflow: built_workflow });
     }
-    Ok(Plan { source, overrides: overrides.to_vec(), doc, file, workflow, combos, built })
+    Ok(Plan { source, overrides: overrides.to_vec(), doc, file, workflow, combos, built, cache })
 }
 
 /// An experiment parsed, overridden, deserialised and expanded over its sweep, with no plugin
@@ -102,7 +107,7 @@ pub fn parse_experiment(source: &Source, overrides: &[String]) -> Result<ParsedE
 /// the workflow's own stages — through the registry, as [`plan`] does, but resolves no input
 /// file (datasets get no files). For the experiment fuzz target.
 pub fn build_stages_in_memory(source: &Source, workflow: &WorkflowEntry, combo: &Combo) -> Result<()> {
-    let data = build_datasets(source, combo, Inputs::Skip)?;
+    let data = build_datasets(source, combo, Inputs::Skip, &Arc::new(RunCache::default()))?;
     workflow::build(workflow, source, combo, &data).map(|_| ())
 }
 
@@ -208,7 +213,7 @@ enum Inputs {
     Skip,
 }
 
-fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs) -> Result<Datasets> {
+fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs, cache: &Arc<RunCache>) -> Result<Datasets> {
     let base = source.base_dir();
     let mut datasets = Vec::new();
     let root = KeyPath::parse("dataset")?;
@@ -269,7 +274,7 @@ fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs) -> Result<Data
         .enumerate()
         .map(|(k, p)| build_stage(source, combo, p, &KeyPath::parse("preprocess")?.index(k), registry::build_preprocessor))
         .collect::<Result<Vec<_>>>()?;
-    Ok(Datasets { datasets, preprocess })
+    Ok(Datasets::new(datasets, preprocess, combo.file.preprocess.clone(), Arc::clone(cache)))
 }
 
 fn resolve_files(_source: &Source, base: &Path, patterns: &[String]) -> Result<Vec<PathBuf>> {

@@ -46,6 +46,9 @@ pub struct RunOptions {
     pub progress: Arc<dyn Progress>,
     /// The command line, for provenance.
     pub command: Vec<String>,
+    /// The on-disk cache of loaded inputs and stage outputs (`None`: compute everything; each
+    /// input is still loaded once per run).
+    pub cache: Option<motionlab_cache::Cache>,
 }
 
 impl Default for RunOptions {
@@ -57,6 +60,7 @@ impl Default for RunOptions {
             run_dir: None,
             progress: Arc::new(Silent),
             command: std::env::args().collect(),
+            cache: None,
         }
     }
 }
@@ -117,6 +121,52 @@ struct Provenance {
     /// What the run wrote, as `motionlab-report` lists it.
     #[serde(flatten)]
     outputs: FileLists,
+    /// Where each input and cached stage output of each combination came from (`computed`,
+    /// `memory`: shared within this run, `disk`: the on-disk cache).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cache: Option<serde_json::Value>,
+}
+
+/// Per combination and input, where each logged stage came from (a stage logged twice — the
+/// evaluation reloads each input — keeps its first origin unless the second computed it),
+/// and the totals.
+fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value> {
+    use motionlab_experiment::Origin;
+    use serde_json::{json, Map, Value};
+    let mut rows = Vec::new();
+    let mut totals: std::collections::BTreeMap<String, usize> = Default::default();
+    for (c, b) in plan.built.iter().enumerate() {
+        let mut by_input: Vec<((usize, usize), Map<String, Value>)> = Vec::new();
+        for (d, f, stage, origin) in b.data.take_log() {
+            let slot = match by_input.iter_mut().position(|(k, _)| *k == (d, f)) {
+                Some(i) => &mut by_input[i].1,
+                None => {
+                    let mut m = Map::new();
+                    m.insert("combination".into(), json!(c));
+                    m.insert("input".into(), json!(b.data.datasets[d].sequence_name(f)));
+                    by_input.push(((d, f), m));
+                    &mut by_input.last_mut()?.1
+                }
+            };
+            if slot.contains_key(&stage) && origin != Origin::Computed {
+                continue;
+            }
+            slot.insert(stage, json!(origin));
+        }
+        by_input.sort_by_key(|(k, _)| *k);
+        for (_, m) in &by_input {
+            for (_, v) in m.iter().filter(|(k, _)| *k != "combination" && *k != "input") {
+                *totals.entry(v.as_str().unwrap_or_default().to_string()).or_default() += 1;
+            }
+        }
+        rows.extend(by_input.into_iter().map(|(_, m)| Value::Object(m)));
+    }
+    Some(json!({
+        "dir": opts.cache.as_ref().map(|c| c.dir().to_string_lossy().into_owned()),
+        "loads_from_files": plan.cache.loads(),
+        "totals": totals,
+        "stages": rows,
+    }))
 }
 
 /// The canonical text of the resolved configuration (hashed to check shards belong together).
@@ -177,8 +227,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     };
     write_atomic(&rundir.work.join("run.json"), &json_bytes(&manifest)?)?;
     write_atomic(&rundir.work.join("config.toml"), config.as_bytes())?;
-    let mine: Vec<(usize, usize, WorkItem)> =
+    let mut mine: Vec<(usize, usize, WorkItem)> =
         items.iter().enumerate().filter(|(k, _)| k % shards == shard).map(|(k, (c, i))| (k, *c, i.clone())).collect();
+    // By input file, then combination: each take is loaded once and is live for one stretch
+    // of the run (threads take contiguous runs of this list), whatever the memory budget.
+    mine.sort_by_key(|(k, c, i)| (i.dataset, i.file, *c, *k));
+    plan.cache.set_disk(opts.cache.clone());
     let items_dir = rundir.subdir("items")?;
     opts.progress.begin(&format!("{} items", plan.file.experiment.name), mine.len() as u64);
     let pool = thread_pool(opts.threads)?;
@@ -204,6 +258,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     for r in results {
         done.push(r?);
     }
+    done.sort_by_key(|d| d.0);
     if opts.shard.is_some() {
         let m = ShardManifest {
             shard,
@@ -239,9 +294,13 @@ fn complete(
     mut item_outputs: Vec<(PathBuf, Written)>,
 ) -> Result<Written> {
     let total_items = item_outputs.len();
-    let (tables, finished) = finish_all(plan, rundir, by_combo, opts)?;
+    let finished = finish_all(plan, rundir, by_combo, opts);
+    plan.cache.clear_memory();
+    let (tables, finished) = finished?;
+    // A merged run's items ran in other processes: their cache log is in no one's memory here.
+    let cache_record = if shards.is_none() { cache_provenance(plan, opts) } else { None };
     let in_item_order = Written::concat(item_outputs.iter().map(|(_, w)| w).chain([&finished]));
-    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order))?;
+    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order), cache_record)?;
     item_outputs.sort_by(|a, b| a.0.cmp(&b.0));
     let page_order: Vec<&Written> = [&finished].into_iter().chain(item_outputs.iter().map(|(_, w)| w)).collect();
     let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -314,6 +373,7 @@ fn write_provenance(
     items: usize,
     shards: Option<usize>,
     outputs: FileLists,
+    cache: Option<serde_json::Value>,
 ) -> Result<()> {
     let inputs = plan
         .input_files()
@@ -345,6 +405,7 @@ fn write_provenance(
         items,
         inputs,
         outputs,
+        cache,
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
 }
@@ -431,6 +492,9 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     let total = done.len();
     let rundir = RunDir::shared(run_dir)?;
     let by_combo = group_by_combo(&plan, done);
+    // The evaluation reloads every input (once, shared by the combinations) and may find its
+    // tables on disk, as in a plain run.
+    plan.cache.set_disk(opts.cache.clone());
     let written = complete(&plan, opts, &rundir, started, Some(n), by_combo, item_outputs)?;
     Ok(RunSummary { run_dir: run_dir.to_path_buf(), written, items: total, complete: true })
 }

@@ -4,11 +4,14 @@
 //! that build a stage or parse a section with located errors.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
+
+use motionlab_cache::{Key, KeyBuilder};
 
 use motionlab_core::registry;
 use motionlab_core::{Error, ErrorKind, GroundTruthReader, Loader, Location, Motion, Preprocessor, Result, Segmentation};
 
+use crate::run_cache::{Origin, RunCache, StageUse};
 use crate::spec::{Cut, DatasetSpec, ExperimentFile, StageSpec};
 use crate::toml_paths::{line_of, KeyPath};
 
@@ -143,22 +146,118 @@ impl BuiltDataset {
 }
 
 /// A loaded, cut and preprocessed input.
+#[derive(Clone)]
 pub struct LoadedItem {
     pub name: String,
     pub motion: Arc<Motion>,
     pub truth: Option<Segmentation>,
+    /// Its content key in the on-disk cache, when one is in use (the upstream key of the
+    /// stages cached under it, [`Datasets::stage_cached`]).
+    pub key: Option<Key>,
 }
 
 /// Every dataset of a combination, plus the experiment-wide preprocessors.
 pub struct Datasets {
     pub datasets: Vec<BuiltDataset>,
     pub preprocess: Vec<Box<dyn Preprocessor>>,
+    /// The experiment-wide preprocessors as written (part of each input's recipe).
+    preprocess_specs: Vec<StageSpec>,
+    /// Shared by every combination of the run: see [`crate::run_cache`].
+    pub cache: Arc<RunCache>,
+    /// Where each stage output of this combination came from (see [`Datasets::take_log`]).
+    log: Mutex<Vec<StageUse>>,
 }
 
 impl Datasets {
-    /// Loads file `file` of dataset `dataset`: loader → cut → dataset preprocessors →
-    /// experiment preprocessors → ground truth.
+    /// `preprocess` are built from `preprocess_specs`, in order.
+    pub fn new(datasets: Vec<BuiltDataset>, preprocess: Vec<Box<dyn Preprocessor>>, preprocess_specs: Vec<StageSpec>, cache: Arc<RunCache>) -> Self {
+        Datasets { datasets, preprocess, preprocess_specs, cache, log: Mutex::default() }
+    }
+    /// The uses logged so far (and clears the log).
+    pub fn take_log(&self) -> Vec<StageUse> {
+        self.log.lock().map(|mut l| std::mem::take(&mut *l)).unwrap_or_default()
+    }
+    /// Logs where a stage's output on file `file` of dataset `dataset` came from (for the
+    /// run's provenance; [`Datasets::load`] and [`Datasets::stage_cached`] log their own).
+    pub fn record(&self, dataset: usize, file: usize, stage: &str, origin: Origin) {
+        if let Ok(mut l) = self.log.lock() {
+            l.push((dataset, file, stage.to_string(), origin));
+        }
+    }
+    /// How file `file` of dataset `dataset` is loaded, as text: everything [`Datasets::load`]
+    /// reads besides the files' bytes (with the file's folder when `with_folder`).
+    fn recipe(&self, dataset: usize, file: usize, with_folder: bool) -> String {
+        let d = &self.datasets[dataset];
+        let path = &d.files[file];
+        let place = if with_folder { path.to_string_lossy().into_owned() } else { path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default() };
+        let stage = |s: &StageSpec| format!("{} {}", s.kind, s.plugin_params());
+        let gt = d.spec.ground_truth.as_ref().map(|g| format!("{} {:?}", stage(g), d.ground_truth_path(file).map(|p| if with_folder { p } else { p.file_name().map(PathBuf::from).unwrap_or_default() })));
+        let pre: Vec<String> = d.spec.preprocess.iter().chain(&self.preprocess_specs).map(stage).collect();
+        format!("file {place}\nname {}\nloader {}\ncut {:?}\ntruth {gt:?}\npreprocess {pre:?}", d.sequence_name(file), stage(&d.spec.loader), d.spec.cut)
+    }
+    /// Loads file `file` of dataset `dataset` (loader → cut → ground truth → dataset
+    /// preprocessors → experiment preprocessors), once per run: later requests — from any
+    /// combination with the same recipe — share it ([`crate::run_cache`]).
     pub fn load(&self, dataset: usize, file: usize) -> Result<LoadedItem> {
+        let recipe = KeyBuilder::new("recipe").part("recipe", self.recipe(dataset, file, true).as_bytes()).finish();
+        let content_key = || {
+            let d = &self.datasets[dataset];
+            let mut k = KeyBuilder::new("motion").part("recipe", self.recipe(dataset, file, false).as_bytes()).part("file", &self.cache.file_sha256(&d.files[file])?);
+            if let Some(gt) = d.ground_truth_path(file) {
+                k = k.part("truth", &self.cache.file_sha256(&gt)?);
+            }
+            Ok(k.finish())
+        };
+        let (mut item, origin) = self.cache.get_or_load(&recipe, content_key, || self.load_uncached(dataset, file))?;
+        if origin == Origin::Disk {
+            // The entry is content-addressed: the same bytes may have been read from elsewhere.
+            let mut m = (*item.motion).clone();
+            m.source = Some(self.datasets[dataset].files[file].clone());
+            item.motion = Arc::new(m);
+        }
+        self.record(dataset, file, "load", origin);
+        Ok(item)
+    }
+    /// A stage's output on a loaded input: from the on-disk cache when it holds one under the
+    /// input's key, `kind` and `params` (the stage's resolved parameters as text), else
+    /// `compute`d and stored. Logged as `stage` for the provenance.
+    pub fn stage_cached<T: serde::Serialize + serde::de::DeserializeOwned>(
+        &self,
+        loaded: &LoadedItem,
+        (dataset, file): (usize, usize),
+        stage: &str,
+        kind: &str,
+        params: &str,
+        compute: impl FnOnce() -> Result<T>,
+    ) -> Result<T> {
+        let key = loaded.key.as_ref().map(|k| crate::run_cache::stage_key(kind, k, params));
+        let (v, origin) = self.cache.stage(kind, key, compute)?;
+        self.record(dataset, file, stage, origin);
+        Ok(v)
+    }
+    /// Tables computed from several inputs — an evaluation over a combination's sequences —
+    /// from the on-disk cache when it holds them under `params` (the stage's resolved
+    /// parameters as text) and `inputs` (each input's [`LoadedItem::key`] and the bytes of
+    /// what the stage reads besides, such as each method's candidates), else `compute`d and
+    /// stored. Logged as `stage` on each `(dataset, file)` of `logged`.
+    pub fn tables_cached(
+        &self,
+        stage: &str,
+        params: &str,
+        inputs: &[(Option<Key>, Vec<u8>)],
+        logged: &[(usize, usize)],
+        compute: impl FnOnce() -> Result<Vec<motionlab_core::Table>>,
+    ) -> Result<Vec<motionlab_core::Table>> {
+        let key = inputs.iter().try_fold(KeyBuilder::new("evaluation").part("params", params.as_bytes()), |k, (input, bytes)| {
+            input.as_ref().map(|i| k.upstream("input", i).part("reads", bytes))
+        });
+        let (v, origin) = self.cache.tables(key.map(KeyBuilder::finish), compute)?;
+        for &(d, f) in logged {
+            self.record(d, f, stage, origin);
+        }
+        Ok(v)
+    }
+    fn load_uncached(&self, dataset: usize, file: usize) -> Result<LoadedItem> {
         let d = &self.datasets[dataset];
         let path = &d.files[file];
         let mut motion = d.loader.load(path).map_err(|e| e.in_file(path))?;
@@ -180,7 +279,7 @@ impl Datasets {
         for p in d.preprocess.iter().chain(&self.preprocess) {
             motion = p.apply(motion).map_err(|e| e.in_file(path))?;
         }
-        Ok(LoadedItem { name: d.sequence_name(file), motion: Arc::new(motion), truth })
+        Ok(LoadedItem { name: d.sequence_name(file), motion: Arc::new(motion), truth, key: None })
     }
     /// The dataset whose tag `key` equals `value`.
     pub fn find_tagged(&self, key: &str, value: &str) -> Vec<&BuiltDataset> {

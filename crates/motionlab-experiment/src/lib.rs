@@ -16,10 +16,12 @@
 //! in `motionlab-workflows`; a researcher's own workflow is one file in their own crate.
 
 pub mod context;
+pub mod run_cache;
 pub mod spec;
 pub mod toml_paths;
 pub mod workflow;
 
+pub use run_cache::{Origin, RunCache};
 pub use context::{build_stage, deserialize_section, At, BuiltDataset, Combo, Datasets, LoadedItem, Source};
 pub use workflow::{BuildContext, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowEntry, WorkflowPlugin};
 

@@ -55,6 +55,11 @@ fn write_page(
                     }
                 }
                 ("tables" | "figures", _) => {}
+                // The per-input record is for provenance.json; the page shows where and how much.
+                ("cache", serde_json::Value::Object(c)) => {
+                    let dir = c.get("dir").and_then(|d| d.as_str()).unwrap_or("none (--no-cache)");
+                    provenance.push((k.clone(), format!("{dir}; stages {}", c.get("totals").map(|t| t.to_string()).unwrap_or_default())))
+                }
                 (_, serde_json::Value::Array(a)) => {
                     provenance.push((k.clone(), a.iter().map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).collect::<Vec<_>>().join(" ")))
                 }

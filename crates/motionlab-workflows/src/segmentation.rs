@@ -79,10 +79,15 @@ fn default_seg_figures() -> Vec<String> {
 pub struct SegmentationWorkflow {
     section: SegmentationSection,
     segmenters: Vec<(String, Box<dyn Segmenter>)>,
+    /// Each segmenter's type and parameters as resolved in this combination: its key in the
+    /// on-disk cache, under the input's.
+    segmenter_params: Vec<String>,
     fuser: Option<(String, Box<dyn Fuser>)>,
     /// Indices into `segmenters` that the fuser combines.
     fuse: Vec<usize>,
     evaluators: Vec<(String, Box<dyn Evaluator>)>,
+    /// Each evaluator's type and parameters as resolved (its key in the on-disk cache).
+    evaluator_params: Vec<String>,
     experiment: String,
     /// The first evaluator's `tolerance`, drawn as a band around each truth in the viewers.
     viewer_tolerance: Option<TimeSpan>,
@@ -154,9 +159,11 @@ impl WorkflowPlugin for SegmentationWorkflow {
             None => None,
         };
         let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
+        let evaluator_params = combo.file.evaluators.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
+        let segmenter_params = section.segmenters.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
         let viewer_tolerance = combo.file.evaluators.iter().find_map(|e| e.params.get("tolerance")?.clone().try_into::<TimeSpan>().ok());
         let experiment = combo.file.experiment.name.clone();
-        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, experiment, viewer_tolerance })
+        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment, viewer_tolerance })
     }
 }
 
@@ -175,8 +182,12 @@ impl Workflow for SegmentationWorkflow {
         let file = motion.source.clone().unwrap_or_default();
         let cache = FeatureCache::new();
         let mut outputs: Vec<(String, SegmenterOutput)> = Vec::new();
-        for (name, s) in &self.segmenters {
-            let out = s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
+        for ((name, s), params) in self.segmenters.iter().zip(&self.segmenter_params) {
+            // The output depends on the input and the segmenter's parameters only: cached on
+            // disk under both (the features it computes on the way are not kept).
+            let out = data.stage_cached(&loaded, (item.dataset, item.file), &format!("segmenter {name}"), "segmenter", params, || {
+                s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))
+            })?;
             outputs.push((name.clone(), out));
         }
         let mut methods: Vec<MethodRecord> = outputs
@@ -187,6 +198,8 @@ impl Workflow for SegmentationWorkflow {
             let inputs: Vec<MethodCandidates<'_>> =
                 self.fuse.iter().map(|&i| MethodCandidates { method: &outputs[i].0, frames: &outputs[i].1.candidates }).collect();
             let fused = fuser.fuse(motion, &inputs).map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
+            // Cheap (a merge of candidate lists): never cached, logged for the provenance.
+            data.record(item.dataset, item.file, &format!("fuser {name}"), motionlab_experiment::Origin::Computed);
             methods.push(MethodRecord { method: name.clone(), candidates: fused, flagged_frames: 0 });
         }
         let figures = if draw { self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)? } else { Vec::new() };
@@ -199,6 +212,9 @@ impl Workflow for SegmentationWorkflow {
         let mut sequences = Vec::new();
         let mut rows = Vec::new();
         let mut viewer_traces = Vec::new();
+        // What the evaluation reads of each sequence (its input's cache key, name and every
+        // method's candidates), for the evaluation's key in the on-disk cache.
+        let mut reads: Vec<(Option<motionlab_experiment::run_cache::Key>, Vec<u8>)> = Vec::new();
         for (item, value) in items {
             let mut r: ItemResult = value.decode()?;
             viewer_traces.push((item.id.clone(), std::mem::take(&mut r.traces)));
@@ -213,6 +229,14 @@ impl Workflow for SegmentationWorkflow {
             // Evaluators may compare poses, so they get the motion itself (reloaded: item results
             // are kept small so shards stay cheap to merge).
             let loaded = data.load(item.dataset, item.file)?;
+            let mut read = r.sequence.clone().into_bytes();
+            for m in &r.methods {
+                read.push(0);
+                read.extend(m.method.as_bytes());
+                read.push(0);
+                read.extend(m.candidates.iter().flat_map(|&c| (c as u64).to_le_bytes()));
+            }
+            reads.push((loaded.key, read));
             sequences.push(SequenceResult {
                 sequence: r.sequence,
                 motion: Arc::clone(&loaded.motion),
@@ -222,8 +246,11 @@ impl Workflow for SegmentationWorkflow {
         }
         let mut out = Output::default();
         out.tables.push(Table::from_records("candidates", "Candidate frames per sequence and method", &rows)?);
-        for (name, e) in &self.evaluators {
-            let tables = e.evaluate(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
+        let logged: Vec<(usize, usize)> = items.iter().map(|(i, _)| (i.dataset, i.file)).collect();
+        for ((name, e), params) in self.evaluators.iter().zip(&self.evaluator_params) {
+            let tables = data.tables_cached(&format!("evaluate {name}"), params, &reads, &logged, || {
+                e.evaluate(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))
+            })?;
             out.tables.extend(tables);
         }
         if draw {
