@@ -1,8 +1,8 @@
 //! motionlab-cli's integration tests: one test binary, one module per file of this folder.
 //!
 //! One binary rather than one per file: each binary links the whole of motionlab with polars
-//! and plotters, and eleven of them cost about a minute of a cold `cargo test --workspace` on
-//! two cores (README's performance table). A test's full name starts with its file's name, so
+//! and plotters: eleven of them were 2.3 % of a cold `cargo test --workspace --no-run`
+//! (`--timings`, README's performance table). A test's full name starts with its file's name, so
 //! one file's tests still run alone: `cargo test -p motionlab-cli --test integration gait::`.
 //! A new file here is one `mod` line below (CONTRIBUTING.md, "Tests").
 
