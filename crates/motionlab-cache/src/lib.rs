@@ -52,7 +52,7 @@ pub mod table;
 /// The entry magic.
 pub const MAGIC: &[u8; 8] = b"MLCACHE\0";
 /// The entry format version; a different version is a miss.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Header length in bytes (magic, version, key, length, checksum).
 pub const HEADER_LEN: usize = 8 + 4 + 32 + 8 + 32;
 

@@ -26,8 +26,9 @@ struct Header {
     n_frames: u64,
     skeleton: Option<Vec<JointRecord>>,
     events: Vec<(String, String, f64, f64)>,
-    /// Ground truth: frame rate (Hz), boundaries, segments.
-    truth: Option<(f64, Vec<Boundary>, Vec<Segment>)>,
+    /// Ground truth: frame rate (Hz), boundaries, segments, each annotator's own boundary
+    /// frames (empty for one annotator).
+    truth: Option<(f64, Vec<Boundary>, Vec<Segment>, Vec<Vec<usize>>)>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -87,7 +88,7 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
         n_frames: motion.n_frames() as u64,
         skeleton,
         events: motion.events.iter().map(|e| (e.label.clone(), e.context.clone(), e.time.value(), e.frame)).collect(),
-        truth: truth.map(|t| (t.frame_rate.hz(), t.boundaries.clone(), t.segments.clone())),
+        truth: truth.map(|t| (t.frame_rate.hz(), t.boundaries.clone(), t.segments.clone(), t.annotators.clone())),
     };
     let head = rmp_serde::to_vec(&header).map_err(|e| bad(format!("cannot encode: {e}")))?;
     let values = motion.skeleton.as_ref().map_or(&[][..], |s| s.channel_values());
@@ -159,7 +160,9 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
         None => {}
     }
     let truth = match h.truth {
-        Some((hz, boundaries, segments)) => Some(Segmentation { frame_rate: FrameRate::new(hz)?, boundaries, segments }),
+        Some((hz, boundaries, segments, annotators)) => {
+            Some(Segmentation { frame_rate: FrameRate::new(hz)?, boundaries, segments, annotators })
+        }
         None => None,
     };
     Ok((motion, truth))
