@@ -12,7 +12,7 @@ use serde_json::Value;
 const EXP: &str = "tests/cache/sweep.toml";
 
 fn motionlab(cache: &Path) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_motionlab"));
+    let mut c = crate::motionlab_command();
     c.current_dir(motionlab_testkit::repo_root()).env("MOTIONLAB_CACHE_DIR", cache).env_remove("MOTIONLAB_CACHE_TEST_PAUSE_MS");
     c
 }

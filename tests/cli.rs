@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn motionlab() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_motionlab"))
+    crate::motionlab_command()
 }
 
 fn repo() -> PathBuf {

@@ -15,7 +15,7 @@ fn repo() -> PathBuf {
 }
 
 fn motionlab(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_motionlab")).args(args).current_dir(repo()).output().unwrap();
+    let out = crate::motionlab_command().args(args).current_dir(repo()).output().unwrap();
     (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
 }
 

@@ -19,3 +19,24 @@ mod retrieval;
 mod safe_outputs;
 mod sharding;
 mod viewer;
+
+use std::path::PathBuf;
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// The `motionlab` binary, with its on-disk cache in this test run's own folder
+/// (`$CARGO_TARGET_TMPDIR/motionlab-cache`, emptied once when the run starts): tests never touch
+/// the user's `~/.cache/motionlab`, every run starts cold, and the tests that run at once share
+/// one cache as concurrent runs do (tests/cache.rs gives its runs folders of their own).
+pub fn motionlab_command() -> Command {
+    static CACHE: OnceLock<PathBuf> = OnceLock::new();
+    let dir = CACHE.get_or_init(|| {
+        let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("motionlab-cache");
+        // A missing folder is the normal first run; any other failure shows in the tests.
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    });
+    let mut c = Command::new(env!("CARGO_BIN_EXE_motionlab"));
+    c.env("MOTIONLAB_CACHE_DIR", dir);
+    c
+}

@@ -5,7 +5,6 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use motionlab_core::registry;
 use motionlab_core::{ErrorKind, Motion};
@@ -21,7 +20,7 @@ fn repo() -> PathBuf {
 
 /// Runs motionlab from the repository root; panics with its stderr when it fails.
 fn motionlab_ok(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_motionlab")).args(args).current_dir(repo()).output().unwrap();
+    let out = crate::motionlab_command().args(args).current_dir(repo()).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "motionlab {args:?} failed: {err}");
     String::from_utf8_lossy(&out.stdout).into_owned()
@@ -105,7 +104,7 @@ fn subject_prefixes_are_stripped_so_one_experiment_uses_plain_marker_names() {
         assert!(tables.join(format!("{stem}_features.csv")).is_file(), "{stem}");
     }
     // Without stripping, the plain names are unknown: one error naming the marker.
-    let out = Command::new(env!("CARGO_BIN_EXE_motionlab"))
+    let out = crate::motionlab_command()
         .args(["run", "tests/fixtures/prefixes/plain_names.toml", "--reports", r, "--quiet", "dataset[0].loader.strip_subject_prefix=false"])
         .current_dir(repo())
         .output()
@@ -137,7 +136,7 @@ fn motionlab_new_scaffolds_an_experiment_that_validates_and_runs() {
         assert!(text.contains(expected), "{expected:?} not in:\n{text}");
     }
     // It will not overwrite.
-    let again = Command::new(env!("CARGO_BIN_EXE_motionlab"))
+    let again = crate::motionlab_command()
         .args(["new", "data/mct/", "-o", t])
         .current_dir(repo())
         .output()

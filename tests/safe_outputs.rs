@@ -6,7 +6,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 fn motionlab() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_motionlab"));
+    let mut c = crate::motionlab_command();
     c.current_dir(motionlab_testkit::repo_root());
     c
 }

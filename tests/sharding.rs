@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn motionlab() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_motionlab"));
+    let mut c = crate::motionlab_command();
     c.current_dir(motionlab_testkit::repo_root());
     c
 }

@@ -26,9 +26,17 @@ struct Header {
     n_frames: u64,
     skeleton: Option<Vec<JointRecord>>,
     events: Vec<(String, String, f64, f64)>,
-    /// Ground truth: frame rate (Hz), boundaries, segments, each annotator's own boundary
-    /// frames (empty for one annotator).
-    truth: Option<(f64, Vec<Boundary>, Vec<Segment>, Vec<Vec<usize>>)>,
+    truth: Option<TruthRecord>,
+}
+
+/// A ground truth as cached.
+#[derive(Serialize, Deserialize)]
+struct TruthRecord {
+    frame_rate_hz: f64,
+    boundaries: Vec<Boundary>,
+    segments: Vec<Segment>,
+    /// Each annotator's own boundary frames (empty for one annotator).
+    annotators: Vec<Vec<usize>>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -88,7 +96,12 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
         n_frames: motion.n_frames() as u64,
         skeleton,
         events: motion.events.iter().map(|e| (e.label.clone(), e.context.clone(), e.time.value(), e.frame)).collect(),
-        truth: truth.map(|t| (t.frame_rate.hz(), t.boundaries.clone(), t.segments.clone(), t.annotators.clone())),
+        truth: truth.map(|t| TruthRecord {
+            frame_rate_hz: t.frame_rate.hz(),
+            boundaries: t.boundaries.clone(),
+            segments: t.segments.clone(),
+            annotators: t.annotators.clone(),
+        }),
     };
     let head = rmp_serde::to_vec(&header).map_err(|e| bad(format!("cannot encode: {e}")))?;
     let values = motion.skeleton.as_ref().map_or(&[][..], |s| s.channel_values());
@@ -160,9 +173,12 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
         None => {}
     }
     let truth = match h.truth {
-        Some((hz, boundaries, segments, annotators)) => {
-            Some(Segmentation { frame_rate: FrameRate::new(hz)?, boundaries, segments, annotators })
-        }
+        Some(t) => Some(Segmentation {
+            frame_rate: FrameRate::new(t.frame_rate_hz)?,
+            boundaries: t.boundaries,
+            segments: t.segments,
+            annotators: t.annotators,
+        }),
         None => None,
     };
     Ok((motion, truth))

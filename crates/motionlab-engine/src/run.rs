@@ -297,10 +297,8 @@ fn complete(
     let finished = finish_all(plan, rundir, by_combo, opts);
     plan.cache.clear_memory();
     let (tables, finished) = finished?;
-    // A merged run's items ran in other processes: their cache log is in no one's memory here.
-    let cache_record = if shards.is_none() { cache_provenance(plan, opts) } else { None };
     let in_item_order = Written::concat(item_outputs.iter().map(|(_, w)| w).chain([&finished]));
-    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order), cache_record)?;
+    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order))?;
     item_outputs.sort_by(|a, b| a.0.cmp(&b.0));
     let page_order: Vec<&Written> = [&finished].into_iter().chain(item_outputs.iter().map(|(_, w)| w)).collect();
     let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -373,8 +371,9 @@ fn write_provenance(
     items: usize,
     shards: Option<usize>,
     outputs: FileLists,
-    cache: Option<serde_json::Value>,
 ) -> Result<()> {
+    // A merged run's items ran in other processes: their cache log is in no one's memory here.
+    let cache = if shards.is_none() { cache_provenance(plan, opts) } else { None };
     let inputs = plan
         .input_files()
         .iter()
