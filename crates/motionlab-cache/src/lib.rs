@@ -333,7 +333,7 @@ mod tests {
         std::fs::write(&pa, &bad).unwrap();
         assert_eq!(c.lookup("t", &a), Err(Miss::BadMagic));
         let mut bad = good.clone();
-        bad[8] = 2;
+        bad[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
         std::fs::write(&pa, &bad).unwrap();
         assert_eq!(c.lookup("t", &a), Err(Miss::OtherVersion));
         // Another key's entry under this name.

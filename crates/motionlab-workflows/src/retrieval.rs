@@ -80,32 +80,34 @@ pub struct RetrievalSection {
     /// Name of the dataset holding the model motion (its `name`, or the file stem of its single
     /// file). It must resolve to exactly one file, usually cut to one repetition. Required.
     pub model: String,
-    /// Markers (or joints) to match. Default: every point of the model.
+    /// Markers (or joints) to match.
     #[serde(default)]
+    #[schemars(extend("x-default" = "every point of the model"))]
     pub points: Option<Vec<String>>,
     /// Point whose position is subtracted from every point in every frame before matching (the
-    /// place in the room removed; e.g. `"root"`). Default: none (positions as loaded).
+    /// place in the room removed; e.g. `"root"`).
     #[serde(default)]
+    #[schemars(extend("x-default" = "none: positions as loaded"))]
     pub reference_point: Option<String>,
-    /// How many most similar stretches to list (0: none). Default 5.
+    /// How many most similar stretches to list (0: none).
     #[serde(default = "five")]
     pub similar: usize,
-    /// How many most dissimilar stretches to list (0: none). Default 5.
+    /// How many most dissimilar stretches to list (0: none).
     #[serde(default = "five")]
     pub dissimilar: usize,
-    /// Candidate window length (`{ frames = 250 }` or `{ seconds = 2.0 }`). Default: twice the
-    /// model's length.
+    /// Candidate window length (`{ frames = 250 }` or `{ seconds = 2.0 }`).
     #[serde(default)]
+    #[schemars(extend("x-default" = "twice the model's length"))]
     pub window: Option<TimeSpan>,
-    /// Step between window starts. Default: a quarter of the model's length (at least 1 frame).
+    /// Step between window starts.
     #[serde(default)]
+    #[schemars(extend("x-default" = "a quarter of the model's length, at least 1 frame"))]
     pub stride: Option<TimeSpan>,
     /// Bounds and best-first search (true) or every window matched (false); the lists are the
-    /// same. Default: true.
+    /// same.
     #[serde(default = "yes")]
     pub pruning: bool,
-    /// The synchroniser giving `R` of each listed stretch. Default `{ type = "synchronisation" }`
-    /// (k = 8, the paper's).
+    /// The synchroniser giving `R` of each listed stretch (the default is the paper's, k = 8).
     #[serde(default = "default_synchroniser")]
     pub synchroniser: StageSpec,
 }
