@@ -52,11 +52,9 @@ impl Counts {
             n_matched_by_pose: self.n_matched_by_pose + o.n_matched_by_pose,
         }
     }
-    /// (precision, recall, F1) as the boundary_pr evaluator defines them: matched / found,
-    /// matched / truth, 2·matched / (found + truth); NaN where the denominator is 0.
+    /// (precision, recall, F1) exactly as the boundary_pr evaluator computes them.
     pub fn ratios(self) -> (f64, f64, f64) {
-        let div = |a: usize, b: usize| if b == 0 { f64::NAN } else { a as f64 / b as f64 };
-        (div(self.n_matched, self.n_found), div(self.n_matched, self.n_truth), div(2 * self.n_matched, self.n_found + self.n_truth))
+        motionlab_eval::boundaries::ratios(self.n_found, self.n_truth, self.n_matched)
     }
 }
 
