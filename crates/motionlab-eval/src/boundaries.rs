@@ -382,6 +382,29 @@ pub struct BoundaryScores {
     pub pairs: Vec<MatchedPair>,
 }
 
+/// The counts and ratios every precision/recall table shows, as its columns in this order
+/// (flattened into the rows of `boundary_f1_by_tolerance`, `heldout_f1` and `heldout_choices`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct PrScores {
+    pub n_truth: usize,
+    pub n_found: usize,
+    pub n_matched: usize,
+    /// NaN when nothing was found.
+    pub precision: f64,
+    /// NaN when there is no truth.
+    pub recall: f64,
+    /// `2·matched / (found + truth)`; NaN only when both are 0.
+    pub f1: f64,
+}
+
+impl PrScores {
+    /// The ratios of the counts by [`ratios`].
+    pub fn of(n_truth: usize, n_found: usize, n_matched: usize) -> Self {
+        let (precision, recall, f1) = ratios(n_found, n_truth, n_matched);
+        PrScores { n_truth, n_found, n_matched, precision, recall, f1 }
+    }
+}
+
 /// `(precision, recall, f1)` from counts, with the empty-set rules of the module docs.
 pub fn ratios(n_found: usize, n_truth: usize, n_matched: usize) -> (f64, f64, f64) {
     let div = |num: usize, den: usize| if den == 0 { f64::NAN } else { num as f64 / den as f64 };

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Result, Table, TimeSpan};
 
-use crate::boundaries::{MatchRule, evaluate_boundaries, ratios, tolerance_frames};
+use crate::boundaries::{MatchRule, PrScores, evaluate_boundaries, tolerance_frames};
 use crate::cpd_metrics::{covering, tcpd_f_measure};
 use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 
@@ -82,12 +82,8 @@ pub struct ToleranceRow {
     pub tolerance: String,
     /// At this sequence's rate; None on pooled rows.
     pub tolerance_frames: Option<f64>,
-    pub n_truth: usize,
-    pub n_found: usize,
-    pub n_matched: usize,
-    pub precision: f64,
-    pub recall: f64,
-    pub f1: f64,
+    #[serde(flatten)]
+    pub scores: PrScores,
 }
 
 /// `0.0833 s` or `10 frames`: the tolerance as a short label (4 decimals of a second are
@@ -139,12 +135,7 @@ impl Evaluator for BoundaryMetrics {
                         method: m.method.clone(),
                         tolerance: tolerance_label(tol),
                         tolerance_frames: Some(tol.frames_at(rate)),
-                        n_truth: s.n_truth,
-                        n_found: s.n_found,
-                        n_matched: s.n_matched,
-                        precision: s.precision,
-                        recall: s.recall,
-                        f1: s.f1,
+                        scores: PrScores::of(s.n_truth, s.n_found, s.n_matched),
                     });
                     match pools.iter_mut().find(|(name, t, _)| *name == m.method && *t == ti) {
                         Some((_, _, c)) => {
@@ -172,18 +163,12 @@ impl Evaluator for BoundaryMetrics {
             return Err(nothing_to_evaluate("boundary_metrics", "ground truth", sequences.len()));
         }
         for (method, ti, [n_truth, n_found, n_matched]) in pools {
-            let (precision, recall, f1) = ratios(n_found, n_truth, n_matched);
             by_tol.push(ToleranceRow {
                 sequence: "pooled".into(),
                 method,
                 tolerance: tolerance_label(self.tolerances[ti]),
                 tolerance_frames: None,
-                n_truth,
-                n_found,
-                n_matched,
-                precision,
-                recall,
-                f1,
+                scores: PrScores::of(n_truth, n_found, n_matched),
             });
         }
         Ok(vec![

@@ -203,19 +203,10 @@ pub struct PrecisionRecallRow {
     pub hausdorff_s: Option<f64>,
     /// The tolerance at this sequence's rate; None on pooled rows.
     pub tolerance_frames: Option<f64>,
-    /// `exact` or `monte_carlo`: how the chance expectations were computed.
-    pub chance_expectation: &'static str,
-    /// Expected matched count of `n_found` uniformly random distinct frames (time rule).
-    pub chance_matched: f64,
-    pub chance_precision: f64,
-    pub chance_recall: f64,
-    pub chance_f1: f64,
-    /// Standard error of `chance_f1` (0 when exact).
-    pub chance_f1_se: f64,
-    /// One-sided Monte Carlo p-value that the method's matches exceed chance.
-    pub p_value: f64,
-    /// `yes` when `p_value < 0.05`, else `no`.
-    pub above_chance: &'static str,
+    /// `n_found` uniformly random distinct frames: the `chance_*`, `p_value` and
+    /// `above_chance` columns.
+    #[serde(flatten)]
+    pub chance: ChanceScores,
     /// The periodic baseline: as many candidates as truths, equally spaced.
     pub periodic_n_found: usize,
     pub periodic_precision: f64,
@@ -235,15 +226,7 @@ struct Baselines {
 
 impl Baselines {
     fn fill(&self, row: &mut PrecisionRecallRow) {
-        let c = ChanceScores::of(&self.chance, self.n_truth, self.method_time_matched);
-        row.chance_expectation = c.expectation;
-        row.chance_matched = c.matched;
-        row.chance_precision = c.precision;
-        row.chance_recall = c.recall;
-        row.chance_f1 = c.f1;
-        row.chance_f1_se = c.f1_se;
-        row.p_value = c.p_value;
-        row.above_chance = c.above;
+        row.chance = ChanceScores::of(&self.chance, self.n_truth, self.method_time_matched);
         let (p, r, f) = ratios(self.periodic_found, self.n_truth, self.periodic_matched);
         row.periodic_n_found = self.periodic_found;
         (row.periodic_precision, row.periodic_recall, row.periodic_f1) = (p, r, f);
@@ -266,14 +249,7 @@ impl PrecisionRecallRow {
             hausdorff_frames: None,
             hausdorff_s: None,
             tolerance_frames: None,
-            chance_expectation: "",
-            chance_matched: f64::NAN,
-            chance_precision: f64::NAN,
-            chance_recall: f64::NAN,
-            chance_f1: f64::NAN,
-            chance_f1_se: f64::NAN,
-            p_value: f64::NAN,
-            above_chance: "",
+            chance: ChanceScores::none(),
             periodic_n_found: 0,
             periodic_precision: f64::NAN,
             periodic_recall: f64::NAN,

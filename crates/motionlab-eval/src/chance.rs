@@ -121,18 +121,30 @@ pub const ALPHA: f64 = 0.05;
 
 /// A row's chance columns: the expected precision, recall and F1 of the baseline's `n_found`
 /// random frames against `n_truth` truths, and the p-value of `observed` (time-rule) matches.
-#[derive(Clone, Debug, PartialEq)]
+/// Serialised under the column names of the tables that flatten it (`table1_precision_recall`,
+/// `heldout_f1`), in this order.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ChanceScores {
-    /// `exact` or `monte_carlo`; empty when there is no baseline.
+    /// `exact` or `monte_carlo`: how the chance expectations were computed; empty when there is
+    /// no baseline.
+    #[serde(rename = "chance_expectation")]
     pub expectation: &'static str,
+    /// Expected matched count of the baseline's uniformly random distinct frames (time rule).
+    #[serde(rename = "chance_matched")]
     pub matched: f64,
+    #[serde(rename = "chance_precision")]
     pub precision: f64,
+    #[serde(rename = "chance_recall")]
     pub recall: f64,
+    #[serde(rename = "chance_f1")]
     pub f1: f64,
-    /// Standard error of `f1` (0 when exact).
+    /// Standard error of `chance_f1` (0 when exact).
+    #[serde(rename = "chance_f1_se")]
     pub f1_se: f64,
+    /// One-sided Monte Carlo p-value that the observed matches exceed chance.
     pub p_value: f64,
     /// `yes` when `p_value < ALPHA`, else `no`; empty when there is no baseline.
+    #[serde(rename = "above_chance")]
     pub above: &'static str,
 }
 

@@ -12,7 +12,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
-use motionlab_eval::boundaries::TruthWindow;
+use motionlab_eval::boundaries::{PrScores, TruthWindow};
 use motionlab_eval::chance::{ChanceCounts, ChanceScores, chance_counts, row_seed};
 use motionlab_experiment::workflow::ComboOutput;
 
@@ -52,9 +52,9 @@ impl Counts {
             n_matched_by_pose: self.n_matched_by_pose + o.n_matched_by_pose,
         }
     }
-    /// (precision, recall, F1) exactly as the boundary_pr evaluator computes them.
-    pub fn ratios(self) -> (f64, f64, f64) {
-        motionlab_eval::boundaries::ratios(self.n_found, self.n_truth, self.n_matched)
+    /// Counts with (precision, recall, F1) exactly as the boundary_pr evaluator computes them.
+    pub fn scores(self) -> PrScores {
+        PrScores::of(self.n_truth, self.n_found, self.n_matched)
     }
 }
 
@@ -121,12 +121,9 @@ pub struct Choice {
     pub parameters: String,
     /// Pooled F1 of the chosen combination on the fold's training sequences.
     pub train_f1: f64,
-    pub n_truth: usize,
-    pub n_found: usize,
-    pub n_matched: usize,
-    pub precision: f64,
-    pub recall: f64,
-    pub f1: f64,
+    /// On the fold's test sequence(s).
+    #[serde(flatten)]
+    pub scores: PrScores,
     /// Chance (same found count, same sequence, boundary_pr's draws): expected P/R/F1.
     pub chance_precision: f64,
     pub chance_recall: f64,
@@ -150,26 +147,13 @@ pub struct Summary {
     /// rows of a method).
     pub folds_choosing_it: usize,
     pub n_folds: usize,
-    pub n_truth: usize,
-    pub n_found: usize,
-    pub n_matched: usize,
-    pub precision: f64,
-    pub recall: f64,
-    pub f1: f64,
-    /// `exact` or `monte_carlo`: how the chance expectation was computed.
-    pub chance_expectation: &'static str,
+    /// Pooled over the row's sequences (and folds).
+    #[serde(flatten)]
+    pub scores: PrScores,
     /// Chance: the same number of uniformly random distinct frames on each of the row's
     /// sequences (and folds), boundary_pr's null model and draws, pooled.
-    pub chance_matched: f64,
-    pub chance_precision: f64,
-    pub chance_recall: f64,
-    pub chance_f1: f64,
-    /// Standard error of `chance_f1` (0 when exact).
-    pub chance_f1_se: f64,
-    /// One-sided Monte Carlo p-value that the row's pooled matches exceed chance.
-    pub p_value: f64,
-    /// `yes` when `p_value < 0.05`.
-    pub above_chance: &'static str,
+    #[serde(flatten)]
+    pub chance: ChanceScores,
 }
 
 pub const ORACLE: &str = "oracle (chosen on the evaluation data)";
@@ -349,7 +333,7 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
     let best_on = |c: &Curve, train: &[String]| -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
         for (k, p) in c.points.iter().enumerate() {
-            let f1 = pooled(p, train).ratios().2;
+            let f1 = pooled(p, train).scores().f1;
             if f1.is_finite() && best.is_none_or(|(_, b)| f1 >= b) {
                 best = Some((k, f1));
             }
@@ -379,7 +363,6 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
             let fold_parts: Vec<(&Point, &str)> = test.iter().map(|s| (p, s.as_str())).collect();
             let chance = chance_at(&c.method, &fold_parts);
             parts.extend(fold_parts);
-            let (precision, recall, f1) = counts.ratios();
             choices.push(Choice {
                 held_out: test.join(", "),
                 method: c.method.clone(),
@@ -387,12 +370,7 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
                 combination: p.combination,
                 parameters: p.parameters.clone(),
                 train_f1,
-                n_truth: counts.n_truth,
-                n_found: counts.n_found,
-                n_matched: counts.n_matched,
-                precision,
-                recall,
-                f1,
+                scores: counts.scores(),
                 chance_precision: chance.precision,
                 chance_recall: chance.recall,
                 chance_f1: chance.f1,
@@ -407,7 +385,6 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
 }
 
 fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, usize), counts: Counts, chance: ChanceScores) -> Summary {
-    let (precision, recall, f1) = counts.ratios();
     Summary {
         method: c.method.clone(),
         sweep: c.sweep.clone(),
@@ -415,20 +392,8 @@ fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, us
         parameters,
         folds_choosing_it: agreement.0,
         n_folds: agreement.1,
-        n_truth: counts.n_truth,
-        n_found: counts.n_found,
-        n_matched: counts.n_matched,
-        precision,
-        recall,
-        f1,
-        chance_expectation: chance.expectation,
-        chance_matched: chance.matched,
-        chance_precision: chance.precision,
-        chance_recall: chance.recall,
-        chance_f1: chance.f1,
-        chance_f1_se: chance.f1_se,
-        p_value: chance.p_value,
-        above_chance: chance.above,
+        scores: counts.scores(),
+        chance,
     }
 }
 
@@ -499,16 +464,16 @@ mod tests {
         let (choices, summaries) = heldout(&[curve()], &Selection::LeaveOneSequenceOut).unwrap();
         assert_eq!(summaries.len(), 2);
         assert_eq!(summaries[0].selection, ORACLE);
-        assert_eq!((summaries[0].n_matched, summaries[0].n_found, summaries[0].n_truth), (12, 20, 20));
-        assert!((summaries[0].f1 - 0.6).abs() < 1e-12);
+        assert_eq!((summaries[0].scores.n_matched, summaries[0].scores.n_found, summaries[0].scores.n_truth), (12, 20, 20));
+        assert!((summaries[0].scores.f1 - 0.6).abs() < 1e-12);
         assert_eq!(summaries[1].selection, "held-out (leave-one-sequence-out)");
-        assert_eq!((summaries[1].n_matched, summaries[1].n_found, summaries[1].n_truth), (6, 20, 20));
-        assert!((summaries[1].f1 - 0.3).abs() < 1e-12 && (summaries[1].precision - 0.3).abs() < 1e-12 && (summaries[1].recall - 0.3).abs() < 1e-12);
+        assert_eq!((summaries[1].scores.n_matched, summaries[1].scores.n_found, summaries[1].scores.n_truth), (6, 20, 20));
+        assert!((summaries[1].scores.f1 - 0.3).abs() < 1e-12 && (summaries[1].scores.precision - 0.3).abs() < 1e-12 && (summaries[1].scores.recall - 0.3).abs() < 1e-12);
         assert_eq!(choices.len(), 2);
         assert_eq!((choices[0].held_out.as_str(), choices[0].combination, choices[0].parameters.as_str()), ("A", 1, "v=0.2"));
-        assert!((choices[0].train_f1 - 0.6).abs() < 1e-12 && (choices[0].f1 - 0.6).abs() < 1e-12);
+        assert!((choices[0].train_f1 - 0.6).abs() < 1e-12 && (choices[0].scores.f1 - 0.6).abs() < 1e-12);
         assert_eq!((choices[1].held_out.as_str(), choices[1].combination), ("B", 0));
-        assert!((choices[1].train_f1 - 1.0).abs() < 1e-12 && choices[1].f1 == 0.0);
+        assert!((choices[1].train_f1 - 1.0).abs() < 1e-12 && choices[1].scores.f1 == 0.0);
     }
 
     #[test]
@@ -516,7 +481,7 @@ mod tests {
         // Train on B: comb 0 F1 0, comb 1 0.6 → comb 1; test on A: 6/10.
         let (choices, summaries) = heldout(&[curve()], &Selection::Train(vec!["B".into()])).unwrap();
         assert_eq!(choices.len(), 1);
-        assert_eq!((choices[0].held_out.as_str(), choices[0].combination, choices[0].n_matched), ("A", 1, 6));
+        assert_eq!((choices[0].held_out.as_str(), choices[0].combination, choices[0].scores.n_matched), ("A", 1, 6));
         assert_eq!(summaries[1].selection, "held-out (chosen on B)");
         // Two identical points: the last wins, as in best_f1.
         let mut tie = curve();
@@ -606,7 +571,7 @@ mod tests {
         let k: usize = oracle.parameters.trim_start_matches("c=").parse().unwrap();
         let t = &tables[k][0];
         let r = seq_row(t, "pooled");
-        assert_eq!((oracle.chance_f1, oracle.p_value, oracle.chance_recall), (row(t, r, "chance_f1"), row(t, r, "p_value"), row(t, r, "chance_recall")));
+        assert_eq!((oracle.chance.f1, oracle.chance.p_value, oracle.chance.recall), (row(t, r, "chance_f1"), row(t, r, "p_value"), row(t, r, "chance_recall")));
         // By hand: A's truths 100 and 250 with tolerance 4 are windows of 9 frames in 0..400; 2
         // random frames hit a given window with probability 1 − (391·390)/(400·399).
         let a = seq_row(&tables[0][0], "A");
@@ -616,6 +581,6 @@ mod tests {
         assert_eq!((held.n_folds, oracle.n_folds), (2, 2));
         // Combination 1 (the oracle's) was chosen when A was held out, not when B was.
         assert_eq!((held.folds_choosing_it, oracle.folds_choosing_it), (1, 1));
-        assert!(held.chance_f1 > 0.0 && held.chance_f1 < held.f1 && held.p_value > 0.0 && held.p_value <= 1.0);
+        assert!(held.chance.f1 > 0.0 && held.chance.f1 < held.scores.f1 && held.chance.p_value > 0.0 && held.chance.p_value <= 1.0);
     }
 }
