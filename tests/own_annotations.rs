@@ -148,4 +148,25 @@ fn motionlab_new_scaffolds_an_experiment_that_validates_and_runs() {
     let rows = read_table(&run_dir(&reports, "mct_segmentation").join("tables/table1_precision_recall.csv"));
     let sequences: Vec<&str> = rows.iter().filter(|r| r["method"] == "fused").map(|r| r["sequence"].as_str()).collect();
     assert_eq!(sequences, vec!["dance1", "dance2", "pooled"]);
+    // The viewer's band around each truth is the tolerance that judged it: the 0.5 s the
+    // scaffold writes is 30 frames at dance1's 60 Hz.
+    assert_eq!(truth_band_frames(&run_dir(&reports, "mct_segmentation"), "dance1.html"), Some(30.0));
+
+    // With boundary_pr's tolerance left to its default (1/12 s: 5 frames at 60 Hz), the band
+    // follows it too; it used to be drawn only when the TOML named a `tolerance`.
+    let defaulted = out.path().join("exp/mct_default_tolerance.toml");
+    std::fs::write(&defaulted, text.replace("tolerance = { seconds = 0.5 }", "").replace("name = \"mct_segmentation\"", "name = \"mct_default\""))
+        .unwrap();
+    motionlab_ok(&["run", defaulted.to_str().unwrap(), "--reports", reports.to_str().unwrap(), "--quiet"]);
+    let run = run_dir(&reports, "mct_default");
+    let rows = read_table(&run.join("tables/table1_precision_recall.csv"));
+    assert!(rows.iter().filter(|r| r["sequence"] == "dance1").all(|r| r["tolerance_frames"] == "5.0"), "{rows:?}");
+    assert_eq!(truth_band_frames(&run, "dance1.html"), Some(5.0));
+}
+
+/// `tolerance_frames` of the "ground truth" lane of a segmentation viewer page.
+fn truth_band_frames(run: &Path, page: &str) -> Option<f64> {
+    let pages = motionlab_testkit::viewer_pages(run);
+    let meta = &pages.iter().find(|p| p.0 == page).unwrap_or_else(|| panic!("no viewer {page}")).1;
+    motionlab_testkit::viewer_lane(meta, "ground truth")["tolerance_frames"].as_f64()
 }

@@ -11,7 +11,7 @@ use motionlab_core::registry;
 use motionlab_core::viewer::{EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
 use motionlab_core::{
     ColumnValues, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
-    Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table, Threshold, TimeSpan, Trace,
+    Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
 };
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
 
@@ -89,8 +89,6 @@ pub struct SegmentationWorkflow {
     /// Each evaluator's type and parameters as resolved (its key in the on-disk cache).
     evaluator_params: Vec<String>,
     experiment: String,
-    /// The first evaluator's `tolerance`, drawn as a band around each truth in the viewers.
-    viewer_tolerance: Option<TimeSpan>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -161,9 +159,8 @@ impl WorkflowPlugin for SegmentationWorkflow {
         let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
         let evaluator_params = combo.file.evaluators.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
         let segmenter_params = section.segmenters.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
-        let viewer_tolerance = combo.file.evaluators.iter().find_map(|e| e.params.get("tolerance")?.clone().try_into::<TimeSpan>().ok());
         let experiment = combo.file.experiment.name.clone();
-        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment, viewer_tolerance })
+        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment })
     }
 }
 
@@ -274,7 +271,10 @@ impl Workflow for SegmentationWorkflow {
 impl SegmentationWorkflow {
     /// The viewer page of one sequence: ground truth (judged against the fused method), the
     /// fused candidates, then each segmenter's candidates and traces; statuses as the
-    /// `boundary_matches` table of the evaluation says.
+    /// `boundary_matches` table of the evaluation says, and the band drawn around each truth the
+    /// tolerance that judged them (`table1_precision_recall`'s `tolerance_frames` for this
+    /// sequence) — read from the evaluation's output, so the band and the statuses cannot
+    /// disagree, whatever the evaluator's parameters say or leave to their defaults.
     fn viewer(&self, id: &str, seq: &SequenceResult, traces: &[(String, Vec<Trace>, Vec<Threshold>)], tables: &[Table]) -> Result<ViewerSpec> {
         let motion = &seq.motion;
         let vm = ViewerMotion::from_motion(motion, &self.section.bones, Some(&self.section.root))?;
@@ -306,8 +306,14 @@ impl SegmentationWorkflow {
             }
         };
         let fused = self.fuser.as_ref().and_then(|_| seq.methods.last());
+        let tolerance_frames = tables.iter().find(|t| t.name == "table1_precision_recall").and_then(|t| {
+            let col = |c: &str, r: usize| t.column(c).map(|v| v.cell(r)).unwrap_or_default();
+            (0..t.n_rows())
+                .filter(|&r| col("sequence", r) == seq.sequence)
+                .find_map(|r| col("tolerance_frames", r).parse::<f64>().ok().filter(|f| f.is_finite()))
+        });
         if let Some(truth) = &seq.truth {
-            let tol = self.viewer_tolerance.map(|t| t.frames_at(motion.frame_rate()));
+            let tol = tolerance_frames;
             let mut lane = EventLane::truth("ground truth", truth, tol);
             if let Some(f) = fused {
                 judge(&mut lane, &f.method, true);
