@@ -73,7 +73,7 @@ fn evaluate_one_method(bencher: Bencher) {
         [549, 1149, 1979, 2499, 3199, 4064].iter().map(|&frame| Boundary { frame, window: None }).collect();
     let mut found: Vec<usize> = (0..120).map(|_| (rng.uniform() * 4579.0) as usize).collect();
     found.sort_unstable();
-    bencher.bench(|| evaluate_boundaries(black_box(&found), black_box(&truth), &MatchRule::time(10.0)).n_matched);
+    bencher.bench(|| evaluate_boundaries(black_box(&found), black_box(&truth), &MatchRule::time(10.0)).scores.n_matched);
 }
 
 /// The whole `boundary_pr` evaluator on a Table-1-sized input: 4 sequences × 4 methods, ~100

@@ -41,10 +41,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let s = evaluate_boundaries(&c.found, &truth, &MatchRule::time(c.tolerance_frames));
             let (f1, p, r) = tcpd_f_measure(&c.annotators, &c.found, c.margin_frames);
             json!({
-                "n_matched": s.n_matched,
-                "precision": num(s.precision),
-                "recall": num(s.recall),
-                "f1": num(s.f1),
+                "n_matched": s.scores.n_matched,
+                "precision": num(s.scores.precision),
+                "recall": num(s.scores.recall),
+                "f1": num(s.scores.f1),
                 "hausdorff_frames": num(hausdorff_frames(&c.found, &c.truth)),
                 "tcpd_f1": num(f1),
                 "tcpd_precision": num(p),

@@ -367,15 +367,8 @@ pub struct MatchedPair {
 /// Precision, recall, F1 and the Hausdorff distance of one method on one sequence.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundaryScores {
-    pub n_truth: usize,
-    pub n_found: usize,
-    pub n_matched: usize,
-    /// NaN when nothing was found.
-    pub precision: f64,
-    /// NaN when there is no truth.
-    pub recall: f64,
-    /// `2·matched / (|A| + |R|)`; NaN only when both are empty.
-    pub f1: f64,
+    /// Counts, precision, recall and `F1 = 2·matched / (|A| + |R|)`.
+    pub scores: PrScores,
     /// 0 when both sets are empty, +∞ when exactly one is.
     pub hausdorff_frames: f64,
     /// The pairs of a maximum matching, sorted by found frame.
@@ -435,15 +428,9 @@ pub fn evaluate_boundaries(found: &[usize], truth: &[Boundary], rule: &MatchRule
         .map(|&(i, j)| MatchedPair { found: found[i], truth: truth[j].frame, by_pose: !windows[j].contains(found[i]) })
         .collect();
     pairs.sort_by_key(|p| (p.found, p.truth));
-    let (precision, recall, f1) = ratios(found.len(), truth.len(), pairs.len());
     let truth_frames: Vec<usize> = truth.iter().map(|b| b.frame).collect();
     BoundaryScores {
-        n_truth: truth.len(),
-        n_found: found.len(),
-        n_matched: pairs.len(),
-        precision,
-        recall,
-        f1,
+        scores: PrScores::of(truth.len(), found.len(), pairs.len()),
         hausdorff_frames: hausdorff_frames(found, &truth_frames),
         pairs,
     }
@@ -557,7 +544,7 @@ mod tests {
         let found = [4, 10];
         assert_eq!(greedy_nearest_first(&found, &[0, 6], 5.0), 1);
         let s = evaluate_boundaries(&found, &truth, &MatchRule::time(5.0));
-        assert_eq!(s.n_matched, 2);
+        assert_eq!(s.scores.n_matched, 2);
         assert_eq!(
             s.pairs,
             vec![
@@ -565,7 +552,7 @@ mod tests {
                 MatchedPair { found: 10, truth: 6, by_pose: false }
             ]
         );
-        assert_eq!((s.precision, s.recall, s.f1), (1.0, 1.0, 1.0));
+        assert_eq!((s.scores.precision, s.scores.recall, s.scores.f1), (1.0, 1.0, 1.0));
         // Hausdorff: 4→6 is 2, 10→6 is 4; 0→4 is 4, 6→4 is 2: H = 4.
         assert_eq!(s.hausdorff_frames, 4.0);
     }
@@ -577,12 +564,12 @@ mod tests {
         // precision 2/6, recall 2/4, F1 = 2·2/(6+4) = 0.4 (= 2·(1/3)(1/2)/(1/3 + 1/2)).
         let s =
             evaluate_boundaries(&[103, 196, 250, 309, 500, 505], &points(&[100, 200, 300, 400]), &MatchRule::time(5.0));
-        assert_eq!((s.n_found, s.n_truth, s.n_matched), (6, 4, 2));
-        assert!((s.precision - 1.0 / 3.0).abs() < 1e-15);
-        assert_eq!(s.recall, 0.5);
-        assert!((s.f1 - 0.4).abs() < 1e-15);
-        let hm = 2.0 * s.precision * s.recall / (s.precision + s.recall);
-        assert!((s.f1 - hm).abs() < 1e-15);
+        assert_eq!((s.scores.n_found, s.scores.n_truth, s.scores.n_matched), (6, 4, 2));
+        assert!((s.scores.precision - 1.0 / 3.0).abs() < 1e-15);
+        assert_eq!(s.scores.recall, 0.5);
+        assert!((s.scores.f1 - 0.4).abs() < 1e-15);
+        let hm = 2.0 * s.scores.precision * s.scores.recall / (s.scores.precision + s.scores.recall);
+        assert!((s.scores.f1 - hm).abs() < 1e-15);
         // Hausdorff: found→truth max is 505→400 = 105; truth→found max is 400→309 = 91.
         assert_eq!(s.hausdorff_frames, 105.0);
     }
@@ -594,7 +581,7 @@ mod tests {
         let tol = tolerance_frames(TimeSpan::Seconds(1.0 / 24.0), r120);
         assert!((5.0..5.0 + 1e-6).contains(&tol));
         let s = evaluate_boundaries(&[15, 26], &points(&[10, 20]), &MatchRule::time(tol));
-        assert_eq!(s.n_matched, 1, "15 is exactly 5 frames from 10 (match), 26 is 6 from 20 (no match)");
+        assert_eq!(s.scores.n_matched, 1, "15 is exactly 5 frames from 10 (match), 26 is 6 from 20 (no match)");
         assert_eq!(s.pairs[0], MatchedPair { found: 15, truth: 10, by_pose: false });
     }
 
@@ -602,24 +589,24 @@ mod tests {
     fn one_result_matches_one_truth_only() {
         // One found frame between two truths: one pair, not two.
         let s = evaluate_boundaries(&[10], &points(&[8, 12]), &MatchRule::time(5.0));
-        assert_eq!((s.n_matched, s.precision, s.recall), (1, 1.0, 0.5));
+        assert_eq!((s.scores.n_matched, s.scores.precision, s.scores.recall), (1, 1.0, 0.5));
         // Two found frames near one truth: one pair.
         let s = evaluate_boundaries(&[9, 11], &points(&[10]), &MatchRule::time(5.0));
-        assert_eq!((s.n_matched, s.precision, s.recall), (1, 0.5, 1.0));
+        assert_eq!((s.scores.n_matched, s.scores.precision, s.scores.recall), (1, 0.5, 1.0));
     }
 
     #[test]
     fn empty_sets_follow_the_documented_rules() {
         let none = evaluate_boundaries(&[], &points(&[10, 20]), &MatchRule::time(5.0));
-        assert!(none.precision.is_nan());
-        assert_eq!((none.recall, none.f1), (0.0, 0.0));
+        assert!(none.scores.precision.is_nan());
+        assert_eq!((none.scores.recall, none.scores.f1), (0.0, 0.0));
         assert_eq!(none.hausdorff_frames, f64::INFINITY);
         let no_truth = evaluate_boundaries(&[3], &[], &MatchRule::time(5.0));
-        assert!(no_truth.recall.is_nan());
-        assert_eq!((no_truth.precision, no_truth.f1), (0.0, 0.0));
+        assert!(no_truth.scores.recall.is_nan());
+        assert_eq!((no_truth.scores.precision, no_truth.scores.f1), (0.0, 0.0));
         assert_eq!(no_truth.hausdorff_frames, f64::INFINITY);
         let both = evaluate_boundaries(&[], &[], &MatchRule::time(5.0));
-        assert!(both.precision.is_nan() && both.recall.is_nan() && both.f1.is_nan());
+        assert!(both.scores.precision.is_nan() && both.scores.recall.is_nan() && both.scores.f1.is_nan());
         assert_eq!(both.hausdorff_frames, 0.0);
     }
 
@@ -628,13 +615,13 @@ mod tests {
         // CMU-86 style: boundary 549 with window [499, 599]; found at 510 (39 frames early).
         let truth = vec![Boundary { frame: 549, window: Some((499, 599)) }];
         let plain = evaluate_boundaries(&[510], &truth, &MatchRule::time(10.0));
-        assert_eq!(plain.n_matched, 0);
+        assert_eq!(plain.scores.n_matched, 0);
         let windowed = evaluate_boundaries(
             &[510, 489, 488],
             &truth,
             &MatchRule { tolerance_frames: 10.0, use_windows: true, pose: None },
         );
-        assert_eq!(windowed.n_matched, 1);
+        assert_eq!(windowed.scores.n_matched, 1);
         // 489 is exactly tol before the window, 510 inside: either may take it, never both.
         let w = TruthWindow::from_boundary(&truth[0], 10.0, true);
         assert!(w.contains(489) && !w.contains(488) && w.contains(609) && !w.contains(610));
@@ -711,13 +698,13 @@ mod tests {
         let rule = MatchRule { tolerance_frames: 2.0, use_windows: false, pose: Some(pose) };
         // Truth at 10 and 45; found at 30 (pose match to 10 only) and 44 (time match to 45).
         let s = evaluate_boundaries(&[30, 44], &points(&[10, 45]), &rule);
-        assert_eq!(s.n_matched, 2);
+        assert_eq!(s.scores.n_matched, 2);
         assert_eq!(s.pairs[0], MatchedPair { found: 30, truth: 10, by_pose: true });
         assert_eq!(s.pairs[1], MatchedPair { found: 44, truth: 45, by_pose: false });
         // A time limit on the pose rule removes the far pose match.
         let limited = PoseRule::new(&m, "m0", 1.0, Some(TimeSpan::Frames(5.0))).unwrap();
         let s = evaluate_boundaries(&[30, 44], &points(&[10, 45]), &MatchRule { pose: Some(limited), ..rule });
-        assert_eq!(s.n_matched, 1);
+        assert_eq!(s.scores.n_matched, 1);
     }
 
     #[test]

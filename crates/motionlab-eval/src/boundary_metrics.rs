@@ -135,15 +135,15 @@ impl Evaluator for BoundaryMetrics {
                         method: m.method.clone(),
                         tolerance: tolerance_label(tol),
                         tolerance_frames: Some(tol.frames_at(rate)),
-                        scores: PrScores::of(s.n_truth, s.n_found, s.n_matched),
+                        scores: s.scores,
                     });
                     match pools.iter_mut().find(|(name, t, _)| *name == m.method && *t == ti) {
                         Some((_, _, c)) => {
-                            c[0] += s.n_truth;
-                            c[1] += s.n_found;
-                            c[2] += s.n_matched;
+                            c[0] += s.scores.n_truth;
+                            c[1] += s.scores.n_found;
+                            c[2] += s.scores.n_matched;
                         }
-                        None => pools.push((m.method.clone(), ti, [s.n_truth, s.n_found, s.n_matched])),
+                        None => pools.push((m.method.clone(), ti, [s.scores.n_truth, s.scores.n_found, s.scores.n_matched])),
                     }
                 }
                 let (f1, precision, recall) = tcpd_f_measure(&annotators, &m.candidates, margin_frames);

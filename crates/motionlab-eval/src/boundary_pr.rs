@@ -388,7 +388,7 @@ impl Evaluator for BoundaryPr {
                 let method_time_matched = if rule.pose.is_some() {
                     max_matching_windows(&candidates, &windows).len()
                 } else {
-                    s.n_matched
+                    s.scores.n_matched
                 };
                 let baselines = Baselines {
                     chance: chance_counts(
@@ -399,20 +399,20 @@ impl Evaluator for BoundaryPr {
                         row_seed(self.chance.seed, &seq.sequence, &m.method),
                     ),
                     method_time_matched,
-                    n_truth: s.n_truth,
+                    n_truth: s.scores.n_truth,
                     periodic_found: periodic.len(),
                     periodic_matched,
                 };
                 let mut row = PrecisionRecallRow {
                     sequence: seq.sequence.clone(),
                     method: m.method.clone(),
-                    n_truth: s.n_truth,
-                    n_found: s.n_found,
-                    n_matched: s.n_matched,
+                    n_truth: s.scores.n_truth,
+                    n_found: s.scores.n_found,
+                    n_matched: s.scores.n_matched,
                     n_matched_by_pose: n_by_pose,
-                    precision: s.precision,
-                    recall: s.recall,
-                    f1: s.f1,
+                    precision: s.scores.precision,
+                    recall: s.scores.recall,
+                    f1: s.scores.f1,
                     hausdorff_frames: s.hausdorff_frames.is_finite().then_some(s.hausdorff_frames),
                     hausdorff_s: hausdorff_s.is_finite().then_some(hausdorff_s),
                     tolerance_frames: Some(self.tolerance.frames_at(rate)),
@@ -428,9 +428,9 @@ impl Evaluator for BoundaryPr {
                     }
                 };
                 let pool = &mut pools[at].1;
-                pool.n_truth += s.n_truth;
-                pool.n_found += s.n_found;
-                pool.n_matched += s.n_matched;
+                pool.n_truth += s.scores.n_truth;
+                pool.n_found += s.scores.n_found;
+                pool.n_matched += s.scores.n_matched;
                 pool.n_by_pose += n_by_pose;
                 pool.hausdorff_s = pool.hausdorff_s.max(hausdorff_s);
                 pool.time_matched += method_time_matched;
