@@ -124,13 +124,10 @@ pub struct Choice {
     /// On the fold's test sequence(s).
     #[serde(flatten)]
     pub scores: PrScores,
-    /// Chance (same found count, same sequence, boundary_pr's draws): expected P/R/F1.
-    pub chance_precision: f64,
-    pub chance_recall: f64,
-    pub chance_f1: f64,
-    /// One-sided Monte Carlo p-value that the held-out matches exceed chance.
-    pub p_value: f64,
-    pub above_chance: &'static str,
+    /// Chance on the fold's test sequence(s): the same found count, boundary_pr's null model
+    /// and draws.
+    #[serde(flatten)]
+    pub chance: ChanceScores,
 }
 
 /// A row of `heldout_f1`.
@@ -371,11 +368,7 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
                 parameters: p.parameters.clone(),
                 train_f1,
                 scores: counts.scores(),
-                chance_precision: chance.precision,
-                chance_recall: chance.recall,
-                chance_f1: chance.f1,
-                p_value: chance.p_value,
-                above_chance: chance.above,
+                chance,
             });
         }
         let chance = chance_at(&c.method, &parts);
@@ -561,9 +554,9 @@ mod tests {
         for ch in &choices {
             let t = &tables[ch.combination][0];
             let r = seq_row(t, &ch.held_out);
-            assert_eq!(ch.chance_f1, row(t, r, "chance_f1"), "fold {}", ch.held_out);
-            assert_eq!(ch.chance_precision, row(t, r, "chance_precision"));
-            assert_eq!(ch.p_value, row(t, r, "p_value"));
+            assert_eq!(ch.chance.f1, row(t, r, "chance_f1"), "fold {}", ch.held_out);
+            assert_eq!(ch.chance.precision, row(t, r, "chance_precision"));
+            assert_eq!(ch.chance.p_value, row(t, r, "p_value"));
         }
         // The oracle row is one combination over all sequences: boundary_pr's pooled row.
         let oracle = &summaries[0];
