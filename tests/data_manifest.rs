@@ -36,3 +36,14 @@ fn every_manifest_file_is_shipped_with_its_original_sha256() {
     }
     assert_eq!(checked, 75, "every file of the manifest table");
 }
+
+/// The Sonoda stages' defaults say they were tuned on the seven labelled takes by the SHA-256 of
+/// the files as shipped (what a run hashes to tell whether a sequence is one of them): the
+/// digests are those files'.
+#[test]
+fn the_sonoda_defaults_name_their_tuning_takes_by_the_shipped_bytes() {
+    let takes = ["cmu86/86_01", "cmu86/86_09", "mocap6/amc/13_29", "mocap6/amc/13_30", "mocap6/amc/13_31", "mocap6/amc/14_14", "mocap6/amc/14_20"];
+    let shipped: Vec<String> =
+        takes.iter().map(|t| sha256_bytes(&std::fs::read(motionlab_testkit::data_path(&format!("{t}.amc.gz"))).unwrap())).collect();
+    assert_eq!(shipped, motionlab_segment::SONODA_DEFAULTS_TUNED_ON.map(str::to_string));
+}

@@ -51,6 +51,12 @@ fn csv_and_elan_truth_give_the_precision_recall_of_the_datasets_own_readers() {
     let r = reports.path().to_str().unwrap();
     motionlab_ok(&["run", "tests/fixtures/annotations/own_truth_equality.toml", "--reports", r, "--quiet"]);
     let rows = read_table(&run_dir(reports.path(), "own_truth_equality").join("tables/table1_precision_recall.csv"));
+    // Speed and hull run at their defaults, which were tuned on 86_01 and 13_29 among others
+    // (`sonoda_defaults`): every row, pooled too, says it is scored on its tuning data.
+    for r in rows.iter().filter(|r| r["method"] == "speed" || r["method"] == "hull") {
+        let expected = if r["sequence"] == "pooled" { "every one of these sequences" } else { "this sequence" };
+        assert_eq!(r["parameters_chosen"], format!("plugin defaults tuned on {expected} (oracle)"), "{r:?}");
+    }
     let pick = |seq: &str, method: &str| -> Vec<String> {
         let row = rows.iter().find(|r| r["sequence"] == seq && r["method"] == method).unwrap_or_else(|| panic!("{seq}/{method}"));
         ["n_truth", "n_found", "n_matched", "precision", "recall", "f1"].iter().map(|c| row[*c].clone()).collect()
@@ -148,6 +154,9 @@ fn motionlab_new_scaffolds_an_experiment_that_validates_and_runs() {
     let rows = read_table(&run_dir(&reports, "mct_segmentation").join("tables/table1_precision_recall.csv"));
     let sequences: Vec<&str> = rows.iter().filter(|r| r["method"] == "fused").map(|r| r["sequence"].as_str()).collect();
     assert_eq!(sequences, vec!["dance1", "dance2", "pooled"]);
+    // The MoCap Toolbox dances are not among the takes the Sonoda defaults were tuned on.
+    let speed: Vec<&str> = rows.iter().filter(|r| r["method"] == "speed").map(|r| r["parameters_chosen"].as_str()).collect();
+    assert_eq!(speed, vec!["plugin defaults tuned on other data (held-out)"; 3]);
     // The viewer's band around each truth is the tolerance that judged it: the 0.5 s the
     // scaffold writes is 30 frames at dance1's 60 Hz.
     assert_eq!(truth_band_frames(&run_dir(&reports, "mct_segmentation"), "dance1.html"), Some(30.0));

@@ -61,6 +61,15 @@ pub fn describe(name: &str) -> Result<String> {
     if !write_params(&mut out, p.params()) {
         return Ok(out);
     }
+    let tuned_on = registry::defaults_tuned_on(&(p.schema)());
+    if !tuned_on.is_empty() {
+        // Evaluation tables mark a sequence scored at these defaults whose input is one of
+        // these as "tuned on this sequence (oracle)" (`parameters_chosen`).
+        let _ = writeln!(out, "\nDefaults tuned on {} input file(s) (SHA-256):", tuned_on.len());
+        for h in &tuned_on {
+            let _ = writeln!(out, "  {h}");
+        }
+    }
     let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }}", p.name);
     Ok(out)
 }

@@ -5,8 +5,9 @@
 //! when a folder holds several formats, the most common, C3D first on a tie), the root (the
 //! skeleton's root joint; else a pelvis/sacrum marker; else the centroid of the hip markers —
 //! names with "hip", ASIS/PSIS, Vicon's LFWT/RFWT/LBWT/RBWT — added by `add_centroid`; else the
-//! centroid of every marker), the three Sonoda segmenters fused by union with the settings of
-//! `experiments/sonoda_table1.toml`, and `boundary_pr` (tolerance 0.5 s, annotated span only)
+//! centroid of every marker), the three Sonoda segmenters at the plugins' defaults (chosen by
+//! leave-one-sequence-out on the seven shipped labelled takes) fused by union, and
+//! `boundary_pr` (tolerance 0.5 s, annotated span only)
 //! when a truth file is given (`.csv` → `boundaries_csv`, `.eaf` → `elan_eaf`). With a CSV
 //! that names sequences, only the motion files it annotates are listed. The written file is
 //! validated before the command returns.
@@ -253,8 +254,9 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
     let _ = writeln!(w, "# Written by `motionlab new {}{}`.", args.input, args.truth.as_ref().map(|p| format!(" --truth {}", p.display())).unwrap_or_default());
     let _ = writeln!(w, "# Run it: motionlab run {}", output.display());
     let _ = writeln!(w, "# Segmentation of Sonoda et al. (fastest-marker speed, direction change, convex-hull volume,");
-    let _ = writeln!(w, "# fused by union), settings as in experiments/sonoda_table1.toml; `motionlab describe <type>`");
-    let _ = writeln!(w, "# documents every stage and parameter.\n");
+    let _ = writeln!(w, "# fused by union) at the plugins' defaults, which were tuned on seven shipped CMU takes");
+    let _ = writeln!(w, "# (the evaluation's `parameters_chosen` column says, per file, whether it is one of them);");
+    let _ = writeln!(w, "# `motionlab describe <type>` documents every stage and parameter.\n");
     let _ = writeln!(w, "[experiment]\nname = \"{name}\"");
     let _ = writeln!(w, "description = \"Sonoda segmentation of {}{}\"\n", args.input.replace('"', "'"), if truth.is_some() { " against its annotations" } else { "" });
     let _ = writeln!(w, "[[dataset]]");

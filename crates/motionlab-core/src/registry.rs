@@ -209,6 +209,22 @@ pub fn schema_params(schema: &schemars::Schema) -> Vec<ParamDoc> {
 /// `None` or an empty collection), what leaving the key out means, in words.
 pub const DEFAULT_NOTE_KEY: &str = "x-default";
 
+/// The schema key (on a params struct) listing the inputs a plugin's defaults were tuned on:
+/// lower-case hex SHA-256 of each input file. Evaluation tables then say, per sequence, whether
+/// a method at its defaults was tuned on that very sequence (the segmentation workflow's
+/// `parameters_chosen` column).
+pub const DEFAULTS_TUNED_ON_KEY: &str = "x-defaults-tuned-on";
+
+/// The [`DEFAULTS_TUNED_ON_KEY`] list of a params schema (empty when the plugin declares none).
+pub fn defaults_tuned_on(schema: &schemars::Schema) -> Vec<String> {
+    schema
+        .as_value()
+        .get(DEFAULTS_TUNED_ON_KEY)
+        .and_then(|v| v.as_array())
+        .map(|a| a.iter().filter_map(|h| h.as_str().map(str::to_string)).collect())
+        .unwrap_or_default()
+}
+
 /// One documented parameter.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ParamDoc {
@@ -579,6 +595,15 @@ pub fn check_registry() -> Vec<String> {
     for kind in custom_kinds() {
         if !snake(kind) || StageKind::ALL.iter().any(|k| k.label() == kind) {
             problems.push(format!("custom kind {kind:?} is not a snake_case name distinct from the built-in kinds"));
+        }
+    }
+    for p in plugins() {
+        let schema = (p.schema)();
+        let tuned_on = defaults_tuned_on(&schema);
+        if schema.as_value().get(DEFAULTS_TUNED_ON_KEY).is_some() && tuned_on.is_empty()
+            || tuned_on.iter().any(|h| h.len() != 64 || !h.chars().all(|c| c.is_ascii_digit() || ('a'..='f').contains(&c)))
+        {
+            problems.push(format!("{:?}: {DEFAULTS_TUNED_ON_KEY:?} must list lower-case hex SHA-256 digests", p.name));
         }
     }
     let mut seen = std::collections::HashSet::new();

@@ -40,6 +40,7 @@ use motionlab_features::signal::is_local_max;
 /// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-defaults-tuned-on" = crate::SONODA_DEFAULTS_TUNED_ON))]
 pub struct DirectionChangeParams {
     /// Root marker or joint (add one to marker sets without it with `add_centroid`).
     #[serde(default = "default_root")]

@@ -106,6 +106,7 @@ pub fn track_fastest_marker(speeds: &MarkerSpeeds, v_high: f64, v_low: f64) -> T
 /// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-defaults-tuned-on" = crate::SONODA_DEFAULTS_TUNED_ON))]
 pub struct FastestMarkerSpeedParams {
     /// A local maximum of V starts a followed stretch when V ≥ this ("sufficiently large").
     /// `{ fraction_of_p90 = 0.5 }` is half the speed the body exceeds only 10 % of the time,

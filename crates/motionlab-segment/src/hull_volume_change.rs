@@ -50,6 +50,7 @@ pub fn volume_change_candidates(d: &[f64], t: f64) -> Vec<usize> {
 /// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-defaults-tuned-on" = crate::SONODA_DEFAULTS_TUNED_ON))]
 pub struct HullVolumeChangeParams {
     /// The threshold t on D: D must jump from below to above this fraction of its own 90th
     /// percentile (the default is chosen by the protocol above).

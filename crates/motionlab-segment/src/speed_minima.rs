@@ -43,6 +43,7 @@ use crate::thresholds::SpeedThreshold;
 /// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-defaults-tuned-on" = crate::SONODA_DEFAULTS_TUNED_ON))]
 pub struct SpeedMinimaParams {
     /// A local minimum of V counts when V ≤ this (the default is chosen by the protocol above).
     #[serde(default = "default_v_low")]

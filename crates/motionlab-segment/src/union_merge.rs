@@ -105,6 +105,7 @@ fn representative(group: &[usize], rep: Representative) -> usize {
 /// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-defaults-tuned-on" = crate::SONODA_DEFAULTS_TUNED_ON))]
 pub struct UnionMergeParams {
     /// Root marker or joint whose path length decides merging.
     #[serde(default = "default_root")]

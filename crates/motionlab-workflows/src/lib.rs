@@ -22,6 +22,7 @@ pub mod features;
 pub mod gait;
 pub mod heldout;
 pub mod matching;
+pub mod parameter_choice;
 pub mod retrieval;
 pub mod segmentation;
 

@@ -15,6 +15,8 @@ use motionlab_core::{
 };
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
 
+use crate::parameter_choice::{MethodChoices, StageChoice};
+use motionlab_experiment::toml_paths::KeyPath;
 use crate::heldout::{heldout_tables, Selection};
 use crate::drawing::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip, time_axis, traces_charts};
 use motionlab_experiment::workflow::{build_evaluators, sanitize, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
@@ -89,6 +91,8 @@ pub struct SegmentationWorkflow {
     /// Each evaluator's type and parameters as resolved (its key in the on-disk cache).
     evaluator_params: Vec<String>,
     experiment: String,
+    /// How each method's parameters were chosen: the evaluation tables' `parameters_chosen`.
+    choices: MethodChoices,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -160,7 +164,26 @@ impl WorkflowPlugin for SegmentationWorkflow {
         let evaluator_params = combo.file.evaluators.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
         let segmenter_params = section.segmenters.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
         let experiment = combo.file.experiment.name.clone();
-        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment })
+        // How each method's parameters were chosen in this combination (`parameters_chosen`).
+        let swept: Vec<String> =
+            combo.params.iter().map(|(k, _)| KeyPath::parse(k).map_or_else(|_| k.clone(), |p| p.to_string())).collect();
+        let stage_choices: Vec<StageChoice> = section
+            .segmenters
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let places = [format!("{}[{}]", root.key("segmenter"), s.display_name()), root.key("segmenter").index(k).to_string()];
+                StageChoice::of(s, &places, &swept)
+            })
+            .collect();
+        let mut methods: Vec<(String, Vec<StageChoice>)> =
+            segmenters.iter().zip(&stage_choices).map(|((n, _), c)| (n.clone(), vec![c.clone()])).collect();
+        if let (Some((name, _)), Some(spec)) = (&fuser, &section.fuser) {
+            let own = StageChoice::of(spec, &[root.key("fuser").to_string()], &swept);
+            methods.push((name.clone(), std::iter::once(own).chain(fuse.iter().map(|&i| stage_choices[i].clone())).collect()));
+        }
+        let choices = MethodChoices { methods };
+        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment, choices })
     }
 }
 
@@ -212,6 +235,8 @@ impl Workflow for SegmentationWorkflow {
         // What the evaluation reads of each sequence (its input's cache key, name and every
         // method's candidates), for the evaluation's key in the on-disk cache.
         let mut reads: Vec<(Option<motionlab_experiment::run_cache::Key>, Vec<u8>)> = Vec::new();
+        // Each sequence's input file (SHA-256, hex): was a method's default tuned on it?
+        let mut inputs: Vec<(String, String)> = Vec::new();
         for (item, value) in items {
             let mut r: ItemResult = value.decode()?;
             viewer_traces.push((item.id.clone(), std::mem::take(&mut r.traces)));
@@ -234,6 +259,8 @@ impl Workflow for SegmentationWorkflow {
                 read.extend(m.candidates.iter().flat_map(|&c| (c as u64).to_le_bytes()));
             }
             reads.push((loaded.key, read));
+            let sha = data.cache.file_sha256(&data.datasets[item.dataset].files[item.file])?;
+            inputs.push((r.sequence.clone(), sha.iter().map(|b| format!("{b:02x}")).collect()));
             sequences.push(SequenceResult {
                 sequence: r.sequence,
                 motion: Arc::clone(&loaded.motion),
@@ -245,9 +272,11 @@ impl Workflow for SegmentationWorkflow {
         out.tables.push(Table::from_records("candidates", "Candidate frames per sequence and method", &rows)?);
         let logged: Vec<(usize, usize)> = items.iter().map(|(i, _)| (i.dataset, i.file)).collect();
         for ((name, e), params) in self.evaluators.iter().zip(&self.evaluator_params) {
-            let tables = data.tables_cached(&format!("evaluate {name}"), params, &reads, &logged, || {
+            let mut tables = data.tables_cached(&format!("evaluate {name}"), params, &reads, &logged, || {
                 e.evaluate(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))
             })?;
+            // Added after the cache: it depends on the combination, not on what was evaluated.
+            self.choices.annotate(&mut tables, &inputs);
             out.tables.extend(tables);
         }
         if draw {
