@@ -7,7 +7,8 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Result, Table, TimeSpan};
 
-use crate::boundaries::{MatchRule, PrScores, evaluate_boundaries, tolerance_frames};
+use crate::boundaries::{MatchRule, PrScores, TruthWindow, evaluate_boundaries, tolerance_frames};
+use crate::chance::{ChanceCounts, ChanceScores, ChanceSettings, chance_counts, metric_chance, row_seed};
 use crate::cpd_metrics::{covering, tcpd_f_measure};
 use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 
@@ -16,7 +17,13 @@ use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 /// Output tables:
 /// - `boundary_f1_by_tolerance`: precision, recall and F1 of `boundary_pr` (time rule, maximum
 ///   one-to-one matching, same empty-set rules) at **each** of `tolerances`, per sequence and
-///   method, then `pooled` rows per method and tolerance (ratios of summed counts).
+///   method, then `pooled` rows per method and tolerance (ratios of summed counts). Beside
+///   each row, **chance**: `boundary_pr`'s null model (as many distinct frames drawn uniformly
+///   over the whole motion, matched by the same rule; exact expectation where the truth
+///   windows are disjoint, Monte Carlo p-value) at that tolerance — the `chance_*`, `p_value`
+///   and `above_chance` columns. Every tolerance of a (sequence, method) uses the same draws
+///   (seeded by the two names, as `boundary_pr` seeds them), so at `boundary_pr`'s tolerance
+///   and span the numbers are its own.
 /// - `tcpd_metrics`: per sequence and method, TCPDBench's F1 (`tcpd_f1`, with
 ///   `tcpd_precision`, `tcpd_recall`: frame 0 counted as a change point on both sides, greedy
 ///   nearest matching within `margin`, precision over the union of the annotators, recall
@@ -27,7 +34,10 @@ use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 ///   truth is the consensus of several annotators (`boundaries_csv` with an annotator column,
 ///   `elan_eaf` with several tiers, `consensus = { … }`), these metrics take every annotator's
 ///   own boundaries (`n_annotators` of them), not the consensus; otherwise the one annotator's.
-///   No pooled rows: TCPDBench reports per-series scores (average them if wanted).
+///   No pooled rows: TCPDBench reports per-series scores (average them if wanted). Beside each
+///   row, chance by Monte Carlo (`chance_draws` sets of as many distinct frames, uniformly over
+///   the motion): `chance_tcpd_f1` and `chance_covering` (the means) with one-sided p-values
+///   `p_value_tcpd_f1` and `p_value_covering` (`(1 + #{draws ≥ the method}) / (1 + N)`).
 ///
 /// Sequences without ground truth are skipped; it is an error when none has any.
 /// Missing samples: not read (only frame numbers are compared).
@@ -42,6 +52,20 @@ pub struct BoundaryMetricsParams {
     /// frames, rounded down, as TCPDBench's integer margin).
     #[serde(default = "default_margin")]
     pub margin: TimeSpan,
+    /// Random draws of the chance baselines (≥ 100; p-values resolve down to 1/(N + 1)).
+    #[serde(default = "default_chance_draws")]
+    pub chance_draws: usize,
+    /// Base seed of the chance draws (mixed with the sequence and method names).
+    #[serde(default = "default_chance_seed")]
+    pub chance_seed: u64,
+}
+
+fn default_chance_draws() -> usize {
+    ChanceSettings::default().draws
+}
+
+fn default_chance_seed() -> u64 {
+    ChanceSettings::default().seed
 }
 
 fn default_tolerances() -> Vec<TimeSpan> {
@@ -57,6 +81,7 @@ fn default_margin() -> TimeSpan {
 pub struct BoundaryMetrics {
     tolerances: Vec<TimeSpan>,
     margin: TimeSpan,
+    chance: ChanceSettings,
 }
 
 impl ParamGuard for BoundaryMetricsParams {
@@ -68,7 +93,14 @@ impl ParamGuard for BoundaryMetricsParams {
         let tolerances =
             self.tolerances.into_iter().enumerate().map(|(i, t)| t.check(&format!("tolerances[{i}]"), false)).collect::<Result<_>>()?;
         let margin = self.margin.check("margin", false)?;
-        Ok(BoundaryMetrics { tolerances, margin })
+        if self.chance_draws < 100 {
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be at least 100 draws (p-values below 0.01 need them), found {}", self.chance_draws),
+            )
+            .with_field("chance_draws"));
+        }
+        Ok(BoundaryMetrics { tolerances, margin, chance: ChanceSettings { draws: self.chance_draws, seed: self.chance_seed } })
     }
 }
 
@@ -84,6 +116,9 @@ pub struct ToleranceRow {
     pub tolerance_frames: Option<f64>,
     #[serde(flatten)]
     pub scores: PrScores,
+    /// As many uniformly random distinct frames, the same rule at this tolerance.
+    #[serde(flatten)]
+    pub chance: ChanceScores,
 }
 
 /// `0.0833 s` or `10 frames`: the tolerance as a short label (4 decimals of a second are
@@ -107,6 +142,14 @@ pub struct TcpdRow {
     pub tcpd_recall: f64,
     /// Segment covering in [0, 1].
     pub covering: f64,
+    /// Mean TCPDBench F1 of as many uniformly random distinct frames (Monte Carlo).
+    pub chance_tcpd_f1: f64,
+    /// One-sided Monte Carlo p-value that `tcpd_f1` exceeds chance.
+    pub p_value_tcpd_f1: f64,
+    /// Mean covering of as many uniformly random distinct frames (Monte Carlo).
+    pub chance_covering: f64,
+    /// One-sided Monte Carlo p-value that `covering` exceeds chance.
+    pub p_value_covering: f64,
 }
 
 impl Evaluator for BoundaryMetrics {
@@ -118,8 +161,9 @@ impl Evaluator for BoundaryMetrics {
         let sequences = segmentation_input(input, "boundary_metrics")?;
         let mut by_tol = Vec::new();
         let mut tcpd = Vec::new();
-        // (method, tolerance index) → (truth, found, matched), in order of first appearance.
-        let mut pools: Vec<(String, usize, [usize; 3])> = Vec::new();
+        // (method, tolerance index) → (truth, found, matched) and each sequence's chance, in
+        // order of first appearance.
+        let mut pools: Vec<(String, usize, [usize; 3], Vec<ChanceCounts>)> = Vec::new();
         let mut n_evaluated = 0;
         for seq in sequences {
             let Some(truth) = truth_of(seq)? else { continue };
@@ -127,26 +171,39 @@ impl Evaluator for BoundaryMetrics {
             let rate = seq.motion.frame_rate();
             let annotators = truth.annotator_frames();
             let margin_frames = tolerance_frames(self.margin, rate).floor() as usize;
+            let n_frames = seq.motion.n_frames();
             for m in &seq.methods {
+                let seed = row_seed(self.chance.seed, &seq.sequence, &m.method);
                 for (ti, &tol) in self.tolerances.iter().enumerate() {
-                    let s = evaluate_boundaries(&m.candidates, &truth.boundaries, &MatchRule::time(tolerance_frames(tol, rate)));
+                    let rule = MatchRule::time(tolerance_frames(tol, rate));
+                    let s = evaluate_boundaries(&m.candidates, &truth.boundaries, &rule);
+                    let windows: Vec<TruthWindow> =
+                        truth.boundaries.iter().map(|b| TruthWindow::from_boundary(b, rule.tolerance_frames, rule.use_windows)).collect();
+                    let chance = chance_counts(m.candidates.len(), &windows, 0..n_frames, self.chance.draws, seed);
                     by_tol.push(ToleranceRow {
                         sequence: seq.sequence.clone(),
                         method: m.method.clone(),
                         tolerance: tolerance_label(tol),
                         tolerance_frames: Some(tol.frames_at(rate)),
                         scores: s.scores,
+                        chance: ChanceScores::of(&chance, s.scores.n_truth, s.scores.n_matched),
                     });
-                    match pools.iter_mut().find(|(name, t, _)| *name == m.method && *t == ti) {
-                        Some((_, _, c)) => {
+                    match pools.iter_mut().find(|(name, t, ..)| *name == m.method && *t == ti) {
+                        Some((_, _, c, parts)) => {
                             c[0] += s.scores.n_truth;
                             c[1] += s.scores.n_found;
                             c[2] += s.scores.n_matched;
+                            parts.push(chance);
                         }
-                        None => pools.push((m.method.clone(), ti, [s.scores.n_truth, s.scores.n_found, s.scores.n_matched])),
+                        None => pools.push((m.method.clone(), ti, [s.scores.n_truth, s.scores.n_found, s.scores.n_matched], vec![chance])),
                     }
                 }
                 let (f1, precision, recall) = tcpd_f_measure(&annotators, &m.candidates, margin_frames);
+                let cover = covering(&annotators, &m.candidates, n_frames);
+                let k = m.candidates.len();
+                let (chance_f1, p_f1) =
+                    metric_chance(k, 0..n_frames, self.chance.draws, seed, f1, |c| tcpd_f_measure(&annotators, c, margin_frames).0);
+                let (chance_cover, p_cover) = metric_chance(k, 0..n_frames, self.chance.draws, seed, cover, |c| covering(&annotators, c, n_frames));
                 tcpd.push(TcpdRow {
                     sequence: seq.sequence.clone(),
                     method: m.method.clone(),
@@ -155,20 +212,25 @@ impl Evaluator for BoundaryMetrics {
                     tcpd_f1: f1,
                     tcpd_precision: precision,
                     tcpd_recall: recall,
-                    covering: covering(&annotators, &m.candidates, seq.motion.n_frames()),
+                    covering: cover,
+                    chance_tcpd_f1: chance_f1,
+                    p_value_tcpd_f1: p_f1,
+                    chance_covering: chance_cover,
+                    p_value_covering: p_cover,
                 });
             }
         }
         if n_evaluated == 0 {
             return Err(nothing_to_evaluate("boundary_metrics", "ground truth", sequences.len()));
         }
-        for (method, ti, [n_truth, n_found, n_matched]) in pools {
+        for (method, ti, [n_truth, n_found, n_matched], parts) in pools {
             by_tol.push(ToleranceRow {
                 sequence: "pooled".into(),
                 method,
                 tolerance: tolerance_label(self.tolerances[ti]),
                 tolerance_frames: None,
                 scores: PrScores::of(n_truth, n_found, n_matched),
+                chance: ChanceScores::of(&ChanceCounts::pooled(&parts), n_truth, n_matched),
             });
         }
         Ok(vec![
@@ -259,6 +321,41 @@ mod tests {
         // Covering averaged over the two annotators' partitions.
         let expected = (covering(&[vec![100]], &[104], 600) + covering(&[vec![100, 300]], &[104], 600)) / 2.0;
         assert!((f64s(c, "covering")[0] - expected).abs() < 1e-15);
+    }
+
+    #[test]
+    fn chance_columns_are_boundary_prs_at_its_tolerance_and_known_answers_otherwise() {
+        // 600 frames at 100 Hz, truths 100 and 300 (span: the whole motion), 2 found frames.
+        let seqs = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]), &[("m", &[104, 320])])];
+        let tables = evaluator("tolerances = [{ frames = 5 }, { seconds = 0.25 }]\nmargin = { frames = 5 }")
+            .evaluate(EvalInput::Segmentation(&seqs))
+            .unwrap();
+        let t = &tables[0];
+        // Exact expectation (disjoint windows of 11 frames, k = 2 of n = 600):
+        // E[M] = 2·(1 − C(589, 2)/C(600, 2)); chance precision E[M]/2.
+        let e = 2.0 * (1.0 - (589.0 * 588.0) / (600.0 * 599.0));
+        assert!((f64s(t, "chance_matched")[0] - e).abs() < 1e-12, "{:?}", f64s(t, "chance_matched"));
+        assert!((f64s(t, "chance_precision")[0] - e / 2.0).abs() < 1e-12);
+        assert_eq!(t.column("chance_expectation").unwrap().cell(0), "exact");
+        // The pooled row of one sequence is that sequence's.
+        assert_eq!(f64s(t, "chance_f1")[2], f64s(t, "chance_f1")[0]);
+        // At boundary_pr's tolerance and (whole) span, with the same seed, both evaluators
+        // give the same chance numbers, p-value included.
+        let pr: toml::Value = toml::from_str("tolerance = { seconds = 0.25 }").unwrap();
+        let pr = build_evaluator("boundary_pr", &pr).unwrap().evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let p = pr.iter().find(|t| t.name == "table1_precision_recall").unwrap();
+        for c in ["chance_matched", "chance_precision", "chance_recall", "chance_f1", "p_value"] {
+            assert_eq!(f64s(t, c)[1], f64s(p, c)[0], "{c}");
+        }
+        // TCPDBench chance: a random pair of frames rarely lands within 5 frames of both
+        // truths, so the perfect method's F1 beats nearly every draw.
+        let perfect = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]), &[("m", &[100, 300])])];
+        let c = evaluator("margin = { frames = 5 }\nchance_draws = 500").evaluate(EvalInput::Segmentation(&perfect)).unwrap().remove(1);
+        assert_eq!(f64s(&c, "tcpd_f1"), [1.0]);
+        let (chance_f1, p_f1) = (f64s(&c, "chance_tcpd_f1")[0], f64s(&c, "p_value_tcpd_f1")[0]);
+        assert!(chance_f1 > 0.3 && chance_f1 < 0.6, "{chance_f1}");
+        assert!(p_f1 < 0.01, "{p_f1}");
+        assert!(f64s(&c, "chance_covering")[0] < f64s(&c, "covering")[0] && f64s(&c, "p_value_covering")[0] < 0.05);
     }
 
     #[test]

@@ -231,32 +231,79 @@ fn integer_frames(w: &TruthWindow, span: &std::ops::Range<usize>) -> Option<(usi
 /// `settings.draws` draws seeded with `seed`; the expectation is exact when the windows are
 /// disjoint, else the Monte Carlo mean with its standard error.
 pub fn chance_counts(k: usize, windows: &[TruthWindow], span: std::ops::Range<usize>, draws: usize, seed: u64) -> ChanceCounts {
-    let n = span.len();
-    let k = k.min(n);
-    let mut rng = fastrand::Rng::with_seed(seed);
-    let mut taken = vec![false; n];
-    let mut picks: Vec<usize> = Vec::with_capacity(k);
+    let k = k.min(span.len());
+    let mut draw = Draws::new(k, span.clone(), seed);
     let mut counts = Vec::with_capacity(draws);
     for _ in 0..draws {
-        // Floyd's algorithm: k distinct offsets of 0..n, uniformly, in O(k).
-        picks.clear();
-        for j in n - k..n {
-            let t = rng.usize(0..=j);
-            let pick = if taken[t] { j } else { t };
-            taken[pick] = true;
-            picks.push(span.start + pick);
-        }
-        for &p in &picks {
-            taken[p - span.start] = false;
-        }
         // At most k ≤ n pairs, so the count fits u32 for any span a motion can have.
-        counts.push(u32::try_from(max_matching_windows(&picks, windows).len()).unwrap_or(u32::MAX));
+        counts.push(u32::try_from(max_matching_windows(draw.next_draw(), windows).len()).unwrap_or(u32::MAX));
     }
     let (mean, se) = mean_and_se(&counts);
     match exact_expected_matches(k, windows, span) {
         Some(e) => ChanceCounts { n_found: k, expected_matched: e, expected_matched_se: 0.0, exact: true, draws: counts },
         None => ChanceCounts { n_found: k, expected_matched: mean, expected_matched_se: se, exact: false, draws: counts },
     }
+}
+
+/// The chance model's random candidate sets: `k` distinct frames of `span`, uniformly, one
+/// set per call, from a seeded stream.
+pub struct Draws {
+    k: usize,
+    span: std::ops::Range<usize>,
+    rng: fastrand::Rng,
+    taken: Vec<bool>,
+    picks: Vec<usize>,
+}
+
+impl Draws {
+    /// `k` is capped at the span's length.
+    pub fn new(k: usize, span: std::ops::Range<usize>, seed: u64) -> Self {
+        let k = k.min(span.len());
+        Draws { k, rng: fastrand::Rng::with_seed(seed), taken: vec![false; span.len()], picks: Vec::with_capacity(k), span }
+    }
+
+    /// The next set, in draw order (not sorted).
+    pub fn next_draw(&mut self) -> &[usize] {
+        let n = self.span.len();
+        // Floyd's algorithm: k distinct offsets of 0..n, uniformly, in O(k).
+        self.picks.clear();
+        for j in n - self.k..n {
+            let t = self.rng.usize(0..=j);
+            let pick = if self.taken[t] { j } else { t };
+            self.taken[pick] = true;
+            self.picks.push(self.span.start + pick);
+        }
+        for &p in &self.picks {
+            self.taken[p - self.span.start] = false;
+        }
+        &self.picks
+    }
+}
+
+/// A score's chance baseline by Monte Carlo: `metric` of `draws` random sets of `k` distinct
+/// frames of `span` (sorted), its mean and the one-sided p-value of `observed` (the add-one
+/// rule of the module docs: `(1 + #{draws scoring ≥ observed}) / (1 + N)`). NaN draws (a
+/// metric undefined on a set) are left out of both.
+pub fn metric_chance(k: usize, span: std::ops::Range<usize>, draws: usize, seed: u64, observed: f64, mut metric: impl FnMut(&[usize]) -> f64) -> (f64, f64) {
+    let mut d = Draws::new(k, span, seed);
+    let mut sorted = Vec::with_capacity(k);
+    let (mut sum, mut n, mut at_least) = (0.0, 0usize, 0usize);
+    for _ in 0..draws {
+        sorted.clear();
+        sorted.extend_from_slice(d.next_draw());
+        sorted.sort_unstable();
+        let v = metric(&sorted);
+        if v.is_nan() {
+            continue;
+        }
+        sum += v;
+        n += 1;
+        at_least += usize::from(v >= observed);
+    }
+    if n == 0 || observed.is_nan() {
+        return (if n == 0 { f64::NAN } else { sum / n as f64 }, f64::NAN);
+    }
+    (sum / n as f64, (1 + at_least) as f64 / (1 + n) as f64)
 }
 
 /// Mean and its standard error `sd/√N` (sample sd, N − 1); NaN mean without draws.
@@ -284,6 +331,22 @@ pub fn periodic_candidates(r: usize, span: std::ops::Range<usize>) -> Vec<usize>
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn metric_chance_has_known_answers() {
+        // The size of a set is always k: mean k; an observed k is matched by every draw (p = 1),
+        // k + 1 by none (p = 1/(N + 1)).
+        assert_eq!(metric_chance(7, 0..50, 99, 1, 7.0, |c| c.len() as f64), (7.0, 1.0));
+        assert_eq!(metric_chance(7, 0..50, 99, 1, 8.0, |c| c.len() as f64), (7.0, 0.01));
+        // Sets are sorted, distinct and inside the span; k is capped at the span's length.
+        let (ok, _) = metric_chance(5, 10..15, 20, 2, 0.0, |c| f64::from(u8::from(c == [10, 11, 12, 13, 14])));
+        assert_eq!(ok, 1.0);
+        let (_, p) = metric_chance(3, 0..100, 50, 3, 1.0, |c| f64::from(u8::from(c.windows(2).all(|w| w[0] < w[1]) && c[2] < 100)));
+        assert_eq!(p, 1.0);
+        // NaN draws and a NaN observation are left out.
+        assert!(metric_chance(3, 0..10, 10, 4, 0.5, |_| f64::NAN).0.is_nan());
+        assert!(metric_chance(3, 0..10, 10, 4, f64::NAN, |_| 0.0).1.is_nan());
+    }
     use super::*;
 
     fn around(frames: &[usize], tol: f64) -> Vec<TruthWindow> {
