@@ -31,6 +31,13 @@ fn list_and_describe_print_plugins_from_their_docs() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("first_frame : integer  (default 0)"), "{text}");
     assert!(text.contains("frame_rate_hz : float (optional)  (default: the motion's own rate (frames are motion frames))"), "{text}");
+    // Defaults tuned on data name it: the Sonoda stages list their seven takes' digests (86_01
+    // first); a plugin with untuned defaults lists none.
+    let out = motionlab().args(["describe", "fastest_marker_speed"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("Defaults tuned on 7 input file(s) (SHA-256):\n  f3d98b96940de9107bc9bfa5a5ecec2a029cdb45713e333d7bc69a0893cfac07\n"), "{text}");
+    let out = motionlab().args(["describe", "pca_error_rise"]).output().unwrap();
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("Defaults tuned on"));
     let _ = repo();
 }
 
