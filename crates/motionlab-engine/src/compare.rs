@@ -39,18 +39,49 @@ fn read_config(run: &Path) -> Result<BTreeMap<String, String>> {
     Ok(out)
 }
 
-/// Row keys: the text cells of a row joined (`sequence=pooled, method=fused`).
+/// Text columns that are outcomes, not row identities: how a row's parameters were chosen,
+/// how its chance was computed, whether it beat chance, whether a transition was detected
+/// (`table3_transitions`) and how a mark was judged (`boundary_matches`) change with the
+/// parameters compared, so they are compared as values, never used to pair rows.
+const OUTCOME_TEXT: [&str; 5] = ["parameters_chosen", "chance_expectation", "above_chance", "detected", "outcome"];
+
+/// Row keys: the text cells of a row joined (`sequence=pooled, method=fused`), outcome columns
+/// ([`OUTCOME_TEXT`]) left out.
 fn row_keys(t: &Table) -> Vec<String> {
     (0..t.n_rows())
         .map(|r| {
             t.columns
                 .iter()
-                .filter(|c| matches!(c.values, ColumnValues::Str(_)))
+                .filter(|c| matches!(c.values, ColumnValues::Str(_)) && !OUTCOME_TEXT.contains(&c.name.as_str()))
                 .map(|c| format!("{}={}", c.name, c.values.cell(r)))
                 .collect::<Vec<_>>()
                 .join(", ")
         })
         .collect()
+}
+
+/// The rows of two tables paired by key: the k-th row of a key in `a` with the k-th row of
+/// that key in `b` (several rows may share their text cells — one per truth window, say),
+/// then every row left on one side alone, in `a`'s then `b`'s order.
+fn paired_rows(a: &[String], b: &[String]) -> Vec<(Option<usize>, Option<usize>)> {
+    let mut by_key: BTreeMap<&str, std::collections::VecDeque<usize>> = BTreeMap::new();
+    for (rb, k) in b.iter().enumerate() {
+        by_key.entry(k).or_default().push_back(rb);
+    }
+    let mut out: Vec<(Option<usize>, Option<usize>)> = a.iter().enumerate().map(|(ra, k)| (Some(ra), by_key.get_mut(k.as_str()).and_then(|q| q.pop_front()))).collect();
+    let mut rest: Vec<usize> = by_key.into_values().flatten().collect();
+    rest.sort_unstable();
+    out.extend(rest.into_iter().map(|rb| (None, Some(rb))));
+    out
+}
+
+/// A numeric cell (integer columns too: counts are metrics); `None` for text.
+fn number(values: &ColumnValues, row: usize) -> Option<f64> {
+    match values {
+        ColumnValues::F64(v) => v.get(row).copied(),
+        ColumnValues::I64(v) => v.get(row).map(|&x| x as f64),
+        _ => None,
+    }
 }
 
 /// Compares two runs; returns the page data (also printed by the CLI).
@@ -88,11 +119,22 @@ pub fn compare(run_a: &Path, run_b: &Path) -> Result<ComparePage> {
             continue;
         }
         let (ka, kb) = (row_keys(&ta), row_keys(&tb));
-        for (ra, key) in ka.iter().enumerate() {
-            let Some(rb) = kb.iter().position(|k| k == key) else { continue };
+        for (ra, rb) in paired_rows(&ka, &kb) {
+            let key = ra.or(rb).map(|r| if ra.is_some() { &ka[r] } else { &kb[r] }).cloned().unwrap_or_default();
+            let (Some(ra), Some(rb)) = (ra, rb) else {
+                let (a, b) = if ra.is_some() { ("present", "(absent)") } else { ("(absent)", "present") };
+                metrics.push(MetricDiff { table: table.clone(), row: key, column: "(row)".into(), a: a.into(), b: b.into(), delta: String::new() });
+                continue;
+            };
             for col in &ta.columns {
-                let (ColumnValues::F64(va), Some(ColumnValues::F64(vb))) = (&col.values, tb.column(&col.name)) else { continue };
-                let (x, y) = (va[ra], vb[rb]);
+                if OUTCOME_TEXT.contains(&col.name.as_str()) {
+                    let (x, y) = (col.values.cell(ra), tb.column(&col.name).map(|v| v.cell(rb)).unwrap_or_default());
+                    if x != y {
+                        metrics.push(MetricDiff { table: table.clone(), row: key.clone(), column: col.name.clone(), a: x, b: y, delta: String::new() });
+                    }
+                    continue;
+                }
+                let (Some(x), Some(y)) = (number(&col.values, ra), tb.column(&col.name).and_then(|v| number(v, rb))) else { continue };
                 let same = (x.is_nan() && y.is_nan()) || x == y;
                 if !same {
                     metrics.push(MetricDiff {
@@ -135,8 +177,45 @@ pub fn compare_text(page: &ComparePage) -> String {
     } else {
         s += "metrics that differ:\n";
         for m in &page.metrics {
-            s += &format!("  {} [{}] {}: {} -> {} ({})\n", m.table, m.row, m.column, m.a, m.b, m.delta);
+            let delta = if m.delta.is_empty() { String::new() } else { format!(" ({})", m.delta) };
+            s += &format!("  {} [{}] {}: {} -> {}{delta}\n", m.table, m.row, m.column, m.a, m.b);
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(dir: &Path, name: &str, csv: &str) -> PathBuf {
+        let run = dir.join(name);
+        std::fs::create_dir_all(run.join("tables")).unwrap();
+        std::fs::write(run.join("config.toml"), "[experiment]\nname = \"e\"\n").unwrap();
+        std::fs::write(run.join("tables/t.csv"), csv).unwrap();
+        run
+    }
+
+    #[test]
+    fn rows_sharing_their_text_pair_in_order_and_counts_are_metrics() {
+        let dir = tempfile::tempdir().unwrap();
+        // Two rows per sequence (one per truth window), an integer and a float column.
+        let a = run(dir.path(), "a", "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.25,no\ny,7,1.0,no\n");
+        let same = run(dir.path(), "same", "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.25,no\ny,7,1.0,no\n");
+        assert!(compare(&a, &same).unwrap().metrics.is_empty(), "identical runs differ in nothing");
+        // The second x row's float and the y row's integer moved; a third x row is new; an
+        // outcome column changed, which pairs rows no differently.
+        let b = run(dir.path(), "b", "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.75,yes\ny,8,1.0,no\nx,500,0.1,no\n");
+        let diffs: Vec<(String, String, String, String)> =
+            compare(&a, &b).unwrap().metrics.into_iter().map(|m| (m.row, m.column, m.a, m.b)).collect();
+        assert_eq!(
+            diffs,
+            [
+                ("sequence=x".into(), "p".into(), "0.25".into(), "0.75".into()),
+                ("sequence=x".into(), "above_chance".into(), "no".into(), "yes".into()),
+                ("sequence=y".into(), "truth_frame".into(), "7".into(), "8".into()),
+                ("sequence=x".into(), "(row)".into(), "(absent)".into(), "present".into()),
+            ]
+        );
+    }
 }
