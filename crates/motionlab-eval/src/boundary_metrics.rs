@@ -53,20 +53,13 @@ pub struct BoundaryMetricsParams {
     #[serde(default = "default_margin")]
     pub margin: TimeSpan,
     /// Random draws of the chance baselines (≥ 100; p-values resolve down to 1/(N + 1)).
-    #[serde(default = "default_chance_draws")]
+    #[serde(default = "crate::chance::default_draws")]
     pub chance_draws: usize,
     /// Base seed of the chance draws (mixed with the sequence and method names).
-    #[serde(default = "default_chance_seed")]
+    #[serde(default = "crate::chance::default_seed")]
     pub chance_seed: u64,
 }
 
-fn default_chance_draws() -> usize {
-    ChanceSettings::default().draws
-}
-
-fn default_chance_seed() -> u64 {
-    ChanceSettings::default().seed
-}
 
 fn default_tolerances() -> Vec<TimeSpan> {
     vec![TimeSpan::Seconds(1.0 / 12.0), TimeSpan::Seconds(0.25), TimeSpan::Seconds(0.5), TimeSpan::Seconds(1.0)]
@@ -93,14 +86,8 @@ impl ParamGuard for BoundaryMetricsParams {
         let tolerances =
             self.tolerances.into_iter().enumerate().map(|(i, t)| t.check(&format!("tolerances[{i}]"), false)).collect::<Result<_>>()?;
         let margin = self.margin.check("margin", false)?;
-        if self.chance_draws < 100 {
-            return Err(Error::new(
-                ErrorKind::OutOfRange,
-                format!("must be at least 100 draws (p-values below 0.01 need them), found {}", self.chance_draws),
-            )
-            .with_field("chance_draws"));
-        }
-        Ok(BoundaryMetrics { tolerances, margin, chance: ChanceSettings { draws: self.chance_draws, seed: self.chance_seed } })
+        let chance = ChanceSettings::checked(self.chance_draws, self.chance_seed)?;
+        Ok(BoundaryMetrics { tolerances, margin, chance })
     }
 }
 

@@ -104,20 +104,13 @@ pub struct BoundaryPrParams {
     /// when truth windows overlap), ≥ 100; N draws resolve p-values down to 1/(N + 1). Cost per
     /// method and sequence at 86_01's size: 0.4 ms for 2 candidates to 81 ms for 278
     /// (`examples/chance_timing.rs`, debug build).
-    #[serde(default = "default_chance_draws")]
+    #[serde(default = "crate::chance::default_draws")]
     pub chance_draws: usize,
     /// Base seed of the chance draws (mixed with the sequence and method names).
-    #[serde(default = "default_chance_seed")]
+    #[serde(default = "crate::chance::default_seed")]
     pub chance_seed: u64,
 }
 
-fn default_chance_draws() -> usize {
-    ChanceSettings::default().draws
-}
-
-fn default_chance_seed() -> u64 {
-    ChanceSettings::default().seed
-}
 
 fn default_root() -> String {
     "root".into()
@@ -163,13 +156,7 @@ impl ParamGuard for BoundaryPrParams {
         if self.claim_against.as_ref().is_some_and(|v| v.is_empty()) {
             return Err(Error::new(ErrorKind::OutOfRange, "must name at least one method").with_field("claim_against"));
         }
-        if self.chance_draws < 100 {
-            return Err(Error::new(
-                ErrorKind::OutOfRange,
-                format!("must be at least 100 draws (p-values below 0.01 need them), found {}", self.chance_draws),
-            )
-            .with_field("chance_draws"));
-        }
+        let chance = ChanceSettings::checked(self.chance_draws, self.chance_seed)?;
         Ok(BoundaryPr {
             tolerance,
             use_windows: self.use_windows,
@@ -178,7 +165,7 @@ impl ParamGuard for BoundaryPrParams {
             root: self.root,
             claim_against: self.claim_against,
             span: self.span,
-            chance: ChanceSettings { draws: self.chance_draws, seed: self.chance_seed },
+            chance,
         })
     }
 }

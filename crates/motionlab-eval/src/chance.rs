@@ -63,6 +63,31 @@ pub struct ChanceSettings {
     pub seed: u64,
 }
 
+impl ChanceSettings {
+    /// The settings of an evaluator's `chance_draws` and `chance_seed` parameters: at least 100
+    /// draws (an error naming `chance_draws` otherwise).
+    pub fn checked(draws: usize, seed: u64) -> motionlab_core::Result<Self> {
+        if draws < 100 {
+            return Err(motionlab_core::Error::new(
+                motionlab_core::ErrorKind::OutOfRange,
+                format!("must be at least 100 draws (p-values below 0.01 need them), found {draws}"),
+            )
+            .with_field("chance_draws"));
+        }
+        Ok(ChanceSettings { draws, seed })
+    }
+}
+
+/// The serde default of an evaluator's `chance_draws`.
+pub fn default_draws() -> usize {
+    ChanceSettings::default().draws
+}
+
+/// The serde default of an evaluator's `chance_seed`.
+pub fn default_seed() -> u64 {
+    ChanceSettings::default().seed
+}
+
 impl Default for ChanceSettings {
     fn default() -> Self {
         ChanceSettings { draws: 2000, seed: 16 }
