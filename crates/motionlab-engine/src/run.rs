@@ -18,7 +18,7 @@ use motionlab_report::output::{FileLists, Written};
 use motionlab_report::pages::write_run_html;
 
 use crate::plan::{plan, Plan};
-use crate::rundir::{sha256_bytes, sha256_file, utc_iso, write_atomic, RunDir};
+use crate::rundir::{sha256_bytes, utc_iso, write_atomic, RunDir};
 use motionlab_experiment::workflow::{ComboOutput, ItemData, Output, WorkItem};
 
 /// Progress reporting, implemented by the CLI (indicatif) or silent.
@@ -381,7 +381,8 @@ fn write_provenance(
             Ok(InputFile {
                 path: p.to_string_lossy().into_owned(),
                 bytes: std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
-                sha256: sha256_file(p)?,
+                // The run cache hashed every input already (its keys): read once per run.
+                sha256: motionlab_cache::hex(&plan.cache.file_sha256(p)?),
             })
         })
         .collect::<Result<Vec<_>>>()?;

@@ -147,7 +147,7 @@ pub const ALPHA: f64 = 0.05;
 /// A row's chance columns: the expected precision, recall and F1 of the baseline's `n_found`
 /// random frames against `n_truth` truths, and the p-value of `observed` (time-rule) matches.
 /// Serialised under the column names of the tables that flatten it (`table1_precision_recall`,
-/// `heldout_f1`), in this order.
+/// `boundary_f1_by_tolerance`, `heldout_f1`, `heldout_choices`), in this order.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ChanceScores {
     /// `exact` or `monte_carlo`: how the chance expectations were computed; empty when there is

@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
-pub use motionlab_cache::Key;
+pub use motionlab_cache::{hex, Key};
 use motionlab_cache::{Cache, KeyBuilder};
 use motionlab_core::{Error, Motion, Result};
 

@@ -260,7 +260,7 @@ impl Workflow for SegmentationWorkflow {
             }
             reads.push((loaded.key, read));
             let sha = data.cache.file_sha256(&data.datasets[item.dataset].files[item.file])?;
-            inputs.push((r.sequence.clone(), sha.iter().map(|b| format!("{b:02x}")).collect()));
+            inputs.push((r.sequence.clone(), motionlab_experiment::run_cache::hex(&sha)));
             sequences.push(SequenceResult {
                 sequence: r.sequence,
                 motion: Arc::clone(&loaded.motion),
@@ -297,6 +297,11 @@ impl Workflow for SegmentationWorkflow {
     }
 }
 
+/// Row `r` of column `c` as text (empty when the table has no such column).
+fn cell_text(t: &Table, c: &str, r: usize) -> String {
+    t.column(c).map(|v| v.cell(r)).unwrap_or_default()
+}
+
 impl SegmentationWorkflow {
     /// The viewer page of one sequence: ground truth (judged against the fused method), the
     /// fused candidates, then each segmenter's candidates and traces; statuses as the
@@ -311,7 +316,7 @@ impl SegmentationWorkflow {
         // (method, outcome, truth frame, found frame) rows of this sequence.
         let outcomes: Vec<(String, String, Option<usize>, Option<usize>)> = match tables.iter().find(|t| t.name == "boundary_matches") {
             Some(t) => {
-                let col = |c: &str, r: usize| t.column(c).map(|v| v.cell(r)).unwrap_or_default();
+                let col = |c: &str, r: usize| cell_text(t, c, r);
                 let frame = |c: &str, r: usize| col(c, r).parse::<f64>().ok().filter(|f| f.is_finite() && *f >= 0.0).map(|f| f as usize);
                 (0..t.n_rows())
                     .filter(|&r| col("sequence", r) == seq.sequence)
@@ -336,14 +341,12 @@ impl SegmentationWorkflow {
         };
         let fused = self.fuser.as_ref().and_then(|_| seq.methods.last());
         let tolerance_frames = tables.iter().find(|t| t.name == "table1_precision_recall").and_then(|t| {
-            let col = |c: &str, r: usize| t.column(c).map(|v| v.cell(r)).unwrap_or_default();
             (0..t.n_rows())
-                .filter(|&r| col("sequence", r) == seq.sequence)
-                .find_map(|r| col("tolerance_frames", r).parse::<f64>().ok().filter(|f| f.is_finite()))
+                .filter(|&r| cell_text(t, "sequence", r) == seq.sequence)
+                .find_map(|r| cell_text(t, "tolerance_frames", r).parse::<f64>().ok().filter(|f| f.is_finite()))
         });
         if let Some(truth) = &seq.truth {
-            let tol = tolerance_frames;
-            let mut lane = EventLane::truth("ground truth", truth, tol);
+            let mut lane = EventLane::truth("ground truth", truth, tolerance_frames);
             if let Some(f) = fused {
                 judge(&mut lane, &f.method, true);
                 lane.judged_against = Some(f.method.clone());
