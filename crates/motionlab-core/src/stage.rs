@@ -361,18 +361,106 @@ pub trait WalkSynthesizer: Send + Sync {
 }
 
 /// What an evaluator produced: its tables and, for an evaluator whose analysis a workflow
-/// builds on (the change rates behind a gait study's control), that analysis as a typed value.
+/// builds on, that analysis as a typed value — the matches and tolerances behind a boundary
+/// evaluation's tables, the change rates behind a gait study's control. Workflows read the
+/// analysis by its type, never the tables by their names: a table is for people, its layout
+/// may change, the type is the contract.
 pub struct Evaluation {
     pub tables: Vec<Table>,
     /// The analysis behind the tables, of the type [`Evaluator::analysis_type`] names; `None`
     /// for evaluators that only write tables.
-    pub analysis: Option<Box<dyn std::any::Any + Send + Sync>>,
+    pub analysis: Option<Analysis>,
 }
 
 impl Evaluation {
     /// The analysis as a `T`, when it is one.
     pub fn analysis<T: 'static>(&self) -> Option<&T> {
-        self.analysis.as_ref().and_then(|a| a.downcast_ref::<T>())
+        self.analysis.as_ref().and_then(Analysis::get::<T>)
+    }
+}
+
+/// A typed evaluation result, optionally in a form the on-disk cache can keep.
+///
+/// [`Analysis::new`] wraps any value; [`Analysis::cacheable`] also records how to encode it
+/// (MessagePack, which keeps NaN), so a workflow that caches evaluations on disk can store the
+/// analysis beside the tables ([`Analysis::encode`]) and a later run restore it
+/// ([`Analysis::restored`]) and [`Analysis::read`] it as the type it asks for, checked by name.
+pub struct Analysis {
+    type_name: String,
+    state: AnalysisState,
+}
+
+enum AnalysisState {
+    Live { value: Box<dyn Any + Send + Sync>, encode: Option<fn(&(dyn Any + Send + Sync)) -> Option<Vec<u8>>> },
+    Encoded(Vec<u8>),
+}
+
+impl std::fmt::Debug for Analysis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let state = match &self.state {
+            AnalysisState::Live { encode: Some(_), .. } => "live, cacheable",
+            AnalysisState::Live { encode: None, .. } => "live",
+            AnalysisState::Encoded(_) => "encoded",
+        };
+        f.debug_struct("Analysis").field("type", &self.type_name).field("state", &state).finish()
+    }
+}
+
+impl Analysis {
+    /// An analysis the cache cannot keep (an evaluation that returns it is not cached).
+    pub fn new<T: Any + Send + Sync>(value: T) -> Self {
+        Analysis { type_name: std::any::type_name::<T>().to_string(), state: AnalysisState::Live { value: Box::new(value), encode: None } }
+    }
+    /// An analysis the on-disk cache can keep.
+    pub fn cacheable<T: Any + Send + Sync + Serialize>(value: T) -> Self {
+        fn encode<T: Any + Serialize>(v: &(dyn Any + Send + Sync)) -> Option<Vec<u8>> {
+            v.downcast_ref::<T>().and_then(|v| rmp_serde::to_vec_named(v).ok())
+        }
+        Analysis {
+            type_name: std::any::type_name::<T>().to_string(),
+            state: AnalysisState::Live { value: Box::new(value), encode: Some(encode::<T>) },
+        }
+    }
+    /// An analysis as [`Analysis::encode`] wrote it, with its [`Analysis::type_name`].
+    pub fn restored(type_name: impl Into<String>, bytes: Vec<u8>) -> Self {
+        Analysis { type_name: type_name.into(), state: AnalysisState::Encoded(bytes) }
+    }
+    /// Rust's name of the value's type (what [`Analysis::read`] checks a restored one by).
+    pub fn type_name(&self) -> &str {
+        &self.type_name
+    }
+    /// The value, when it is a live `T`.
+    pub fn get<T: 'static>(&self) -> Option<&T> {
+        match &self.state {
+            AnalysisState::Live { value, .. } => value.downcast_ref::<T>(),
+            AnalysisState::Encoded(_) => None,
+        }
+    }
+    /// The value as a `T`, or the analysis back when it is not a live `T`.
+    pub fn downcast<T: 'static>(self) -> std::result::Result<Box<T>, Analysis> {
+        match self.state {
+            AnalysisState::Live { value, encode } => {
+                value.downcast::<T>().map_err(|value| Analysis { type_name: self.type_name, state: AnalysisState::Live { value, encode } })
+            }
+            state => Err(Analysis { type_name: self.type_name, state }),
+        }
+    }
+    /// A copy of the value as a `T`, live or restored; `None` when it is another type (or
+    /// restored bytes that do not decode: an entry of another build).
+    pub fn read<T: Clone + serde::de::DeserializeOwned + 'static>(&self) -> Option<T> {
+        match &self.state {
+            AnalysisState::Live { value, .. } => value.downcast_ref::<T>().cloned(),
+            AnalysisState::Encoded(bytes) => {
+                (self.type_name == std::any::type_name::<T>()).then(|| rmp_serde::from_slice::<T>(bytes).ok()).flatten()
+            }
+        }
+    }
+    /// The encoded form, when the value was made [`Analysis::cacheable`] (or restored).
+    pub fn encode(&self) -> Option<Vec<u8>> {
+        match &self.state {
+            AnalysisState::Live { value, encode } => encode.and_then(|f| f(value.as_ref())),
+            AnalysisState::Encoded(bytes) => Some(bytes.clone()),
+        }
     }
 }
 
@@ -395,6 +483,30 @@ pub trait Evaluator: Send + Sync {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_analysis_reads_back_as_its_own_type_only() {
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        struct Judged {
+            tolerance: f64,
+            frames: Vec<usize>,
+        }
+        let value = Judged { tolerance: f64::NAN.min(2.5), frames: vec![3, 9] };
+        let live = Analysis::cacheable(value.clone());
+        assert_eq!(live.get::<Judged>(), Some(&value));
+        assert_eq!(live.read::<Judged>(), Some(value.clone()));
+        assert_eq!(live.read::<Vec<usize>>(), None);
+        let restored = Analysis::restored(live.type_name(), live.encode().unwrap());
+        assert_eq!(restored.get::<Judged>(), None, "a restored analysis is not live");
+        assert_eq!(restored.read::<Judged>(), Some(value));
+        assert_eq!(restored.read::<Vec<usize>>(), None, "another type's name");
+        assert_eq!(Analysis::restored(live.type_name(), vec![0xc1]).read::<Judged>(), None, "undecodable bytes");
+        // Not cacheable: no encoded form; downcast hands it back when the type is wrong.
+        let plain = Analysis::new(7_u8);
+        assert!(plain.encode().is_none());
+        let plain = plain.downcast::<u16>().unwrap_err();
+        assert_eq!(*plain.downcast::<u8>().unwrap(), 7);
+    }
 
     #[test]
     fn feature_cache_computes_once() {

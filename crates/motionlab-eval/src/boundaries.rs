@@ -69,7 +69,7 @@ pub fn tolerance_frames(tolerance: TimeSpan, rate: FrameRate) -> f64 {
 }
 
 /// The frames a truth accepts under the time rule: the closed interval `[lo, hi]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TruthWindow {
     /// The truth's own frame (what distances and the Hausdorff distance are measured from).
     pub frame: usize,

@@ -5,7 +5,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Millimetres, Result, Table, TimeSpan};
+use motionlab_core::{Analysis, Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, Millimetres, Result, Table, TimeSpan};
+
+use crate::boundary_analysis::{BoundaryAnalysis, BoundaryMatch, ChanceSetup, Counts, MatchOutcome, MethodBoundaries, SequenceBoundaries};
 
 use crate::boundaries::{
     MatchRule, PoseRule, TruthWindow, default_tolerance, evaluate_boundaries, max_matching_windows, ratios, tolerance_frames,
@@ -311,7 +313,17 @@ impl Evaluator for BoundaryPr {
     }
 
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
+        self.evaluate_with_analysis(input).map(|e| e.tables)
+    }
+
+    fn analysis_type(&self) -> Option<std::any::TypeId> {
+        Some(std::any::TypeId::of::<BoundaryAnalysis>())
+    }
+
+    /// The tables, and the same judgement as a [`BoundaryAnalysis`].
+    fn evaluate_with_analysis(&self, input: EvalInput<'_>) -> Result<Evaluation> {
         let sequences = segmentation_input(input, "boundary_pr")?;
+        let mut analysis = BoundaryAnalysis::default();
         let mut rows = Vec::new();
         let mut match_rows = Vec::new();
         let mut window_rows = Vec::new();
@@ -367,6 +379,12 @@ impl Evaluator for BoundaryPr {
             window_rows.extend(windows.iter().map(|w| window_row(Some(w))));
             let periodic = periodic_candidates(windows.len(), span.clone());
             let periodic_matched = max_matching_windows(&periodic, &windows).len();
+            let mut judged = SequenceBoundaries {
+                sequence: seq.sequence.clone(),
+                tolerance_frames: self.tolerance.frames_at(rate),
+                chance: ChanceSetup { span: span.clone(), windows: windows.clone(), draws: self.chance.draws, seed: self.chance.seed },
+                methods: Vec::new(),
+            };
             for m in &seq.methods {
                 let candidates = counted(&m.candidates, truth, self.span, rule.tolerance_frames);
                 let s = evaluate_boundaries(&candidates, &truth.boundaries, &rule);
@@ -425,15 +443,20 @@ impl Evaluator for BoundaryPr {
                 pool.periodic_matched += baselines.periodic_matched;
                 pool.chance.push(baselines.chance);
 
-                match_rows.extend(match_rows_of(
-                    &seq.sequence,
-                    &m.method,
-                    &candidates,
-                    &truth.frames(),
-                    &s,
-                    period_s,
-                ));
+                let matches = matches_of(&candidates, &truth.frames(), &s);
+                match_rows.extend(matches.iter().map(|b| BoundaryMatchRow::of(&seq.sequence, &m.method, b, period_s)));
+                judged.methods.push(MethodBoundaries {
+                    method: m.method.clone(),
+                    counts: Counts {
+                        n_truth: s.scores.n_truth,
+                        n_found: s.scores.n_found,
+                        n_matched: s.scores.n_matched,
+                        n_matched_by_pose: n_by_pose,
+                    },
+                    matches,
+                });
             }
+            analysis.sequences.push(judged);
         }
         if n_evaluated == 0 {
             return Err(nothing_to_evaluate("boundary_pr", "ground truth", sequences.len()));
@@ -492,28 +515,28 @@ impl Evaluator for BoundaryPr {
             "The chance baseline's null model: evaluated span and truth windows (frames) per sequence, draws and seed",
             &window_rows,
         )?);
-        Ok(tables)
+        Ok(Evaluation { tables, analysis: Some(Analysis::cacheable(analysis)) })
     }
 }
 
-/// Rows of `boundary_matches` for one method on one sequence, in frame order.
-fn match_rows_of(
-    sequence: &str,
-    method: &str,
-    found: &[usize],
-    truth: &[usize],
-    s: &crate::boundaries::BoundaryScores,
-    period_s: f64,
-) -> Vec<BoundaryMatchRow> {
-    let row = |outcome, truth_frame: Option<usize>, found_frame: Option<usize>| BoundaryMatchRow {
-        sequence: sequence.into(),
-        method: method.into(),
-        outcome,
-        truth_frame,
-        found_frame,
-        offset_s: truth_frame.zip(found_frame).map(|(t, f)| (f as f64 - t as f64) * period_s),
-    };
-    let mut out: Vec<(usize, BoundaryMatchRow)> = Vec::new();
+impl BoundaryMatchRow {
+    fn of(sequence: &str, method: &str, b: &BoundaryMatch, period_s: f64) -> Self {
+        BoundaryMatchRow {
+            sequence: sequence.into(),
+            method: method.into(),
+            outcome: b.outcome.as_str(),
+            truth_frame: b.truth_frame,
+            found_frame: b.found_frame,
+            offset_s: b.truth_frame.zip(b.found_frame).map(|(t, f)| (f as f64 - t as f64) * period_s),
+        }
+    }
+}
+
+/// Every truth (matched or missed) and every unmatched found frame of one method on one
+/// sequence, in frame order.
+fn matches_of(found: &[usize], truth: &[usize], s: &crate::boundaries::BoundaryScores) -> Vec<BoundaryMatch> {
+    let mark = |outcome, truth_frame: Option<usize>, found_frame: Option<usize>| BoundaryMatch { outcome, truth_frame, found_frame };
+    let mut out: Vec<(usize, BoundaryMatch)> = Vec::new();
     // Duplicated frames are counted: remove one occurrence per pair.
     let mut unmatched_truth = truth.to_vec();
     let mut unmatched_found = found.to_vec();
@@ -524,11 +547,11 @@ fn match_rows_of(
         if let Some(i) = unmatched_found.iter().position(|&f| f == p.found) {
             unmatched_found.swap_remove(i);
         }
-        let outcome = if p.by_pose { "matched_by_pose" } else { "matched" };
-        out.push((p.truth, row(outcome, Some(p.truth), Some(p.found))));
+        let outcome = if p.by_pose { MatchOutcome::MatchedByPose } else { MatchOutcome::Matched };
+        out.push((p.truth, mark(outcome, Some(p.truth), Some(p.found))));
     }
-    out.extend(unmatched_truth.into_iter().map(|t| (t, row("missed", Some(t), None))));
-    out.extend(unmatched_found.into_iter().map(|f| (f, row("extra", None, Some(f)))));
+    out.extend(unmatched_truth.into_iter().map(|t| (t, mark(MatchOutcome::Missed, Some(t), None))));
+    out.extend(unmatched_found.into_iter().map(|f| (f, mark(MatchOutcome::Extra, None, Some(f)))));
     out.sort_by_key(|(frame, r)| (*frame, r.found_frame));
     out.into_iter().map(|(_, r)| r).collect()
 }
@@ -585,6 +608,61 @@ mod tests {
 
     fn strs(t: &Table, name: &str) -> Vec<String> {
         (0..t.n_rows()).map(|i| t.column(name).unwrap().cell(i)).collect()
+    }
+
+    /// The typed analysis says what the tables say: the counts of every (sequence, method) row,
+    /// each sequence's tolerance, every `boundary_matches` row, and the chance null model of
+    /// `chance_windows` — and the pooled counts are the `pooled` rows'.
+    #[test]
+    fn the_analysis_equals_the_tables() {
+        let seqs = vec![
+            sequence(
+                "a",
+                600,
+                100.0,
+                Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 300, "x"), (300, 600, "z")]),
+                &[("speed", &[105, 290, 500]), ("fused", &[100, 200, 300, 400])],
+            ),
+            sequence("b", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("speed", &[]), ("fused", &[52])]),
+        ];
+        let e = evaluator("tolerance = { seconds = 0.1 }\nchance_draws = 200").evaluate_with_analysis(EvalInput::Segmentation(&seqs)).unwrap();
+        let a = e.analysis::<BoundaryAnalysis>().unwrap();
+        let t1 = &e.tables[0];
+        let (seq, method) = (strs(t1, "sequence"), strs(t1, "method"));
+        let (truth, found, matched, tol) = (f64s(t1, "n_truth"), f64s(t1, "n_found"), f64s(t1, "n_matched"), strs(t1, "tolerance_frames"));
+        let mut rows = 0;
+        for r in 0..t1.n_rows() {
+            let counts = if seq[r] == "pooled" {
+                a.pooled().into_iter().find(|(m, _)| *m == method[r]).unwrap().1
+            } else {
+                let s = a.sequence(&seq[r]).unwrap();
+                assert_eq!(s.tolerance_frames.to_string(), tol[r]);
+                s.method(&method[r]).unwrap().counts
+            };
+            assert_eq!((counts.n_truth as f64, counts.n_found as f64, counts.n_matched as f64), (truth[r], found[r], matched[r]), "row {r}");
+            rows += 1;
+        }
+        assert_eq!(rows, 6);
+        let bm = &e.tables[1];
+        let listed: Vec<String> = a
+            .sequences
+            .iter()
+            .flat_map(|s| s.methods.iter().flat_map(move |m| m.matches.iter().map(move |b| format!("{} {} {} {:?} {:?}", s.sequence, m.method, b.outcome.as_str(), b.truth_frame, b.found_frame))))
+            .collect();
+        let frame = |c: &str, r: usize| bm.column(c).unwrap().cell(r).parse::<usize>().ok();
+        let tabled: Vec<String> = (0..bm.n_rows())
+            .map(|r| format!("{} {} {} {:?} {:?}", strs(bm, "sequence")[r], strs(bm, "method")[r], strs(bm, "outcome")[r], frame("truth_frame", r), frame("found_frame", r)))
+            .collect();
+        assert_eq!(listed, tabled);
+        let cw = e.tables.iter().find(|t| t.name == "chance_windows").unwrap();
+        let starts = f64s(cw, "span_start");
+        let los = f64s(cw, "window_lo");
+        let from_analysis: Vec<(f64, f64)> =
+            a.sequences.iter().flat_map(|s| s.chance.windows.iter().map(move |w| (s.chance.span.start as f64, w.lo))).collect();
+        assert_eq!(from_analysis, starts.into_iter().zip(los).collect::<Vec<_>>());
+        // Restored from its encoded form (as a cached run reads it), it is the same value.
+        let restored = motionlab_core::Analysis::restored(e.analysis.as_ref().unwrap().type_name(), e.analysis.as_ref().unwrap().encode().unwrap());
+        assert_eq!(restored.read::<BoundaryAnalysis>().as_ref(), Some(a));
     }
 
     #[test]

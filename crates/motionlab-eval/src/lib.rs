@@ -33,6 +33,7 @@
 pub const PLUGIN_COUNT: usize = 5;
 
 pub mod boundaries;
+pub mod boundary_analysis;
 pub mod boundary_metrics;
 pub mod boundary_pr;
 pub mod chance;

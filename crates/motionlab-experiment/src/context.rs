@@ -235,23 +235,25 @@ impl Datasets {
         self.record(dataset, file, stage, origin);
         Ok(v)
     }
-    /// Tables computed from several inputs — an evaluation over a combination's sequences —
-    /// from the on-disk cache when it holds them under `params` (the stage's resolved
-    /// parameters as text) and `inputs` (each input's [`LoadedItem::key`] and the bytes of
-    /// what the stage reads besides, such as each method's candidates), else `compute`d and
-    /// stored. Logged as `stage` on each `(dataset, file)` of `logged`.
-    pub fn tables_cached(
+    /// An evaluation over several inputs — a combination's sequences — from the on-disk cache
+    /// when it holds one under `params` (the stage's resolved parameters as text) and `inputs`
+    /// (each input's [`LoadedItem::key`] and the bytes of what the stage reads besides, such
+    /// as each method's candidates), else `compute`d and stored: its tables, and its typed
+    /// analysis when that is [`Analysis::cacheable`](motionlab_core::Analysis::cacheable) (an
+    /// evaluation whose analysis is not is never stored). Logged as `stage` on each
+    /// `(dataset, file)` of `logged`.
+    pub fn evaluation_cached(
         &self,
         stage: &str,
         params: &str,
         inputs: &[(Option<Key>, Vec<u8>)],
         logged: &[(usize, usize)],
-        compute: impl FnOnce() -> Result<Vec<motionlab_core::Table>>,
-    ) -> Result<Vec<motionlab_core::Table>> {
+        compute: impl FnOnce() -> Result<motionlab_core::Evaluation>,
+    ) -> Result<motionlab_core::Evaluation> {
         let key = inputs.iter().try_fold(KeyBuilder::new("evaluation").part("params", params.as_bytes()), |k, (input, bytes)| {
             input.as_ref().map(|i| k.upstream("input", i).part("reads", bytes))
         });
-        let (v, origin) = self.cache.tables(key.map(KeyBuilder::finish), compute)?;
+        let (v, origin) = self.cache.evaluation(key.map(KeyBuilder::finish), compute)?;
         for &(d, f) in logged {
             self.record(d, f, stage, origin);
         }

@@ -20,7 +20,7 @@
 //! file's bytes, the recipe without the folder path, and the binary's build fingerprint — and
 //! stages that opt in through [`Datasets::stage_cached`](crate::Datasets::stage_cached) (one
 //! input: the segmentation workflow's segmenters) or
-//! [`Datasets::tables_cached`](crate::Datasets::tables_cached) (several inputs: its
+//! [`Datasets::evaluation_cached`](crate::Datasets::evaluation_cached) (several inputs: its
 //! evaluation) store their outputs under their resolved parameters and the inputs' keys. Every
 //! use is logged with its [`Origin`] for the run's provenance.
 
@@ -31,7 +31,7 @@ use std::sync::{Arc, Mutex, RwLock};
 
 pub use motionlab_cache::{hex, Key};
 use motionlab_cache::{Cache, KeyBuilder};
-use motionlab_core::{Error, Motion, Result};
+use motionlab_core::{Analysis, Error, Evaluation, Motion, Result};
 
 use crate::context::LoadedItem;
 
@@ -208,20 +208,38 @@ impl RunCache {
 }
 
 impl RunCache {
-    /// Tables (an evaluation's) from disk under `key`, else computed (and stored).
-    pub(crate) fn tables(&self, key: Option<Key>, compute: impl FnOnce() -> Result<Vec<motionlab_core::Table>>) -> Result<(Vec<motionlab_core::Table>, Origin)> {
+    /// An evaluation from disk under `key`, else computed (and stored when its analysis, if
+    /// any, can be encoded). The tables are one entry (`evaluation`), the analysis — its type
+    /// name and bytes, or none — another under the same key (`analysis`).
+    pub(crate) fn evaluation(&self, key: Option<Key>, compute: impl FnOnce() -> Result<Evaluation>) -> Result<(Evaluation, Origin)> {
         let disk = self.disk();
         let (Some(c), Some(k)) = (disk, key) else { return Ok((compute()?, Origin::Computed)) };
-        if let Some(v) = c.get("evaluation", &k).and_then(|b| motionlab_cache::table::decode(&b).ok()) {
-            return Ok((v, Origin::Disk));
+        if let Some(tables) = c.get("evaluation", &k).and_then(|b| motionlab_cache::table::decode(&b).ok())
+            && let Some(analysis) = c.get("analysis", &k).and_then(|b| rmp_serde::from_slice::<StoredAnalysis>(&b).ok())
+        {
+            let analysis = analysis.map(|(type_name, bytes)| Analysis::restored(type_name, bytes));
+            return Ok((Evaluation { tables, analysis }, Origin::Disk));
         }
         let v = compute()?;
-        if let Ok(bytes) = motionlab_cache::table::encode(&v) {
-            let _ = c.put("evaluation", &k, &bytes);
+        let analysis: Option<StoredAnalysis> = match &v.analysis {
+            None => Some(None),
+            Some(a) => a.encode().map(|bytes| Some((a.type_name().to_string(), bytes))),
+        };
+        // An analysis that cannot be encoded: nothing is stored, the next run computes again.
+        if let (Some(analysis), Ok(tables)) = (analysis, motionlab_cache::table::encode(&v.tables))
+            && let Ok(analysis) = rmp_serde::to_vec(&analysis)
+            && c.put("analysis", &k, &analysis).is_ok()
+        {
+            // The tables last: a reader finds them only with their analysis beside.
+            let _ = c.put("evaluation", &k, &tables);
         }
         Ok((v, Origin::Computed))
     }
 }
+
+/// An evaluation's analysis as stored: its type name and encoded bytes, or `None` for an
+/// evaluator without one.
+type StoredAnalysis = Option<(String, Vec<u8>)>;
 
 /// Builds a stage key under an upstream key.
 pub fn stage_key(kind: &str, upstream: &Key, params: &str) -> Key {

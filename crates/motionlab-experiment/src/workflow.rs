@@ -86,6 +86,16 @@ pub struct Output {
     pub files: Vec<(String, Vec<u8>)>,
     /// Interactive viewer pages, one per sequence, written as `viewers/<name>.html`.
     pub viewers: Vec<motionlab_core::viewer::ViewerSpec>,
+    /// The evaluators' typed analyses (evaluator name, analysis), for
+    /// [`Workflow::summarize`] to build on across combinations; not written anywhere.
+    pub analyses: Vec<(String, motionlab_core::Analysis)>,
+}
+
+impl Output {
+    /// The first analysis that reads as a `T` (live or restored from the cache).
+    pub fn analysis<T: Clone + serde::de::DeserializeOwned + 'static>(&self) -> Option<T> {
+        self.analyses.iter().find_map(|(_, a)| a.read::<T>())
+    }
 }
 
 impl Output {

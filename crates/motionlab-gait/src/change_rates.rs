@@ -7,7 +7,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, GaitStudy, GaitTrial, Result, Table, WalkChanges};
+use motionlab_core::{Analysis, Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, GaitStudy, GaitTrial, Result, Table, WalkChanges};
 
 /// Change rates of every channel from the normal walk to each other condition, their mean,
 /// population s.d. and coefficient of variation over subjects, and the feature channels
@@ -574,7 +574,7 @@ impl Evaluator for ChangeRates {
             EvalInput::Gait(study) => {
                 let changes = self.analyse(study)?;
                 let tables = self.tables_of(study, &changes)?;
-                Ok(Evaluation { tables, analysis: Some(Box::new(ChangeRateAnalysis { rates: self.clone(), changes })) })
+                Ok(Evaluation { tables, analysis: Some(Analysis::new(ChangeRateAnalysis { rates: self.clone(), changes })) })
             }
             other => Err(Error::new(
                 ErrorKind::Mismatch,

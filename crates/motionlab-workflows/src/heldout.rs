@@ -5,15 +5,17 @@
 //! oracle). Here the combination is chosen on *training* sequences and its counts are taken on
 //! the others: leave-one-sequence-out (each sequence in turn is the test set, the rest train)
 //! or one explicit split. Only counts (matches, found, truth) are summed, never ratios, as in
-//! the evaluator's `pooled` rows; nothing is re-run — the counts are read from the per-sequence
-//! rows the evaluator already wrote for every combination.
+//! the evaluator's `pooled` rows; nothing is re-run — the counts and chance null models are
+//! the boundary evaluation's typed analysis of every combination
+//! ([`motionlab_eval::boundary_analysis`]).
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
-use motionlab_eval::boundaries::{PrScores, TruthWindow};
-use motionlab_eval::chance::{ChanceCounts, ChanceScores, chance_counts, row_seed};
+use motionlab_core::{Error, ErrorKind, Result, Table};
+use motionlab_eval::boundaries::PrScores;
+use motionlab_eval::boundary_analysis::{BoundaryAnalysis, ChanceSetup, Counts};
+use motionlab_eval::chance::{ChanceCounts, ChanceScores};
 use motionlab_experiment::workflow::ComboOutput;
 
 /// How a sweep chooses each method's operating point (`[segmentation] selection = …`).
@@ -33,31 +35,6 @@ pub enum Selection {
     Train(Vec<String>),
 }
 
-/// Counts of one (sequence, method) row.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Counts {
-    pub n_truth: usize,
-    pub n_found: usize,
-    pub n_matched: usize,
-    /// Pairs only the pose rule allowed (0 without it).
-    pub n_matched_by_pose: usize,
-}
-
-impl Counts {
-    fn add(self, o: Counts) -> Counts {
-        Counts {
-            n_truth: self.n_truth + o.n_truth,
-            n_found: self.n_found + o.n_found,
-            n_matched: self.n_matched + o.n_matched,
-            n_matched_by_pose: self.n_matched_by_pose + o.n_matched_by_pose,
-        }
-    }
-    /// Counts with (precision, recall, F1) exactly as the boundary_pr evaluator computes them.
-    pub fn scores(self) -> PrScores {
-        PrScores::of(self.n_truth, self.n_found, self.n_matched)
-    }
-}
-
 /// One sweep combination's per-sequence counts for the method it is a point of.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Point {
@@ -66,19 +43,8 @@ pub struct Point {
     pub parameters: String,
     /// (sequence, counts) for every sequence evaluated.
     pub per_sequence: Vec<(String, Counts)>,
-    /// (sequence, chance null model) of this combination (boundary_pr's `chance_windows`);
-    /// empty when the combination has no such table.
+    /// (sequence, chance null model) of this combination, as the boundary evaluation drew it.
     pub chance: Vec<(String, ChanceSetup)>,
-}
-
-/// The chance baseline's null model on one sequence: what `motionlab_eval::chance::chance_counts`
-/// needs besides the number of candidates.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ChanceSetup {
-    pub span: std::ops::Range<usize>,
-    pub windows: Vec<TruthWindow>,
-    pub draws: usize,
-    pub seed: u64,
 }
 
 /// The chance columns of a `heldout_f1` or `heldout_choices` row: the chance baseline of
@@ -94,12 +60,12 @@ fn chance_at(method: &str, parts: &[(&Point, &str)]) -> ChanceScores {
             return ChanceScores::none();
         };
         counts = counts.add(*c);
-        draws.push(chance_counts(c.n_found, &setup.windows, setup.span.clone(), setup.draws, row_seed(setup.seed, seq, method)));
+        draws.push(setup.counts(seq, method, c.n_found));
     }
     if draws.is_empty() {
         return ChanceScores::none();
     }
-    ChanceScores::of(&ChanceCounts::pooled(&draws), counts.n_truth, counts.n_matched.saturating_sub(counts.n_matched_by_pose))
+    ChanceScores::of(&ChanceCounts::pooled(&draws), counts.n_truth, counts.time_matched())
 }
 
 /// One method's curve over one sweep grid, in grid order.
@@ -159,15 +125,15 @@ fn pooled(p: &Point, sequences: &[String]) -> Counts {
     p.per_sequence.iter().filter(|(s, _)| sequences.contains(s)).fold(Counts::default(), |acc, (_, c)| acc.add(*c))
 }
 
-/// Reads each sweep point's per-sequence counts from the first table of each combination with
-/// `sequence`, `method`, `n_truth`, `n_found` and `n_matched` columns (boundary_pr's
-/// `table1_precision_recall`), skipping `pooled` rows. As `best_f1`, each grid contributes its
-/// focus method (every method when it has none).
+/// Each sweep point's per-sequence counts and chance null models, from the boundary
+/// evaluation of each combination (its [`BoundaryAnalysis`]: the first evaluator that gives
+/// one). As `best_f1`, each grid contributes its focus method (every method when it has none).
 pub fn curves_from(combos: &[ComboOutput<'_>]) -> Vec<Curve> {
     let mut curves: Vec<Curve> = Vec::new();
     for co in combos {
+        let Some(judged) = co.output.analysis::<BoundaryAnalysis>() else { continue };
         let sweep = co.combo.sweep.clone().unwrap_or_default();
-        add_points(&mut curves, co.combo.index, &sweep, co.combo.focus.as_deref(), &co.combo.label(), &co.output.tables);
+        add_points(&mut curves, co.combo.index, &sweep, co.combo.focus.as_deref(), &co.combo.label(), &judged);
     }
     for c in &mut curves {
         c.points.sort_by_key(|p| p.combination);
@@ -175,32 +141,18 @@ pub fn curves_from(combos: &[ComboOutput<'_>]) -> Vec<Curve> {
     curves
 }
 
-/// Adds one combination's points (its tables) to the curves.
-fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: Option<&str>, label: &str, tables: &[Table]) {
-    {
-        let Some(t) = tables.iter().find(|t| ["sequence", "method", "n_truth", "n_found", "n_matched"].iter().all(|c| t.column(c).is_some()))
-        else {
-            return;
-        };
-        let (Some(ColumnValues::Str(seq)), Some(ColumnValues::Str(meth))) = (t.column("sequence"), t.column("method")) else { return };
-        let count = |c: &str| match t.column(c) {
-            Some(ColumnValues::I64(v)) => v.iter().map(|x| usize::try_from(*x).ok()).collect(),
-            _ => vec![None; t.n_rows()],
-        };
-        let (truth, found, matched) = (count("n_truth"), count("n_found"), count("n_matched"));
-        let by_pose = count("n_matched_by_pose");
-        let chance = tables.iter().find(|t| t.name == "chance_windows").map(chance_setups).unwrap_or_default();
-        for i in 0..t.n_rows() {
-            let (Some(s), Some(m), Some(n_truth), Some(n_found), Some(n_matched)) = (&seq[i], &meth[i], truth[i], found[i], matched[i]) else {
-                continue;
-            };
-            if s == "pooled" || focus.is_some_and(|fm| fm != m) {
+/// Adds one combination's points (its boundary evaluation) to the curves.
+fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: Option<&str>, label: &str, judged: &BoundaryAnalysis) {
+    let chance: Vec<(String, ChanceSetup)> = judged.sequences.iter().map(|s| (s.sequence.clone(), s.chance.clone())).collect();
+    for seq in &judged.sequences {
+        for m in &seq.methods {
+            if focus.is_some_and(|fm| fm != m.method) {
                 continue;
             }
-            let ci = match curves.iter().position(|c| c.method == *m && c.sweep == sweep) {
+            let ci = match curves.iter().position(|c| c.method == m.method && c.sweep == sweep) {
                 Some(ci) => ci,
                 None => {
-                    curves.push(Curve { method: m.clone(), sweep: sweep.to_string(), points: Vec::new() });
+                    curves.push(Curve { method: m.method.clone(), sweep: sweep.to_string(), points: Vec::new() });
                     curves.len() - 1
                 }
             };
@@ -208,64 +160,13 @@ fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: O
             let pi = match points.iter().position(|p| p.combination == combination) {
                 Some(pi) => pi,
                 None => {
-                    points.push(Point {
-                        combination,
-                        parameters: label.to_string(),
-                        per_sequence: Vec::new(),
-                        chance: chance.clone(),
-                    });
+                    points.push(Point { combination, parameters: label.to_string(), per_sequence: Vec::new(), chance: chance.clone() });
                     points.len() - 1
                 }
             };
-            let n_matched_by_pose = by_pose[i].unwrap_or(0);
-            points[pi].per_sequence.push((s.clone(), Counts { n_truth, n_found, n_matched, n_matched_by_pose }));
+            points[pi].per_sequence.push((seq.sequence.clone(), m.counts));
         }
     }
-}
-
-/// The per-sequence null models of boundary_pr's `chance_windows` table (rows without a
-/// window give the span of a sequence without truths); a sequence whose rows cannot be read is
-/// left out, so its rows get no chance columns rather than wrong ones.
-fn chance_setups(t: &Table) -> Vec<(String, ChanceSetup)> {
-    let nums = |c: &str| -> Vec<Option<f64>> {
-        match t.column(c) {
-            Some(ColumnValues::I64(v)) => v.iter().map(|&x| Some(x as f64)).collect(),
-            Some(ColumnValues::F64(v)) => v.iter().map(|&x| x.is_finite().then_some(x)).collect(),
-            _ => vec![None; t.n_rows()],
-        }
-    };
-    let Some(ColumnValues::Str(seq)) = t.column("sequence") else { return Vec::new() };
-    let seeds: Vec<Option<u64>> = match t.column("chance_seed") {
-        Some(ColumnValues::Str(v)) => v.iter().map(|x| x.as_deref().and_then(|x| x.parse().ok())).collect(),
-        Some(ColumnValues::I64(v)) => v.iter().map(|&x| u64::try_from(x).ok()).collect(),
-        _ => vec![None; t.n_rows()],
-    };
-    let (start, end, frame, lo, hi, draws) =
-        (nums("span_start"), nums("span_end"), nums("truth_frame"), nums("window_lo"), nums("window_hi"), nums("chance_draws"));
-    let mut out: Vec<(String, Option<ChanceSetup>)> = Vec::new();
-    for i in 0..t.n_rows() {
-        let Some(s) = &seq[i] else { continue };
-        let at = match out.iter().position(|(n, _)| n == s) {
-            Some(at) => at,
-            None => {
-                // Spans and draws are whole non-negative numbers written by boundary_pr.
-                let setup = match (start[i], end[i], draws[i], seeds[i]) {
-                    (Some(a), Some(b), Some(d), Some(seed)) if a >= 0.0 && b >= a && d >= 1.0 => {
-                        Some(ChanceSetup { span: a as usize..b as usize, windows: Vec::new(), draws: d as usize, seed })
-                    }
-                    _ => None,
-                };
-                out.push((s.clone(), setup));
-                out.len() - 1
-            }
-        };
-        match (&mut out[at].1, frame[i], lo[i], hi[i]) {
-            (Some(setup), Some(f), Some(lo), Some(hi)) if f >= 0.0 => setup.windows.push(TruthWindow { frame: f as usize, lo, hi }),
-            (_, None, None, None) => {}
-            (setup, ..) => *setup = None,
-        }
-    }
-    out.into_iter().filter_map(|(s, c)| c.map(|c| (s, c))).collect()
 }
 
 /// One fold: the sequences reported on (test) and those the combination is chosen on (train).
@@ -542,9 +443,9 @@ mod tests {
         let mut curves = Vec::new();
         let mut tables = Vec::new();
         for (i, seqs) in combos.iter().enumerate() {
-            let t = pr.evaluate(EvalInput::Segmentation(seqs)).unwrap();
-            add_points(&mut curves, i, "grid", Some("speed"), &format!("c={i}"), &t);
-            tables.push(t);
+            let e = pr.evaluate_with_analysis(EvalInput::Segmentation(seqs)).unwrap();
+            add_points(&mut curves, i, "grid", Some("speed"), &format!("c={i}"), e.analysis::<BoundaryAnalysis>().unwrap());
+            tables.push(e.tables);
         }
         assert_eq!(curves[0].points[0].chance.len(), 2);
         assert_eq!(curves[0].points[0].chance[0].1.windows.len(), 2);

@@ -10,9 +10,10 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry;
 use motionlab_core::viewer::{EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
 use motionlab_core::{
-    ColumnValues, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
+    Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
     Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
 };
+use motionlab_eval::boundary_analysis::{BoundaryAnalysis, MatchOutcome, SequenceBoundaries};
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
 
 use crate::parameter_choice::{MethodChoices, StageChoice};
@@ -272,16 +273,18 @@ impl Workflow for SegmentationWorkflow {
         out.tables.push(Table::from_records("candidates", "Candidate frames per sequence and method", &rows)?);
         let logged: Vec<(usize, usize)> = items.iter().map(|(i, _)| (i.dataset, i.file)).collect();
         for ((name, e), params) in self.evaluators.iter().zip(&self.evaluator_params) {
-            let mut tables = data.tables_cached(&format!("evaluate {name}"), params, &reads, &logged, || {
-                e.evaluate(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))
+            let Evaluation { mut tables, analysis } = data.evaluation_cached(&format!("evaluate {name}"), params, &reads, &logged, || {
+                e.evaluate_with_analysis(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))
             })?;
             // Added after the cache: it depends on the combination, not on what was evaluated.
             self.choices.annotate(&mut tables, &inputs);
             out.tables.extend(tables);
+            out.analyses.extend(analysis.map(|a| (name.clone(), a)));
         }
         if draw {
+            let judged = out.analysis::<BoundaryAnalysis>();
             for ((id, traces), seq) in viewer_traces.iter().zip(&sequences) {
-                out.viewers.push(self.viewer(id, seq, traces, &out.tables)?);
+                out.viewers.push(self.viewer(id, seq, traces, judged.as_ref().and_then(|j| j.sequence(&seq.sequence)))?);
             }
         }
         Ok(out)
@@ -297,54 +300,33 @@ impl Workflow for SegmentationWorkflow {
     }
 }
 
-/// Row `r` of column `c` as text (empty when the table has no such column).
-fn cell_text(t: &Table, c: &str, r: usize) -> String {
-    t.column(c).map(|v| v.cell(r)).unwrap_or_default()
-}
-
 impl SegmentationWorkflow {
     /// The viewer page of one sequence: ground truth (judged against the fused method), the
-    /// fused candidates, then each segmenter's candidates and traces; statuses as the
-    /// `boundary_matches` table of the evaluation says, and the band drawn around each truth the
-    /// tolerance that judged them (`table1_precision_recall`'s `tolerance_frames` for this
-    /// sequence) — read from the evaluation's output, so the band and the statuses cannot
-    /// disagree, whatever the evaluator's parameters say or leave to their defaults.
-    fn viewer(&self, id: &str, seq: &SequenceResult, traces: &[(String, Vec<Trace>, Vec<Threshold>)], tables: &[Table]) -> Result<ViewerSpec> {
+    /// fused candidates, then each segmenter's candidates and traces; statuses as the boundary
+    /// evaluation judged them, and the band drawn around each truth the tolerance that judged
+    /// them — both from the evaluation's analysis (`judged`), so the band and the statuses
+    /// cannot disagree, whatever the evaluator's parameters say or leave to their defaults.
+    fn viewer(&self, id: &str, seq: &SequenceResult, traces: &[(String, Vec<Trace>, Vec<Threshold>)], judged: Option<&SequenceBoundaries>) -> Result<ViewerSpec> {
         let motion = &seq.motion;
         let vm = ViewerMotion::from_motion(motion, &self.section.bones, Some(&self.section.root))?;
         let mut spec = ViewerSpec::new(id, format!("{} — {}", seq.sequence, self.experiment), vm);
-        // (method, outcome, truth frame, found frame) rows of this sequence.
-        let outcomes: Vec<(String, String, Option<usize>, Option<usize>)> = match tables.iter().find(|t| t.name == "boundary_matches") {
-            Some(t) => {
-                let col = |c: &str, r: usize| cell_text(t, c, r);
-                let frame = |c: &str, r: usize| col(c, r).parse::<f64>().ok().filter(|f| f.is_finite() && *f >= 0.0).map(|f| f as usize);
-                (0..t.n_rows())
-                    .filter(|&r| col("sequence", r) == seq.sequence)
-                    .map(|r| (col("method", r), col("outcome", r), frame("truth_frame", r), frame("found_frame", r)))
-                    .collect()
-            }
-            None => Vec::new(),
-        };
         let judge = |lane: &mut EventLane, method: &str, truth_side: bool| {
-            for (_, outcome, truth, found) in outcomes.iter().filter(|o| o.0 == method) {
-                let judged = match (truth_side, outcome.as_str()) {
-                    (true, "missed") => truth.map(|f| (f, MarkStatus::Missed)),
-                    (true, o) if o.starts_with("matched") => truth.map(|f| (f, MarkStatus::Matched)),
-                    (false, "extra") => found.map(|f| (f, MarkStatus::FalsePositive)),
-                    (false, o) if o.starts_with("matched") => found.map(|f| (f, MarkStatus::Matched)),
+            let Some(m) = judged.and_then(|j| j.method(method)) else { return };
+            for b in &m.matches {
+                let status = match (truth_side, b.outcome) {
+                    (true, MatchOutcome::Missed) => b.truth_frame.map(|f| (f, MarkStatus::Missed)),
+                    (true, o) if o.is_match() => b.truth_frame.map(|f| (f, MarkStatus::Matched)),
+                    (false, MatchOutcome::Extra) => b.found_frame.map(|f| (f, MarkStatus::FalsePositive)),
+                    (false, o) if o.is_match() => b.found_frame.map(|f| (f, MarkStatus::Matched)),
                     _ => None,
                 };
-                if let Some((f, status)) = judged {
+                if let Some((f, status)) = status {
                     lane.set_status(f, status);
                 }
             }
         };
         let fused = self.fuser.as_ref().and_then(|_| seq.methods.last());
-        let tolerance_frames = tables.iter().find(|t| t.name == "table1_precision_recall").and_then(|t| {
-            (0..t.n_rows())
-                .filter(|&r| cell_text(t, "sequence", r) == seq.sequence)
-                .find_map(|r| cell_text(t, "tolerance_frames", r).parse::<f64>().ok().filter(|f| f.is_finite()))
-        });
+        let tolerance_frames = judged.map(|j| j.tolerance_frames).filter(|f| f.is_finite());
         if let Some(truth) = &seq.truth {
             let mut lane = EventLane::truth("ground truth", truth, tolerance_frames);
             if let Some(f) = fused {
@@ -518,9 +500,9 @@ fn pick_segment(fused: &[usize], truth: Option<&Segmentation>, n_frames: usize, 
 
 /// Precision–recall curves across a sweep and the best-F1 operating point of each method.
 ///
-/// Reads the pooled rows (`sequence = "pooled"`) of every table that has `method`,
-/// `precision`, `recall` and `f1` columns. Each sweep grid contributes the curve of its focus
-/// method (or of every method when the grid has no focus).
+/// Reads each combination's boundary evaluation (its [`BoundaryAnalysis`]), pooled over the
+/// sequences. Each sweep grid contributes the curve of its focus method (or of every method
+/// when the grid has no focus).
 fn pr_curves(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Output> {
     #[derive(Serialize)]
     struct Best {
@@ -536,32 +518,18 @@ fn pr_curves(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Output> {
     type Point = (f64, f64, f64, usize, String);
     let mut curves: Vec<(String, Vec<Point>)> = Vec::new();
     for co in combos {
-        let Some(t) = co.output.tables.iter().find(|t| ["method", "precision", "recall", "f1", "sequence"].iter().all(|c| t.column(c).is_some()))
-        else {
-            continue;
-        };
-        let (Some(ColumnValues::Str(seq)), Some(ColumnValues::Str(meth))) = (t.column("sequence"), t.column("method")) else { continue };
-        let num = |c: &str| match t.column(c) {
-            Some(ColumnValues::F64(v)) => v.clone(),
-            Some(ColumnValues::I64(v)) => v.iter().map(|x| *x as f64).collect(),
-            _ => vec![f64::NAN; t.n_rows()],
-        };
-        let (p, r, f) = (num("precision"), num("recall"), num("f1"));
-        for i in 0..t.n_rows() {
-            let (Some(s), Some(m)) = (&seq[i], &meth[i]) else { continue };
-            if s != "pooled" || co.combo.focus.as_ref().is_some_and(|fm| fm != m) {
+        let Some(judged) = co.output.analysis::<BoundaryAnalysis>() else { continue };
+        for (m, counts) in judged.pooled() {
+            if co.combo.focus.as_ref().is_some_and(|fm| *fm != m) {
                 continue;
             }
             let key = format!("{m} ({})", co.combo.sweep.clone().unwrap_or_default());
-            let entry = match curves.iter_mut().find(|(k, _)| *k == key) {
-                Some(e) => e,
-                None => {
-                    curves.push((key, Vec::new()));
-                    // Cannot fail: the vector is non-empty, an element was pushed just above.
-                    curves.last_mut().expect("just pushed")
-                }
-            };
-            entry.1.push((r[i], p[i], f[i], co.combo.index, co.combo.label()));
+            let s = counts.scores();
+            let point = (s.recall, s.precision, s.f1, co.combo.index, co.combo.label());
+            match curves.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, pts)) => pts.push(point),
+                None => curves.push((key, vec![point])),
+            }
         }
     }
     let mut out = Output::default();
