@@ -4,7 +4,8 @@
 //! parse.
 //!
 //! Payload: `u64` header length (LE), the MessagePack header, `n_frames × n_points × 3` f64
-//! positions, then the skeleton's `n_frames × n_channels` channel values when it has one.
+//! positions, then the skeleton's `n_frames × n_channels` channel values when it has one, then
+//! the motion's own channels (`n_frames × channels`, sample-major) when it has any.
 
 use std::path::PathBuf;
 
@@ -12,7 +13,7 @@ use nalgebra::{Matrix3, Rotation3};
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::skeleton::{ChannelKind, Joint, Skeleton, SkeletonMotion};
-use motionlab_core::{Axis, Boundary, Segment, Error, ErrorKind, Event, FrameRate, Motion, PointKind, Result, Seconds, Segmentation};
+use motionlab_core::{Axis, Boundary, Channels, Segment, Error, ErrorKind, Event, FrameRate, Motion, PointKind, Result, Seconds, Segmentation};
 
 #[derive(Serialize, Deserialize)]
 struct Header {
@@ -27,6 +28,9 @@ struct Header {
     skeleton: Option<Vec<JointRecord>>,
     events: Vec<(String, String, f64, f64)>,
     truth: Option<TruthRecord>,
+    /// The motion's channels' names and units (values after the skeleton's).
+    #[serde(default)]
+    channels: Option<(Vec<String>, Vec<String>)>,
 }
 
 /// A ground truth as cached.
@@ -102,6 +106,7 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
             segments: t.segments.clone(),
             annotators: t.annotators.clone(),
         }),
+        channels: (!motion.channels().is_empty()).then(|| (motion.channels().names().to_vec(), motion.channels().units().to_vec())),
     };
     let head = rmp_serde::to_vec(&header).map_err(|e| bad(format!("cannot encode: {e}")))?;
     let values = motion.skeleton.as_ref().map_or(&[][..], |s| s.channel_values());
@@ -113,7 +118,7 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
             out.extend_from_slice(&c.to_le_bytes());
         }
     }
-    for v in values {
+    for v in values.iter().chain(motion.channels().values()) {
         out.extend_from_slice(&v.to_le_bytes());
     }
     Ok(out)
@@ -140,14 +145,35 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
     let flat: Vec<f64> = f64s(pos_bytes).collect();
     let positions: Vec<[f64; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let kind = if h.joints_not_markers { PointKind::Joint } else { PointKind::Marker };
-    let mut motion = Motion::new(h.name, FrameRate::new(h.frame_rate_hz)?, h.up_axis, kind, h.point_names, positions)?;
+    let mut rest = &body[n_pos * 8..];
+    // The motion's own channels are the last values.
+    let channels = match h.channels {
+        None => None,
+        Some((names, units)) => {
+            let n = n_frames.checked_mul(names.len()).and_then(|n| n.checked_mul(8)).ok_or_else(|| bad("size"))?;
+            let at = rest.len().checked_sub(n).ok_or_else(|| bad("channels past the end"))?;
+            let values = f64s(&rest[at..]).collect();
+            rest = &rest[..at];
+            Some(Channels::new(names, units, values)?)
+        }
+    };
+    let rate = FrameRate::new(h.frame_rate_hz)?;
+    let mut motion = match (h.point_names.is_empty(), channels) {
+        (true, Some(c)) => Motion::from_channels(h.name, rate, c)?,
+        (_, c) => {
+            let m = Motion::new(h.name, rate, h.up_axis, kind, h.point_names, positions)?;
+            match c {
+                Some(c) => m.with_channels(c)?,
+                None => m,
+            }
+        }
+    };
     if motion.n_frames() != n_frames {
         return Err(bad("frame count differs"));
     }
     motion.source = h.source;
     motion.format = h.format;
     motion.events = h.events.into_iter().map(|(label, context, t, frame)| Event { label, context, time: Seconds(t), frame }).collect();
-    let rest = &body[n_pos * 8..];
     match h.skeleton {
         Some(joints) => {
             let joints: Vec<Joint> = joints
@@ -213,5 +239,22 @@ mod tests {
         // Damaged payloads are errors, never a different motion.
         assert!(decode(&bytes[..bytes.len() - 8]).is_err());
         assert!(decode(&bytes[..5]).is_err());
+    }
+
+    #[test]
+    fn channels_round_trip_with_and_without_points() {
+        let rate = FrameRate::new(1.0).unwrap();
+        let c = Channels::new(vec!["value".into(), "b".into()], vec![String::new(), "mm/s".into()], vec![1.0, f64::NAN, -2.5, 1e-300]).unwrap();
+        let series = Motion::from_channels("Adiac", rate, c.clone()).unwrap().with_source("/x/Adiac.txt", "channels");
+        let (back, _) = decode(&encode(&series, None).unwrap()).unwrap();
+        assert_eq!((back.n_points(), back.n_frames()), (0, 2));
+        let bits = |c: &Channels| c.values().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(back.channels()), bits(&c));
+        assert_eq!((back.channels().names(), back.channels().units()), (c.names(), c.units()));
+        let take = Motion::new("t", rate, Axis::Y, PointKind::Marker, vec!["a".into()], vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]).unwrap().with_channels(c.clone()).unwrap();
+        let bytes = encode(&take, None).unwrap();
+        let (back, _) = decode(&bytes).unwrap();
+        assert_eq!((back.positions(), bits(back.channels())), (take.positions(), bits(&c)));
+        assert!(decode(&bytes[..bytes.len() - 8]).is_err());
     }
 }

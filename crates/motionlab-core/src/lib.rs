@@ -14,6 +14,7 @@
 //!
 //! It depends on no polars, plotters, clap or indicatif.
 
+pub mod channels;
 pub mod error;
 pub mod motion;
 pub mod paths;
@@ -25,6 +26,7 @@ pub mod table;
 pub mod units;
 pub mod viewer;
 
+pub use channels::Channels;
 pub use error::{Error, ErrorKind, Location, Result};
 pub use motion::{Event, Motion, Point3, PointKind};
 pub use registry::{ParamGuard, StageKind};

@@ -4,9 +4,15 @@
 //! explicit up axis. A missing sample (occluded marker, residual < 0 in C3D, NaN in TSV) is
 //! flagged in the missing mask **and** stored as NaN, so a stage that forgets to check the mask
 //! propagates NaN instead of computing a silently wrong number.
+//!
+//! A motion may also carry [`Channels`] — signals sampled at its frame rate besides the
+//! positions. A channel file (a TSSB series, a CSV of sensor values) loads as a motion with
+//! channels and no points ([`Motion::from_channels`]); stages that need points say so when
+//! they meet one.
 
 use std::path::PathBuf;
 
+use crate::channels::Channels;
 use crate::skeleton::SkeletonMotion;
 use crate::units::{Axis, FrameRate, Seconds};
 use crate::{Error, ErrorKind, Location, Result};
@@ -35,7 +41,8 @@ pub struct Event {
     pub frame: f64,
 }
 
-/// A motion-capture recording: `n_frames` frames of `point_names.len()` points.
+/// A motion-capture recording: `n_frames` frames of `point_names.len()` points, and of its
+/// channels when it has any (a channel file's motion has channels and no points).
 #[derive(Clone, Debug)]
 pub struct Motion {
     /// A short name for reports (file stem unless a dataset renames it).
@@ -56,6 +63,9 @@ pub struct Motion {
     pub skeleton: Option<SkeletonMotion>,
     /// Annotated events (C3D), sorted by time.
     pub events: Vec<Event>,
+    /// Signals at the frame rate besides the positions (one sample per frame); empty for a
+    /// marker or skeleton file.
+    channels: Channels,
 }
 
 impl Motion {
@@ -111,7 +121,48 @@ impl Motion {
             n_frames,
             skeleton: None,
             events: Vec::new(),
+            channels: Channels::default(),
         })
+    }
+
+    /// A motion of channels only (a channel file: no points), one frame per sample.
+    pub fn from_channels(name: impl Into<String>, frame_rate: FrameRate, channels: Channels) -> Result<Self> {
+        if channels.is_empty() {
+            return Err(Error::new(ErrorKind::EmptySequence, "a motion needs at least one marker, joint or channel"));
+        }
+        Ok(Motion {
+            name: name.into(),
+            source: None,
+            format: String::new(),
+            frame_rate,
+            up_axis: Axis::Y,
+            point_kind: PointKind::Marker,
+            point_names: Vec::new(),
+            positions: Vec::new(),
+            missing: Vec::new(),
+            n_frames: channels.n_samples(),
+            skeleton: None,
+            events: Vec::new(),
+            channels,
+        })
+    }
+
+    /// The motion with these channels (replacing any it had); fails unless there is one sample
+    /// per frame.
+    pub fn with_channels(mut self, channels: Channels) -> Result<Self> {
+        if channels.n_samples() != self.n_frames {
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!("{} channel samples for a motion of {} frames ({})", channels.n_samples(), self.n_frames, self.name),
+            ));
+        }
+        self.channels = channels;
+        Ok(self)
+    }
+
+    /// The channels (empty for a marker or skeleton file).
+    pub fn channels(&self) -> &Channels {
+        &self.channels
     }
 
     pub fn with_source(mut self, source: impl Into<PathBuf>, format: impl Into<String>) -> Self {
@@ -224,6 +275,9 @@ impl Motion {
         out.positions = self.positions[start * m..end * m].to_vec();
         out.missing = self.missing[start * m..end * m].to_vec();
         out.n_frames = end - start;
+        if !self.channels.is_empty() {
+            out.channels = self.channels.slice_samples(start, end);
+        }
         out.skeleton = self.skeleton.as_ref().map(|s| s.slice_frames(start, end));
         out.events = self
             .events
@@ -252,7 +306,22 @@ impl Motion {
         out.source = self.source.clone();
         out.format = self.format.clone();
         out.events = self.events.clone();
+        out.channels = self.channels.clone();
         Ok(out)
+    }
+    /// Fails with [`ErrorKind::EmptySequence`] naming the stage when the motion has no points
+    /// (a channel file), for stages that read positions.
+    pub fn require_points(&self, stage: &str) -> Result<()> {
+        if self.point_names.is_empty() {
+            let loc = self.source.as_ref().map(Location::file).unwrap_or_default();
+            Err(Error::new(
+                ErrorKind::EmptySequence,
+                format!("{stage} reads marker or joint positions, and {} has none (only the channels {})", self.name, self.channels.names().join(", ")),
+            )
+            .with_location(loc))
+        } else {
+            Ok(())
+        }
     }
     /// Fails with [`ErrorKind::EmptySequence`] when the motion has fewer than `min_frames` frames.
     pub fn require_frames(&self, min_frames: usize, stage: &str) -> Result<()> {

@@ -297,8 +297,34 @@ impl FeatureCache {
 // The traits
 // ---------------------------------------------------------------------------------------------
 
+/// What a motion carries for a stage to read: marker or joint positions, or [`Channels`](crate::Channels)
+/// — what a [`Loader`]'s motions have and what a [`Segmenter`] consumes, so an
+/// experiment that gives a segmenter the wrong kind fails at validation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DataKind {
+    /// Marker or joint positions (mm).
+    Points,
+    /// Sampled signals: a channel file's columns, or features of a take's points.
+    Channels,
+}
+
+impl DataKind {
+    /// `marker or joint positions` / `channels`, for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            DataKind::Points => "marker or joint positions",
+            DataKind::Channels => "channels",
+        }
+    }
+}
+
 /// Reads one motion file (any `.gz`-compressed text format transparently).
 pub trait Loader: Send + Sync {
+    /// What its motions carry: positions (the default) or channels only.
+    fn gives(&self) -> DataKind {
+        DataKind::Points
+    }
     /// File extensions (without dot, lower case, without `.gz`) this loader reads; used by
     /// `motionlab inspect` to pick a loader.
     fn extensions(&self) -> &'static [&'static str];
@@ -322,6 +348,12 @@ pub trait FeatureExtractor: Send + Sync {
 
 /// Finds candidate segmentation frames.
 pub trait Segmenter: Send + Sync {
+    /// What it reads of a motion: its points (the default) or its [`Channels`](crate::Channels)
+    /// — a channel file's, or features of a take's points that the experiment names
+    /// (`input = { features = … }`).
+    fn consumes(&self) -> DataKind {
+        DataKind::Points
+    }
     fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput>;
 }
 

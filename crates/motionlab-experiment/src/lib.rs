@@ -8,6 +8,8 @@
 //!   a key is written on.
 //! - [`context`]: what a workflow is given — the [`Source`] that locates errors at file, line
 //!   and key path, the sweep [`Combo`], the [`Datasets`] that load an input.
+//! - [`segmenters`]: segmenters as an experiment names them, checked against what the datasets
+//!   give (positions or channels), with the features a channel segmenter reads on a take.
 //! - [`workflow`]: the [`Workflow`] trait, its registry ([`register_workflow!`]) and what a
 //!   workflow returns: tables ([`motionlab_core::Table`]), figure specs
 //!   ([`motionlab_figure::Figure`]) and named files.
@@ -17,6 +19,7 @@
 
 pub mod context;
 pub mod run_cache;
+pub mod segmenters;
 pub mod spec;
 pub mod toml_paths;
 pub mod workflow;

@@ -252,5 +252,5 @@ fn poisoned() -> Error {
 
 /// Bytes a motion holds (positions, mask, channel values).
 fn motion_bytes(m: &Motion) -> usize {
-    m.positions().len() * 25 + m.skeleton.as_ref().map_or(0, |s| s.channel_values().len() * 8) + 4096
+    m.positions().len() * 25 + m.skeleton.as_ref().map_or(0, |s| s.channel_values().len() * 8) + m.channels().values().len() * 8 + 4096
 }

@@ -36,15 +36,25 @@ pub struct StageSpec {
 }
 
 impl StageSpec {
-    /// The plugin's parameter table: every key but `type`, and but `name` — a display name
-    /// for the engine — unless the plugin itself has a `name` parameter (`add_centroid`).
+    /// The plugin's parameter table: every key but `type`, and but the keys the engine reads
+    /// itself — `name` (a display name) and `input` (a channel segmenter's features,
+    /// [`crate::segmenters`]) — unless the plugin has a parameter of that name
+    /// (`add_centroid`'s `name`).
     pub fn plugin_params(&self) -> toml::Value {
         let mut p = self.params.clone();
-        let plugin_has_name = motionlab_core::registry::find(&self.kind).is_ok_and(|e| e.params().iter().any(|d| d.name == "name"));
-        if !plugin_has_name {
-            p.remove("name");
+        let params = motionlab_core::registry::find(&self.kind).map(|e| e.params()).unwrap_or_default();
+        for engine_key in ["name", "input"] {
+            if !params.iter().any(|d| d.name == engine_key) {
+                p.remove(engine_key);
+            }
         }
         toml::Value::Table(p)
+    }
+    /// The `input` key of a segmenter that reads channels (see [`crate::segmenters`]), unless
+    /// the plugin has an `input` parameter of its own.
+    pub fn channel_input(&self) -> Option<&toml::Value> {
+        let own = motionlab_core::registry::find(&self.kind).is_ok_and(|e| e.params().iter().any(|d| d.name == "input"));
+        if own { None } else { self.params.get("input") }
     }
     /// Display name: the `name` key when given, else the plugin type.
     pub fn display_name(&self) -> String {

@@ -11,7 +11,7 @@ use motionlab_core::registry;
 use motionlab_core::viewer::{EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
 use motionlab_core::{
     Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
-    Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
+    Segment, Segmentation, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
 };
 use motionlab_eval::boundary_analysis::{BoundaryAnalysis, MatchOutcome, SequenceBoundaries};
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
@@ -22,6 +22,7 @@ use crate::heldout::{heldout_tables, Selection};
 use crate::drawing::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip, time_axis, traces_charts};
 use motionlab_experiment::workflow::{build_evaluators, sanitize, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
 use motionlab_experiment::spec::StageSpec;
+use motionlab_experiment::segmenters::{build_segmenters, NamedSegmenter};
 use motionlab_experiment::{build_stage, Datasets};
 
 /// Segmenters → an optional fuser → evaluators, per sequence (Sonoda et al.): every method's
@@ -81,10 +82,9 @@ fn default_seg_figures() -> Vec<String> {
 
 pub struct SegmentationWorkflow {
     section: SegmentationSection,
-    segmenters: Vec<(String, Box<dyn Segmenter>)>,
-    /// Each segmenter's type and parameters as resolved in this combination: its key in the
-    /// on-disk cache, under the input's.
-    segmenter_params: Vec<String>,
+    /// Each with its cache key: its type, parameters and input as resolved in this
+    /// combination, under the input's key in the on-disk cache.
+    segmenters: Vec<NamedSegmenter>,
     fuser: Option<(String, Box<dyn Fuser>)>,
     /// Indices into `segmenters` that the fuser combines.
     fuse: Vec<usize>,
@@ -127,18 +127,7 @@ impl WorkflowPlugin for SegmentationWorkflow {
     type Section = SegmentationSection;
     fn build(section: SegmentationSection, cx: &BuildContext<'_>) -> Result<Self> {
         let (source, combo, root) = (cx.source, cx.combo, cx.root.clone());
-        let mut segmenters = Vec::new();
-        for (k, s) in section.segmenters.iter().enumerate() {
-            let name = s.display_name();
-            if segmenters.iter().any(|(n, _)| n == &name) {
-                return Err(source.locate(
-                    Error::new(ErrorKind::DuplicateName, format!("two segmenters are named {name:?}; give one a `name = \"…\"`")),
-                    root.key("segmenter").index(k),
-                    &combo.doc,
-                ));
-            }
-            segmenters.push((name, build_stage(source, combo, s, &root.key("segmenter").index(k), registry::build_segmenter)?));
-        }
+        let segmenters = build_segmenters(cx, &section.segmenters, &root.key("segmenter"))?;
         if segmenters.is_empty() {
             return Err(source.locate(Error::new(ErrorKind::MissingKey, "at least one [[segmentation.segmenter]] is required"), &root, &combo.doc));
         }
@@ -147,7 +136,7 @@ impl WorkflowPlugin for SegmentationWorkflow {
             Some(names) => names
                 .iter()
                 .map(|n| {
-                    segmenters.iter().position(|(s, _)| s == n).ok_or_else(|| {
+                    segmenters.iter().position(|s| s.name == *n).ok_or_else(|| {
                         source.locate(
                             Error::new(ErrorKind::UnknownName, format!("fuse names {n:?}, which is not a segmenter of this experiment")),
                             root.key("fuse"),
@@ -163,7 +152,6 @@ impl WorkflowPlugin for SegmentationWorkflow {
         };
         let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
         let evaluator_params = combo.file.evaluators.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
-        let segmenter_params = section.segmenters.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
         let experiment = combo.file.experiment.name.clone();
         // How each method's parameters were chosen in this combination (`parameters_chosen`).
         let swept: Vec<String> =
@@ -178,13 +166,13 @@ impl WorkflowPlugin for SegmentationWorkflow {
             })
             .collect();
         let mut methods: Vec<(String, Vec<StageChoice>)> =
-            segmenters.iter().zip(&stage_choices).map(|((n, _), c)| (n.clone(), vec![c.clone()])).collect();
+            segmenters.iter().zip(&stage_choices).map(|(s, c)| (s.name.clone(), vec![c.clone()])).collect();
         if let (Some((name, _)), Some(spec)) = (&fuser, &section.fuser) {
             let own = StageChoice::of(spec, &[root.key("fuser").to_string()], &swept);
             methods.push((name.clone(), std::iter::once(own).chain(fuse.iter().map(|&i| stage_choices[i].clone())).collect()));
         }
         let choices = MethodChoices { methods };
-        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment, choices })
+        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, evaluator_params, experiment, choices })
     }
 }
 
@@ -192,7 +180,7 @@ motionlab_experiment::register_workflow!(SegmentationWorkflow, "segmentation");
 
 impl SegmentationWorkflow {
     fn method_names(&self) -> Vec<String> {
-        self.segmenters.iter().map(|(n, _)| n.clone()).chain(self.fuser.iter().map(|(n, _)| n.clone())).collect()
+        self.segmenters.iter().map(|s| s.name.clone()).chain(self.fuser.iter().map(|(n, _)| n.clone())).collect()
     }
 }
 
@@ -203,10 +191,11 @@ impl Workflow for SegmentationWorkflow {
         let file = motion.source.clone().unwrap_or_default();
         let cache = FeatureCache::new();
         let mut outputs: Vec<(String, SegmenterOutput)> = Vec::new();
-        for ((name, s), params) in self.segmenters.iter().zip(&self.segmenter_params) {
-            // The output depends on the input and the segmenter's parameters only: cached on
-            // disk under both (the features it computes on the way are not kept).
-            let out = data.stage_cached(&loaded, (item.dataset, item.file), &format!("segmenter {name}"), "segmenter", params, || {
+        for s in &self.segmenters {
+            let name = &s.name;
+            // The output depends on the input and the segmenter's parameters (and features)
+            // only: cached on disk under both (the features it computes on the way are not kept).
+            let out = data.stage_cached(&loaded, (item.dataset, item.file), &format!("segmenter {name}"), "segmenter", &s.cache_key, || {
                 s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))
             })?;
             outputs.push((name.clone(), out));
@@ -283,7 +272,8 @@ impl Workflow for SegmentationWorkflow {
         }
         if draw {
             let judged = out.analysis::<BoundaryAnalysis>();
-            for ((id, traces), seq) in viewer_traces.iter().zip(&sequences) {
+            // A channel file has no figure to play: its traces are in the figures.
+            for ((id, traces), seq) in viewer_traces.iter().zip(&sequences).filter(|(_, seq)| seq.motion.n_points() > 0) {
                 out.viewers.push(self.viewer(id, seq, traces, judged.as_ref().and_then(|j| j.sequence(&seq.sequence)))?);
             }
         }
@@ -439,7 +429,8 @@ impl SegmentationWorkflow {
                 x_range: Some((0.0, motion.n_frames() as f64 / rate)),
                 ..Default::default()
             };
-            if wants("timeline_poses") {
+            // Poses need points: a channel file has the timeline alone.
+            if wants("timeline_poses") && motion.n_points() > 0 {
                 let axis = main_floor_axis(motion, root, 0, motion.n_frames().saturating_sub(1));
                 let row = stick_row_at(motion, &fused, axis);
                 let fuser = methods.last().map(|m| m.method.clone()).unwrap_or_default();
@@ -458,6 +449,7 @@ impl SegmentationWorkflow {
             }
         }
         if wants("stick_strip")
+            && motion.n_points() > 0
             && let Some((a, b)) = pick_segment(&fused, truth, motion.n_frames(), rate)
         {
             let bones = bones_for(motion, &self.section.bones)?;

@@ -21,3 +21,4 @@ pub mod boundaries_csv;
 pub mod cmu86;
 pub mod elan_eaf;
 pub mod mocap6;
+pub mod tssb_desc;
