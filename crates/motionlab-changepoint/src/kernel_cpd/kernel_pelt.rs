@@ -1,0 +1,182 @@
+//! PELT as ruptures' `KernelCPD(...).predict(pen=…)` runs it: its C routine
+//! `ekcpd_pelt_compute` (`ruptures/detection/_detection/ekcpd_pelt_computation.c`), operation
+//! for operation, so the floating-point results are the same bits.
+//!
+//! - Every sample is a candidate (`jump` = 1). For each end t the running sums
+//!   `S[s] = Σ_{i,j∈[s,t)} k(x_i, x_j)` of every start from `s_min` are updated by one kernel
+//!   evaluation per start (`c_r += k(x_s, x_{t−1}); S[s] += 2·c_r − k(x_{t−1}, x_{t−1})`,
+//!   starts descending), and the cost is `D[t] − D[s] − S[s]/(t − s)` with `D` the running sum
+//!   of the kernel's diagonal.
+//! - Ends below `2·min_size` hold one segment. From there the candidates are `s_min` and every
+//!   `s` in `max(s_min + 1, min_size) ..= t − min_size`; the first strict minimum wins.
+//! - Pruning moves only the lowest start: while its unpenalised total is ≥ the best penalised
+//!   total, `s_min` advances (from 0 straight to `min_size`).
+//!
+//! The kernels are ruptures' C kernels: the linear kernel `Σ x·y` (this is cost `l2`) and the
+//! Gaussian kernel clipped in single precision (`exp(−0.01)` on its diagonal, where the Python
+//! `CostRbf` has 1 — so `KernelCPD` with penalty β solves Pelt(`rbf`)'s problem with penalty
+//! β + 1 − exp(−0.01) per segment, up to that single-precision clip).
+//!
+//! What differs from the C is only what costs time without changing a bit: the kernel is
+//! chosen once instead of by two string comparisons per evaluation, and one channel takes a
+//! loop of its own.
+
+use super::cost::rbf_c_kernel;
+use crate::signal::Signal;
+
+/// The kernel of ruptures' C `KernelCPD`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum CKernel {
+    /// `k(x, y) = Σ_d x_d·y_d` (ruptures `kernel="linear"`, cost `l2`).
+    Linear,
+    /// `k(x, y) = exp(−clip_f32(γ‖x − y‖², 0.01, 100))` (ruptures `kernel="rbf"`).
+    Gaussian { gamma: f64 },
+}
+
+#[inline(always)]
+fn kernel(kernel: CKernel, a: &[f64], b: &[f64]) -> f64 {
+    match kernel {
+        CKernel::Linear => {
+            let mut v = 0.0;
+            for (x, y) in a.iter().zip(b) {
+                v += x * y;
+            }
+            v
+        }
+        CKernel::Gaussian { gamma } => {
+            let mut sq = 0.0;
+            for (x, y) in a.iter().zip(b) {
+                sq += (x - y) * (x - y);
+            }
+            rbf_c_kernel(gamma, sq)
+        }
+    }
+}
+
+/// Adds end `t`'s sample (`x_{t−1}`) to the running sums `S[s]` for `s ∈ [s_low, t)`.
+#[inline(always)]
+fn update_running_sums(signal: &Signal, k: CKernel, t: usize, s_low: usize, diag: f64, sums: &mut [f64]) {
+    let mut c_r = 0.0;
+    if signal.n_channels == 1 {
+        let x = signal.values;
+        let xt = x[t - 1];
+        match k {
+            CKernel::Gaussian { gamma } => {
+                for s in (s_low..t).rev() {
+                    let d = x[s] - xt;
+                    c_r += rbf_c_kernel(gamma, d * d);
+                    sums[s] += 2.0 * c_r - diag;
+                }
+            }
+            CKernel::Linear => {
+                for s in (s_low..t).rev() {
+                    c_r += x[s] * xt;
+                    sums[s] += 2.0 * c_r - diag;
+                }
+            }
+        }
+    } else {
+        let xt = signal.row(t - 1);
+        for s in (s_low..t).rev() {
+            c_r += kernel(k, signal.row(s), xt);
+            sums[s] += 2.0 * c_r - diag;
+        }
+    }
+}
+
+/// Breakpoints (segment ends, the last being n) as `KernelCPD.predict(pen=beta)`; the caller
+/// has checked `n ≥ 2·min_size` (ruptures' sanity check for this search).
+pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usize) -> Vec<usize> {
+    let n = signal.n_samples;
+    let mut d = vec![0.0; n + 1];
+    let mut s = vec![0.0; n + 1];
+    let mut m_v = vec![0.0; n + 1];
+    let mut m_pruning = vec![0.0; n + 1];
+    let mut m_path = vec![0usize; n + 1];
+    let mut s_min = 0usize;
+
+    for t in 1..2 * min_size {
+        let xt = signal.row(t - 1);
+        let diag = kernel(k, xt, xt);
+        d[t] = d[t - 1] + diag;
+        update_running_sums(signal, k, t, 0, diag, &mut s);
+        let c_cost = d[t] - d[0] - s[0] / t as f64;
+        m_v[t] = c_cost + beta;
+    }
+
+    for t in 2 * min_size..n + 1 {
+        let xt = signal.row(t - 1);
+        let diag = kernel(k, xt, xt);
+        d[t] = d[t - 1] + diag;
+        update_running_sums(signal, k, t, s_min, diag, &mut s);
+
+        let c_cost = d[t] - d[s_min] - s[s_min] / (t - s_min) as f64;
+        let mut c_cost_sum = m_v[s_min] + c_cost;
+        m_pruning[s_min] = c_cost_sum;
+        c_cost_sum += beta;
+        m_v[t] = c_cost_sum;
+        m_path[t] = s_min;
+        let d_t = d[t];
+        for start in (s_min + 1).max(min_size)..t + 1 - min_size {
+            let c_cost = d_t - d[start] - s[start] / (t - start) as f64;
+            let mut c_cost_sum = m_v[start] + c_cost;
+            m_pruning[start] = c_cost_sum;
+            c_cost_sum += beta;
+            if m_v[t] > c_cost_sum {
+                m_v[t] = c_cost_sum;
+                m_path[t] = start;
+            }
+        }
+        while m_pruning[s_min] >= m_v[t] && s_min < t + 1 - min_size {
+            if s_min == 0 {
+                s_min += min_size;
+            } else {
+                s_min += 1;
+            }
+        }
+    }
+
+    let mut breakpoints = Vec::new();
+    let mut t = n;
+    while t > 0 {
+        breakpoints.push(t);
+        t = m_path[t];
+    }
+    breakpoints.reverse();
+    breakpoints
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel_cpd::cost::{L2Cost, SegmentCost};
+    use crate::kernel_cpd::pelt::{DirectEndCosts, pelt};
+    use crate::signal::{Missing, Signal};
+
+    #[test]
+    fn linear_kernel_solves_the_l2_problem() {
+        // KernelCPD(linear) and Pelt(l2, jump 1) optimise the same penalised l2 cost.
+        let mut rng = fastrand::Rng::with_seed(21);
+        for trial in 0..20 {
+            let n = 60 + trial;
+            let x: Vec<f64> = (0..2 * n).map(|i| if i < n { 0.0 } else { 4.0 } + if i % 2 == 0 { rng.f64() } else { 2.0 * rng.f64() }).collect();
+            let sig = Signal::new(&x, 2, "t", Missing::Refuse).unwrap();
+            let a = kernel_pelt(&sig, CKernel::Linear, 3.0, 2);
+            let cost = L2Cost::new(&sig);
+            let b = pelt(n, 3.0, 2, 1, &mut DirectEndCosts(&cost));
+            assert_eq!(a, b, "trial {trial}");
+            assert!(cost.error(0, n) > 0.0);
+        }
+    }
+
+    #[test]
+    fn gaussian_kernel_finds_a_variance_change() {
+        // A change in spread only (same mean): a mean-change l2 cost cannot see it, rbf can.
+        let mut rng = fastrand::Rng::with_seed(2);
+        let x: Vec<f64> = (0..400).map(|i| (rng.f64() - 0.5) * if i < 200 { 0.2 } else { 6.0 }).collect();
+        let sig = Signal::new(&x, 1, "t", Missing::Refuse).unwrap();
+        let b = kernel_pelt(&sig, CKernel::Gaussian { gamma: 1.0 }, 5.0, 2);
+        assert_eq!(b.len(), 2, "{b:?}");
+        assert!((b[0] as i64 - 200).abs() <= 3, "{b:?}");
+    }
+}
