@@ -6,6 +6,7 @@
 
 mod binseg;
 pub(crate) mod cost;
+pub(crate) mod glibc_exp;
 mod kernel_pelt;
 pub(crate) mod median;
 mod pelt;
@@ -243,6 +244,23 @@ fn search_name(s: Search) -> &'static str {
         Search::Binseg => "binseg",
         Search::KernelPelt => "kernel_pelt",
     }
+}
+
+/// ruptures' median-heuristic rbf bandwidth of `values` (sample-major, `n_samples ×
+/// n_channels`): 1 / the median squared distance between two samples (1 when that median is 0),
+/// the same float ruptures computes, in O(n) memory.
+pub fn median_heuristic(values: &[f64], n_channels: usize) -> Result<f64> {
+    let signal = Signal::new(values, n_channels, "kernel_cpd", Missing::Refuse)?;
+    Ok(median::median_heuristic_gamma(&signal))
+}
+
+/// Checks the inlined `exp` of the rbf `kernel_pelt` against the system's on every `stride`-th
+/// single-precision argument of the kernel (`exp(−v)`, v in [0.01, 100]): (disagreements,
+/// arguments compared); (0, 0) where the system `exp` is not glibc's FMA variant and the
+/// system's own is called instead.
+#[doc(hidden)]
+pub fn verify_inlined_exp(stride: u32) -> (u64, u64) {
+    glibc_exp::verify_against_libm(0.01, 100.0, stride)
 }
 
 /// ruptures' `sanity_check`: can `n_bkps` breakpoints on the `jump` grid leave segments of

@@ -18,10 +18,13 @@
 //! β + 1 − exp(−0.01) per segment, up to that single-precision clip).
 //!
 //! What differs from the C is only what costs time without changing a bit: the kernel is
-//! chosen once instead of by two string comparisons per evaluation, and one channel takes a
-//! loop of its own.
+//! chosen once instead of by string comparisons per evaluation; a kernel row is computed
+//! before it is summed, with glibc's `exp` inlined where that is the `exp` the C calls
+//! (`glibc_exp.rs`), so it vectorises; the candidates' totals are computed before the first
+//! minimum is searched.
 
 use super::cost::rbf_c_kernel;
+use super::glibc_exp::{self, exp_normal_fma};
 use crate::signal::Signal;
 
 /// The kernel of ruptures' C `KernelCPD`.
@@ -53,34 +56,58 @@ fn kernel(kernel: CKernel, a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
-/// Adds end `t`'s sample (`x_{t−1}`) to the running sums `S[s]` for `s ∈ [s_low, t)`.
-#[inline(always)]
-fn update_running_sums(signal: &Signal, k: CKernel, t: usize, s_low: usize, diag: f64, sums: &mut [f64]) {
-    let mut c_r = 0.0;
+/// `row[i] = k(x_{s_low+i}, x_{t−1})` for `s_low + i < t`.
+fn kernel_row(signal: &Signal, k: CKernel, t: usize, s_low: usize, fast_exp: bool, row: &mut Vec<f64>) {
+    row.clear();
+    let xt = signal.row(t - 1);
+    match k {
+        CKernel::Gaussian { gamma } if fast_exp => {
+            row.resize(t - s_low, 0.0);
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `fast_exp` is only set when the CPU has FMA and AVX2.
+            unsafe {
+                gaussian_row_fma(signal, gamma, t, s_low, row)
+            }
+        }
+        _ => row.extend((s_low..t).map(|s| kernel(k, signal.row(s), xt))),
+    }
+}
+
+/// The Gaussian kernel row with glibc's FMA `exp` inlined (same bits as calling it).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "fma,avx2")]
+unsafe fn gaussian_row_fma(signal: &Signal, gamma: f64, t: usize, s_low: usize, row: &mut [f64]) {
+    let clip = |sq: f64| {
+        let n = (gamma * sq) as f32;
+        let upper_clipped = if n > 100.0_f32 { 100.0_f32 } else { n };
+        -((if 0.01_f32 > upper_clipped { 0.01_f32 } else { upper_clipped }) as f64)
+    };
     if signal.n_channels == 1 {
-        let x = signal.values;
-        let xt = x[t - 1];
-        match k {
-            CKernel::Gaussian { gamma } => {
-                for s in (s_low..t).rev() {
-                    let d = x[s] - xt;
-                    c_r += rbf_c_kernel(gamma, d * d);
-                    sums[s] += 2.0 * c_r - diag;
-                }
-            }
-            CKernel::Linear => {
-                for s in (s_low..t).rev() {
-                    c_r += x[s] * xt;
-                    sums[s] += 2.0 * c_r - diag;
-                }
-            }
+        let xt = signal.values[t - 1];
+        for (out, &xs) in row.iter_mut().zip(&signal.values[s_low..t]) {
+            let d = xs - xt;
+            *out = exp_normal_fma(clip(d * d));
         }
     } else {
         let xt = signal.row(t - 1);
-        for s in (s_low..t).rev() {
-            c_r += kernel(k, signal.row(s), xt);
-            sums[s] += 2.0 * c_r - diag;
+        for (out, s) in row.iter_mut().zip(s_low..t) {
+            let mut sq = 0.0;
+            for (x, y) in signal.row(s).iter().zip(xt) {
+                sq += (x - y) * (x - y);
+            }
+            *out = exp_normal_fma(clip(sq));
         }
+    }
+}
+
+/// Adds end `t`'s sample (`x_{t−1}`) to the running sums `S[s]` for `s ∈ [s_low, t)`, in the
+/// C code's order: `c_r += k(x_s, x_{t−1}); S[s] += 2·c_r − diag`, s descending.
+#[inline(always)]
+fn update_running_sums(row: &[f64], s_low: usize, diag: f64, sums: &mut [f64]) {
+    let mut c_r = 0.0;
+    for (k, sum) in row.iter().zip(&mut sums[s_low..]).rev() {
+        c_r += k;
+        *sum += 2.0 * c_r - diag;
     }
 }
 
@@ -94,12 +121,18 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
     let mut m_pruning = vec![0.0; n + 1];
     let mut m_path = vec![0usize; n + 1];
     let mut s_min = 0usize;
+    let fast_exp = glibc_exp::fma_exp_matches_libm();
+    let mut row = Vec::new();
+    // Positions as floats: `t as f64 − position[s]` is `(t − s) as f64` exactly, and vectorises.
+    let position: Vec<f64> = (0..=n).map(|i| i as f64).collect();
+    let mut totals = Vec::new();
 
     for t in 1..2 * min_size {
         let xt = signal.row(t - 1);
         let diag = kernel(k, xt, xt);
         d[t] = d[t - 1] + diag;
-        update_running_sums(signal, k, t, 0, diag, &mut s);
+        kernel_row(signal, k, t, 0, fast_exp, &mut row);
+        update_running_sums(&row, 0, diag, &mut s);
         let c_cost = d[t] - d[0] - s[0] / t as f64;
         m_v[t] = c_cost + beta;
     }
@@ -108,7 +141,8 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
         let xt = signal.row(t - 1);
         let diag = kernel(k, xt, xt);
         d[t] = d[t - 1] + diag;
-        update_running_sums(signal, k, t, s_min, diag, &mut s);
+        kernel_row(signal, k, t, s_min, fast_exp, &mut row);
+        update_running_sums(&row, s_min, diag, &mut s);
 
         let c_cost = d[t] - d[s_min] - s[s_min] / (t - s_min) as f64;
         let mut c_cost_sum = m_v[s_min] + c_cost;
@@ -116,15 +150,20 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
         c_cost_sum += beta;
         m_v[t] = c_cost_sum;
         m_path[t] = s_min;
-        let d_t = d[t];
-        for start in (s_min + 1).max(min_size)..t + 1 - min_size {
-            let c_cost = d_t - d[start] - s[start] / (t - start) as f64;
-            let mut c_cost_sum = m_v[start] + c_cost;
-            m_pruning[start] = c_cost_sum;
-            c_cost_sum += beta;
-            if m_v[t] > c_cost_sum {
-                m_v[t] = c_cost_sum;
-                m_path[t] = start;
+        // The other candidates: unpenalised totals first (vectorised), then the first strict
+        // minimum of the penalised ones, as the C loop compares them.
+        let (lo, hi) = ((s_min + 1).max(min_size), t + 1 - min_size);
+        if lo < hi {
+            let (d_t, t_f) = (d[t], position[t]);
+            totals.clear();
+            totals.extend((lo..hi).map(|start| m_v[start] + (d_t - d[start] - s[start] / (t_f - position[start]))));
+            m_pruning[lo..hi].copy_from_slice(&totals);
+            for (start, &total) in (lo..hi).zip(&totals) {
+                let c_cost_sum = total + beta;
+                if m_v[t] > c_cost_sum {
+                    m_v[t] = c_cost_sum;
+                    m_path[t] = start;
+                }
             }
         }
         while m_pruning[s_min] >= m_v[t] && s_min < t + 1 - min_size {
