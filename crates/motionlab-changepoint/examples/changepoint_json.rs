@@ -11,7 +11,7 @@
 //! system's on every single-precision argument (`{"differ", "compared"}`).
 //! Output: one object per job, `{"breakpoints": [..] (ruptures' convention: ends, the last
 //! n), "candidates": [..], "pen", "gamma", "posterior" (bocpd, when asked), "seconds": [..]
-//! (wall time of each repeat, parsing excluded)}` or `{"error": "…"}`; then
+//! (wall time of each repeat, parsing excluded), "cpu_seconds": [..] (the thread's CPU time)}` or `{"error": "…"}`; then
 //! `{"peak_rss_kib": …}` (the process's peak resident set, from /proc/self/status).
 //!
 //! `cargo run --release -p motionlab-changepoint --example changepoint_json < jobs.json`
@@ -44,9 +44,11 @@ fn run_job(job: &Value) -> Result<Value, String> {
     };
     let repeats = job["repeats"].as_u64().unwrap_or(1).max(1);
     let mut seconds = Vec::new();
+    let mut cpu_seconds = Vec::new();
     let mut out = json!({});
     for _ in 0..repeats {
         let start = Instant::now();
+        let cpu_start = thread_cpu_ns();
         out = match segmenter {
             "kernel_cpd" => {
                 let stage = serde_json::from_value::<KernelCpdParams>(params.clone()).map_err(|e| e.to_string())?.check().map_err(|e| e.to_string())?;
@@ -72,9 +74,17 @@ fn run_job(job: &Value) -> Result<Value, String> {
             other => return Err(format!("unknown segmenter {other:?}")),
         };
         seconds.push(start.elapsed().as_secs_f64());
+        cpu_seconds.push(thread_cpu_ns().zip(cpu_start).map(|(b, a)| (b - a) as f64 * 1e-9));
     }
     out["seconds"] = json!(seconds);
+    out["cpu_seconds"] = json!(cpu_seconds);
     Ok(out)
+}
+
+/// CPU time of this thread so far (ns), from /proc/thread-self/schedstat: on a loaded machine
+/// wall time counts the waits for a core, CPU time does not.
+fn thread_cpu_ns() -> Option<u64> {
+    std::fs::read_to_string("/proc/thread-self/schedstat").ok()?.split_whitespace().next()?.parse().ok()
 }
 
 fn peak_rss_kib() -> Option<u64> {

@@ -111,6 +111,54 @@ fn update_running_sums(row: &[f64], s_low: usize, diag: f64, sums: &mut [f64]) {
     }
 }
 
+/// For the candidates `lo..hi` at end `t`: writes each unpenalised total
+/// `M_V[s] + (D[t] − D[s] − S[s]/(t − s))` to `m_pruning[s]` and returns the offset of the
+/// first minimum of the penalised totals and that minimum (the C loop's strict `>` keeps the
+/// first of equal values; the minimum of a set is exact whatever order finds it).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn candidate_totals_body(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t: usize, lo: usize, hi: usize, beta: f64, m_pruning: &mut [f64]) -> (usize, f64) {
+    let (d_t, t_f) = (d[t], position[t]);
+    let out = &mut m_pruning[lo..hi];
+    for (((o, &mv), (&dd, &ss)), &p) in out.iter_mut().zip(&m_v[lo..hi]).zip(d[lo..hi].iter().zip(&s[lo..hi])).zip(&position[lo..hi]) {
+        *o = mv + (d_t - dd - ss / (t_f - p));
+    }
+    // Eight independent lanes of `if c < m { c } else { m }`: elementwise, so it vectorises.
+    let mut lanes = [f64::INFINITY; 8];
+    let chunks = out.chunks_exact(8);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (m, &v) in lanes.iter_mut().zip(chunk) {
+            let c = v + beta;
+            *m = if c < *m { c } else { *m };
+        }
+    }
+    let mut best = f64::INFINITY;
+    for m in lanes.into_iter().chain(rest.iter().map(|v| v + beta)) {
+        best = if m < best { m } else { best };
+    }
+    let offset = out.iter().position(|&v| v + beta == best).unwrap_or(0);
+    (offset, best)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn candidate_totals(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t: usize, lo: usize, hi: usize, beta: f64, m_pruning: &mut [f64], simd: bool) -> (usize, f64) {
+    #[cfg(target_arch = "x86_64")]
+    if simd {
+        // SAFETY: `simd` is only set when the CPU has AVX2 and FMA.
+        return unsafe { candidate_totals_avx2(m_v, d, s, position, t, lo, hi, beta, m_pruning) };
+    }
+    let _ = simd;
+    candidate_totals_body(m_v, d, s, position, t, lo, hi, beta, m_pruning)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn candidate_totals_avx2(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t: usize, lo: usize, hi: usize, beta: f64, m_pruning: &mut [f64]) -> (usize, f64) {
+    candidate_totals_body(m_v, d, s, position, t, lo, hi, beta, m_pruning)
+}
+
 /// Breakpoints (segment ends, the last being n) as `KernelCPD.predict(pen=beta)`; the caller
 /// has checked `n ≥ 2·min_size` (ruptures' sanity check for this search).
 pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usize) -> Vec<usize> {
@@ -121,11 +169,12 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
     let mut m_pruning = vec![0.0; n + 1];
     let mut m_path = vec![0usize; n + 1];
     let mut s_min = 0usize;
-    let fast_exp = glibc_exp::fma_exp_matches_libm();
+    // glibc's FMA exp is the system's, and AVX2 is there for the loops.
+    let simd = glibc_exp::fma_exp_matches_libm();
+    let fast_exp = simd;
     let mut row = Vec::new();
     // Positions as floats: `t as f64 − position[s]` is `(t − s) as f64` exactly, and vectorises.
     let position: Vec<f64> = (0..=n).map(|i| i as f64).collect();
-    let mut totals = Vec::new();
 
     for t in 1..2 * min_size {
         let xt = signal.row(t - 1);
@@ -150,20 +199,14 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
         c_cost_sum += beta;
         m_v[t] = c_cost_sum;
         m_path[t] = s_min;
-        // The other candidates: unpenalised totals first (vectorised), then the first strict
-        // minimum of the penalised ones, as the C loop compares them.
+        // The other candidates: their unpenalised totals (vectorised), then the first strict
+        // minimum of the penalised ones — the candidate the C loop ends with.
         let (lo, hi) = ((s_min + 1).max(min_size), t + 1 - min_size);
         if lo < hi {
-            let (d_t, t_f) = (d[t], position[t]);
-            totals.clear();
-            totals.extend((lo..hi).map(|start| m_v[start] + (d_t - d[start] - s[start] / (t_f - position[start]))));
-            m_pruning[lo..hi].copy_from_slice(&totals);
-            for (start, &total) in (lo..hi).zip(&totals) {
-                let c_cost_sum = total + beta;
-                if m_v[t] > c_cost_sum {
-                    m_v[t] = c_cost_sum;
-                    m_path[t] = start;
-                }
+            let (offset, best) = candidate_totals(&m_v, &d, &s, &position, t, lo, hi, beta, &mut m_pruning, simd);
+            if m_v[t] > best {
+                m_v[t] = best;
+                m_path[t] = lo + offset;
             }
         }
         while m_pruning[s_min] >= m_v[t] && s_min < t + 1 - min_size {
