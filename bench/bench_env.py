@@ -9,9 +9,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
 
-def ensure_venv():
-    """Re-runs the current script under bench/.venv if it is not already running there."""
-    python = subprocess.run([os.path.join(HERE, "setup_venv.sh")], check=True, capture_output=True, text=True).stdout.strip()
+def ensure_venv(requirements="requirements.txt"):
+    """Re-runs the current script under bench/.venv (bench/.venv-NAME for
+    requirements-NAME.txt) if it is not already running there."""
+    python = subprocess.run([os.path.join(HERE, "setup_venv.sh"), requirements], check=True, capture_output=True, text=True).stdout.strip()
     if os.path.realpath(sys.prefix) != os.path.realpath(os.path.dirname(os.path.dirname(python))):
         os.execv(python, [python] + sys.argv)
 

@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
 # Creates bench/.venv with the pinned Python peers (scipy, dtaidistance, tslearn, numpy, ruptures).
-# Idempotent: does nothing when the venv already satisfies requirements.txt.
+# `setup_venv.sh requirements-NAME.txt` creates bench/.venv-NAME from that file instead (peers
+# whose pins conflict with the main set: claspy needs numpy < 2.3).
+# Idempotent: does nothing when the venv already satisfies its requirements file.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-venv="$here/.venv"
+requirements="${1:-requirements.txt}"
+name="${requirements#requirements}"
+venv="$here/.venv${name%.txt}"
 if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
-if ! "$venv/bin/python" - "$here/requirements.txt" <<'PY' 2>/dev/null; then
+if ! "$venv/bin/python" - "$here/$requirements" <<'PY' 2>/dev/null; then
 import sys
 from importlib.metadata import version
 for line in open(sys.argv[1]):
@@ -17,6 +21,6 @@ for line in open(sys.argv[1]):
     name, want = line.split('==')
     assert version(name) == want, name
 PY
-  "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$here/requirements.txt"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$here/$requirements"
 fi
 echo "$venv/bin/python"

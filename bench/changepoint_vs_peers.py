@@ -1,0 +1,457 @@
+#!/usr/bin/env python3
+"""motionlab-changepoint against its peers: ruptures' breakpoints, a NumPy BOCPD, and speed.
+
+Equality (the default; CI runs it):
+  * kernel_cpd and window against ruptures 1.1.10 — Pelt (l2, rbf, linear), Binseg (pen and
+    n_bkps), KernelCPD PELT (linear kernel = l2, rbf) and Window (l2, rbf, linear) — on seeded
+    random series (one and three channels, mean and spread changes, regression series for the
+    linear cost; several min_size / jump) and on real TSSB series (data/tssb/datasets). Our
+    BIC-style penalty and ruptures' median-heuristic bandwidth are checked on the way (the
+    penalty against its formula in NumPy, the bandwidth against ruptures' own). Any breakpoint
+    difference fails the run.
+  * bocpd's run-length posterior against a NumPy implementation of Adams & MacKay's recursion
+    written here (independent of the Rust), to <= 1e-9, and the change points read from it.
+
+Speed (--speed): rbf PELT against ruptures' C KernelCPD on the same inputs (identical
+breakpoints required), rounds interleaved, and rbf PELT on n = 100,000 samples with the peak
+resident memory of our process.
+
+Our side runs through `cargo run --release -p motionlab-changepoint --example changepoint_json`.
+
+Usage: bench/changepoint_vs_peers.py [--seeds 6] [--tssb-all] [--speed] [--rounds 3]
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+sys.path.insert(0, HERE)
+from bench_env import ensure_venv  # noqa: E402
+
+ensure_venv()
+
+import numpy as np  # noqa: E402
+import ruptures as rpt  # noqa: E402
+from scipy.special import gammaln  # noqa: E402
+
+TSSB = os.path.join(ROOT, "data", "tssb", "datasets")
+
+
+def ours(jobs):
+    """Runs the jobs through the example binary; returns (results, peak RSS in KiB)."""
+    payload = json.dumps({"jobs": jobs})
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "motionlab-changepoint", "--example", "changepoint_json"]
+    out = subprocess.run(cmd, input=payload, capture_output=True, text=True, cwd=ROOT)
+    if out.returncode != 0:
+        sys.exit(f"our example failed: {out.stderr}")
+    reply = json.loads(out.stdout)
+    return reply["results"], reply["peak_rss_kib"]
+
+
+def job(segmenter, x, params, **extra):
+    x = np.asarray(x, dtype=float)
+    x2 = x.reshape(len(x), -1)
+    # The exact bits (a decimal JSON number would go through a parse, and has no NaN).
+    values_hex = np.ascontiguousarray(x2, dtype="<f8").tobytes().hex()
+    return {"segmenter": segmenter, "params": params, "values_hex": values_hex, "n_channels": x2.shape[1], **extra}
+
+
+# ---------------------------------------------------------------------------------------------
+# ruptures, called as a user would.
+
+def ruptures_run(seg, x, params, pen):
+    """ruptures' breakpoints and the bandwidth it used (None for non-rbf costs)."""
+    x = np.asarray(x, dtype=float)
+    x = x.reshape(len(x), -1)
+    cost = params.get("cost", "rbf" if seg == "kernel_cpd" else "l2")
+    min_size = params.get("min_size", 2)
+    kparams = {"gamma": params["gamma"]} if "gamma" in params else None
+    n_bkps = params.get("n_bkps")
+    if seg == "kernel_cpd":
+        search = params.get("search", "kernel_pelt")
+        if search == "kernel_pelt":
+            algo = rpt.KernelCPD(kernel="linear" if cost == "l2" else "rbf", min_size=min_size, params=kparams).fit(x)
+            bkps = algo.predict(pen=pen)
+        elif search == "pelt":
+            algo = rpt.Pelt(model=cost, min_size=min_size, jump=params.get("jump", 5), params=kparams).fit(x)
+            bkps = algo.predict(pen=pen)
+        else:
+            algo = rpt.Binseg(model=cost, min_size=min_size, jump=params.get("jump", 5), params=kparams).fit(x)
+            bkps = algo.predict(n_bkps=n_bkps) if n_bkps is not None else algo.predict(pen=pen)
+    else:
+        algo = rpt.Window(width=params.get("width", 100), model=cost, min_size=min_size, jump=params.get("jump", 5), params=kparams).fit(x)
+        bkps = algo.predict(n_bkps=n_bkps) if n_bkps is not None else algo.predict(pen=pen)
+    gamma = getattr(algo.cost, "gamma", None) if cost == "rbf" else None
+    return [int(b) for b in bkps], gamma
+
+
+def bic_penalty(x, cost):
+    """The documented BIC-style penalty, from its formula."""
+    x = np.asarray(x, dtype=float).reshape(len(x), -1)
+    n = len(x)
+    if cost == "l2":
+        return math.log(n) * x.var(axis=0).sum()
+    if cost == "rbf":
+        return math.log(n)
+    y, X = x[:, :1], x[:, 1:]
+    _, res, _, _ = np.linalg.lstsq(X, y, rcond=None)
+    return math.log(n) * X.shape[1] * res.sum() / n
+
+
+# ---------------------------------------------------------------------------------------------
+# Series.
+
+def random_series(rng, n, d, n_changes, spread_changes=False):
+    cps = np.sort(rng.choice(np.arange(15, n - 15), n_changes, replace=False)) if n_changes else np.array([], int)
+    bounds = [0, *cps.tolist(), n]
+    x = np.empty((n, d))
+    for a, b in zip(bounds, bounds[1:]):
+        loc = rng.normal(0, 2, d) if not spread_changes else np.zeros(d)
+        scale = rng.uniform(0.5, 1.5, d) if not spread_changes else rng.choice([0.2, 1.0, 4.0], d)
+        x[a:b] = rng.normal(loc, scale, (b - a, d))
+    return x
+
+
+def regression_series(rng, n, n_changes):
+    """Columns: response, intercept, time, a random covariate (for the linear cost)."""
+    cps = np.sort(rng.choice(np.arange(15, n - 15), n_changes, replace=False))
+    bounds = [0, *cps.tolist(), n]
+    t = np.arange(n) / n
+    z = rng.normal(size=n)
+    X = np.column_stack([np.ones(n), t, z])
+    y = np.empty(n)
+    for a, b in zip(bounds, bounds[1:]):
+        beta = rng.normal(0, 3, 3)
+        y[a:b] = X[a:b] @ beta + rng.normal(0, 0.5, b - a)
+    return np.column_stack([y, X])
+
+
+def tssb_series():
+    """(name, series) of every TSSB series, shortest first."""
+    out = []
+    with open(os.path.join(TSSB, "desc.txt")) as f:
+        for line in f:
+            name = line.strip().split(",")[0]
+            out.append((name, np.loadtxt(os.path.join(TSSB, name + ".txt"))))
+    return sorted(out, key=lambda s: len(s[1]))
+
+
+# ---------------------------------------------------------------------------------------------
+# Equality with ruptures.
+
+def equality_cases(seeds):
+    """(label, segmenter, series, params) of the random cases."""
+    cases = []
+    grids = [(2, 5), (1, 1), (5, 3), (10, 7)]  # (min_size, jump)
+    for seed in range(seeds):
+        rng = np.random.default_rng(1000 + seed)
+        d = 1 if seed % 2 == 0 else 3
+        n = 160 + 40 * (seed % 3)
+        x = random_series(rng, n, d, 2 + seed % 3, spread_changes=seed % 4 == 3)
+        xr = regression_series(rng, 150, 2)
+        min_size, jump = grids[seed % len(grids)]
+        for cost in ("l2", "rbf"):
+            base = {"cost": cost, "min_size": min_size, "jump": jump}
+            cases.append((f"seed {seed} d{d} Pelt {cost} bic", "kernel_cpd", x, {"search": "pelt", **base}))
+            cases.append((f"seed {seed} d{d} Binseg {cost} bic", "kernel_cpd", x, {"search": "binseg", **base}))
+            cases.append((f"seed {seed} d{d} Binseg {cost} n_bkps", "kernel_cpd", x, {"search": "binseg", "n_bkps": 3, **base}))
+            cases.append((f"seed {seed} d{d} KernelCPD {cost} bic", "kernel_cpd", x, {"search": "kernel_pelt", "cost": cost, "min_size": min_size}))
+            cases.append((f"seed {seed} d{d} Window {cost} bic", "window", x, {"width": 30 + 10 * (seed % 3), **base}))
+            cases.append((f"seed {seed} d{d} Window {cost} n_bkps", "window", x, {"width": 30, "n_bkps": 2, **base}))
+        # A smaller penalty (more breakpoints, more ties to break) and an explicit bandwidth.
+        small = 0.25 * bic_penalty(x, "l2")
+        cases.append((f"seed {seed} d{d} Pelt l2 pen/4", "kernel_cpd", x, {"search": "pelt", "cost": "l2", "pen": small, "min_size": min_size, "jump": jump}))
+        cases.append((f"seed {seed} d{d} KernelCPD rbf gamma", "kernel_cpd", x, {"search": "kernel_pelt", "cost": "rbf", "gamma": 0.3, "pen": 2.0}))
+        cases.append((f"seed {seed} d{d} Pelt rbf pen 1", "kernel_cpd", x, {"search": "pelt", "cost": "rbf", "pen": 1.0, "min_size": min_size, "jump": jump}))
+        # The linear (regression) cost.
+        lin = {"cost": "linear", "min_size": max(min_size, 5), "jump": max(jump, 3)}
+        cases.append((f"seed {seed} linear Pelt bic", "kernel_cpd", xr, {"search": "pelt", **lin}))
+        cases.append((f"seed {seed} linear Binseg n_bkps", "kernel_cpd", xr, {"search": "binseg", "n_bkps": 2, **lin}))
+        cases.append((f"seed {seed} linear Binseg bic", "kernel_cpd", xr, {"search": "binseg", **lin}))
+        cases.append((f"seed {seed} linear Window bic", "window", xr, {"width": 40, **lin}))
+    return cases
+
+
+def tssb_cases(all_series):
+    cases = []
+    series = tssb_series()
+    short = [s for s in series if len(s[1]) <= 1300]
+    for name, x in series if all_series else series[:: max(1, len(series) // 12)]:
+        for cost in ("l2", "rbf"):
+            params = {"search": "kernel_pelt", "cost": cost}
+            if cost == "rbf" and len(x) > 4000:
+                params["gamma"] = None  # filled from ours: ruptures' median needs the n² matrix
+            cases.append((f"TSSB {name} (n {len(x)}) KernelCPD {cost} bic", "kernel_cpd", x, params))
+    for name, x in short:
+        for cost in ("l2", "rbf"):
+            jump = 5 if cost == "l2" else 10
+            cases.append((f"TSSB {name} (n {len(x)}) Pelt {cost} bic", "kernel_cpd", x, {"search": "pelt", "cost": cost, "jump": jump}))
+            cases.append((f"TSSB {name} (n {len(x)}) Binseg {cost} bic", "kernel_cpd", x, {"search": "binseg", "cost": cost, "jump": jump}))
+            cases.append((f"TSSB {name} (n {len(x)}) Binseg {cost} n_bkps 4", "kernel_cpd", x, {"search": "binseg", "cost": cost, "n_bkps": 4, "jump": jump}))
+            cases.append((f"TSSB {name} (n {len(x)}) Window {cost} bic", "window", x, {"cost": cost, "width": 50}))
+            cases.append((f"TSSB {name} (n {len(x)}) Window {cost} n_bkps 3", "window", x, {"cost": cost, "width": 50, "n_bkps": 3}))
+    return cases
+
+
+def check_equality(cases):
+    # Bandwidths ruptures cannot compute (too long for its n × n matrix) come from ours.
+    pending = [i for i, c in enumerate(cases) if c[3].get("gamma", 0) is None]
+    if pending:
+        probe = [job(cases[i][1], cases[i][2], {k: v for k, v in cases[i][3].items() if k != "gamma"}) for i in pending]
+        for i, r in zip(pending, ours(probe)[0]):
+            cases[i][3]["gamma"] = r["gamma"]
+    results, _ = ours([job(seg, x, params) for _, seg, x, params in cases])
+    failures = []
+    families = {}
+    worst_gamma = 0.0
+    worst_pen = 0.0
+    gamma_inexact = []
+    for (label, seg, x, params), r in zip(cases, results):
+        search = next(w for w in ("Pelt", "Binseg", "KernelCPD", "Window") if f" {w} " in label)
+        cost = params.get("cost", "rbf" if seg == "kernel_cpd" else "l2")
+        mode = "n_bkps" if "n_bkps" in params else "pen"
+        fam = families.setdefault(f"{'TSSB' if label.startswith('TSSB') else 'random'} {search} {cost} {mode}", [0, 0])
+        fam[0] += 1
+        if "error" in r:
+            failures.append(f"{label}: ours failed: {r['error']}")
+            continue
+        pen = r["pen"]
+        if "pen" not in params and "n_bkps" not in params:
+            want = bic_penalty(x, cost)
+            worst_pen = max(worst_pen, abs(pen - want) / want)
+        try:
+            theirs, gamma = ruptures_run(seg, x, params, pen)
+        except Exception as e:  # noqa: BLE001
+            failures.append(f"{label}: ruptures raised {type(e).__name__}: {e}")
+            continue
+        if gamma is not None and r["gamma"] is not None:
+            worst_gamma = max(worst_gamma, abs(r["gamma"] - gamma) / gamma)
+            if r["gamma"] != gamma:
+                gamma_inexact.append(f"{label} ({x.shape[1] if x.ndim > 1 else 1} channel(s))")
+        if theirs != r["breakpoints"]:
+            failures.append(f"{label}: ruptures {theirs} ours {r['breakpoints']}")
+            continue
+        fam[1] += 1
+    print(f"{'family':<34} {'cases':>6} {'identical':>10}")
+    for fam, (n, ok) in sorted(families.items()):
+        print(f"{fam:<34} {n:>6} {ok:>10}")
+    print(f"BIC penalty vs its NumPy formula: max relative difference {worst_pen:.1e}")
+    print(f"median-heuristic bandwidth vs ruptures': max relative difference {worst_gamma:.1e}; not bit-identical in: {', '.join(gamma_inexact) or 'none'}")
+    if worst_pen > 1e-12:
+        failures.append(f"BIC penalty differs from its formula by {worst_pen:.1e} (relative)")
+    # scipy may sum a multichannel distance in another order: a few units in the last place.
+    if worst_gamma > 1e-15:
+        failures.append(f"median-heuristic bandwidth differs from ruptures' by {worst_gamma:.1e} (relative)")
+    return failures, sum(n for n, _ in families.values())
+
+
+# ---------------------------------------------------------------------------------------------
+# BOCPD: Adams & MacKay's recursion in NumPy, Normal-Gamma model (Murphy 2007), channels
+# independent, missing samples skipped.
+
+def bocpd_reference(x, lam=100.0, mu0=0.0, kappa0=1.0, alpha0=1.0, beta0=1.0, standardize=True, truncate=0.0):
+    x = np.array(x, dtype=float).reshape(len(x), -1)
+    n, d = x.shape
+    if standardize:
+        for c in range(d):
+            m = np.nanmean(x[:, c])
+            s = np.nanstd(x[:, c], ddof=1) if np.sum(~np.isnan(x[:, c])) > 1 else 0.0
+            x[:, c] = (x[:, c] - m) / s if s > 0 else x[:, c] - m
+    h = 1.0 / lam
+    R = np.array([1.0])
+    mu = np.full((1, d), mu0)
+    kappa = np.full((1, d), kappa0)
+    alpha = np.full((1, d), alpha0)
+    beta = np.full((1, d), beta0)
+    rows = []
+    for t in range(n):
+        xt = x[t]
+        seen = ~np.isnan(xt)
+        nu = 2 * alpha
+        s2 = beta * (kappa + 1) / (alpha * kappa)
+        lp = gammaln((nu + 1) / 2) - gammaln(nu / 2) - 0.5 * np.log(np.pi * nu * s2) - (nu + 1) / 2 * np.log1p((xt - mu) ** 2 / (nu * s2))
+        lp = np.where(seen, lp, 0.0).sum(axis=1)
+        w = R * np.exp(lp - lp.max())
+        new = np.concatenate([[h * w.sum()], (1 - h) * w])
+        R = new / new.sum()
+        x_or_mu = np.where(seen, xt, mu)
+        mu_new = np.where(seen, (kappa * mu + x_or_mu) / (kappa + 1), mu)
+        beta_new = np.where(seen, beta + kappa * (x_or_mu - mu) ** 2 / (2 * (kappa + 1)), beta)
+        kappa_new = np.where(seen, kappa + 1, kappa)
+        alpha_new = np.where(seen, alpha + 0.5, alpha)
+        mu = np.vstack([np.full((1, d), mu0), mu_new])
+        beta = np.vstack([np.full((1, d), beta0), beta_new])
+        kappa = np.vstack([np.full((1, d), kappa0), kappa_new])
+        alpha = np.vstack([np.full((1, d), alpha0), alpha_new])
+        if truncate > 0:
+            keep = np.nonzero(R >= truncate)[0]
+            last = keep[-1] + 1
+            if last < len(R):
+                R, mu, beta, kappa, alpha = R[:last] / R[:last].sum(), mu[:last], beta[:last], kappa[:last], alpha[:last]
+        rows.append(R.copy())
+    return rows
+
+
+def bocpd_candidates(rows):
+    """The documented rule: MAP run lengths read backwards from the last sample."""
+    n = len(rows)
+    r_map = [int(np.argmax(r)) for r in rows]
+    out = set()
+    t = n - 1
+    while t >= 0:
+        r = r_map[t]
+        if r == 0:
+            if t + 1 < n:
+                out.add(t + 1)
+            t -= 1
+            continue
+        start = t + 1 - r
+        if start > 0:
+            out.add(start)
+        t = start - 1
+    return sorted(out)
+
+
+def check_bocpd():
+    cases = []
+    for seed in range(4):
+        rng = np.random.default_rng(77 + seed)
+        d = 1 + seed % 2
+        x = random_series(rng, 240, d, 2, spread_changes=seed == 2) * (50.0 if seed == 1 else 1.0) + (1000.0 if seed == 3 else 0.0)
+        if seed == 3:
+            x[40:55, 0] = np.nan  # a gap
+        params = {}
+        if seed == 1:
+            params = {"lambda": 40.0, "prior_kappa": 0.5, "prior_alpha": 2.0, "prior_beta": 0.5}
+        if seed == 2:
+            params = {"standardize": False, "prior_mean": 0.3}
+        if seed == 3:
+            params = {"truncate_below": 1e-6}
+        cases.append((f"seed {seed} d{d} {params}", x, params))
+    x = tssb_series()[0][1]  # Chinatown, 240 samples
+    cases.append(("TSSB Chinatown", x, {}))
+    results, _ = ours([job("bocpd", x, params, posterior=True) for _, x, params in cases])
+    failures = []
+    worst = 0.0
+    for (label, x, params), r in zip(cases, results):
+        if "error" in r:
+            failures.append(f"bocpd {label}: ours failed: {r['error']}")
+            continue
+        ref = bocpd_reference(
+            x,
+            lam=params.get("lambda", 100.0),
+            mu0=params.get("prior_mean", 0.0),
+            kappa0=params.get("prior_kappa", 1.0),
+            alpha0=params.get("prior_alpha", 1.0),
+            beta0=params.get("prior_beta", 1.0),
+            standardize=params.get("standardize", True),
+            truncate=params.get("truncate_below", 0.0),
+        )
+        post = r["posterior"]
+        if [len(a) for a in post] != [len(a) for a in ref]:
+            failures.append(f"bocpd {label}: posterior row lengths differ")
+            continue
+        diff = max(float(np.max(np.abs(np.array(a) - b))) for a, b in zip(post, ref))
+        worst = max(worst, diff)
+        if diff > 1e-9:
+            failures.append(f"bocpd {label}: run-length posterior differs by {diff:.2e}")
+        if bocpd_candidates(ref) != r["candidates"]:
+            failures.append(f"bocpd {label}: change points {r['candidates']} vs the reference's {bocpd_candidates(ref)}")
+    print(f"bocpd: {len(cases)} series, run-length posterior max |difference| {worst:.1e} (<= 1e-9 required), change points identical: {not any('change points' in f for f in failures)}")
+    return failures, len(cases)
+
+
+def check_inlined_exp():
+    """KernelCPD's C calls glibc's exp; ours inlines it: every argument the kernel can produce."""
+    r = ours([{"segmenter": "verify_exp", "stride": 1}])[0][0]
+    if r["compared"] == 0:
+        print("inlined exp: not used on this machine (no glibc FMA exp); the system exp is called")
+        return []
+    print(f"inlined exp vs the system's on all {r['compared']:,} single-precision kernel arguments: {r['differ']} differ")
+    return [f"inlined exp differs from the system's on {r['differ']} arguments"] if r["differ"] else []
+
+
+# ---------------------------------------------------------------------------------------------
+# Speed.
+
+def speed(rounds):
+    print("\nrbf PELT: ours (kernel_pelt) vs ruptures' C KernelCPD(kernel='rbf'), same inputs, gamma given, "
+          f"median of {rounds} interleaved rounds; CPU time of the computing thread (wall time on a shared machine counts waits)")
+    print(f"{'input':<28} {'n':>7} {'bkps':>5} {'ruptures CPU s':>15} {'ours CPU s':>11} {'ratio':>7} {'wall ratio':>11}")
+    inputs = []
+    rng = np.random.default_rng(5)
+    for n in (2000, 5000, 10000, 20000):
+        inputs.append(("random, 10 segments", random_series(rng, n, 1, 9)))
+    for name, x in tssb_series():
+        if name in ("Crop", "Yoga", "InsectWingbeatSound", "ECG200"):
+            inputs.append((f"TSSB {name}", x))
+    totals = np.zeros(4)
+    for label, x in inputs:
+        x = np.asarray(x, dtype=float).ravel()
+        n = len(x)
+        # The median heuristic on the first 2000 samples (ruptures' own would need the n² matrix).
+        head = x[:2000]
+        gamma = 1.0 / np.median((head[:, None] - head[None, :])[np.triu_indices(len(head), 1)] ** 2)
+        pen = math.log(n)
+        cpu_theirs, wall_theirs, cpu_ours, wall_ours = [], [], [], []
+        for _ in range(rounds):
+            t0, c0 = time.perf_counter(), time.process_time()
+            theirs = rpt.KernelCPD(kernel="rbf", params={"gamma": gamma}).fit(x.reshape(-1, 1)).predict(pen=pen)
+            cpu_theirs.append(time.process_time() - c0)
+            wall_theirs.append(time.perf_counter() - t0)
+            r = ours([job("kernel_cpd", x, {"search": "kernel_pelt", "cost": "rbf", "gamma": gamma, "pen": pen})])[0][0]
+            cpu_ours.append(r["cpu_seconds"][0])
+            wall_ours.append(r["seconds"][0])
+            if r["breakpoints"] != [int(b) for b in theirs]:
+                sys.exit(f"speed input {label}: breakpoints differ: ruptures {theirs} ours {r['breakpoints']}")
+        m = [float(np.median(v)) for v in (cpu_theirs, cpu_ours, wall_theirs, wall_ours)]
+        totals += m
+        print(f"{label:<28} {n:>7} {len(theirs) - 1:>5} {m[0]:>15.3f} {m[1]:>11.3f} {m[0] / m[1]:>6.1f}× {m[2] / m[3]:>10.1f}×")
+    print(f"{'all inputs (sums)':<28} {'':>7} {'':>5} {totals[0]:>15.3f} {totals[1]:>11.3f} {totals[0] / totals[1]:>6.1f}× {totals[2] / totals[3]:>10.1f}×")
+
+    print("\nrbf PELT on n = 100,000 samples (10 segments, one channel, median-heuristic bandwidth), one process each:")
+    x = random_series(np.random.default_rng(9), 100_000, 1, 9)
+    for search in ("kernel_pelt", "pelt"):
+        params = {"search": search, "cost": "rbf"}
+        if search == "pelt":
+            params["jump"] = 5
+        r, rss = ours([job("kernel_cpd", x, params)])
+        r = r[0]
+        print(f"  {search:<12} {r['cpu_seconds'][0]:7.2f} s CPU ({r['seconds'][0]:.2f} s wall), {len(r['breakpoints']) - 1} change points, "
+              f"peak RSS {rss / 1024:.1f} MiB (the process, JSON input included)")
+    print("  ruptures: Pelt(model='rbf') and KernelCPD's median heuristic build the Gram matrix, "
+          f"{100_000 ** 2 * 8 / 2 ** 30:.0f} GiB of float64 (plus the {100_000 * 99_999 / 2 * 8 / 2 ** 30:.0f} GiB condensed distances) — not run.")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seeds", type=int, default=6)
+    ap.add_argument("--tssb-all", action="store_true", help="KernelCPD on all 75 TSSB series (else every sixth)")
+    ap.add_argument("--speed", action="store_true")
+    ap.add_argument("--rounds", type=int, default=3)
+    args = ap.parse_args()
+    if args.speed:
+        speed(args.rounds)
+        return
+    t0 = time.time()
+    failures, n_cases = check_equality(equality_cases(args.seeds) + tssb_cases(args.tssb_all))
+    f2, n_bocpd = check_bocpd()
+    failures += f2
+    failures += check_inlined_exp()
+    print(f"{n_cases} ruptures cases and {n_bocpd} BOCPD series in {time.time() - t0:.0f} s")
+    if failures:
+        print(f"\n{len(failures)} FAILED:")
+        for f in failures:
+            print("  " + f)
+        sys.exit(1)
+    print("all identical")
+
+
+if __name__ == "__main__":
+    main()

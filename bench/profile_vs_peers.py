@@ -1,0 +1,207 @@
+#!/usr/bin/env python3
+"""motionlab-profile's `clasp` and `floss` against their reference implementations, on TSSB
+series (data/tssb) and random series, in one run: equality and speed.
+
+Checks (the script exits non-zero when one fails):
+  * ClaSP profile: ours (`Clasp::profile`) vs claspy 0.2.8 `ClaSP(window_size=w).fit(ts).profile`
+    with w the series' suggested width (desc.txt), every value within 1e-9 and −∞ at the same
+    split points;
+  * ClaSP change points: ours (`clasp` at its defaults) vs claspy
+    `BinaryClaSPSegmentation().fit_predict(ts)`; with `--min-agree N` at least N series must
+    agree exactly (default: all chosen);
+  * matrix profile index: ours vs `stumpy.stump(ts, m)[:, 1]`, identical (ties go to the nearer
+    diagonal, then the earlier window: the order of stumpy's traversal and thread merge);
+  * corrected arc curve: ours (`floss`) vs `stumpy.fluss(I, L=m, n_regimes, custom_iac=the
+    paper's parabola)`, within 1e-9, and identical regime locations; stumpy's default
+    idealised arc curve (a beta fit to random draws) is reported beside it.
+
+Speed: claspy's `fit_predict` per series (after a warm-up that compiles numba's functions) vs
+ours (`segment_values`, timed in-process by the example), summed over the chosen series; both
+use all cores (claspy's n_jobs=-1, rayon).
+
+Ours runs through `cargo run --release -p motionlab-profile --example profile_json`.
+
+Usage:
+  bench/profile_vs_peers.py --ci                 # the CI subset (a few minutes on 2 cores)
+  bench/profile_vs_peers.py --all [--json out]   # all 75 series: the numbers of bench/README.md
+  bench/profile_vs_peers.py --series ArrowHead Beef
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+sys.path.insert(0, HERE)
+from bench_env import ensure_venv  # noqa: E402
+
+ensure_venv("requirements-profile.txt")
+
+import warnings  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+warnings.filterwarnings("ignore")
+
+TSSB = os.path.join(ROOT, "data", "tssb", "datasets")
+# Short to medium series spread over the benchmark's kinds of data: the CI subset.
+CI_SERIES = ["Adiac", "ArrowHead", "Beef", "BeetleFly", "Car", "Chinatown", "Coffee", "DistalPhalanxTW",
+             "ECG200", "GunPoint", "Ham", "Herring", "ItalyPowerDemand", "Lightning2", "OliveOil",
+             "SonyAIBORobotSurface2", "ToeSegmentation2", "Wafer"]
+
+
+def load_tssb():
+    series = {}
+    for line in open(os.path.join(TSSB, "desc.txt")):
+        parts = line.strip().split(",")
+        if len(parts) < 2:
+            continue
+        name, window, cps = parts[0], int(parts[1]), [int(c) for c in parts[2:]]
+        series[name] = (np.loadtxt(os.path.join(TSSB, name + ".txt")), window, cps)
+    return series
+
+
+def ours(tasks):
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "motionlab-profile", "--example", "profile_json"]
+    out = subprocess.run(cmd, cwd=ROOT, input=json.dumps({"tasks": tasks}), capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"profile_json failed: {out.stderr}")
+    results = json.loads(out.stdout)["results"]
+    for r in results:
+        if "error" in r:
+            sys.exit(f"profile_json: {r['error']}")
+    return results
+
+
+def as_array(values):
+    return np.array([-np.inf if v is None else v for v in values], dtype=float)
+
+
+def profiles_equal(a, b, tol=1e-9):
+    """Max |a - b| over finite entries, and whether the −∞ entries coincide."""
+    fa, fb = np.isfinite(a), np.isfinite(b)
+    if a.shape != b.shape or not np.array_equal(fa, fb):
+        return np.inf, False
+    diff = float(np.max(np.abs(a[fa] - b[fa]))) if fa.any() else 0.0
+    return diff, diff <= tol
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--ci", action="store_true", help="the CI subset of TSSB series")
+    ap.add_argument("--all", action="store_true", help="all 75 TSSB series")
+    ap.add_argument("--series", nargs="*", default=None)
+    ap.add_argument("--min-agree", type=int, default=None, help="series whose change points must agree (default: all)")
+    ap.add_argument("--random", type=int, default=4, help="random series for the matrix profile / FLUSS checks")
+    ap.add_argument("--json", default=None, help="write per-series results here")
+    args = ap.parse_args()
+
+    data = load_tssb()
+    names = sorted(data) if args.all else (args.series or CI_SERIES)
+    min_agree = len(names) if args.min_agree is None else args.min_agree
+
+    from claspy.clasp import ClaSP
+    from claspy.segmentation import BinaryClaSPSegmentation
+    import stumpy
+
+    t0 = time.time()
+    warm = np.sin(np.arange(600) / 5.0) + (np.arange(600) > 300)
+    BinaryClaSPSegmentation().fit_predict(warm)
+    ClaSP(window_size=10).fit(warm)
+    stumpy.fluss(stumpy.stump(warm, m=10)[:, 1], L=10, n_regimes=2)
+    print(f"peers warmed up (numba compilation) in {time.time() - t0:.0f} s", flush=True)
+
+    # Our side first (one process, every task), then the peers series by series.
+    tasks = []
+    for name in names:
+        ts, window, _ = data[name]
+        tasks.append({"op": "clasp_profile", "values": ts.tolist(), "window": window})
+        tasks.append({"op": "clasp_segment", "values": ts.tolist()})
+    rng = np.random.default_rng(20240601)
+    floss_cases = []
+    for name in names[:6]:
+        ts, window, cps = data[name]
+        floss_cases.append((name, ts, window, len(cps) + 1))
+    for i in range(args.random):
+        n = int(rng.integers(300, 1500))
+        floss_cases.append((f"random{i}", rng.standard_normal(n).cumsum(), int(rng.integers(5, 40)), 3))
+    for _, ts, m, regimes in floss_cases:
+        tasks.append({"op": "matrix_profile", "values": ts.tolist(), "window": m})
+        tasks.append({"op": "floss_segment", "values": ts.tolist(), "params": {"window": m, "n_regimes": regimes}})
+    t0 = time.time()
+    results = ours(tasks)
+    print(f"ours: {len(tasks)} tasks in {time.time() - t0:.1f} s (process, build check and JSON included)", flush=True)
+
+    rows, failures = [], []
+    agree = 0
+    claspy_seconds = ours_seconds = 0.0
+    for i, name in enumerate(names):
+        ts, window, true_cps = data[name]
+        prof_ours, seg_ours = results[2 * i], results[2 * i + 1]
+        ref = ClaSP(window_size=window).fit(ts).profile
+        diff, prof_ok = profiles_equal(as_array(prof_ours["profile"]), ref)
+        t = time.perf_counter()
+        bcs = BinaryClaSPSegmentation()
+        cps_ref = [int(c) for c in bcs.fit_predict(ts)]
+        dt = time.perf_counter() - t
+        claspy_seconds += dt
+        ours_seconds += seg_ours["seconds"]
+        same = cps_ref == seg_ours["candidates"]
+        agree += same
+        row = {"series": name, "n": len(ts), "window_ours": seg_ours["window"], "window_claspy": int(bcs.window_size),
+               "profile_max_diff": diff, "profile_ok": prof_ok, "cps_ours": seg_ours["candidates"], "cps_claspy": cps_ref,
+               "cps_equal": same, "seconds_claspy": dt, "seconds_ours": seg_ours["seconds"]}
+        rows.append(row)
+        print(f"{name:32s} n={len(ts):6d} w={row['window_claspy']:4d}/{row['window_ours']:4d} profile Δ={diff:.1e} "
+              f"cps {'=' if same else '≠'} {cps_ref} {'' if same else seg_ours['candidates']} "
+              f"claspy {dt:7.2f} s ours {seg_ours['seconds']:6.3f} s", flush=True)
+        if not prof_ok:
+            failures.append(f"{name}: ClaSP profile differs by {diff}")
+
+    floss_rows = []
+    offset = 2 * len(names)
+    for j, (name, ts, m, regimes) in enumerate(floss_cases):
+        mp_ours, fl_ours = results[offset + 2 * j], results[offset + 2 * j + 1]
+        mp = stumpy.stump(ts, m=m)
+        index_ref = mp[:, 1].astype(np.int64)
+        same_index = np.array_equal(index_ref, np.array(mp_ours["index"]))
+        k = len(index_ref)
+        iac = 2.0 * np.arange(k) * (k - np.arange(k)) / k
+        cac_ref, locs_ref = stumpy.fluss(index_ref, L=m, n_regimes=regimes, custom_iac=iac.copy())
+        cac_ours = np.array(fl_ours["trace"][:k], dtype=float)
+        cac_diff = float(np.max(np.abs(cac_ours - cac_ref)))
+        locs_ref = sorted(int(x) for x in locs_ref if 0 < x < len(ts))
+        same_locs = locs_ref == fl_ours["candidates"]
+        cac_default, _ = stumpy.fluss(index_ref, L=m, n_regimes=regimes)
+        vs_default = float(np.max(np.abs(cac_ours - cac_default)))
+        n_index_diff = int(np.sum(index_ref != np.array(mp_ours["index"])))
+        floss_rows.append({"series": name, "n": len(ts), "window": m, "index_equal": same_index, "index_differences": n_index_diff,
+                           "cac_max_diff": cac_diff, "regimes_equal": same_locs, "cac_diff_vs_stumpy_default_iac": vs_default})
+        print(f"floss {name:26s} n={len(ts):6d} m={m:4d} index {'=' if same_index else f'≠ ({n_index_diff})'} "
+              f"CAC Δ={cac_diff:.1e} regimes {'=' if same_locs else '≠'} {locs_ref} (vs stumpy's own IAC: Δ={vs_default:.2f})", flush=True)
+        if not same_index:
+            failures.append(f"floss {name}: matrix profile index differs at {n_index_diff} windows")
+        if cac_diff > 1e-9 or not same_locs:
+            failures.append(f"floss {name}: CAC differs by {cac_diff} or regimes {fl_ours['candidates']} vs {locs_ref}")
+
+    print(f"\nClaSP profiles within 1e-9: {sum(r['profile_ok'] for r in rows)}/{len(rows)}; "
+          f"change points identical: {agree}/{len(rows)}")
+    print(f"BinaryClaSPSegmentation: claspy {claspy_seconds:.1f} s, ours {ours_seconds:.2f} s over {len(rows)} series: "
+          f"{claspy_seconds / max(ours_seconds, 1e-9):.1f}x")
+    if agree < min_agree:
+        failures.append(f"change points identical on {agree} series, expected at least {min_agree}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"clasp": rows, "floss": floss_rows, "claspy_seconds": claspy_seconds, "ours_seconds": ours_seconds}, f, indent=1)
+    if failures:
+        print("FAILED:\n  " + "\n  ".join(failures))
+        sys.exit(1)
+    print("all checks passed")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,455 @@
+//! `bocpd`: Bayesian online change-point detection (Adams & MacKay 2007) with a Gaussian
+//! observation model of unknown mean and variance and a constant hazard.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Trace};
+
+use crate::signal::{Missing, Signal};
+
+/// Bayesian online change-point detection (R. P. Adams & D. J. C. MacKay, "Bayesian Online
+/// Changepoint Detection", arXiv:0710.3742, 2007): after each sample, the posterior of the
+/// *run length* r — how many samples the current segment holds — by the paper's recursion
+/// (its Algorithm 1): the run grows with probability 1 − H or restarts with the constant hazard
+/// H = 1/`lambda`, each weighted by the predictive probability of the new sample given the
+/// samples of its run.
+///
+/// **Observation model.** Each channel is Normal with unknown mean μ and precision τ under the
+/// conjugate Normal-Gamma prior τ ~ Gamma(shape `prior_alpha`, rate `prior_beta`),
+/// μ | τ ~ Normal(`prior_mean`, 1/(`prior_kappa`·τ)) — the parameterisation of Murphy,
+/// "Conjugate Bayesian analysis of the Gaussian distribution" (2007), §3, and of the R package
+/// ocp. The predictive of a sample is Student-t with 2α degrees of freedom, location μ and
+/// scale² β(κ+1)/(ακ); after a sample x: μ ← (κμ + x)/(κ+1), κ ← κ+1, α ← α + ½,
+/// β ← β + κ(x − μ)²/(2(κ+1)). Channels are independent given the run length, each with this
+/// prior: their log predictives add. The prior and hazard are TCPDBench's bocpd defaults
+/// (λ = 100, μ₀ = 0, κ₀ = 1, α₀ = 1, β₀ = 1), which assume data on a unit scale: each channel
+/// is standardised first (`standardize`; zero mean, unit sample variance), as TCPDBench feeds
+/// its methods scaled data.
+///
+/// **Run-length convention (the paper's).** r_t = 0 means a change right after sample t: its
+/// likelihood is the predictive under the run that ended (the paper's changepoint
+/// probability), so P(r_t = 0) = H at every t; r_t = k ≥ 1 means the current segment is the
+/// last k samples, t−k+1 ..= t. The posterior after sample t covers r = 0 ..= t+1.
+///
+/// **Change points: the most probable run lengths read backwards.** From the last sample t =
+/// n−1, the MAP run length r* (the smallest of equal maxima) says the current segment started
+/// at s = t + 1 − r*; s is a change point (unless 0), and the reading continues at t = s − 1.
+/// When r* = 0 the change is t + 1 and the reading continues at t − 1. This is one consistent
+/// segmentation of the whole series: the segments the filter believed in when it had seen each
+/// segment's end. The traces are the MAP run length and the posterior mean run length per
+/// sample.
+///
+/// **Missing samples (NaN)** are skipped as unobserved: a missing channel adds nothing to the
+/// predictive and leaves its statistics unchanged, while the run length still advances.
+/// **Cost**: O(n·R·channels) time and O(R·channels) memory, R the longest run kept — every run
+/// length (R = n) unless `truncate_below` drops the tail of the posterior below a probability.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BocpdParams {
+    /// Expected segment length λ in samples (the hazard is 1/λ, ≥ 1); TCPDBench's value.
+    #[serde(default = "default_lambda")]
+    pub lambda: f64,
+    /// Prior mean μ₀ of each channel, in standardised units when `standardize` is on.
+    #[serde(default)]
+    pub prior_mean: f64,
+    /// Prior strength κ₀ of the mean, in pseudo-samples (> 0).
+    #[serde(default = "one")]
+    pub prior_kappa: f64,
+    /// Gamma shape α₀ of the precision (> 0).
+    #[serde(default = "one")]
+    pub prior_alpha: f64,
+    /// Gamma rate β₀ of the precision, in squared (standardised) signal units (> 0).
+    #[serde(default = "one")]
+    pub prior_beta: f64,
+    /// Standardise each channel (subtract its mean, divide by its sample standard deviation;
+    /// a constant channel is only centred) before the prior applies.
+    #[serde(default = "yes")]
+    pub standardize: bool,
+    /// Drop the run lengths beyond the last one whose posterior probability is at least this
+    /// (and renormalise), in [0, 1); 0 keeps every run length (the exact posterior).
+    #[serde(default)]
+    pub truncate_below: f64,
+}
+
+fn default_lambda() -> f64 {
+    100.0
+}
+fn one() -> f64 {
+    1.0
+}
+fn yes() -> bool {
+    true
+}
+
+/// The validated `bocpd` stage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bocpd {
+    pub hazard: f64,
+    pub prior_mean: f64,
+    pub prior_kappa: f64,
+    pub prior_alpha: f64,
+    pub prior_beta: f64,
+    pub standardize: bool,
+    pub truncate_below: f64,
+}
+
+impl ParamGuard for BocpdParams {
+    type Checked = Bocpd;
+    fn check(self) -> Result<Bocpd> {
+        let range = |field: &str, value: f64, ok: bool, expected: &str| {
+            if ok { Ok(()) } else { Err(Error::new(ErrorKind::OutOfRange, format!("{field} is {value}, expected {expected}")).with_field(field.to_string())) }
+        };
+        range("lambda", self.lambda, self.lambda.is_finite() && self.lambda >= 1.0, "an expected segment length ≥ 1 sample")?;
+        range("prior_mean", self.prior_mean, self.prior_mean.is_finite(), "a finite number")?;
+        for (field, v) in [("prior_kappa", self.prior_kappa), ("prior_alpha", self.prior_alpha), ("prior_beta", self.prior_beta)] {
+            range(field, v, v.is_finite() && v > 0.0, "a finite number > 0")?;
+        }
+        range("truncate_below", self.truncate_below, (0.0..1.0).contains(&self.truncate_below), "a probability in [0, 1)")?;
+        Ok(Bocpd {
+            hazard: 1.0 / self.lambda,
+            prior_mean: self.prior_mean,
+            prior_kappa: self.prior_kappa,
+            prior_alpha: self.prior_alpha,
+            prior_beta: self.prior_beta,
+            standardize: self.standardize,
+            truncate_below: self.truncate_below,
+        })
+    }
+}
+
+/// One run of `bocpd`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BocpdRun {
+    /// Change points (first samples of segments), sorted, in 1..n.
+    pub candidates: Vec<usize>,
+    /// The MAP run length after each sample.
+    pub map_run_length: Vec<usize>,
+    /// The posterior mean run length after each sample.
+    pub mean_run_length: Vec<f64>,
+}
+
+/// What the predictive needs of a run with k observed samples.
+struct Count {
+    log_gamma_ratio: f64,
+    scale_factor: f64,
+    log_norm: f64,
+    nu: f64,
+    kappa: f64,
+}
+
+/// Per run length and channel: observed-sample count, posterior mean μ and rate β.
+struct RunStats {
+    count: Vec<u32>,
+    mu: Vec<f64>,
+    beta: Vec<f64>,
+}
+
+impl Bocpd {
+    /// The signal as the model sees it: standardised per channel when asked.
+    fn prepared(&self, signal: &Signal) -> Vec<f64> {
+        let mut x = signal.values.to_vec();
+        if !self.standardize {
+            return x;
+        }
+        let d = signal.n_channels;
+        for c in 0..d {
+            let finite: Vec<f64> = (0..signal.n_samples).map(|i| x[i * d + c]).filter(|v| !v.is_nan()).collect();
+            if finite.is_empty() {
+                continue;
+            }
+            let mean = finite.iter().sum::<f64>() / finite.len() as f64;
+            let var = if finite.len() > 1 { finite.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (finite.len() - 1) as f64 } else { 0.0 };
+            let sd = var.sqrt();
+            for i in 0..signal.n_samples {
+                let v = &mut x[i * d + c];
+                *v = if sd > 0.0 { (*v - mean) / sd } else { *v - mean };
+            }
+        }
+        x
+    }
+
+    /// Runs the filter, calling `step(t, posterior)` after each sample with P(r_t = r | x_0..=t)
+    /// for r = 0, 1, ….
+    fn filter(&self, values: &[f64], n_channels: usize, mut step: impl FnMut(usize, &[f64])) -> Result<usize> {
+        let signal = Signal::new(values, n_channels, "bocpd", Missing::Allow)?;
+        let (n, d) = (signal.n_samples, signal.n_channels);
+        let x = self.prepared(&signal);
+        // Per observed-sample count k (α = α₀ + k/2, κ = κ₀ + k, ν = 2α): log Γ(α+½) − log Γ(α),
+        // the factor c with ν·scale² = β·c (c = ν(κ+1)/(ακ)), log(π·c), ν and κ.
+        let (a0, k0) = (self.prior_alpha, self.prior_kappa);
+        let per_count: Vec<Count> = (0..=n)
+            .map(|k| {
+                let alpha = a0 + k as f64 / 2.0;
+                let kappa = k0 + k as f64;
+                let nu = 2.0 * alpha;
+                let scale_factor = nu * (kappa + 1.0) / (alpha * kappa);
+                Count {
+                    log_gamma_ratio: libm::lgamma(alpha + 0.5) - libm::lgamma(alpha),
+                    scale_factor,
+                    log_norm: (std::f64::consts::PI * scale_factor).ln(),
+                    nu,
+                    kappa,
+                }
+            })
+            .collect();
+        let mut stats = RunStats { count: vec![0; d], mu: vec![self.prior_mean; d], beta: vec![self.prior_beta; d] };
+        let mut posterior = vec![1.0];
+        let mut log_pred = Vec::new();
+        let mut next = Vec::new();
+        let h = self.hazard;
+        for t in 0..n {
+            let row = &x[t * d..(t + 1) * d];
+            let runs = posterior.len();
+            log_pred.clear();
+            for r in 0..runs {
+                let mut lp = 0.0;
+                for c in 0..d {
+                    let v = row[c];
+                    if v.is_nan() {
+                        continue;
+                    }
+                    let i = r * d + c;
+                    let k = &per_count[stats.count[i] as usize];
+                    let beta = stats.beta[i];
+                    // log Student-t: log Γ(α+½) − log Γ(α) − ½ log(π ν scale²) − (ν+1)/2 · log(1 + (x−μ)²/(ν scale²))
+                    let z = (v - stats.mu[i]).powi(2) / (beta * k.scale_factor);
+                    lp += k.log_gamma_ratio - 0.5 * (k.log_norm + beta.ln()) - 0.5 * (k.nu + 1.0) * z.ln_1p();
+                }
+                log_pred.push(lp);
+            }
+            let top = log_pred.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            next.clear();
+            next.push(0.0);
+            let mut cp = 0.0;
+            for r in 0..runs {
+                let w = posterior[r] * (log_pred[r] - top).exp();
+                cp += w;
+                next.push(w * (1.0 - h));
+            }
+            next[0] = cp * h;
+            let total: f64 = next.iter().sum();
+            for p in next.iter_mut() {
+                *p /= total;
+            }
+            // The statistics of run r+1 are run r's updated with this sample; run 0 restarts.
+            let mut count = Vec::with_capacity((runs + 1) * d);
+            let mut mu = Vec::with_capacity((runs + 1) * d);
+            let mut beta = Vec::with_capacity((runs + 1) * d);
+            count.extend(std::iter::repeat_n(0, d));
+            mu.extend(std::iter::repeat_n(self.prior_mean, d));
+            beta.extend(std::iter::repeat_n(self.prior_beta, d));
+            for r in 0..runs {
+                for c in 0..d {
+                    let i = r * d + c;
+                    let v = row[c];
+                    if v.is_nan() {
+                        count.push(stats.count[i]);
+                        mu.push(stats.mu[i]);
+                        beta.push(stats.beta[i]);
+                    } else {
+                        let kappa = per_count[stats.count[i] as usize].kappa;
+                        let m = stats.mu[i];
+                        count.push(stats.count[i] + 1);
+                        mu.push((kappa * m + v) / (kappa + 1.0));
+                        beta.push(stats.beta[i] + kappa * (v - m).powi(2) / (2.0 * (kappa + 1.0)));
+                    }
+                }
+            }
+            stats = RunStats { count, mu, beta };
+            std::mem::swap(&mut posterior, &mut next);
+            if self.truncate_below > 0.0
+                && let Some(last) = posterior.iter().rposition(|&p| p >= self.truncate_below)
+                && last + 1 < posterior.len()
+            {
+                posterior.truncate(last + 1);
+                stats.count.truncate((last + 1) * d);
+                stats.mu.truncate((last + 1) * d);
+                stats.beta.truncate((last + 1) * d);
+                let total: f64 = posterior.iter().sum();
+                for p in posterior.iter_mut() {
+                    *p /= total;
+                }
+            }
+            step(t, &posterior);
+        }
+        Ok(n)
+    }
+
+    /// The run-length posterior after every sample: row t holds P(r_t = r | x_0..=t) for
+    /// r = 0, 1, … (t + 2 values, fewer when truncated). O(n²) memory: for inspection and
+    /// cross-checks on short series.
+    pub fn run_length_posterior(&self, values: &[f64], n_channels: usize) -> Result<Vec<Vec<f64>>> {
+        let mut rows = Vec::new();
+        self.filter(values, n_channels, |_, p| rows.push(p.to_vec()))?;
+        Ok(rows)
+    }
+
+    /// Runs the detector on `values` (sample-major, `n_samples × n_channels`).
+    pub fn run(&self, values: &[f64], n_channels: usize) -> Result<BocpdRun> {
+        let mut map_run_length = Vec::new();
+        let mut mean_run_length = Vec::new();
+        let n = self.filter(values, n_channels, |_, p| {
+            let mut best = 0;
+            for (r, &v) in p.iter().enumerate() {
+                if v > p[best] {
+                    best = r;
+                }
+            }
+            map_run_length.push(best);
+            mean_run_length.push(p.iter().enumerate().map(|(r, &v)| r as f64 * v).sum());
+        })?;
+        let mut candidates = Vec::new();
+        let mut t = n as i64 - 1;
+        while t >= 0 {
+            let r = map_run_length[t as usize] as i64;
+            if r == 0 {
+                if t + 1 < n as i64 {
+                    candidates.push((t + 1) as usize);
+                }
+                t -= 1;
+                continue;
+            }
+            let start = t + 1 - r;
+            if start > 0 {
+                candidates.push(start as usize);
+            }
+            t = start - 1;
+        }
+        candidates.sort_unstable();
+        candidates.dedup();
+        Ok(BocpdRun { candidates, map_run_length, mean_run_length })
+    }
+
+    /// Change points of `values` (sample-major, `n_samples × n_channels`), with the traces
+    /// `map_run_length` and `mean_run_length` (samples).
+    pub fn segment_values(&self, values: &[f64], n_channels: usize) -> Result<SegmenterOutput> {
+        let run = self.run(values, n_channels)?;
+        Ok(SegmenterOutput {
+            candidates: run.candidates,
+            traces: vec![
+                Trace::new("map_run_length", "samples", run.map_run_length.iter().map(|&r| r as f64).collect()),
+                Trace::new("mean_run_length", "samples", run.mean_run_length),
+            ],
+            ..Default::default()
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn defaults() -> Bocpd {
+        let p: BocpdParams = toml::from_str("").unwrap();
+        p.check().unwrap()
+    }
+
+    #[test]
+    fn first_step_is_the_hazard_and_rows_sum_to_one() {
+        let mut rng = fastrand::Rng::with_seed(1);
+        let x: Vec<f64> = (0..50).map(|_| rng.f64()).collect();
+        let post = defaults().run_length_posterior(&x, 1).unwrap();
+        assert_eq!(post.len(), 50);
+        assert!((post[0][0] - 0.01).abs() < 1e-15 && (post[0][1] - 0.99).abs() < 1e-15);
+        for (t, row) in post.iter().enumerate() {
+            assert_eq!(row.len(), t + 2);
+            assert!((row.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            // Constant hazard: the changepoint mass is always H.
+            assert!((row[0] - 0.01).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn predictive_is_the_student_t_of_the_normal_gamma() {
+        // One sample under the prior: Student-t, ν = 2, μ = 0, scale² = β(κ+1)/(ακ) = 2, then
+        // the posterior of the second sample's run lengths weighs it against the updated t.
+        let b = Bocpd { standardize: false, ..defaults() };
+        let post = b.run_length_posterior(&[0.3, 2.0], 1).unwrap();
+        let t_pdf = |x: f64, nu: f64, mu: f64, s2: f64| {
+            (libm::lgamma((nu + 1.0) / 2.0) - libm::lgamma(nu / 2.0) - 0.5 * (nu * std::f64::consts::PI * s2).ln()
+                - (nu + 1.0) / 2.0 * (1.0 + (x - mu).powi(2) / (nu * s2)).ln())
+            .exp()
+        };
+        // Run 0 (prior) and run 1 (after 0.3: κ 2, μ 0.15, α 1.5, β 1 + 0.09/4).
+        let p0 = t_pdf(2.0, 2.0, 0.0, 2.0);
+        let beta1 = 1.0 + 1.0 * 0.09 / 4.0;
+        let p1 = t_pdf(2.0, 3.0, 0.15, beta1 * 3.0 / (1.5 * 2.0));
+        let (w0, w1) = (0.01 * p0, 0.99 * p1);
+        let want = [0.01, 0.99 * w0 / (w0 + w1), 0.99 * w1 / (w0 + w1)];
+        for (a, b) in post[1].iter().zip(want) {
+            assert!((a - b).abs() < 1e-14, "{:?} vs {want:?}", post[1]);
+        }
+    }
+
+    #[test]
+    fn finds_a_mean_change_and_a_variance_change() {
+        let mut rng = fastrand::Rng::with_seed(3);
+        let gauss = |rng: &mut fastrand::Rng| (-2.0 * rng.f64().max(1e-300).ln()).sqrt() * (std::f64::consts::TAU * rng.f64()).cos();
+        let x: Vec<f64> = (0..600)
+            .map(|i| match i {
+                0..200 => gauss(&mut rng),
+                200..400 => 5.0 + gauss(&mut rng),
+                _ => 5.0 + 6.0 * gauss(&mut rng),
+            })
+            .collect();
+        let run = defaults().run(&x, 1).unwrap();
+        let near = |c: usize| run.candidates.iter().any(|&f| (f as i64 - c as i64).abs() <= 5);
+        assert!(near(200) && near(400), "{:?}", run.candidates);
+        assert!(run.candidates.len() <= 4, "{:?}", run.candidates);
+        assert!(run.map_run_length[199] > 150 && run.map_run_length[260] < 80);
+    }
+
+    #[test]
+    fn channels_add_their_evidence_and_missing_samples_are_skipped() {
+        let mut rng = fastrand::Rng::with_seed(4);
+        let x: Vec<f64> = (0..300).flat_map(|i| [rng.f64(), if i < 150 { 0.0 } else { 3.0 } + rng.f64()]).collect();
+        let b = defaults();
+        assert!(b.run(&x, 2).unwrap().candidates.iter().any(|&c| (c as i64 - 150).abs() <= 3));
+        // A gap in one channel: still found; an all-NaN sample advances the run length.
+        let mut gappy = x.clone();
+        for v in gappy[2 * 40..2 * 60].iter_mut().step_by(2) {
+            *v = f64::NAN;
+        }
+        gappy[2 * 90] = f64::NAN;
+        gappy[2 * 90 + 1] = f64::NAN;
+        let run = b.run(&gappy, 2).unwrap();
+        assert!(run.candidates.iter().any(|&c| (c as i64 - 150).abs() <= 3), "{:?}", run.candidates);
+        let post = b.run_length_posterior(&gappy, 2).unwrap();
+        assert!(post.iter().flatten().all(|p| p.is_finite()));
+    }
+
+    #[test]
+    fn truncation_keeps_the_posterior_close_and_short() {
+        let mut rng = fastrand::Rng::with_seed(6);
+        let x: Vec<f64> = (0..400).map(|i| if i < 200 { 0.0 } else { 2.0 } + rng.f64()).collect();
+        let exact = defaults();
+        let cut = Bocpd { truncate_below: 1e-6, ..defaults() };
+        let a = exact.run_length_posterior(&x, 1).unwrap();
+        let b = cut.run_length_posterior(&x, 1).unwrap();
+        assert!(b[399].len() < a[399].len());
+        assert_eq!(exact.run(&x, 1).unwrap().candidates, cut.run(&x, 1).unwrap().candidates);
+    }
+
+    #[test]
+    fn degenerate_inputs_and_parameters() {
+        let b = defaults();
+        // Constant: no change; one sample: none either.
+        assert!(b.run(&[2.5; 200], 1).unwrap().candidates.is_empty());
+        assert!(b.run(&[1.0], 1).unwrap().candidates.is_empty());
+        assert_eq!(b.run(&[], 1).unwrap_err().kind(), ErrorKind::EmptySequence);
+        assert_eq!(b.run(&[1.0, f64::INFINITY], 1).unwrap_err().kind(), ErrorKind::NonFinite);
+        for (text, field) in [
+            ("lambda = 0.5", "lambda"),
+            ("prior_kappa = 0.0", "prior_kappa"),
+            ("prior_alpha = -1.0", "prior_alpha"),
+            ("prior_beta = 0.0", "prior_beta"),
+            ("truncate_below = 1.0", "truncate_below"),
+        ] {
+            let p: BocpdParams = toml::from_str(text).unwrap();
+            assert_eq!(p.check().unwrap_err().location().field.as_deref(), Some(field), "{text}");
+        }
+        assert!(toml::from_str::<BocpdParams>("hazard = 0.1").is_err());
+    }
+}

@@ -1,0 +1,519 @@
+//! `kernel_cpd`: penalised and binary-segmentation change-point detection with ruptures'
+//! costs and searches (Truong, Oudre & Vayatis 2020), giving ruptures' breakpoints.
+//!
+//! Submodules: `cost` (l2, linear, rbf), `median` (the rbf bandwidth), one per search: `pelt`
+//! (ruptures `Pelt`), `binseg` (ruptures `Binseg`), `kernel_pelt` (ruptures' C `KernelCPD`).
+
+mod binseg;
+pub(crate) mod cost;
+pub(crate) mod glibc_exp;
+mod kernel_pelt;
+pub(crate) mod median;
+mod pelt;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Threshold, Trace};
+
+use crate::signal::{Missing, Signal, candidates_from_breakpoints};
+use binseg::{DirectGains, RbfGains, Stop, binseg};
+use cost::{L2Cost, LinearCost, SegmentCost};
+use kernel_pelt::{CKernel, kernel_pelt};
+use pelt::{DirectEndCosts, RbfEndCosts, pelt};
+
+/// A segment cost of ruptures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum CostModel {
+    /// Mean change: `Σ_channels Σ (x − segment mean)²` (ruptures `CostL2`; `KernelCPD`'s
+    /// `kernel="linear"` under `search = "kernel_pelt"`).
+    L2,
+    /// Kernel mean change with the Gaussian kernel `exp(−γ‖x − y‖²)`, its exponent clipped to
+    /// [0.01, 100] as ruptures does (ruptures `CostRbf`; `KernelCPD`'s `kernel="rbf"`).
+    Rbf,
+    /// Linear-regression change: the residual sum of squares of channel 0 regressed on the other
+    /// channels, no intercept added (ruptures `CostLinear`); needs at least two channels.
+    Linear,
+}
+
+/// A search of ruptures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Search {
+    /// PELT (Killick, Fearnhead & Eckley 2012) on the grid of multiples of `jump`: ruptures
+    /// `Pelt(model=cost, min_size, jump).fit(x).predict(pen)`. Takes `pen`.
+    Pelt,
+    /// Binary segmentation on the grid of multiples of `jump`: ruptures
+    /// `Binseg(model=cost, min_size, jump).fit(x).predict(pen=…)` or `predict(n_bkps=…)`.
+    Binseg,
+    /// PELT over every sample as ruptures' C implementation runs it: ruptures
+    /// `KernelCPD(kernel, min_size).fit(x).predict(pen)` (cost `l2` is its `kernel="linear"`,
+    /// `rbf` its `kernel="rbf"`; its Gaussian kernel is clipped in single precision and is
+    /// exp(−0.01) on the diagonal). Takes `pen`; `jump` is 1.
+    KernelPelt,
+}
+
+/// Change points that minimise a segment cost plus a penalty per change (PELT), or found by
+/// binary segmentation — ruptures' searches and costs (Truong, Oudre & Vayatis, "Selective
+/// review of offline change point detection methods", Signal Processing 167, 2020), giving
+/// exactly ruptures' breakpoints.
+///
+/// **What it returns.** ruptures returns breakpoints as segment ends, the last being n (the
+/// number of samples); the candidates here are those ends without n — the first sample of
+/// every segment but the first, sorted, never 0 or n. A series with no change has none.
+///
+/// **Costs** (`cost`): `l2` (a change in the mean of any channel), `rbf` (a change in the
+/// distribution, through the kernel mean; the bandwidth `gamma` by ruptures' median heuristic
+/// unless given) and `linear` (a change in the regression of channel 0 on the others). `l2` and
+/// `rbf` use every channel together, as ruptures does.
+///
+/// **Searches** (`search`): `pelt` and `binseg` are ruptures' `Pelt` and `Binseg`, step for
+/// step — candidates on the grid of multiples of `jump`, segments of at least `min_size`
+/// samples, ruptures' tie-breaking (PELT: the first minimum; binary segmentation: the larger
+/// breakpoint among equal gains, the first segment among equal best gains). `kernel_pelt` is
+/// ruptures' C `KernelCPD` PELT, operation for operation. The rbf cost needs no Gram matrix
+/// here (ruptures' Python costs store all n² kernel values): running kernel sums keep memory at
+/// O(n), so PELT on 100 000 samples fits in a few megabytes.
+///
+/// **Stopping** (`pen` or `n_bkps`): PELT minimises `Σ cost + pen × (number of segments)`;
+/// binary segmentation adds a breakpoint while its gain exceeds `pen`, or until `n_bkps`
+/// breakpoints. Without either, the penalty is a BIC-style one (Schwarz 1978), the one ruptures'
+/// documentation suggests, `pen = log(n) · σ²` per parameter, with the variance measured on the
+/// whole series — never tuned on any data: `l2`: `log(n) · Σ_channels var` (the cost of the
+/// whole series divided by n: each channel's mean is one parameter with its own variance);
+/// `rbf`: `log(n)` (the kernel's feature-space variance is at most k(x, x) = 1); `linear`:
+/// `log(n) · p · RSS/n` (p covariates, the residual variance of one fit to the whole series).
+///
+/// **Degenerate inputs.** Missing samples (NaN) are refused (one error naming the first; fill
+/// them first with `fill_gaps`). A constant series has no change: no candidates when stopping
+/// by a penalty, an error when `n_bkps` asks for some. A series too short for `min_size` (and
+/// `n_bkps`, `jump`) is an error, where ruptures raises `BadSegmentationParameters`; binary
+/// segmentation asked for more breakpoints than admissible splits exist returns the ones it
+/// found, as ruptures does.
+///
+/// **Where ruptures can differ**: costs here are computed accurately (double-double prefix sums
+/// for `l2`, running kernel sums for `rbf`) rather than in numpy's summation order, so
+/// segmentations whose penalised costs tie to within rounding may be broken the other way;
+/// `kernel_pelt` reproduces ruptures' C arithmetic and cannot differ. ruptures under Python ≥ 3.12
+/// adds PELT totals with a compensated `sum`, a change of the same size.
+#[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct KernelCpdParams {
+    /// The search: `pelt`, `binseg` or `kernel_pelt` (the untuned kernel baseline of the
+    /// benchmark literature is `kernel_pelt` with `rbf`).
+    #[serde(default = "default_search")]
+    pub search: Search,
+    /// The segment cost: `l2`, `rbf` or `linear` (`kernel_pelt` takes `l2` or `rbf`).
+    #[serde(default = "default_cost")]
+    pub cost: CostModel,
+    /// Penalty per change, in the cost's units (> 0). Give `pen` or `n_bkps`, not both.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-default" = "the BIC-style penalty described above, computed from the series"))]
+    pub pen: Option<f64>,
+    /// Number of change points to find (binary segmentation only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_bkps: Option<usize>,
+    /// Minimum segment length in samples (raised to the cost's own minimum: 2 for `linear`, 1
+    /// otherwise); ruptures' value.
+    #[serde(default = "default_min_size")]
+    pub min_size: usize,
+    /// Candidate breakpoints are the multiples of `jump` (samples); `kernel_pelt` takes only 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-default" = "5 for pelt and binseg (ruptures' value), 1 for kernel_pelt"))]
+    pub jump: Option<usize>,
+    /// rbf bandwidth γ in `exp(−γ‖x − y‖²)`, in 1/(signal unit)² (> 0; `rbf` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-default" = "ruptures' median heuristic: 1 / the median squared distance between two samples (1 if that is 0)"))]
+    pub gamma: Option<f64>,
+}
+
+fn default_search() -> Search {
+    Search::KernelPelt
+}
+fn default_cost() -> CostModel {
+    CostModel::Rbf
+}
+fn default_min_size() -> usize {
+    2
+}
+
+/// How the search stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StopRule {
+    /// A penalty per change.
+    Penalty(f64),
+    /// A number of change points (binary segmentation).
+    Count(usize),
+    /// The BIC-style penalty, computed from the series.
+    Bic,
+}
+
+/// The validated `kernel_cpd` stage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KernelCpd {
+    pub search: Search,
+    pub cost: CostModel,
+    pub stop: StopRule,
+    pub min_size: usize,
+    pub jump: usize,
+    pub gamma: Option<f64>,
+}
+
+/// One run of `kernel_cpd`, with what it resolved from the data.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KernelCpdRun {
+    /// ruptures' breakpoints: segment ends, the last being n.
+    pub breakpoints: Vec<usize>,
+    /// The penalty used (None when stopping at `n_bkps`).
+    pub pen: Option<f64>,
+    /// The rbf bandwidth used (None for other costs).
+    pub gamma: Option<f64>,
+    /// The minimum segment length used (`min_size` raised to the cost's own minimum).
+    pub min_size: usize,
+    /// Binary segmentation: the gain of splitting the whole series at each sample, NaN off the
+    /// admissible grid (None for the PELT searches).
+    pub first_split_gain: Option<Vec<f64>>,
+}
+
+impl ParamGuard for KernelCpdParams {
+    type Checked = KernelCpd;
+    fn check(self) -> Result<KernelCpd> {
+        let invalid = |field: &str, msg: String| Error::new(ErrorKind::InvalidParameter, msg).with_field(field.to_string());
+        let stop = match (self.pen, self.n_bkps) {
+            (Some(_), Some(_)) => return Err(invalid("pen", "give pen or n_bkps, not both".into())),
+            (Some(p), None) => {
+                if !(p.is_finite() && p > 0.0) {
+                    return Err(Error::new(ErrorKind::OutOfRange, format!("pen is {p}, expected a finite penalty > 0")).with_field("pen"));
+                }
+                StopRule::Penalty(p)
+            }
+            (None, Some(k)) => {
+                if self.search != Search::Binseg {
+                    return Err(invalid(
+                        "n_bkps",
+                        format!("search {} stops by a penalty (pen); a number of change points needs search = \"binseg\"", search_name(self.search)),
+                    ));
+                }
+                StopRule::Count(k)
+            }
+            (None, None) => StopRule::Bic,
+        };
+        if self.min_size == 0 {
+            return Err(Error::new(ErrorKind::OutOfRange, "min_size is 0, expected at least 1 sample").with_field("min_size"));
+        }
+        let jump = match (self.search, self.jump) {
+            (_, Some(0)) => return Err(Error::new(ErrorKind::OutOfRange, "jump is 0, expected at least 1 sample").with_field("jump")),
+            (Search::KernelPelt, Some(j)) if j != 1 => {
+                return Err(invalid("jump", format!("jump is {j}; search kernel_pelt (ruptures' KernelCPD) considers every sample, so jump must be 1")));
+            }
+            (Search::KernelPelt, _) => 1,
+            (_, Some(j)) => j,
+            (_, None) => 5,
+        };
+        if self.search == Search::KernelPelt && self.cost == CostModel::Linear {
+            return Err(invalid(
+                "cost",
+                "search kernel_pelt takes cost l2 (ruptures' linear kernel) or rbf; the linear-regression cost needs search pelt or binseg".into(),
+            ));
+        }
+        if let Some(g) = self.gamma {
+            if self.cost != CostModel::Rbf {
+                return Err(invalid("gamma", format!("gamma is the rbf bandwidth; cost {} has none", cost_name(self.cost))));
+            }
+            if !(g.is_finite() && g > 0.0) {
+                return Err(Error::new(ErrorKind::OutOfRange, format!("gamma is {g}, expected a finite bandwidth > 0")).with_field("gamma"));
+            }
+        }
+        Ok(KernelCpd { search: self.search, cost: self.cost, stop, min_size: self.min_size, jump, gamma: self.gamma })
+    }
+}
+
+pub(crate) fn cost_name(c: CostModel) -> &'static str {
+    match c {
+        CostModel::L2 => "l2",
+        CostModel::Rbf => "rbf",
+        CostModel::Linear => "linear",
+    }
+}
+
+fn search_name(s: Search) -> &'static str {
+    match s {
+        Search::Pelt => "pelt",
+        Search::Binseg => "binseg",
+        Search::KernelPelt => "kernel_pelt",
+    }
+}
+
+/// ruptures' median-heuristic rbf bandwidth of `values` (sample-major, `n_samples ×
+/// n_channels`): 1 / the median squared distance between two samples (1 when that median is 0),
+/// the same float ruptures computes, in O(n) memory.
+pub fn median_heuristic(values: &[f64], n_channels: usize) -> Result<f64> {
+    let signal = Signal::new(values, n_channels, "kernel_cpd", Missing::Refuse)?;
+    Ok(median::median_heuristic_gamma(&signal))
+}
+
+/// Checks the inlined `exp` of the rbf `kernel_pelt` against the system's on every `stride`-th
+/// single-precision argument of the kernel (`exp(−v)`, v in [0.01, 100]): (disagreements,
+/// arguments compared); (0, 0) where the system `exp` is not glibc's FMA variant and the
+/// system's own is called instead.
+#[doc(hidden)]
+pub fn verify_inlined_exp(stride: u32) -> (u64, u64) {
+    glibc_exp::verify_against_libm(0.01, 100.0, stride)
+}
+
+/// ruptures' `sanity_check`: can `n_bkps` breakpoints on the `jump` grid leave segments of
+/// `min_size` in `n` samples?
+pub(crate) fn admissible(n: usize, n_bkps: usize, jump: usize, min_size: usize) -> bool {
+    n_bkps <= n / jump && n_bkps * min_size.div_ceil(jump) * jump + min_size <= n
+}
+
+/// The error for a series that fails ruptures' sanity check.
+pub(crate) fn too_short(stage: &str, n: usize, n_bkps: usize, jump: usize, min_size: usize, field: &str) -> Error {
+    let kind = if n_bkps == 0 || field == "min_size" { ErrorKind::EmptySequence } else { ErrorKind::OutOfRange };
+    Error::new(
+        kind,
+        format!(
+            "{stage}: {n} samples cannot hold {n_bkps} breakpoint(s) on the jump-{jump} grid with segments of at least min_size = {min_size} samples"
+        ),
+    )
+    .with_field(field.to_string())
+}
+
+/// The BIC-style penalty of the parameter docs.
+pub(crate) fn bic_penalty(cost: CostModel, signal: &Signal, whole_cost: impl FnOnce() -> f64) -> f64 {
+    let n = signal.n_samples as f64;
+    match cost {
+        CostModel::L2 => n.ln() * whole_cost() / n,
+        CostModel::Rbf => n.ln(),
+        CostModel::Linear => n.ln() * (signal.n_channels - 1) as f64 * whole_cost() / n,
+    }
+}
+
+pub(crate) fn require_regression_channels(stage: &str, cost: CostModel, signal: &Signal) -> Result<()> {
+    if cost == CostModel::Linear && signal.n_channels < 2 {
+        return Err(Error::new(
+            ErrorKind::InvalidParameter,
+            format!(
+                "{stage}: cost linear regresses channel 0 on the other channels, and this signal has {} channel; use l2 or rbf, or add covariate channels",
+                signal.n_channels
+            ),
+        )
+        .with_field("cost"));
+    }
+    Ok(())
+}
+
+impl KernelCpd {
+    /// Runs the search on `values` (sample-major, `n_samples × n_channels`) and returns
+    /// ruptures' breakpoints with the penalty and bandwidth it resolved.
+    pub fn run(&self, values: &[f64], n_channels: usize) -> Result<KernelCpdRun> {
+        const STAGE: &str = "kernel_cpd";
+        let signal = Signal::new(values, n_channels, STAGE, Missing::Refuse)?;
+        require_regression_channels(STAGE, self.cost, &signal)?;
+        let n = signal.n_samples;
+        let cost_min = if self.cost == CostModel::Linear { 2 } else { 1 };
+        let min_size = self.min_size.max(cost_min);
+        let n_bkps = match (self.search, self.stop) {
+            (Search::KernelPelt, _) => 1,
+            (_, StopRule::Count(k)) => k,
+            _ => 0,
+        };
+        if !admissible(n, n_bkps, self.jump, min_size) {
+            let field = if matches!(self.stop, StopRule::Count(_)) && admissible(n, 0, self.jump, min_size) { "n_bkps" } else { "min_size" };
+            return Err(too_short(STAGE, n, n_bkps, self.jump, min_size, field));
+        }
+        let mut result = KernelCpdRun { breakpoints: vec![n], pen: None, gamma: None, min_size, first_split_gain: None };
+        if signal.is_constant() {
+            if let StopRule::Count(k) = self.stop
+                && k > 0
+            {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("{STAGE}: the signal is constant, so every split gains nothing and {k} change point(s) cannot be placed"),
+                )
+                .with_field("n_bkps"));
+            }
+            return Ok(result);
+        }
+        let gamma = (self.cost == CostModel::Rbf).then(|| self.gamma.unwrap_or_else(|| median::median_heuristic_gamma(&signal)));
+        result.gamma = gamma;
+        let pen = match self.stop {
+            StopRule::Penalty(p) => Some(p),
+            StopRule::Count(_) => None,
+            StopRule::Bic => Some(bic_penalty(self.cost, &signal, || match self.cost {
+                CostModel::L2 => L2Cost::new(&signal).error(0, n),
+                CostModel::Linear => LinearCost::new(signal).error(0, n),
+                CostModel::Rbf => 0.0,
+            })),
+        };
+        result.pen = pen;
+        match self.search {
+            Search::KernelPelt => {
+                let kernel = match gamma {
+                    Some(gamma) => CKernel::Gaussian { gamma },
+                    None => CKernel::Linear,
+                };
+                result.breakpoints = kernel_pelt(&signal, kernel, pen.unwrap_or(0.0), min_size);
+            }
+            Search::Pelt => {
+                let pen = pen.unwrap_or(0.0);
+                result.breakpoints = match self.cost {
+                    CostModel::L2 => pelt(n, pen, min_size, self.jump, &mut DirectEndCosts(&L2Cost::new(&signal))),
+                    CostModel::Linear => pelt(n, pen, min_size, self.jump, &mut DirectEndCosts(&LinearCost::new(signal))),
+                    CostModel::Rbf => pelt(n, pen, min_size, self.jump, &mut RbfEndCosts::new(signal, gamma.unwrap_or(1.0), self.jump)),
+                };
+            }
+            Search::Binseg => {
+                let stop = match (self.stop, pen) {
+                    (StopRule::Count(k), _) => Stop::Count(k),
+                    (_, Some(p)) => Stop::Penalty(p),
+                    (_, None) => Stop::Count(0),
+                };
+                let found = match self.cost {
+                    CostModel::L2 => binseg(n, stop, min_size, self.jump, &DirectGains(&L2Cost::new(&signal))),
+                    CostModel::Linear => binseg(n, stop, min_size, self.jump, &DirectGains(&LinearCost::new(signal))),
+                    CostModel::Rbf => binseg(n, stop, min_size, self.jump, &RbfGains { signal, gamma: gamma.unwrap_or(1.0) }),
+                };
+                let mut curve = vec![f64::NAN; n];
+                for (b, g) in found.first_gains {
+                    curve[b] = g;
+                }
+                result.breakpoints = found.breakpoints;
+                result.first_split_gain = Some(curve);
+            }
+        }
+        Ok(result)
+    }
+
+    /// Change points of `values` (sample-major, `n_samples × n_channels`): candidates are
+    /// ruptures' breakpoints without the final n. Binary segmentation adds the trace
+    /// `first_split_gain` (the gain of splitting the whole series at each sample, NaN off the
+    /// grid) and, stopping by a penalty, the threshold `pen` on it.
+    pub fn segment_values(&self, values: &[f64], n_channels: usize) -> Result<SegmenterOutput> {
+        let run = self.run(values, n_channels)?;
+        let n = values.len() / n_channels;
+        let mut output = SegmenterOutput { candidates: candidates_from_breakpoints(&run.breakpoints, n), ..Default::default() };
+        if let Some(curve) = run.first_split_gain {
+            output.traces.push(Trace::new("first_split_gain", "", curve));
+            if let Some(pen) = run.pen {
+                output.thresholds.push(Threshold { name: "pen".into(), trace: "first_split_gain".into(), value: pen });
+            }
+        }
+        Ok(output)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(toml_text: &str) -> Result<KernelCpd> {
+        let p: KernelCpdParams = toml::from_str(toml_text).map_err(|e| Error::new(ErrorKind::UnknownKey, e.to_string()))?;
+        p.check()
+    }
+
+    fn step_signal(n: usize, at: &[usize], seed: u64) -> Vec<f64> {
+        let mut rng = fastrand::Rng::with_seed(seed);
+        (0..n).map(|i| at.iter().filter(|&&a| i >= a).count() as f64 * 3.0 + rng.f64()).collect()
+    }
+
+    #[test]
+    fn defaults_are_rupture_s_kernel_pelt_with_rbf_and_bic() {
+        let k = params("").unwrap();
+        assert_eq!(k, KernelCpd { search: Search::KernelPelt, cost: CostModel::Rbf, stop: StopRule::Bic, min_size: 2, jump: 1, gamma: None });
+        assert_eq!(params("search = \"pelt\"").unwrap().jump, 5);
+        let x = step_signal(300, &[100, 200], 1);
+        let run = k.run(&x, 1).unwrap();
+        assert_eq!(run.pen, Some(300f64.ln()));
+        assert!(run.gamma.unwrap() > 0.0);
+        assert_eq!(k.segment_values(&x, 1).unwrap().candidates, vec![100, 200]);
+    }
+
+    #[test]
+    fn every_search_and_cost_finds_clear_steps() {
+        let x = step_signal(240, &[80, 160], 2);
+        for search in ["pelt", "binseg", "kernel_pelt"] {
+            for cost in ["l2", "rbf"] {
+                let k = params(&format!("search = \"{search}\"\ncost = \"{cost}\"\njump = {}", if search == "kernel_pelt" { 1 } else { 5 })).unwrap();
+                assert_eq!(k.segment_values(&x, 1).unwrap().candidates, vec![80, 160], "{search} {cost}");
+            }
+        }
+        let k = params("search = \"binseg\"\nn_bkps = 2").unwrap();
+        let out = k.segment_values(&x, 1).unwrap();
+        assert_eq!(out.candidates, vec![80, 160]);
+        assert_eq!(out.traces[0].values.len(), 240);
+        assert!(out.traces[0].values[1].is_nan() && out.traces[0].values[80] > 0.0);
+    }
+
+    #[test]
+    fn linear_cost_finds_a_slope_change_and_needs_covariates() {
+        // y = t on 0..60, then y = 60 − 2(t − 60); covariates: intercept and t.
+        let mut x = Vec::new();
+        let mut rng = fastrand::Rng::with_seed(5);
+        for i in 0..120 {
+            let t = i as f64;
+            let y = if i < 60 { t } else { 60.0 - 2.0 * (t - 60.0) } + 0.1 * rng.f64();
+            x.extend_from_slice(&[y, 1.0, t]);
+        }
+        let k = params("search = \"pelt\"\ncost = \"linear\"").unwrap();
+        assert_eq!(k.segment_values(&x, 3).unwrap().candidates, vec![60]);
+        let e = k.segment_values(&step_signal(50, &[], 1), 1).unwrap_err();
+        assert_eq!(e.location().field.as_deref(), Some("cost"));
+    }
+
+    #[test]
+    fn malformed_parameters_name_their_field() {
+        for (text, field) in [
+            ("pen = -1.0", "pen"),
+            ("pen = 0.0", "pen"),
+            ("pen = 1.0\nn_bkps = 2\nsearch = \"binseg\"", "pen"),
+            ("n_bkps = 2", "n_bkps"),
+            ("min_size = 0", "min_size"),
+            ("search = \"pelt\"\njump = 0", "jump"),
+            ("jump = 5", "jump"),
+            ("cost = \"linear\"", "cost"),
+            ("cost = \"l2\"\ngamma = 1.0", "gamma"),
+            ("gamma = -2.0", "gamma"),
+        ] {
+            let e = params(text).unwrap_err();
+            assert_eq!(e.location().field.as_deref(), Some(field), "{text}: {e}");
+        }
+        assert!(params("pelt = 1").is_err());
+    }
+
+    #[test]
+    fn degenerate_series_give_one_clear_error_or_no_change() {
+        let k = params("search = \"binseg\"\nn_bkps = 3\nmin_size = 10\njump = 1").unwrap();
+        // 3 breakpoints with min_size 10 need 40 samples.
+        let e = k.segment_values(&step_signal(35, &[], 1), 1).unwrap_err();
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("n_bkps")));
+        assert!(k.segment_values(&step_signal(40, &[20], 1), 1).is_ok());
+        // Shorter than min_size itself.
+        let e = params("min_size = 10").unwrap().segment_values(&step_signal(15, &[], 1), 1).unwrap_err();
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::EmptySequence, Some("min_size")));
+        // Constant: no change with a penalty, an error when change points are asked for.
+        let flat = vec![4.0; 100];
+        for search in ["pelt", "kernel_pelt", "binseg"] {
+            let k = params(&format!("search = \"{search}\"\ncost = \"l2\"")).unwrap();
+            assert!(k.segment_values(&flat, 1).unwrap().candidates.is_empty());
+        }
+        let e = k.segment_values(&flat, 1).unwrap_err();
+        assert_eq!(e.location().field.as_deref(), Some("n_bkps"));
+        // NaN gaps and empty input.
+        let mut gap = step_signal(100, &[50], 1);
+        gap[30] = f64::NAN;
+        assert_eq!(params("").unwrap().segment_values(&gap, 1).unwrap_err().kind(), ErrorKind::MissingData);
+        assert_eq!(params("").unwrap().segment_values(&[], 1).unwrap_err().kind(), ErrorKind::EmptySequence);
+    }
+
+    #[test]
+    fn multichannel_change_in_one_channel_is_found() {
+        let mut rng = fastrand::Rng::with_seed(8);
+        let x: Vec<f64> = (0..200).flat_map(|i| [rng.f64(), if i < 120 { 0.0 } else { 2.0 } + rng.f64(), rng.f64()]).collect();
+        for text in ["", "cost = \"l2\"", "search = \"pelt\"", "search = \"binseg\"\nn_bkps = 1"] {
+            assert_eq!(params(text).unwrap().segment_values(&x, 3).unwrap().candidates, vec![120], "{text}");
+        }
+    }
+}
