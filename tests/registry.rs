@@ -10,12 +10,14 @@ use motionlab_experiment::workflow::workflows;
 
 /// The same plugin crates the CLI names, with the number of plugins each says it registers.
 const PLUGIN_CRATES: &[(&str, usize)] = &[
+    ("motionlab-changepoint", motionlab_changepoint::PLUGIN_COUNT),
     ("motionlab-eval", motionlab_eval::PLUGIN_COUNT),
     ("motionlab-external", motionlab_external::PLUGIN_COUNT),
     ("motionlab-features", motionlab_features::PLUGIN_COUNT),
     ("motionlab-gait", motionlab_gait::PLUGIN_COUNT),
     ("motionlab-io", motionlab_io::PLUGIN_COUNT),
     ("motionlab-match", motionlab_match::PLUGIN_COUNT),
+    ("motionlab-profile", motionlab_profile::PLUGIN_COUNT),
     ("motionlab-segment", motionlab_segment::PLUGIN_COUNT),
 ];
 

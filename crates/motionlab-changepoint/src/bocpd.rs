@@ -337,6 +337,18 @@ impl Bocpd {
     }
 }
 
+impl motionlab_core::Segmenter for Bocpd {
+    fn consumes(&self) -> motionlab_core::DataKind {
+        motionlab_core::DataKind::Channels
+    }
+    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+        let channels = motion.require_channels("bocpd")?;
+        self.segment_values(channels.values(), channels.n_channels())
+    }
+}
+
+motionlab_core::register_plugin!(Segmenter, BocpdParams, "bocpd");
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -405,6 +405,18 @@ impl KernelCpd {
     }
 }
 
+impl motionlab_core::Segmenter for KernelCpd {
+    fn consumes(&self) -> motionlab_core::DataKind {
+        motionlab_core::DataKind::Channels
+    }
+    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+        let channels = motion.require_channels("kernel_cpd")?;
+        self.segment_values(channels.values(), channels.n_channels())
+    }
+}
+
+motionlab_core::register_plugin!(Segmenter, KernelCpdParams, "kernel_cpd");
+
 #[cfg(test)]
 mod tests {
     use super::*;

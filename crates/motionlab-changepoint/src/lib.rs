@@ -18,6 +18,9 @@
 //! runs in O(n) memory, where ruptures' Python costs store the n × n Gram matrix; no Rust crate
 //! does either. BOCPD is a few conjugate updates on top of a log-gamma (the `libm` crate's).
 
+/// How many plugins this crate registers (the registry test checks the binary holds them all).
+pub const PLUGIN_COUNT: usize = 3;
+
 pub mod bocpd;
 pub mod kernel_cpd;
 mod signal;

@@ -308,6 +308,18 @@ impl Window {
     }
 }
 
+impl motionlab_core::Segmenter for Window {
+    fn consumes(&self) -> motionlab_core::DataKind {
+        motionlab_core::DataKind::Channels
+    }
+    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+        let channels = motion.require_channels("window")?;
+        self.segment_values(channels.values(), channels.n_channels())
+    }
+}
+
+motionlab_core::register_plugin!(Segmenter, WindowParams, "window");
+
 #[cfg(test)]
 mod tests {
     use super::*;

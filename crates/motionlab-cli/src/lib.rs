@@ -22,12 +22,14 @@ use clap::{Parser, Subcommand};
 
 // Plugin crates are never called by name from here; naming them keeps the linker from dropping
 // their `inventory` registrations (tests/registry.rs checks every expected plugin is present).
+use motionlab_changepoint as _;
 use motionlab_eval as _;
 use motionlab_external as _;
 use motionlab_features as _;
 use motionlab_gait as _;
 use motionlab_io as _;
 use motionlab_match as _;
+use motionlab_profile as _;
 use motionlab_segment as _;
 use motionlab_workflows as _;
 

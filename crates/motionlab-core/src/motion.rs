@@ -323,6 +323,20 @@ impl Motion {
             Ok(())
         }
     }
+    /// The channels, or [`ErrorKind::EmptySequence`] naming the stage when there are none (a
+    /// marker or skeleton file given to a stage that reads channels without features).
+    pub fn require_channels(&self, stage: &str) -> Result<&Channels> {
+        if self.channels.is_empty() {
+            let loc = self.source.as_ref().map(Location::file).unwrap_or_default();
+            Err(Error::new(
+                ErrorKind::EmptySequence,
+                format!("{stage} reads channels, and {} has none: load a channel file, or give the segmenter `input = {{ features = … }}`", self.name),
+            )
+            .with_location(loc))
+        } else {
+            Ok(&self.channels)
+        }
+    }
     /// Fails with [`ErrorKind::EmptySequence`] when the motion has fewer than `min_frames` frames.
     pub fn require_frames(&self, min_frames: usize, stage: &str) -> Result<()> {
         if self.n_frames < min_frames {

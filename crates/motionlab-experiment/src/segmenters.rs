@@ -35,6 +35,43 @@ pub struct ChannelInput {
     #[serde(default)]
     #[schemars(extend("x-default" = "every trace of every extractor"))]
     pub channels: Option<Vec<String>>,
+    /// What happens to undefined samples of the features (the last frame of a speed, a frame
+    /// where every marker is missing): `"linear"` interpolates each channel across a gap and
+    /// holds the nearest value before its first and after its last defined sample (the
+    /// segmenters refuse NaN); `"none"` hands them on as NaN. A channel with no defined
+    /// sample is an error either way.
+    #[serde(default)]
+    pub fill: FeatureFill,
+}
+
+/// How undefined feature samples are filled (see [`ChannelInput::fill`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum FeatureFill {
+    #[default]
+    Linear,
+    None,
+}
+
+/// Fills one channel's NaN samples by linear interpolation between defined neighbours,
+/// holding the first and last defined values at the ends; false when none is defined.
+fn fill_linear(v: &mut [f64]) -> bool {
+    let defined: Vec<usize> = (0..v.len()).filter(|&i| !v[i].is_nan()).collect();
+    let (Some(&first), Some(&last)) = (defined.first(), defined.last()) else { return false };
+    for i in 0..first {
+        v[i] = v[first];
+    }
+    for i in last + 1..v.len() {
+        v[i] = v[last];
+    }
+    for w in defined.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        for i in a + 1..b {
+            let t = (i - a) as f64 / (b - a) as f64;
+            v[i] = v[a] + t * (v[b] - v[a]);
+        }
+    }
+    true
 }
 
 /// A segmenter with its display name and what it reads.
@@ -52,6 +89,7 @@ pub struct NamedSegmenter {
 pub struct FeatureChannels {
     extractors: Vec<(String, Box<dyn FeatureExtractor>)>,
     channels: Option<Vec<String>>,
+    fill: FeatureFill,
 }
 
 impl FeatureChannels {
@@ -61,6 +99,13 @@ impl FeatureChannels {
         let mut traces = Vec::new();
         for (name, x) in &self.extractors {
             traces.extend(x.extract(motion, cache).map_err(|e| e.under_field(format!("input.features {name}")))?.traces);
+        }
+        if self.fill == FeatureFill::Linear {
+            for t in &mut traces {
+                if !fill_linear(&mut t.values) {
+                    return Err(Error::new(ErrorKind::MissingData, format!("feature {:?} has no defined sample in {}", t.name, motion.name)).with_field("input.features"));
+                }
+            }
         }
         let all = Channels::from_traces(&traces).map_err(|e| e.under_field("input.features"))?;
         let channels = match &self.channels {
@@ -149,7 +194,7 @@ pub fn build_segmenters(cx: &BuildContext<'_>, specs: &[StageSpec], at: &KeyPath
                 if extractors.is_empty() {
                     return Err(cx.locate(Error::new(ErrorKind::MissingKey, "lists no feature extractor; expected at least one"), features));
                 }
-                Some(FeatureChannels { extractors, channels: i.channels })
+                Some(FeatureChannels { extractors, channels: i.channels, fill: i.fill })
             }
         };
         let mut cache_key = format!("{} {}", spec.kind, spec.plugin_params());
@@ -159,4 +204,21 @@ pub fn build_segmenters(cx: &BuildContext<'_>, specs: &[StageSpec], at: &KeyPath
         out.push(NamedSegmenter { name, stage, input, cache_key });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_fill_interpolates_gaps_and_holds_the_ends() {
+        let n = f64::NAN;
+        let mut v = vec![n, 1.0, n, n, 4.0, n];
+        assert!(fill_linear(&mut v));
+        assert_eq!(v, vec![1.0, 1.0, 2.0, 3.0, 4.0, 4.0]);
+        let mut none = vec![n, n];
+        assert!(!fill_linear(&mut none));
+        let mut empty: Vec<f64> = Vec::new();
+        assert!(!fill_linear(&mut empty));
+    }
 }

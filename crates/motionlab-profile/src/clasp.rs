@@ -336,6 +336,18 @@ pub(crate) fn suss_width(t: &[f64]) -> usize {
     suss::suss(t)
 }
 
+impl motionlab_core::Segmenter for Clasp {
+    fn consumes(&self) -> motionlab_core::DataKind {
+        motionlab_core::DataKind::Channels
+    }
+    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+        let channels = motion.require_channels("clasp")?;
+        self.segment_values(channels.values(), channels.n_channels())
+    }
+}
+
+motionlab_core::register_plugin!(Segmenter, ClaspParams, "clasp");
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -213,6 +213,18 @@ impl Floss {
     }
 }
 
+impl motionlab_core::Segmenter for Floss {
+    fn consumes(&self) -> motionlab_core::DataKind {
+        motionlab_core::DataKind::Channels
+    }
+    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+        let channels = motion.require_channels("floss")?;
+        self.segment_values(channels.values(), channels.n_channels())
+    }
+}
+
+motionlab_core::register_plugin!(Segmenter, FlossParams, "floss");
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,6 +20,9 @@
 //! without the peers' per-split allocations: ClaSP's score profile is computed from running
 //! counts in O(n) instead of O(n²·k), the k-NN rows in one fused pass per row over threads.
 
+/// How many plugins this crate registers (the registry test checks the binary holds them all).
+pub const PLUGIN_COUNT: usize = 2;
+
 pub mod clasp;
 pub mod floss;
 mod input;
