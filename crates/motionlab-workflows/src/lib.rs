@@ -1,6 +1,7 @@
 //! # motionlab-workflows
 //!
-//! The built-in workflows, one file each, each registered with
+//! The built-in workflows, one module each (the larger ones a folder split by responsibility:
+//! section, build, run, analysis, figures, viewers), each registered with
 //! `motionlab_experiment::register_workflow!` and owning its section of the experiment file:
 //!
 //! - [`features`] — `[features]`: per-frame features of each sequence as a table and figures.
