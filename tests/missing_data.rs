@@ -610,7 +610,7 @@ fn change_rates_exclude_a_channel_with_no_complete_cycle_flagged_missing() {
             GaitTrial { subject: "2014001".into(), condition: "C5".into(), parameters: trial("schreiber2019/2014001/dynamic/2014001_C5_01.c3d.gz", true) },
         ],
     };
-    let tables = registry::build_evaluator("change_rates", &params("min_subjects = 1")).unwrap().evaluate(EvalInput::Gait(&study)).unwrap();
+    let tables = registry::build_evaluator("change_rates", &params("min_subjects = 1")).unwrap().evaluate(EvalInput::new(&study)).unwrap();
     let rates = tables.iter().find(|t| t.name == "change_rates").unwrap();
     let col = |name: &str| rates.column(name).unwrap_or_else(|| panic!("no column {name}"));
     let (channel, reason) = (col("channel"), col("reason"));

@@ -231,31 +231,79 @@ pub struct GaitStudy {
     pub trials: Vec<GaitTrial>,
 }
 
-/// What an evaluator is given; each evaluator declares which variant it accepts so an
-/// experiment that wires it wrongly fails at validation, not after the work.
+/// The kind of results an evaluator reads, named by their Rust type: a workflow hands its
+/// results as one value of that type ([`EvalInput::new`]), and an evaluator that reads another
+/// type is refused when the experiment is validated. Open: a workflow of any crate defines
+/// its own results type, and evaluators of any crate read it — core knows neither.
 #[derive(Clone, Copy, Debug)]
-pub enum EvalInput<'a> {
-    Segmentation(&'a [SequenceResult]),
-    Matching(&'a [MatchingResult]),
-    Gait(&'a GaitStudy),
+pub struct EvalInputType {
+    id: std::any::TypeId,
+    /// What the results are, for messages (`segmentation results`).
+    pub name: &'static str,
 }
 
-/// Which [`EvalInput`] variant an evaluator accepts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum EvalDomain {
-    Segmentation,
-    Matching,
-    Gait,
+impl PartialEq for EvalInputType {
+    fn eq(&self, other: &Self) -> bool {
+        self.id == other.id
+    }
 }
 
-impl EvalInput<'_> {
-    pub fn domain(&self) -> EvalDomain {
-        match self {
-            EvalInput::Segmentation(_) => EvalDomain::Segmentation,
-            EvalInput::Matching(_) => EvalDomain::Matching,
-            EvalInput::Gait(_) => EvalDomain::Gait,
-        }
+impl Eq for EvalInputType {}
+
+impl EvalInputType {
+    /// Results of type `T`, described as `name` in messages.
+    pub fn of<T: Any>(name: &'static str) -> Self {
+        EvalInputType { id: std::any::TypeId::of::<T>(), name }
+    }
+    /// Every sequence's methods and candidates (`Vec<SequenceResult>`): what the
+    /// segmentation workflows hand their evaluators.
+    pub fn segmentation() -> Self {
+        Self::of::<Vec<SequenceResult>>("segmentation results")
+    }
+    /// Every user take's matched repetitions (`Vec<MatchingResult>`): what the matching
+    /// workflow hands its evaluators.
+    pub fn matching() -> Self {
+        Self::of::<Vec<MatchingResult>>("matching results")
+    }
+    /// A gait study (`GaitStudy`): what the gait workflow hands its evaluators.
+    pub fn gait() -> Self {
+        Self::of::<GaitStudy>("a gait study")
+    }
+}
+
+/// What an evaluator is given: a workflow's results, as one value of the type the evaluator
+/// reads ([`Evaluator::input_type`]).
+#[derive(Clone, Copy)]
+pub struct EvalInput<'a> {
+    results: &'a (dyn Any + Send + Sync),
+    type_name: &'static str,
+}
+
+impl std::fmt::Debug for EvalInput<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EvalInput").field("type", &self.type_name).finish()
+    }
+}
+
+impl<'a> EvalInput<'a> {
+    /// Results of type `T` (a `Vec<SequenceResult>` for segmentation evaluators).
+    pub fn new<T: Any + Send + Sync>(results: &'a T) -> Self {
+        EvalInput { results, type_name: std::any::type_name::<T>() }
+    }
+    /// Segmentation results (every sequence's methods and candidates).
+    pub fn segmentation(sequences: &'a Vec<SequenceResult>) -> Self {
+        Self::new(sequences)
+    }
+    /// The results as a `T`, when they are one.
+    pub fn get<T: Any>(&self) -> Option<&'a T> {
+        self.results.downcast_ref::<T>()
+    }
+    /// The results as the `T` of `expected`, or an error naming `evaluator`, what it reads
+    /// and what it was given (a workflow that wires an evaluator wrongly).
+    pub fn read<T: Any>(&self, expected: EvalInputType, evaluator: &str) -> Result<&'a T> {
+        self.get::<T>().ok_or_else(|| {
+            Error::new(ErrorKind::Mismatch, format!("{evaluator} evaluates {}, but was given `{}`", expected.name, self.type_name))
+        })
     }
 }
 
@@ -498,7 +546,9 @@ impl Analysis {
 
 /// Turns results into tables.
 pub trait Evaluator: Send + Sync {
-    fn domain(&self) -> EvalDomain;
+    /// The results it reads: a workflow that produces another type cannot use it (checked at
+    /// validation).
+    fn input_type(&self) -> EvalInputType;
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>>;
     /// The tables and the typed analysis behind them, computed once. Default: the tables only.
     fn evaluate_with_analysis(&self, input: EvalInput<'_>) -> Result<Evaluation> {

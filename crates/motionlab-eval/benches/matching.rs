@@ -106,5 +106,5 @@ fn boundary_pr_table1(bencher: Bencher) {
         })
         .collect();
     let evaluator = build_evaluator("boundary_pr", &default_params()).unwrap();
-    bencher.bench(|| evaluator.evaluate(EvalInput::Segmentation(black_box(&sequences))).unwrap().len());
+    bencher.bench(|| evaluator.evaluate(EvalInput::segmentation(black_box(&sequences))).unwrap().len());
 }

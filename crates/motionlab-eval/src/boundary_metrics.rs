@@ -5,7 +5,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Result, Table, TimeSpan};
+use motionlab_core::{Error, ErrorKind, EvalInputType, EvalInput, Evaluator, Result, Table, TimeSpan};
 
 use crate::boundaries::{MatchRule, PrScores, TruthWindow, evaluate_boundaries, tolerance_frames};
 use crate::chance::{ChanceCounts, ChanceScores, ChanceSettings, chance_counts, metric_chance, row_seed};
@@ -140,8 +140,8 @@ pub struct TcpdRow {
 }
 
 impl Evaluator for BoundaryMetrics {
-    fn domain(&self) -> EvalDomain {
-        EvalDomain::Segmentation
+    fn input_type(&self) -> EvalInputType {
+        EvalInputType::segmentation()
     }
 
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
@@ -269,7 +269,7 @@ mod tests {
             &[("m", &[104, 320])],
         )];
         let tables = evaluator("tolerances = [{ frames = 2 }, { frames = 5 }, { seconds = 0.25 }]\nmargin = { frames = 5 }")
-            .evaluate(EvalInput::Segmentation(&seqs))
+            .evaluate(EvalInput::segmentation(&seqs))
             .unwrap();
         let t = &tables[0];
         assert_eq!(t.name, "boundary_f1_by_tolerance");
@@ -298,7 +298,7 @@ mod tests {
         if let Some(t) = seqs[0].truth.as_mut() {
             t.annotators = vec![vec![100], vec![100, 300]];
         }
-        let tables = evaluator("margin = { frames = 5 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let tables = evaluator("margin = { frames = 5 }").evaluate(EvalInput::segmentation(&seqs)).unwrap();
         let c = &tables[1];
         assert_eq!(f64s(c, "n_annotators"), [2.0]);
         assert_eq!(f64s(c, "tcpd_precision"), [1.0]);
@@ -315,7 +315,7 @@ mod tests {
         // 600 frames at 100 Hz, truths 100 and 300 (span: the whole motion), 2 found frames.
         let seqs = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]), &[("m", &[104, 320])])];
         let tables = evaluator("tolerances = [{ frames = 5 }, { seconds = 0.25 }]\nmargin = { frames = 5 }")
-            .evaluate(EvalInput::Segmentation(&seqs))
+            .evaluate(EvalInput::segmentation(&seqs))
             .unwrap();
         let t = &tables[0];
         // Exact expectation (disjoint windows of 11 frames, k = 2 of n = 600):
@@ -329,7 +329,7 @@ mod tests {
         // At boundary_pr's tolerance and (whole) span, with the same seed, both evaluators
         // give the same chance numbers, p-value included.
         let pr: toml::Value = toml::from_str("tolerance = { seconds = 0.25 }").unwrap();
-        let pr = build_evaluator("boundary_pr", &pr).unwrap().evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let pr = build_evaluator("boundary_pr", &pr).unwrap().evaluate(EvalInput::segmentation(&seqs)).unwrap();
         let p = pr.iter().find(|t| t.name == "table1_precision_recall").unwrap();
         for c in ["chance_matched", "chance_precision", "chance_recall", "chance_f1", "p_value"] {
             assert_eq!(f64s(t, c)[1], f64s(p, c)[0], "{c}");
@@ -337,7 +337,7 @@ mod tests {
         // TCPDBench chance: a random pair of frames rarely lands within 5 frames of both
         // truths, so the perfect method's F1 beats nearly every draw.
         let perfect = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]), &[("m", &[100, 300])])];
-        let c = evaluator("margin = { frames = 5 }\nchance_draws = 500").evaluate(EvalInput::Segmentation(&perfect)).unwrap().remove(1);
+        let c = evaluator("margin = { frames = 5 }\nchance_draws = 500").evaluate(EvalInput::segmentation(&perfect)).unwrap().remove(1);
         assert_eq!(f64s(&c, "tcpd_f1"), [1.0]);
         let (chance_f1, p_f1) = (f64s(&c, "chance_tcpd_f1")[0], f64s(&c, "p_value_tcpd_f1")[0]);
         assert!(chance_f1 > 0.3 && chance_f1 < 0.6, "{chance_f1}");
@@ -355,7 +355,7 @@ mod tests {
         assert_eq!(field("tolerances = [{ frames = -1 }]").as_deref(), Some("tolerances[0]"));
         assert_eq!(field("margin = { seconds = -1.0 }").as_deref(), Some("margin"));
         let seqs = vec![sequence("x", 100, 50.0, None, &[("m", &[3])])];
-        assert_eq!(evaluator("").evaluate(EvalInput::Segmentation(&seqs)).unwrap_err().kind(), ErrorKind::MissingKey);
+        assert_eq!(evaluator("").evaluate(EvalInput::segmentation(&seqs)).unwrap_err().kind(), ErrorKind::MissingKey);
         let entry = motionlab_core::registry::find("boundary_metrics").unwrap();
         assert!(entry.doc().contains("Missing samples"));
     }

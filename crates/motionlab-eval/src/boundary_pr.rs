@@ -5,7 +5,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Analysis, Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, Millimetres, Result, Table, TimeSpan};
+use motionlab_core::{Analysis, Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, Millimetres, Result, Table, TimeSpan};
 
 use crate::boundary_analysis::{BoundaryAnalysis, BoundaryMatch, ChanceSetup, Counts, MatchOutcome, MethodBoundaries, SequenceBoundaries};
 
@@ -308,8 +308,8 @@ struct Pool {
 }
 
 impl Evaluator for BoundaryPr {
-    fn domain(&self) -> EvalDomain {
-        EvalDomain::Segmentation
+    fn input_type(&self) -> EvalInputType {
+        EvalInputType::segmentation()
     }
 
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
@@ -625,7 +625,7 @@ mod tests {
             ),
             sequence("b", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("speed", &[]), ("fused", &[52])]),
         ];
-        let e = evaluator("tolerance = { seconds = 0.1 }\nchance_draws = 200").evaluate_with_analysis(EvalInput::Segmentation(&seqs)).unwrap();
+        let e = evaluator("tolerance = { seconds = 0.1 }\nchance_draws = 200").evaluate_with_analysis(EvalInput::segmentation(&seqs)).unwrap();
         let a = e.analysis::<BoundaryAnalysis>().unwrap();
         let t1 = &e.tables[0];
         let (seq, method) = (strs(t1, "sequence"), strs(t1, "method"));
@@ -685,7 +685,7 @@ mod tests {
             sequence("b", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("speed", &[]), ("fused", &[52])]),
             sequence("no_truth", 100, 50.0, None, &[("speed", &[3]), ("fused", &[3])]),
         ];
-        let tables = evaluator("tolerance = { seconds = 0.1 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let tables = evaluator("tolerance = { seconds = 0.1 }").evaluate(EvalInput::segmentation(&seqs)).unwrap();
         let t = &tables[0];
         assert_eq!(t.name, "table1_precision_recall");
         assert_eq!(strs(t, "sequence"), ["a", "a", "b", "b", "pooled", "pooled"]);
@@ -720,7 +720,7 @@ mod tests {
             sequence("a", 100, 100.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("hit", &[50]), ("miss", &[80])]),
             sequence("b", 100, 100.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("hit", &[51]), ("miss", &[])]),
         ];
-        let t = &evaluator("tolerance = { frames = 3 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap()[0];
+        let t = &evaluator("tolerance = { frames = 3 }").evaluate(EvalInput::segmentation(&seqs)).unwrap()[0];
         assert_eq!(strs(t, "chance_expectation"), ["exact"; 6]);
         let cp = f64s(t, "chance_precision");
         assert!((cp[0] - 0.07).abs() < 1e-15 && (cp[1] - 0.07).abs() < 1e-15, "{cp:?}");
@@ -741,9 +741,9 @@ mod tests {
         assert_eq!(f64s(t, "periodic_n_found"), [1.0, 1.0, 1.0, 1.0, 2.0, 2.0]);
         assert_eq!(f64s(t, "periodic_f1"), [1.0; 6]);
         // The same seed gives the same p-values; another seed other ones.
-        let again = &evaluator("tolerance = { frames = 3 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap()[0];
+        let again = &evaluator("tolerance = { frames = 3 }").evaluate(EvalInput::segmentation(&seqs)).unwrap()[0];
         assert_eq!(f64s(again, "p_value"), p);
-        let other = &evaluator("tolerance = { frames = 3 }\nchance_seed = 1").evaluate(EvalInput::Segmentation(&seqs)).unwrap()[0];
+        let other = &evaluator("tolerance = { frames = 3 }\nchance_seed = 1").evaluate(EvalInput::segmentation(&seqs)).unwrap()[0];
         assert_ne!(f64s(other, "p_value"), p);
     }
 
@@ -759,13 +759,13 @@ mod tests {
             &[("a", &[100]), ("b", &[100, 200, 300]), ("fused", &[100, 300])],
         )];
         let claim = |params: &str| {
-            let tables = evaluator(params).evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+            let tables = evaluator(params).evaluate(EvalInput::segmentation(&seqs)).unwrap();
             let t = tables.into_iter().find(|t| t.name == "claim_fused_recall").unwrap();
             (strs(&t, "best_other_method")[0].clone(), t.column("fused_exceeds_all").cloned())
         };
         assert_eq!(claim("tolerance = { frames = 5 }"), ("b".to_string(), Some(ColumnValues::Bool(vec![false]))));
         assert_eq!(claim("tolerance = { frames = 5 }\nclaim_against = [\"a\"]"), ("a".to_string(), Some(ColumnValues::Bool(vec![true]))));
-        let bad = evaluator("claim_against = [\"zz\"]").evaluate(EvalInput::Segmentation(&seqs)).unwrap_err();
+        let bad = evaluator("claim_against = [\"zz\"]").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
         assert_eq!(bad.location().field.as_deref(), Some("claim_against"));
     }
 
@@ -778,7 +778,7 @@ mod tests {
             Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 600, "x")]),
             &[("m", &[103, 400])],
         )];
-        let tables = evaluator("tolerance = { frames = 5 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+        let tables = evaluator("tolerance = { frames = 5 }").evaluate(EvalInput::segmentation(&seqs)).unwrap();
         let t = &tables[1];
         assert_eq!(strs(t, "outcome"), ["matched", "missed", "extra"]);
         // Absent frames are nulls, which a number column holds as NaN.
@@ -799,30 +799,32 @@ mod tests {
         });
         seq.motion = std::sync::Arc::new(motion);
         let tables = evaluator("tolerance = { frames = 2 }\npose_mm = 10.0")
-            .evaluate(EvalInput::Segmentation(&[seq.clone()]))
+            .evaluate(EvalInput::segmentation(&vec![seq.clone()]))
             .unwrap();
         assert_eq!(f64s(&tables[0], "n_matched")[..2], [1.0, 0.0]);
         assert_eq!(f64s(&tables[0], "n_matched_by_pose")[..2], [1.0, 0.0]);
         assert_eq!(strs(&tables[1], "outcome")[0], "matched_by_pose");
         // Without pose_mm the same input matches nothing.
-        let tables = evaluator("tolerance = { frames = 2 }").evaluate(EvalInput::Segmentation(&[seq.clone()])).unwrap();
+        let tables = evaluator("tolerance = { frames = 2 }").evaluate(EvalInput::segmentation(&vec![seq.clone()])).unwrap();
         assert_eq!(f64s(&tables[0], "n_matched")[..2], [0.0, 0.0]);
         // A root that does not exist is an error naming the field.
-        let e = evaluator("pose_mm = 10.0\nroot = \"pelvis\"").evaluate(EvalInput::Segmentation(&[seq])).unwrap_err();
+        let e = evaluator("pose_mm = 10.0\nroot = \"pelvis\"").evaluate(EvalInput::segmentation(&vec![seq])).unwrap_err();
         assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::UnknownName, Some("root")));
     }
 
     #[test]
     fn no_ground_truth_anywhere_and_wrong_inputs_are_errors() {
         let seqs = vec![sequence("x", 100, 50.0, None, &[("m", &[3])])];
-        let e = evaluator("").evaluate(EvalInput::Segmentation(&seqs)).unwrap_err();
+        let e = evaluator("").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
         assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::MissingKey, Some("truth")));
-        let e = evaluator("").evaluate(EvalInput::Matching(&[])).unwrap_err();
+        // Results of another workflow: an error naming what it reads and what it got.
+        let e = evaluator("").evaluate(EvalInput::new(&vec![1_u8])).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Mismatch);
+        assert!(e.to_string().contains("boundary_pr evaluates segmentation results") && e.to_string().contains("Vec<u8>"), "{e}");
         // Ground truth at another rate than its motion.
         let mut s = sequence("r", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("m", &[3])]);
         s.truth.as_mut().unwrap().frame_rate = motionlab_core::FrameRate::new(120.0).unwrap();
-        let e = evaluator("").evaluate(EvalInput::Segmentation(&[s])).unwrap_err();
+        let e = evaluator("").evaluate(EvalInput::segmentation(&vec![s])).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Mismatch);
     }
 
@@ -862,6 +864,6 @@ mod tests {
         assert_eq!(field(""), None);
         let p: BoundaryPrParams = parse_params(&motionlab_core::registry::default_params()).unwrap();
         assert_eq!(p.tolerance, TimeSpan::Seconds(1.0 / 12.0));
-        assert_eq!(evaluator("").domain(), EvalDomain::Segmentation);
+        assert_eq!(evaluator("").input_type(), EvalInputType::segmentation());
     }
 }

@@ -1,17 +1,11 @@
-//! Shared input handling of the segmentation evaluators: the right [`EvalInput`] variant, and
+//! Shared input handling of the segmentation evaluators: segmentation results as input, and
 //! ground truth at the motion's own rate.
 
-use motionlab_core::{Error, ErrorKind, EvalInput, Location, Result, Segmentation, SequenceResult};
+use motionlab_core::{Error, ErrorKind, EvalInput, EvalInputType, Location, Result, Segmentation, SequenceResult};
 
 /// The sequences of a segmentation input; any other input is a wiring error.
 pub(crate) fn segmentation_input<'a>(input: EvalInput<'a>, evaluator: &str) -> Result<&'a [SequenceResult]> {
-    match input {
-        EvalInput::Segmentation(s) => Ok(s),
-        other => Err(Error::new(
-            ErrorKind::Mismatch,
-            format!("{evaluator} evaluates segmentations, but was given {:?} results", other.domain()),
-        )),
-    }
+    input.read::<Vec<SequenceResult>>(EvalInputType::segmentation(), evaluator).map(Vec::as_slice)
 }
 
 /// The sequence's ground truth, checked to be at the motion's rate (candidates are frames of

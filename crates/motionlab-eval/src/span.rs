@@ -89,7 +89,7 @@ mod tests {
         let seq = sequence("a", 1000, 100.0, Some(vec![(200, 400, "x"), (400, 600, "y")]), &[("speed", &[20, 195, 405, 950])]);
         let run = |params: &str| {
             let e = build_evaluator("boundary_pr", &toml::from_str(params).unwrap()).unwrap();
-            let tables = e.evaluate(EvalInput::Segmentation(std::slice::from_ref(&seq))).unwrap();
+            let tables = e.evaluate(EvalInput::segmentation(&vec![seq.clone()])).unwrap();
             let t = &tables[0];
             let col = |n: &str| match t.column(n) {
                 Some(ColumnValues::F64(v)) => v[0],

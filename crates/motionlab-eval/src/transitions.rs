@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::{ParamGuard, closest_names};
 use motionlab_core::{
-    Error, ErrorKind, EvalDomain, EvalInput, Evaluator, Result, Segmentation, Table, TimeSpan, Transition,
+    Error, ErrorKind, EvalInputType, EvalInput, Evaluator, Result, Segmentation, Table, TimeSpan, Transition,
 };
 
 use crate::boundaries::{TruthWindow, default_tolerance, nearest_frame, tolerance_frames};
@@ -128,8 +128,8 @@ pub struct TransitionRow {
 }
 
 impl Evaluator for Transitions {
-    fn domain(&self) -> EvalDomain {
-        EvalDomain::Segmentation
+    fn input_type(&self) -> EvalInputType {
+        EvalInputType::segmentation()
     }
 
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
@@ -256,7 +256,7 @@ mod tests {
             sequence("A", 500, 100.0, segments.clone(), &[("speed", &[100, 250, 400]), ("fused", &[96, 262])]),
             sequence("unlabelled", 100, 100.0, None, &[("speed", &[1]), ("fused", &[1])]),
         ];
-        let t = evaluator("tolerance = { seconds = 0.1 }").evaluate(EvalInput::Segmentation(&seqs)).unwrap().remove(0);
+        let t = evaluator("tolerance = { seconds = 0.1 }").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
         assert_eq!(t.name, "table3_transitions");
         assert_eq!(cells(&t, "method"), ["fused", "fused", "fused"]);
         assert_eq!(cells(&t, "detected"), ["○", "×", "×"]);
@@ -266,18 +266,18 @@ mod tests {
         let d: Vec<f64> = cells(&t, "distance_s").iter().map(|c| c.parse().unwrap()).collect();
         assert!((d[0] - 0.04).abs() < 1e-12 && (d[1] - 0.12).abs() < 1e-12 && (d[2] - 1.38).abs() < 1e-12);
         // A named method.
-        let t = evaluator("method = \"speed\"").evaluate(EvalInput::Segmentation(&seqs)).unwrap().remove(0);
+        let t = evaluator("method = \"speed\"").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
         assert_eq!(cells(&t, "detected"), ["○", "○", "○"]);
     }
 
     #[test]
     fn unknown_method_and_unlabelled_inputs_are_errors() {
         let seqs = vec![sequence("A", 500, 100.0, Some(vec![(0, 100, "a"), (100, 500, "b")]), &[("speed", &[100])])];
-        let e = evaluator("method = \"sped\"").evaluate(EvalInput::Segmentation(&seqs)).unwrap_err();
+        let e = evaluator("method = \"sped\"").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
         assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::UnknownName, Some("method")));
         assert!(e.to_string().contains("speed"), "{e}");
         let unlabelled = vec![sequence("B", 100, 100.0, None, &[("speed", &[1])])];
-        let e = evaluator("").evaluate(EvalInput::Segmentation(&unlabelled)).unwrap_err();
+        let e = evaluator("").evaluate(EvalInput::segmentation(&unlabelled)).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingKey);
         let v: toml::Value = toml::from_str("method = \"\"").unwrap();
         let e = build_evaluator("transitions", &v).err().unwrap();

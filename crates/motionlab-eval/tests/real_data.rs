@@ -70,9 +70,9 @@ fn cmu86_01() -> (SequenceResult, Vec<usize>) {
 #[test]
 fn cmu86_table1_and_table3_from_the_real_labels() {
     let (seq, _) = cmu86_01();
-    let seqs = [seq];
+    let seqs = vec![seq];
     // Default tolerance 1/12 s = 10 frames at 120 Hz: window starts (50 early) never match.
-    let tables = evaluator("boundary_pr", "").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+    let tables = evaluator("boundary_pr", "").evaluate(EvalInput::segmentation(&seqs)).unwrap();
     let t1 = &tables[0];
     assert_eq!(cells(t1, "sequence"), ["86_01", "86_01", "86_01", "pooled", "pooled", "pooled"]);
     assert_eq!(column_f64(t1, "n_matched")[..3], [0.0, 6.0, 6.0]);
@@ -86,18 +86,18 @@ fn cmu86_table1_and_table3_from_the_real_labels() {
     assert_eq!(claim.column("fused_exceeds_all"), Some(&ColumnValues::Bool(vec![false])));
     // The annotated windows (±50 frames here) accept the window starts; one-to-one matching
     // still lets the fused list (12 frames, two per window) match only the 6 truths.
-    let windowed = evaluator("boundary_pr", "use_windows = true").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+    let windowed = evaluator("boundary_pr", "use_windows = true").evaluate(EvalInput::segmentation(&seqs)).unwrap();
     assert_eq!(column_f64(&windowed[0], "n_matched")[..3], [6.0, 6.0, 6.0]);
     assert_eq!(column_f64(&windowed[0], "precision")[..3], [1.0, 1.0, 0.5]);
 
     // Table 3 on the fused method: every labelled transition found; on the window starts none,
     // each 50 frames (0.4167 s) from its nearest candidate.
-    let t3 = evaluator("transitions", "").evaluate(EvalInput::Segmentation(&seqs)).unwrap().remove(0);
+    let t3 = evaluator("transitions", "").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
     assert_eq!(cells(&t3, "from"), ["walk", "jump", "walk", "punch", "walk", "leg_kick"]);
     assert_eq!(cells(&t3, "to"), ["jump", "walk", "punch", "walk", "leg_kick", "punch"]);
     assert_eq!(cells(&t3, "detected"), ["○"; 6]);
     let t3 = evaluator("transitions", "method = \"window_start\"")
-        .evaluate(EvalInput::Segmentation(&seqs))
+        .evaluate(EvalInput::segmentation(&seqs))
         .unwrap()
         .remove(0);
     assert_eq!(cells(&t3, "detected"), ["×"; 6]);
@@ -134,7 +134,7 @@ fn cmu86_pose_rule_on_the_real_skeleton() {
     let mut s = seq.clone();
     s.methods = vec![MethodResult { method: "late".into(), candidates: late }];
     let matched = |params: &str| -> f64 {
-        let t = evaluator("boundary_pr", params).evaluate(EvalInput::Segmentation(std::slice::from_ref(&s))).unwrap();
+        let t = evaluator("boundary_pr", params).evaluate(EvalInput::segmentation(&vec![s.clone()])).unwrap();
         column_f64(&t[0], "n_matched_by_pose")[0]
     };
     assert_eq!(matched(""), 0.0);
@@ -171,7 +171,7 @@ fn mocap6_pooled_over_three_sequences() {
     // 1932, 13_31 at 396 984 1392 1608 2052 2724 — at least 216 frames apart, so a 12-frame
     // shift never reaches the next boundary.
     assert_eq!(n_truth, 15);
-    let tables = evaluator("boundary_pr", "").evaluate(EvalInput::Segmentation(&seqs)).unwrap();
+    let tables = evaluator("boundary_pr", "").evaluate(EvalInput::segmentation(&seqs)).unwrap();
     let t1 = &tables[0];
     assert_eq!(t1.n_rows(), 3 * 2 + 2);
     let pooled_truth = column_f64(t1, "n_truth");
@@ -179,7 +179,7 @@ fn mocap6_pooled_over_three_sequences() {
     assert_eq!(column_f64(t1, "recall")[6..], [0.0, 1.0]);
     assert_eq!(cells(&tables[2], "fused_exceeds_all"), ["true"]);
     // Table 3 has one row per labelled transition of the three sequences.
-    let t3 = evaluator("transitions", "").evaluate(EvalInput::Segmentation(&seqs)).unwrap().remove(0);
+    let t3 = evaluator("transitions", "").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
     assert_eq!(t3.n_rows(), n_truth);
     assert!(cells(&t3, "detected").iter().all(|d| d == "○"));
 }
@@ -230,7 +230,7 @@ fn walk1_missing_samples_in_the_pose_and_stop_rules() {
     let by_pose = |root: &str| {
         let params = format!("pose_mm = {}\nroot = \"{root}\"", expected * 1.01);
         let t =
-            evaluator("boundary_pr", &params).evaluate(EvalInput::Segmentation(std::slice::from_ref(&seq))).unwrap();
+            evaluator("boundary_pr", &params).evaluate(EvalInput::segmentation(&vec![seq.clone()])).unwrap();
         column_f64(&t[0], "n_matched_by_pose")[0]
     };
     assert_eq!(by_pose("Sternum"), 1.0);

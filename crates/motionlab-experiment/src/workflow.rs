@@ -23,7 +23,7 @@ use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 
 use motionlab_core::registry::{self, closest_names, schema_doc, schema_params, ParamDoc};
-use motionlab_core::{Error, ErrorKind, EvalDomain, Evaluator, Result, Table};
+use motionlab_core::{Error, ErrorKind, EvalInputType, Evaluator, Result, Table};
 use motionlab_figure::Figure;
 
 use crate::context::{build_stage, deserialize_section, Combo, Datasets, Source};
@@ -145,8 +145,8 @@ pub trait Workflow: Send + Sync {
     }
 }
 
-/// Builds `[[evaluate]]` stages, checking each accepts this workflow's results.
-pub fn build_evaluators(source: &Source, combo: &Combo, domain: EvalDomain) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
+/// Builds `[[evaluate]]` stages, checking each reads this workflow's results (`produces`).
+pub fn build_evaluators(source: &Source, combo: &Combo, produces: EvalInputType) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
     let root = KeyPath::parse("evaluate")?;
     combo
         .file
@@ -155,11 +155,11 @@ pub fn build_evaluators(source: &Source, combo: &Combo, domain: EvalDomain) -> R
         .enumerate()
         .map(|(k, s)| {
             let e = build_stage(source, combo, s, &root.index(k), registry::build_evaluator)?;
-            if e.domain() != domain {
+            if e.input_type() != produces {
                 return Err(source.locate(
                     Error::new(
                         ErrorKind::InvalidParameter,
-                        format!("evaluator {:?} evaluates {:?} results, but this experiment produces {domain:?} results", s.kind, e.domain()),
+                        format!("evaluator {:?} evaluates {}, but this experiment produces {}", s.kind, e.input_type().name, produces.name),
                     ),
                     root.index(k).key("type"),
                     &combo.doc,

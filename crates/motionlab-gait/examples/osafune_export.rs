@@ -76,7 +76,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let study = study_of("C4", &walks);
     let rates = ChangeRatesParams::default().check()?;
-    for table in rates.evaluate(motionlab_core::EvalInput::Gait(&study))? {
+    for table in rates.evaluate(motionlab_core::EvalInput::new(&study))? {
         println!("wrote {}", write_csv(&table, &out_dir)?.display());
     }
 

@@ -7,7 +7,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Analysis, Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, GaitStudy, GaitTrial, Result, Table, WalkChanges};
+use motionlab_core::{Analysis, Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, GaitStudy, GaitTrial, Result, Table, WalkChanges};
 
 /// Change rates of every channel from the normal walk to each other condition, their mean,
 /// population s.d. and coefficient of variation over subjects, and the feature channels
@@ -561,8 +561,8 @@ struct FrequencyRecord {
 }
 
 impl Evaluator for ChangeRates {
-    fn domain(&self) -> EvalDomain {
-        EvalDomain::Gait
+    fn input_type(&self) -> EvalInputType {
+        EvalInputType::gait()
     }
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
         self.evaluate_with_analysis(input).map(|e| e.tables)
@@ -570,17 +570,10 @@ impl Evaluator for ChangeRates {
     /// The tables and the [`ChangeRateAnalysis`] behind them (the gait workflow's Tables 2–3,
     /// control and leave-one-out build on it).
     fn evaluate_with_analysis(&self, input: EvalInput<'_>) -> Result<Evaluation> {
-        match input {
-            EvalInput::Gait(study) => {
-                let changes = self.analyse(study)?;
-                let tables = self.tables_of(study, &changes)?;
-                Ok(Evaluation { tables, analysis: Some(Analysis::new(ChangeRateAnalysis { rates: self.clone(), changes })) })
-            }
-            other => Err(Error::new(
-                ErrorKind::Mismatch,
-                format!("change_rates evaluates a gait study, but was given {:?} results", other.domain()),
-            )),
-        }
+        let study: &GaitStudy = input.read(EvalInputType::gait(), "change_rates")?;
+        let changes = self.analyse(study)?;
+        let tables = self.tables_of(study, &changes)?;
+        Ok(Evaluation { tables, analysis: Some(Analysis::new(ChangeRateAnalysis { rates: self.clone(), changes })) })
     }
     fn analysis_type(&self) -> Option<std::any::TypeId> {
         Some(std::any::TypeId::of::<ChangeRateAnalysis>())
@@ -734,7 +727,7 @@ mod tests {
         let t: toml::Value = toml::from_str("max_abs_cv_pct = -1.0").unwrap();
         assert_eq!(build_evaluator("change_rates", &t).err().unwrap().location().field.as_deref(), Some("max_abs_cv_pct"));
         let e = build_evaluator("change_rates", &motionlab_core::registry::default_params()).unwrap();
-        assert_eq!(e.domain(), EvalDomain::Gait);
-        assert_eq!(e.evaluate(EvalInput::Matching(&[])).unwrap_err().kind(), ErrorKind::Mismatch);
+        assert_eq!(e.input_type(), EvalInputType::gait());
+        assert_eq!(e.evaluate(EvalInput::new(&Vec::<motionlab_core::MatchingResult>::new())).unwrap_err().kind(), ErrorKind::Mismatch);
     }
 }

@@ -4,7 +4,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalDomain, EvalInput, Evaluator, MatchingResult, Result, Table};
+use motionlab_core::{Error, ErrorKind, EvalInputType, EvalInput, Evaluator, MatchingResult, Result, Table};
 
 /// Similar/dissimilar judgement of each repetition, and the user's tendencies (§4.1–4.2).
 ///
@@ -257,16 +257,11 @@ fn judge_take(take: &MatchingResult, out: &mut JudgementRecords) -> Result<()> {
 }
 
 impl Evaluator for Judgement {
-    fn domain(&self) -> EvalDomain {
-        EvalDomain::Matching
+    fn input_type(&self) -> EvalInputType {
+        EvalInputType::matching()
     }
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
-        let EvalInput::Matching(results) = input else {
-            return Err(Error::new(
-                ErrorKind::Mismatch,
-                format!("the judgement evaluator needs matching results, but was given {:?} results", input.domain()),
-            ));
-        };
+        let results: &Vec<MatchingResult> = input.read(EvalInputType::matching(), "judgement")?;
         let rec = judge(results)?;
         Ok(vec![
             Table::from_records(
@@ -361,8 +356,8 @@ mod tests {
     fn zero_means_normalise_to_one_and_tables_have_unit_columns() {
         let t = take(vec![rep("a", &[1.0, 1.0], &[0.0, 0.0]), rep("b", &[2.0, 2.0], &[0.0, 0.0])]);
         let ev = build_evaluator("judgement", &default_params()).unwrap();
-        assert_eq!(ev.domain(), EvalDomain::Matching);
-        let tables = ev.evaluate(EvalInput::Matching(&[t])).unwrap();
+        assert_eq!(ev.input_type(), EvalInputType::matching());
+        let tables = ev.evaluate(EvalInput::new(&vec![t])).unwrap();
         let names: Vec<&str> = tables.iter().map(|t| t.name.as_str()).collect();
         assert_eq!(names, ["judgement", "tendency_parts", "tendency_sections"]);
         assert_eq!(tables[0].column("R_norm"), Some(&ColumnValues::F64(vec![1.0, 1.0])));
@@ -374,11 +369,11 @@ mod tests {
     fn inconsistent_or_wrong_input_is_an_error() {
         let ev = Judgement;
         let bad = take(vec![rep("a", &[1.0], &[0.0, 0.0])]);
-        assert_eq!(ev.evaluate(EvalInput::Matching(&[bad])).unwrap_err().kind(), ErrorKind::Mismatch);
+        assert_eq!(ev.evaluate(EvalInput::new(&vec![bad])).unwrap_err().kind(), ErrorKind::Mismatch);
         let nan = take(vec![rep("a", &[f64::NAN, 1.0], &[0.0, 0.0])]);
-        assert_eq!(ev.evaluate(EvalInput::Matching(&[nan])).unwrap_err().kind(), ErrorKind::NonFinite);
-        assert_eq!(ev.evaluate(EvalInput::Matching(&[take(vec![])])).unwrap_err().kind(), ErrorKind::EmptySequence);
+        assert_eq!(ev.evaluate(EvalInput::new(&vec![nan])).unwrap_err().kind(), ErrorKind::NonFinite);
+        assert_eq!(ev.evaluate(EvalInput::new(&vec![take(vec![])])).unwrap_err().kind(), ErrorKind::EmptySequence);
         let study = GaitStudy { normal_condition: "C4".into(), trials: vec![] };
-        assert_eq!(ev.evaluate(EvalInput::Gait(&study)).unwrap_err().kind(), ErrorKind::Mismatch);
+        assert_eq!(ev.evaluate(EvalInput::new(&study)).unwrap_err().kind(), ErrorKind::Mismatch);
     }
 }

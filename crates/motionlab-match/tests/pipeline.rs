@@ -101,7 +101,7 @@ fn the_close_repetition_is_judged_most_similar_and_the_shifted_one_least_synchro
     let (ra, rb) = (repetitions[0].synchronisation.total, repetitions[1].synchronisation.total);
     assert!(rb > 10.0 * ra.max(1.0), "R(a) = {ra}, R(b) = {rb}");
     let result = MatchingResult { take: "constructed".into(), point_names: model.point_names().to_vec(), repetitions };
-    let tables = build_evaluator("judgement", &default_params()).unwrap().evaluate(EvalInput::Matching(&[result])).unwrap();
+    let tables = build_evaluator("judgement", &default_params()).unwrap().evaluate(EvalInput::new(&vec![result])).unwrap();
     assert_eq!(tables[0].column("rank"), Some(&ColumnValues::I64(vec![1, 2, 3])), "{:?}", tables[0]);
     assert_eq!(tables[0].column("most_similar"), Some(&ColumnValues::Bool(vec![true, false, false])));
 }

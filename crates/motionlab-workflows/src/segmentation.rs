@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry;
 use motionlab_core::viewer::{EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
 use motionlab_core::{
-    Error, ErrorKind, EvalDomain, EvalInput, Evaluation, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
+    Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
     Segment, Segmentation, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
 };
 use motionlab_eval::boundary_analysis::{BoundaryAnalysis, MatchOutcome, SequenceBoundaries};
@@ -150,7 +150,7 @@ impl WorkflowPlugin for SegmentationWorkflow {
             Some(f) => Some((f.display_name(), build_stage(source, combo, f, &root.key("fuser"), registry::build_fuser)?)),
             None => None,
         };
-        let evaluators = build_evaluators(source, combo, EvalDomain::Segmentation)?;
+        let evaluators = build_evaluators(source, combo, EvalInputType::segmentation())?;
         let evaluator_params = combo.file.evaluators.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
         let experiment = combo.file.experiment.name.clone();
         // How each method's parameters were chosen in this combination (`parameters_chosen`).
@@ -263,7 +263,7 @@ impl Workflow for SegmentationWorkflow {
         let logged: Vec<(usize, usize)> = items.iter().map(|(i, _)| (i.dataset, i.file)).collect();
         for ((name, e), params) in self.evaluators.iter().zip(&self.evaluator_params) {
             let Evaluation { mut tables, analysis } = data.evaluation_cached(&format!("evaluate {name}"), params, &reads, &logged, || {
-                e.evaluate_with_analysis(EvalInput::Segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))
+                e.evaluate_with_analysis(EvalInput::segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))
             })?;
             // Added after the cache: it depends on the combination, not on what was evaluated.
             self.choices.annotate(&mut tables, &inputs);

@@ -5,7 +5,7 @@ use std::any::TypeId;
 use std::collections::BTreeMap;
 
 use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, EvalDomain, Result};
+use motionlab_core::{Error, ErrorKind, EvalInputType, Result};
 use motionlab_experiment::build_stage;
 use motionlab_experiment::workflow::{build_evaluators, BuildContext, WorkflowPlugin};
 use motionlab_gait::change_rates::ChangeRateAnalysis;
@@ -35,7 +35,7 @@ impl WorkflowPlugin for GaitWorkflow {
             }
             None => None,
         };
-        let evaluators = build_evaluators(source, combo, EvalDomain::Gait)?;
+        let evaluators = build_evaluators(source, combo, EvalInputType::gait())?;
         // Tables 2–3, the control and the leave-one-out build on the change-rate analysis: one
         // evaluator must hand it over (found by the type of its analysis, not by its name).
         if !evaluators.iter().any(|(_, e)| e.analysis_type() == Some(TypeId::of::<ChangeRateAnalysis>())) {

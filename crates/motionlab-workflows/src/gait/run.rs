@@ -86,7 +86,7 @@ impl Workflow for GaitWorkflow {
         out.tables.push(trials_table(&trials)?);
         let mut change_rates: Option<Box<ChangeRateAnalysis>> = None;
         for (name, e) in &self.evaluators {
-            let evaluation = e.evaluate_with_analysis(EvalInput::Gait(&study)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
+            let evaluation = e.evaluate_with_analysis(EvalInput::new(&study)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
             out.tables.extend(evaluation.tables);
             if change_rates.is_none() {
                 change_rates = evaluation.analysis.and_then(|a| a.downcast::<ChangeRateAnalysis>().ok());

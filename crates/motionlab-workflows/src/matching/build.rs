@@ -2,7 +2,7 @@
 //! windows, each continuous take's detector built with its own count) and the stages.
 
 use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, EvalDomain, Result};
+use motionlab_core::{Error, ErrorKind, EvalInputType, Result};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
 use motionlab_experiment::workflow::{build_evaluators, sanitize, BuildContext, WorkflowPlugin};
@@ -43,7 +43,7 @@ impl WorkflowPlugin for MatchingWorkflow {
         let matcher = build_stage(source, combo, &section.matcher, &root.key("matcher"), registry::build_matcher)?;
         let synchroniser = build_stage(source, combo, &section.synchroniser, &root.key("synchroniser"), registry::build_synchroniser)?;
         let matcher_points = stage_points(&section.matcher);
-        let evaluators = build_evaluators(source, combo, EvalDomain::Matching)?;
+        let evaluators = build_evaluators(source, combo, EvalInputType::matching())?;
         let takes = build_takes(source, combo, data, &section, model, &root)?;
         if takes.is_empty() {
             return Err(locate(

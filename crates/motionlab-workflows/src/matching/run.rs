@@ -239,7 +239,7 @@ impl Workflow for MatchingWorkflow {
         )?);
         let matching: Vec<MatchingResult> = results.iter().map(to_matching_result).collect();
         for (name, e) in &self.evaluators {
-            let tables = e.evaluate(EvalInput::Matching(&matching)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
+            let tables = e.evaluate(EvalInput::new(&matching)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
             out.tables.extend(tables);
         }
         let (ranks_rows, verdict_rows) = timing_test(&results);
