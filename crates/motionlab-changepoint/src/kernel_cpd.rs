@@ -101,8 +101,8 @@ pub enum Search {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct KernelCpdParams {
-    /// The search: `pelt`, `binseg` or `kernel_pelt` (the untuned kernel baseline of the
-    /// benchmark literature is `kernel_pelt` with `rbf`).
+    /// The search: `pelt`, `binseg` or `kernel_pelt` (`kernel_pelt` with `rbf` is ruptures'
+    /// `KernelCPD` with its rbf kernel, the common untuned kernel baseline).
     #[serde(default = "default_search")]
     pub search: Search,
     /// The segment cost: `l2`, `rbf` or `linear` (`kernel_pelt` takes `l2` or `rbf`).
