@@ -205,8 +205,7 @@ impl Bocpd {
             log_pred.clear();
             for r in 0..runs {
                 let mut lp = 0.0;
-                for c in 0..d {
-                    let v = row[c];
+                for (c, &v) in row.iter().enumerate() {
                     if v.is_nan() {
                         continue;
                     }
@@ -241,9 +240,8 @@ impl Bocpd {
             mu.extend(std::iter::repeat_n(self.prior_mean, d));
             beta.extend(std::iter::repeat_n(self.prior_beta, d));
             for r in 0..runs {
-                for c in 0..d {
+                for (c, &v) in row.iter().enumerate() {
                     let i = r * d + c;
-                    let v = row[c];
                     if v.is_nan() {
                         count.push(stats.count[i]);
                         mu.push(stats.mu[i]);

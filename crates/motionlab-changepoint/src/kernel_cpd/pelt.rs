@@ -51,7 +51,7 @@ impl<'a> RbfEndCosts<'a> {
 
     fn add_sample(&mut self, u: usize, lowest: usize) {
         let jump = self.jump;
-        if u % jump == 0 {
+        if u.is_multiple_of(jump) {
             self.block[u / jump] = 1.0;
         }
         if u == 0 {
@@ -206,6 +206,6 @@ mod tests {
         let cost = L2Cost::new(&sig);
         let b = pelt(50, 1.0, 2, 5, &mut DirectEndCosts(&cost));
         assert_eq!(b.len(), 3);
-        assert!(b[0] % 5 == 0 && b[1] % 5 == 0 && b[2] == 50, "{b:?}");
+        assert!(b[0].is_multiple_of(5) && b[1].is_multiple_of(5) && b[2] == 50, "{b:?}");
     }
 }
