@@ -181,15 +181,9 @@ impl ParamGuard for KernelCpdParams {
     type Checked = KernelCpd;
     fn check(self) -> Result<KernelCpd> {
         let invalid = |field: &str, msg: String| Error::new(ErrorKind::InvalidParameter, msg).with_field(field.to_string());
-        let stop = match (self.pen, self.n_bkps) {
-            (Some(_), Some(_)) => return Err(invalid("pen", "give pen or n_bkps, not both".into())),
-            (Some(p), None) => {
-                if !(p.is_finite() && p > 0.0) {
-                    return Err(Error::new(ErrorKind::OutOfRange, format!("pen is {p}, expected a finite penalty > 0")).with_field("pen"));
-                }
-                StopRule::Penalty(p)
-            }
-            (None, Some(k)) => {
+        let stop = match check_pen_or_n_bkps(self.pen, self.n_bkps)? {
+            (Some(p), None) => StopRule::Penalty(p),
+            (_, Some(k)) => {
                 if self.search != Search::Binseg {
                     return Err(invalid(
                         "n_bkps",
@@ -227,6 +221,17 @@ impl ParamGuard for KernelCpdParams {
             }
         }
         Ok(KernelCpd { search: self.search, cost: self.cost, stop, min_size: self.min_size, jump, gamma: self.gamma })
+    }
+}
+
+/// `pen` (finite, > 0) or `n_bkps`, not both.
+pub(crate) fn check_pen_or_n_bkps(pen: Option<f64>, n_bkps: Option<usize>) -> Result<(Option<f64>, Option<usize>)> {
+    match (pen, n_bkps) {
+        (Some(_), Some(_)) => Err(Error::new(ErrorKind::InvalidParameter, "give pen or n_bkps, not both").with_field("pen")),
+        (Some(p), None) if !(p.is_finite() && p > 0.0) => {
+            Err(Error::new(ErrorKind::OutOfRange, format!("pen is {p}, expected a finite penalty > 0")).with_field("pen"))
+        }
+        other => Ok(other),
     }
 }
 

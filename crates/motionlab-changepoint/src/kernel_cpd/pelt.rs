@@ -119,6 +119,11 @@ pub(crate) fn pelt(n_samples: usize, pen: f64, min_size: usize, jump: usize, cos
         let kept: Vec<usize> = admissible.iter().zip(&totals).filter(|&(_, &v)| v <= bound).map(|(&t, _)| t).collect();
         admissible = kept;
     }
+    breakpoints_from_path(&previous, n)
+}
+
+/// ruptures' breakpoints read back from the best previous end of every end, from n.
+pub(crate) fn breakpoints_from_path(previous: &[usize], n: usize) -> Vec<usize> {
     let mut breakpoints = Vec::new();
     let mut t = n;
     while t > 0 {
