@@ -23,10 +23,10 @@ use crate::signal::{Missing, Signal};
 /// ocp. The predictive of a sample is Student-t with 2α degrees of freedom, location μ and
 /// scale² β(κ+1)/(ακ); after a sample x: μ ← (κμ + x)/(κ+1), κ ← κ+1, α ← α + ½,
 /// β ← β + κ(x − μ)²/(2(κ+1)). Channels are independent given the run length, each with this
-/// prior: their log predictives add. The prior and hazard are TCPDBench's bocpd defaults
-/// (λ = 100, μ₀ = 0, κ₀ = 1, α₀ = 1, β₀ = 1), which assume data on a unit scale: each channel
-/// is standardised first (`standardize`; zero mean, unit sample variance), as TCPDBench feeds
-/// its methods scaled data.
+/// prior: their log predictives add. The prior and hazard are TCPDBench's bocpd settings (its
+/// wrapper of the R package ocp: hazard, prior mean, strength, shape and rate as listed below),
+/// which assume data on a unit scale: each channel is standardised first (`standardize`; zero
+/// mean, unit sample variance), as TCPDBench feeds its methods scaled data.
 ///
 /// **Run-length convention (the paper's).** r_t = 0 means a change right after sample t: its
 /// likelihood is the predictive under the run that ended (the paper's changepoint
@@ -205,8 +205,7 @@ impl Bocpd {
             log_pred.clear();
             for r in 0..runs {
                 let mut lp = 0.0;
-                for c in 0..d {
-                    let v = row[c];
+                for (c, &v) in row.iter().enumerate() {
                     if v.is_nan() {
                         continue;
                     }
@@ -241,9 +240,8 @@ impl Bocpd {
             mu.extend(std::iter::repeat_n(self.prior_mean, d));
             beta.extend(std::iter::repeat_n(self.prior_beta, d));
             for r in 0..runs {
-                for c in 0..d {
+                for (c, &v) in row.iter().enumerate() {
                     let i = r * d + c;
-                    let v = row[c];
                     if v.is_nan() {
                         count.push(stats.count[i]);
                         mu.push(stats.mu[i]);

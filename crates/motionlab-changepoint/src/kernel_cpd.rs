@@ -101,8 +101,8 @@ pub enum Search {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct KernelCpdParams {
-    /// The search: `pelt`, `binseg` or `kernel_pelt` (the untuned kernel baseline of the
-    /// benchmark literature is `kernel_pelt` with `rbf`).
+    /// The search: `pelt`, `binseg` or `kernel_pelt` (`kernel_pelt` with `rbf` is ruptures'
+    /// `KernelCPD` with its rbf kernel, the common untuned kernel baseline).
     #[serde(default = "default_search")]
     pub search: Search,
     /// The segment cost: `l2`, `rbf` or `linear` (`kernel_pelt` takes `l2` or `rbf`).
@@ -181,15 +181,9 @@ impl ParamGuard for KernelCpdParams {
     type Checked = KernelCpd;
     fn check(self) -> Result<KernelCpd> {
         let invalid = |field: &str, msg: String| Error::new(ErrorKind::InvalidParameter, msg).with_field(field.to_string());
-        let stop = match (self.pen, self.n_bkps) {
-            (Some(_), Some(_)) => return Err(invalid("pen", "give pen or n_bkps, not both".into())),
-            (Some(p), None) => {
-                if !(p.is_finite() && p > 0.0) {
-                    return Err(Error::new(ErrorKind::OutOfRange, format!("pen is {p}, expected a finite penalty > 0")).with_field("pen"));
-                }
-                StopRule::Penalty(p)
-            }
-            (None, Some(k)) => {
+        let stop = match check_pen_or_n_bkps(self.pen, self.n_bkps)? {
+            (Some(p), None) => StopRule::Penalty(p),
+            (_, Some(k)) => {
                 if self.search != Search::Binseg {
                     return Err(invalid(
                         "n_bkps",
@@ -227,6 +221,17 @@ impl ParamGuard for KernelCpdParams {
             }
         }
         Ok(KernelCpd { search: self.search, cost: self.cost, stop, min_size: self.min_size, jump, gamma: self.gamma })
+    }
+}
+
+/// `pen` (finite, > 0) or `n_bkps`, not both.
+pub(crate) fn check_pen_or_n_bkps(pen: Option<f64>, n_bkps: Option<usize>) -> Result<(Option<f64>, Option<usize>)> {
+    match (pen, n_bkps) {
+        (Some(_), Some(_)) => Err(Error::new(ErrorKind::InvalidParameter, "give pen or n_bkps, not both").with_field("pen")),
+        (Some(p), None) if !(p.is_finite() && p > 0.0) => {
+            Err(Error::new(ErrorKind::OutOfRange, format!("pen is {p}, expected a finite penalty > 0")).with_field("pen"))
+        }
+        other => Ok(other),
     }
 }
 

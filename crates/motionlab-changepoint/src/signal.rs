@@ -27,7 +27,7 @@ impl<'a> Signal<'a> {
             return Err(Error::new(ErrorKind::InvalidParameter, format!("{stage}: n_channels is 0, expected at least one channel"))
                 .with_field("n_channels"));
         }
-        if values.len() % n_channels != 0 {
+        if !values.len().is_multiple_of(n_channels) {
             return Err(Error::new(
                 ErrorKind::WrongValueCount,
                 format!(

@@ -11,7 +11,7 @@ use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Threshold, Trace};
 
 use crate::kernel_cpd::cost::{L2Cost, LinearCost, RbfCost, SegmentCost, rbf_cost_from_block};
-use crate::kernel_cpd::{CostModel, admissible, bic_penalty, median, require_regression_channels, too_short};
+use crate::kernel_cpd::{CostModel, admissible, bic_penalty, check_pen_or_n_bkps, median, require_regression_channels, too_short};
 use crate::signal::{Missing, Signal, candidates_from_breakpoints};
 
 /// Change points at the peaks of a sliding-window discrepancy: at each sample k on the grid of
@@ -104,14 +104,8 @@ pub struct Window {
 impl ParamGuard for WindowParams {
     type Checked = Window;
     fn check(self) -> Result<Window> {
-        let stop = match (self.pen, self.n_bkps) {
-            (Some(_), Some(_)) => return Err(Error::new(ErrorKind::InvalidParameter, "give pen or n_bkps, not both").with_field("pen")),
-            (Some(p), None) => {
-                if !(p.is_finite() && p > 0.0) {
-                    return Err(Error::new(ErrorKind::OutOfRange, format!("pen is {p}, expected a finite penalty > 0")).with_field("pen"));
-                }
-                WindowStop::Penalty(p)
-            }
+        let stop = match check_pen_or_n_bkps(self.pen, self.n_bkps)? {
+            (Some(p), _) => WindowStop::Penalty(p),
             (None, Some(k)) => WindowStop::Count(k),
             (None, None) => WindowStop::Bic,
         };

@@ -62,7 +62,7 @@ impl SplitGains for RbfGains<'_> {
         for u in start..end {
             let cross: f64 = (start..u).rev().map(|i| k(i, u)).sum();
             block += 2.0 * cross + 1.0;
-            if (u + 1 - start) % jump == 0 {
+            if (u + 1 - start).is_multiple_of(jump) {
                 left[(u + 1 - start) / jump] = block;
             }
         }
@@ -71,7 +71,7 @@ impl SplitGains for RbfGains<'_> {
         for u in (start..end).rev() {
             let cross: f64 = (u + 1..end).map(|j| k(u, j)).sum();
             block += 2.0 * cross + 1.0;
-            if (u - start) % jump == 0 {
+            if (u - start).is_multiple_of(jump) {
                 right[(u - start) / jump] = block;
             }
         }

@@ -25,6 +25,7 @@
 
 use super::cost::rbf_c_kernel;
 use super::glibc_exp::{self, exp_normal_fma};
+use super::pelt::breakpoints_from_path;
 use crate::signal::Signal;
 
 /// The kernel of ruptures' C `KernelCPD`.
@@ -218,14 +219,7 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
         }
     }
 
-    let mut breakpoints = Vec::new();
-    let mut t = n;
-    while t > 0 {
-        breakpoints.push(t);
-        t = m_path[t];
-    }
-    breakpoints.reverse();
-    breakpoints
+    breakpoints_from_path(&m_path, n)
 }
 
 #[cfg(test)]

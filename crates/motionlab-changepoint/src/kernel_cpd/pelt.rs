@@ -51,7 +51,7 @@ impl<'a> RbfEndCosts<'a> {
 
     fn add_sample(&mut self, u: usize, lowest: usize) {
         let jump = self.jump;
-        if u % jump == 0 {
+        if u.is_multiple_of(jump) {
             self.block[u / jump] = 1.0;
         }
         if u == 0 {
@@ -119,6 +119,11 @@ pub(crate) fn pelt(n_samples: usize, pen: f64, min_size: usize, jump: usize, cos
         let kept: Vec<usize> = admissible.iter().zip(&totals).filter(|&(_, &v)| v <= bound).map(|(&t, _)| t).collect();
         admissible = kept;
     }
+    breakpoints_from_path(&previous, n)
+}
+
+/// ruptures' breakpoints read back from the best previous end of every end, from n.
+pub(crate) fn breakpoints_from_path(previous: &[usize], n: usize) -> Vec<usize> {
     let mut breakpoints = Vec::new();
     let mut t = n;
     while t > 0 {
@@ -206,6 +211,6 @@ mod tests {
         let cost = L2Cost::new(&sig);
         let b = pelt(50, 1.0, 2, 5, &mut DirectEndCosts(&cost));
         assert_eq!(b.len(), 3);
-        assert!(b[0] % 5 == 0 && b[1] % 5 == 0 && b[2] == 50, "{b:?}");
+        assert!(b[0].is_multiple_of(5) && b[1].is_multiple_of(5) && b[2] == 50, "{b:?}");
     }
 }
