@@ -207,4 +207,9 @@ fn a_bad_matching_key_fails_validation_with_one_located_line() {
     let out = motionlab().args(["validate", "experiments/yabe_exercises.toml", "matching.peaks_per_repetition=0"]).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("matching.peaks_per_repetition") && err.contains("at least one"), "{err}");
+    // A figure name is checked when the file is validated (a typo would otherwise draw nothing).
+    let out = motionlab().args(["validate", "experiments/yabe_exercises.toml", r#"matching.figures=["velocity", "pathz"]"#]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("matching.figures[1]") && err.contains("unknown variant `pathz`, expected one of `velocity`, `paths`, `scatter`"), "{err}");
 }

@@ -204,9 +204,32 @@ pub struct BuildContext<'a> {
 }
 
 impl BuildContext<'_> {
-    /// [`Source::locate`] in this combination's document.
+    /// [`Source::locate`] in this combination's document: the one way a workflow attaches the
+    /// experiment file, line and key path to an error while it builds.
     pub fn locate(&self, err: Error, at: impl Into<crate::context::At>) -> Error {
         self.source.locate(err, at, &self.combo.doc)
+    }
+
+    /// What [`BuildContext::locate`] needs, owned: kept by a workflow whose configuration can
+    /// only be checked once the data is seen (a channel no trial has), so that those errors are
+    /// located the same way, at run time.
+    pub fn locator(&self) -> Locator {
+        Locator { source: self.source.clone(), doc: self.combo.doc.clone() }
+    }
+}
+
+/// [`BuildContext::locate`] after the build: the experiment file and one combination's document.
+#[derive(Clone, Debug)]
+pub struct Locator {
+    source: Source,
+    doc: toml::Table,
+}
+
+impl Locator {
+    /// The error at key path `at` of the experiment (file, line, key path), as
+    /// [`BuildContext::locate`] places it.
+    pub fn locate(&self, err: Error, at: impl Into<crate::context::At>) -> Error {
+        self.source.locate(err, at, &self.doc)
     }
 }
 

@@ -82,7 +82,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::{AngleCurves, Evaluator, FeatureExtractor, GaitCycle, GaitCycleDetector, WalkSynthesizer, WaveformAnalyzer, WaveformParameters};
-use motionlab_experiment::Source;
+use motionlab_experiment::Locator;
 
 /// Name of the Table 2 (posture) result table; `[[published]]` rows for it name its channels.
 pub const TABLE_POSTURE: &str = "table2_posture";
@@ -120,10 +120,9 @@ pub struct GaitWorkflow {
     published_channels: BTreeMap<String, Vec<String>>,
     /// The sweep combination (0 without a sweep): other combinations' files get a suffix.
     combo_index: usize,
-    /// The experiment file and this combination's document, to locate configuration errors
-    /// found only once the data is seen (a figure channel no trial has).
-    source: Source,
-    doc: toml::Table,
+    /// Locates configuration errors found only once the data is seen (a figure channel no
+    /// trial has).
+    locator: Locator,
 }
 
 /// One analysed walk (an item's result).

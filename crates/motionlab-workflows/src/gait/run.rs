@@ -17,7 +17,7 @@ use super::{GaitWorkflow, Role, WalkRecord};
 impl GaitWorkflow {
     /// An error about the configuration at key `path` (file, line, key path).
     pub(super) fn config_error(&self, path: &str, err: Error) -> Error {
-        self.source.locate(err, path, &self.doc)
+        self.locator.locate(err, path)
     }
 
     /// Angles → cycles → parameters of one walk; errors name the stage.

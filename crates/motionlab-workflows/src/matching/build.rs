@@ -6,26 +6,19 @@ use motionlab_core::{Error, ErrorKind, EvalInputType, Result};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
 use motionlab_experiment::workflow::{build_evaluators, sanitize, BuildContext, WorkflowPlugin};
-use motionlab_experiment::{build_stage, BuiltDataset, Combo, Datasets, Source};
+use motionlab_experiment::{build_stage, BuiltDataset, Datasets};
 
-use super::section::FIGURES;
 use super::{MatchingSection, MatchingWorkflow, Take, TakeKind};
 
 impl WorkflowPlugin for MatchingWorkflow {
     type Section = MatchingSection;
     fn build(section: MatchingSection, cx: &BuildContext<'_>) -> Result<Self> {
-        let (source, combo, data, root) = (cx.source, cx.combo, cx.data, cx.root.clone());
-        let locate = |e: Error, key: &str| source.locate(e, root.join_field(key), &combo.doc);
+        let (source, combo, root) = (cx.source, cx.combo, &cx.root);
+        let locate = |e: Error, key: &str| cx.locate(e, root.join_field(key));
         if section.peaks_per_repetition == 0 {
             return Err(locate(
                 Error::new(ErrorKind::OutOfRange, "expected at least one velocity peak per repetition, found 0"),
                 "peaks_per_repetition",
-            ));
-        }
-        if let Some(bad) = section.figures.iter().find(|f| !FIGURES.contains(&f.as_str())) {
-            return Err(locate(
-                Error::new(ErrorKind::UnknownName, format!("no figure named {bad:?}; expected any of {FIGURES:?}")),
-                "figures",
             ));
         }
         if let Some(points) = &section.points {
@@ -39,12 +32,12 @@ impl WorkflowPlugin for MatchingWorkflow {
                 ));
             }
         }
-        let model = find_model(&section.model, data).map_err(|e| locate(e, "model"))?;
+        let model = find_model(&section.model, cx.data).map_err(|e| locate(e, "model"))?;
         let matcher = build_stage(source, combo, &section.matcher, &root.key("matcher"), registry::build_matcher)?;
         let synchroniser = build_stage(source, combo, &section.synchroniser, &root.key("synchroniser"), registry::build_synchroniser)?;
         let matcher_points = stage_points(&section.matcher);
         let evaluators = build_evaluators(source, combo, EvalInputType::matching())?;
-        let takes = build_takes(source, combo, data, &section, model, &root)?;
+        let takes = build_takes(cx, &section, model)?;
         if takes.is_empty() {
             return Err(locate(
                 Error::new(
@@ -54,7 +47,7 @@ impl WorkflowPlugin for MatchingWorkflow {
                 "model",
             ));
         }
-        Ok(MatchingWorkflow { section, model, takes, matcher, matcher_points, synchroniser, evaluators })
+        Ok(MatchingWorkflow { section, model, takes, matcher, matcher_points, synchroniser, evaluators, locator: cx.locator() })
     }
 }
 
@@ -108,123 +101,121 @@ pub(crate) fn find_model(name: &str, data: &Datasets) -> Result<usize> {
     }
 }
 
-/// Every user take, its detector built with its own count (so validation checks them all).
-fn build_takes(source: &Source, combo: &Combo, data: &Datasets, section: &MatchingSection, model: usize, root: &KeyPath) -> Result<Vec<Take>> {
-    let datasets = KeyPath::parse("dataset")?;
-    let mut takes: Vec<Take> = Vec::new();
-    let mut used_overrides: Vec<&str> = Vec::new();
-    let detector_path = root.key("point_detector");
+/// Every user take, its detector built with its own count (so validation checks them all),
+/// each with a unique item id.
+fn build_takes(cx: &BuildContext<'_>, section: &MatchingSection, model: usize) -> Result<Vec<Take>> {
+    let detector_path = cx.root.key("point_detector");
     if let Some(spec) = &section.point_detector
         && spec.params.contains_key("count")
     {
-        return Err(source.locate(
+        return Err(cx.locate(
             Error::new(
                 ErrorKind::InvalidParameter,
                 "`count` is set per take by the workflow: tag the take's dataset `repetitions = \"N\"` or set `[matching.repetitions]`",
             ),
             detector_path.key("count"),
-            &combo.doc,
         ));
     }
-    for d in data.datasets.iter().filter(|d| d.index != model) {
-        let here = datasets.index(d.index);
-        let at_tag = |key: &str, e: Error| source.locate(e, here.key("tags").key(key), &combo.doc);
+    let mut takes: Vec<Take> = Vec::new();
+    let mut used_overrides: Vec<&str> = Vec::new();
+    for d in cx.data.datasets.iter().filter(|d| d.index != model) {
         if let Some(take) = d.tag("take") {
-            if d.tag("repetitions").is_some() {
-                return Err(at_tag(
-                    "repetitions",
-                    Error::new(
-                        ErrorKind::InvalidParameter,
-                        "a dataset is either one repetition of an explicit take (`take`) or a continuous take (`repetitions`), not both",
-                    ),
-                ));
-            }
-            if let Some(g) = d.tag("group")
-                && !["a", "b", "c"].contains(&g)
-            {
-                return Err(at_tag(
-                    "group",
-                    Error::new(ErrorKind::InvalidParameter, format!("group {g:?}: expected \"a\" (close), \"b\" (timing-shifted) or \"c\" (wrong)")),
-                ));
-            }
-            let members: Vec<(usize, usize)> = (0..d.files.len()).map(|f| (d.index, f)).collect();
-            match takes.iter_mut().find(|t| t.name == take) {
-                Some(Take { kind: TakeKind::Explicit { members: m }, .. }) => m.extend(members),
-                Some(_) => {
-                    return Err(at_tag("take", Error::new(ErrorKind::DuplicateName, format!("take {take:?} is also the name of a continuous take"))));
-                }
-                None => takes.push(Take { id: String::new(), name: take.to_string(), kind: TakeKind::Explicit { members } }),
-            }
+            add_explicit_member(cx, d, take, &mut takes)?;
             continue;
         }
         for file in 0..d.files.len() {
             let name = d.sequence_name(file);
-            let count = match (section.repetitions.get(&name), d.tag("repetitions")) {
-                (Some(&n), _) => {
-                    used_overrides.push(section.repetitions.get_key_value(&name).map(|(k, _)| k.as_str()).unwrap_or(""));
-                    if n == 0 {
-                        return Err(source.locate(
-                            Error::new(ErrorKind::OutOfRange, "expected at least one repetition, found 0"),
-                            root.key("repetitions").key(&name),
-                            &combo.doc,
-                        ));
-                    }
-                    n
-                }
-                (None, Some(text)) => match text.trim().parse::<usize>() {
-                    Ok(n) if n >= 1 => n,
-                    _ => {
-                        return Err(at_tag(
-                            "repetitions",
-                            Error::new(ErrorKind::WrongType, format!("repetitions = {text:?}: expected a whole number of repetitions >= 1")),
-                        ));
-                    }
-                },
-                (None, None) => {
-                    return Err(source.locate(
-                        Error::new(
-                            ErrorKind::MissingKey,
-                            format!(
-                                "dataset {:?} is a user take but says neither how many repetitions it holds (tag `repetitions = \"N\"` or `[matching.repetitions]`) nor that it is one repetition of an explicit take (tag `take = \"<name>\"`)",
-                                dataset_label(d)
-                            ),
-                        ),
-                        &here,
-                        &combo.doc,
-                    ));
-                }
-            };
+            let count = repetitions_of(cx, section, d, &name, &mut used_overrides)?;
             let Some(spec) = &section.point_detector else {
-                return Err(source.locate(
-                    Error::new(ErrorKind::MissingKey, format!("take {name:?} is continuous, so [matching] needs a `point_detector`")),
-                    root,
-                    &combo.doc,
-                ));
+                return Err(cx.locate(Error::new(ErrorKind::MissingKey, format!("take {name:?} is continuous, so [matching] needs a `point_detector`")), &cx.root));
             };
             let mut with_count = spec.clone();
             with_count.params.insert("count".into(), toml::Value::Integer((count * section.peaks_per_repetition) as i64));
-            let detector = build_stage(source, combo, &with_count, &detector_path, registry::build_point_detector)?;
+            let detector = build_stage(cx.source, cx.combo, &with_count, &detector_path, registry::build_point_detector)?;
             if takes.iter().any(|t| t.name == name) {
-                return Err(source.locate(
+                return Err(cx.locate(
                     Error::new(ErrorKind::DuplicateName, format!("two takes are named {name:?}; give the datasets distinct `name`s")),
-                    &here,
-                    &combo.doc,
+                    dataset_path(d),
                 ));
             }
             takes.push(Take { id: String::new(), name, kind: TakeKind::Continuous { dataset: d.index, file, count, detector } });
         }
     }
     if let Some(unused) = section.repetitions.keys().find(|k| !used_overrides.contains(&k.as_str())) {
-        let names: Vec<String> =
-            takes.iter().filter(|t| matches!(t.kind, TakeKind::Continuous { .. })).map(|t| format!("{:?}", t.name)).collect();
-        return Err(source.locate(
+        let names: Vec<String> = takes.iter().filter(|t| matches!(t.kind, TakeKind::Continuous { .. })).map(|t| format!("{:?}", t.name)).collect();
+        return Err(cx.locate(
             Error::new(ErrorKind::UnknownName, format!("{unused:?} names no continuous take; the continuous takes are: {}", names.join(", "))),
-            root.key("repetitions").key(unused),
-            &combo.doc,
+            cx.root.key("repetitions").key(unused),
         ));
     }
+    assign_item_ids(&mut takes);
+    Ok(takes)
+}
+
+/// `[[dataset]]` number `d.index` of the experiment.
+fn dataset_path(d: &BuiltDataset) -> KeyPath {
+    KeyPath::default().key("dataset").index(d.index)
+}
+
+/// A dataset tagged `take = "<name>"`: each of its files one repetition of that explicit take
+/// (added to it, or a new take), its tags checked.
+fn add_explicit_member(cx: &BuildContext<'_>, d: &BuiltDataset, take: &str, takes: &mut Vec<Take>) -> Result<()> {
+    let at_tag = |key: &str, e: Error| cx.locate(e, dataset_path(d).key("tags").key(key));
+    if d.tag("repetitions").is_some() {
+        return Err(at_tag(
+            "repetitions",
+            Error::new(ErrorKind::InvalidParameter, "a dataset is either one repetition of an explicit take (`take`) or a continuous take (`repetitions`), not both"),
+        ));
+    }
+    if let Some(g) = d.tag("group")
+        && !["a", "b", "c"].contains(&g)
+    {
+        return Err(at_tag("group", Error::new(ErrorKind::InvalidParameter, format!("group {g:?}: expected \"a\" (close), \"b\" (timing-shifted) or \"c\" (wrong)"))));
+    }
+    let members: Vec<(usize, usize)> = (0..d.files.len()).map(|f| (d.index, f)).collect();
+    match takes.iter_mut().find(|t| t.name == take) {
+        Some(Take { kind: TakeKind::Explicit { members: m }, .. }) => m.extend(members),
+        Some(_) => return Err(at_tag("take", Error::new(ErrorKind::DuplicateName, format!("take {take:?} is also the name of a continuous take")))),
+        None => takes.push(Take { id: String::new(), name: take.to_string(), kind: TakeKind::Explicit { members } }),
+    }
+    Ok(())
+}
+
+/// The number of repetitions `N` of the continuous take `name` (a file of `d`): from
+/// `[matching.repetitions]` (noted in `used_overrides`), else from the dataset's tag.
+fn repetitions_of<'s>(cx: &BuildContext<'_>, section: &'s MatchingSection, d: &BuiltDataset, name: &str, used_overrides: &mut Vec<&'s str>) -> Result<usize> {
+    match (section.repetitions.get_key_value(name), d.tag("repetitions")) {
+        (Some((key, &n)), _) => {
+            used_overrides.push(key.as_str());
+            if n == 0 {
+                return Err(cx.locate(Error::new(ErrorKind::OutOfRange, "expected at least one repetition, found 0"), cx.root.key("repetitions").key(name)));
+            }
+            Ok(n)
+        }
+        (None, Some(text)) => match text.trim().parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => Err(cx.locate(
+                Error::new(ErrorKind::WrongType, format!("repetitions = {text:?}: expected a whole number of repetitions >= 1")),
+                dataset_path(d).key("tags").key("repetitions"),
+            )),
+        },
+        (None, None) => Err(cx.locate(
+            Error::new(
+                ErrorKind::MissingKey,
+                format!(
+                    "dataset {:?} is a user take but says neither how many repetitions it holds (tag `repetitions = \"N\"` or `[matching.repetitions]`) nor that it is one repetition of an explicit take (tag `take = \"<name>\"`)",
+                    dataset_label(d)
+                ),
+            ),
+            dataset_path(d),
+        )),
+    }
+}
+
+/// Each take's item id: its [`item_id`], made unique with `_2`, `_3`, … in take order.
+fn assign_item_ids(takes: &mut [Take]) {
     let mut ids: Vec<String> = Vec::new();
-    for t in &mut takes {
+    for t in takes {
         let base = item_id(&t.name);
         let mut id = base.clone();
         let mut k = 2;
@@ -235,7 +226,6 @@ fn build_takes(source: &Source, combo: &Combo, data: &Datasets, section: &Matchi
         ids.push(id.clone());
         t.id = id;
     }
-    Ok(takes)
 }
 
 /// A file-name-safe id for a take: [`sanitize`]d, runs of `_` collapsed, no `_` at the ends

@@ -76,11 +76,12 @@ mod viewers;
 
 pub(crate) use build::find_model;
 pub(crate) use run::cut_offset;
-pub use section::MatchingSection;
+pub use section::{MatchingFigure, MatchingSection};
 
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::{Evaluator, Matcher, PointDetector, Synchroniser};
+use motionlab_experiment::Locator;
 
 /// How a take's repetitions are given.
 enum TakeKind {
@@ -105,6 +106,9 @@ pub struct MatchingWorkflow {
     matcher_points: Option<Vec<String>>,
     synchroniser: Box<dyn Synchroniser>,
     evaluators: Vec<(String, Box<dyn Evaluator>)>,
+    /// Locates configuration errors found only once the data is seen (a path marker the
+    /// matcher reports no distance for).
+    locator: Locator,
 }
 
 /// One matched repetition, as persisted (paths are left out: they are drawn per item).

@@ -12,6 +12,7 @@ use motionlab_experiment::{BuiltDataset, Datasets};
 
 use super::analysis::timing_test;
 use super::figures::scatter_figures;
+use super::section::MatchingFigure;
 use super::{ItemResult, MatchingWorkflow, RepetitionRecord, TakeKind};
 
 /// A row of the `repetitions` table.
@@ -255,7 +256,7 @@ impl Workflow for MatchingWorkflow {
                 &verdict_rows,
             )?);
         }
-        if draw && self.wants("scatter") {
+        if draw && self.wants(MatchingFigure::Scatter) {
             out.figures.extend(scatter_figures(&results));
         }
         if draw {

@@ -3,12 +3,9 @@
 use std::collections::BTreeMap;
 
 use schemars::JsonSchema;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use motionlab_experiment::spec::StageSpec;
-
-/// The figures this workflow can draw (`[matching] figures`).
-pub(super) const FIGURES: [&str; 3] = ["velocity", "paths", "scatter"];
 
 /// A model basic motion against a user's repetitions, marker by marker (Yabe & Tanaka): point
 /// detection, two-stage DP matching, synchronisation, the evaluators' judgement and tendency
@@ -55,7 +52,21 @@ pub struct MatchingSection {
     pub path_markers: Option<[String; 2]>,
     /// Which figures to draw: any of `velocity`, `paths`, `scatter`.
     #[serde(default = "default_figures")]
-    pub figures: Vec<String>,
+    pub figures: Vec<MatchingFigure>,
+}
+
+/// A figure `[matching]` draws (`figures = ["velocity", …]`); a name that is none of these is
+/// an error when the experiment is validated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MatchingFigure {
+    /// Per continuous take: the velocity function with its threshold, peaks by repetition and
+    /// windows (Fig. 2).
+    Velocity,
+    /// Per repetition: the warping paths of two markers (Fig. 4).
+    Paths,
+    /// Per combination: the H–R scatter (Fig. 5) and the normalised H'–R' scatter (Fig. 6).
+    Scatter,
 }
 
 fn one() -> usize {
@@ -70,6 +81,6 @@ fn default_synchroniser() -> StageSpec {
     StageSpec::of_type("synchronisation")
 }
 
-fn default_figures() -> Vec<String> {
-    FIGURES.iter().map(|s| s.to_string()).collect()
+fn default_figures() -> Vec<MatchingFigure> {
+    vec![MatchingFigure::Velocity, MatchingFigure::Paths, MatchingFigure::Scatter]
 }

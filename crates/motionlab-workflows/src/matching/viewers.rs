@@ -14,10 +14,6 @@ use super::run::cut_offset;
 use super::{ItemResult, MatchingWorkflow, TakeKind};
 
 impl MatchingWorkflow {
-    /// The viewer pages: the model, each continuous take (velocity function with threshold,
-    /// peaks, cut windows and matched stretches) and each repetition of an explicit take (its
-    /// matched stretch). Every interval is labelled with its repetition, `H`, `R`, score and
-    /// rank by score within the take (1 = most similar).
     /// Bones for the viewer of a loaded (preprocessed) motion: its skeleton's, through the
     /// points a preprocessor merged ([`bones_of_merged_skeleton`] of the file as loaded, read
     /// again), or none (markers only) when the file has no skeleton or cannot be read again.
@@ -32,6 +28,10 @@ impl MatchingWorkflow {
         }
     }
 
+    /// The viewer pages: the model, each continuous take (velocity function with threshold,
+    /// peaks, cut windows and matched stretches) and each repetition of an explicit take (its
+    /// matched stretch). Every interval is labelled with its repetition, `H`, `R`, score and
+    /// rank by score within the take (1 = most similar).
     pub(super) fn viewers(&self, items: &[(WorkItem, ItemData)], results: &[ItemResult], data: &Datasets) -> Result<Vec<ViewerSpec>> {
         let mut out = Vec::new();
         let model = data.load(self.model, 0).map_err(|e| e.under_field("model"))?;
