@@ -9,10 +9,9 @@
 //! Stages are built through the plugin registry with TOML parameters, as an experiment does.
 
 use motionlab_core::registry;
-use motionlab_core::{
-    AngleCurves, EvalInput, ErrorKind, FeatureCache, FeatureSet, GaitCycle, GaitStudy, GaitTrial, MethodCandidates, Motion, Result,
-    SegmenterOutput, WalkChanges,
-};
+use motionlab_core::{EvalInput, ErrorKind, FeatureCache, FeatureSet, MethodCandidates, Motion, Result, SegmenterOutput};
+use motionlab_features::{AngleCurves, GaitCycle};
+use motionlab_gait::{GaitStudy, GaitTrial, WalkChanges};
 
 use motionlab_eval as _;
 use motionlab_features as _;
@@ -460,7 +459,7 @@ fn fill(m: Motion, max_frames: usize) -> Motion {
 
 #[test]
 fn velocity_peaks_refuses_a_gap_in_its_marker_and_works_after_fill_gaps() {
-    let detector = |marker: &str| registry::build_point_detector("velocity_peaks", &params(&format!("marker = \"{marker}\"\ncount = 3\nbefore = {{ seconds = 0.3 }}\nafter = {{ seconds = 0.3 }}"))).unwrap();
+    let detector = |marker: &str| motionlab_match::build_point_detector("velocity_peaks", &params(&format!("marker = \"{marker}\"\ncount = 3\nbefore = {{ seconds = 0.3 }}\nafter = {{ seconds = 0.3 }}"))).unwrap();
     let w = walk1();
     assert_refused(detector("Head_FR").detect(&w), "Head_FR", 199, "velocity_peaks");
     // Other markers are not read: a complete marker of walk1 works.
@@ -476,8 +475,8 @@ fn velocity_peaks_refuses_a_gap_in_its_marker_and_works_after_fill_gaps() {
 fn matchers_refuse_gaps_and_work_after_fill_gaps_then_synchronise() {
     let w = walk1();
     let model = w.slice_frames(20, 80).unwrap(); // complete
-    let subsequence = registry::build_matcher("subsequence_dp", &params("marker = \"Head_FR\"")).unwrap();
-    let multistream = registry::build_matcher("multistream_two_stage", &params("")).unwrap();
+    let subsequence = motionlab_match::build_matcher("subsequence_dp", &params("marker = \"Head_FR\"")).unwrap();
+    let multistream = motionlab_match::build_matcher("multistream_two_stage", &params("")).unwrap();
     assert_refused(subsequence.align(&model, &w), "Head_FR", 199, "subsequence_dp");
     assert_refused(multistream.align(&model, &w), "Head_FR", 199, "multistream_two_stage");
     // A gap in the model is refused too.
@@ -490,7 +489,7 @@ fn matchers_refuse_gaps_and_work_after_fill_gaps_then_synchronise() {
     let a = multistream.align(&model, &filled).unwrap();
     assert_eq!((a.start, a.end), (20, 79));
     assert!(a.total_distance.abs() < 1e-6, "H = {}", a.total_distance);
-    let sync = registry::build_synchroniser("synchronisation", &params("")).unwrap().synchronise(&a, model.n_frames()).unwrap();
+    let sync = motionlab_match::build_synchroniser("synchronisation", &params("")).unwrap().synchronise(&a, model.n_frames()).unwrap();
     assert!(sync.total.is_finite() && sync.total.abs() < 1e-9, "R = {}", sync.total);
     for (gapped, len) in dance1_gaps() {
         let m = gapped.slice_frames(100, 160).unwrap();
@@ -505,7 +504,7 @@ fn matchers_refuse_gaps_and_work_after_fill_gaps_then_synchronise() {
 // ---------------------------------------------------------------------------------------------
 
 fn cycles(name: &str, p: &str, m: &Motion) -> Result<Vec<GaitCycle>> {
-    registry::build_gait_cycle_detector(name, &params(p)).unwrap().cycles(m)
+    motionlab_features::build_gait_cycle_detector(name, &params(p)).unwrap().cycles(m)
 }
 
 fn angle_curves(m: &Motion) -> AngleCurves {
@@ -544,7 +543,7 @@ fn gait_cycles_from_events_ignore_marker_gaps_and_heel_height_skips_them() {
 fn waveform_parameters_leave_out_cycles_with_gaps_per_channel() {
     let s = schreiber();
     let cyc = cycles("c3d_events", "", &s).unwrap();
-    let analyzer = registry::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
+    let analyzer = motionlab_features::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
     let complete = analyzer.parameters(&angle_curves(&s), &cyc).unwrap();
     // L_FLE missing through the whole trial: left hip, knee, ankle have no complete cycle → NaN;
     // the other channels are exactly as without the gap.
@@ -578,7 +577,7 @@ fn walk_synthesis_keeps_nan_and_refuses_to_change_an_undefined_channel() {
     let cyc = cycles("c3d_events", "", &s).unwrap();
     let g = with_gap(&s, "L_FLE", 0, s.n_frames());
     let curves = angle_curves(&g);
-    let synth = registry::build_walk_synthesizer("feature_channel_control", &params("")).unwrap();
+    let synth = motionlab_gait::build_walk_synthesizer("feature_channel_control", &params("")).unwrap();
     // Changing a complete channel works; the NaN channels stay NaN throughout.
     let mut changes = WalkChanges::default();
     changes.dc_percent.insert("ankle_r.flexion".into(), 10.0);
@@ -596,7 +595,7 @@ fn walk_synthesis_keeps_nan_and_refuses_to_change_an_undefined_channel() {
 
 #[test]
 fn change_rates_exclude_a_channel_with_no_complete_cycle_flagged_missing() {
-    let analyzer = registry::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
+    let analyzer = motionlab_features::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
     let trial = |file: &str, gap: bool| {
         let m = load("c3d", file);
         let m = if gap { with_gap(&m, "L_FLE", 0, m.n_frames()) } else { m };

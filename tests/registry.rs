@@ -26,14 +26,42 @@ const WORKFLOW_CRATES: &[(&str, usize)] = &[("motionlab-workflows", motionlab_wo
 
 #[test]
 fn every_plugin_crate_registers_the_plugins_it_counts() {
-    let all = registry::plugins();
+    // Plugins of core's kinds and of the kinds family crates declare (matcher, gait-cycle
+    // detector, …), by name and crate.
+    let all: Vec<(&str, &str)> = registry::plugins()
+        .iter()
+        .map(|p| (p.name, p.crate_name))
+        .chain(registry::custom_plugins().iter().map(|p| (p.name, p.crate_name)))
+        .collect();
     for (krate, count) in PLUGIN_CRATES {
-        let names: Vec<&str> = all.iter().filter(|p| p.crate_name == *krate).map(|p| p.name).collect();
+        let names: Vec<&str> = all.iter().filter(|p| p.1 == *krate).map(|p| p.0).collect();
         assert_eq!(names.len(), *count, "{krate} says it registers {count} plugins; the binary holds {}: {names:?} (crate not linked, or a plugin's `mod` line missing?)", names.len());
     }
-    for p in &all {
-        assert!(PLUGIN_CRATES.iter().any(|(k, _)| *k == p.crate_name), "plugin {:?} comes from {}, which the CLI does not name", p.name, p.crate_name);
+    for (name, krate) in &all {
+        assert!(PLUGIN_CRATES.iter().any(|(k, _)| k == krate), "plugin {name:?} comes from {krate}, which the CLI does not name");
     }
+}
+
+/// The kinds family crates declare are listed among core's, each with its plugins, and a
+/// plugin of one is built by its family's builder and refused by another kind's.
+#[test]
+fn declared_kinds_are_listed_and_built_like_cores() {
+    let declared: Vec<&str> = registry::declared_kinds().iter().map(|k| k.name).collect();
+    assert_eq!(declared, ["point_detector", "matcher", "synchroniser", "gait_cycle_detector", "waveform_analyzer", "walk_synthesizer"]);
+    let list = motionlab_cli::describe::list();
+    let order: Vec<usize> = ["fusers:", "point detectors:", "matchers:", "synchronisers:", "gait-cycle detectors:", "waveform analyzers:", "walk synthesizers:", "evaluators:"]
+        .iter()
+        .map(|h| list.lines().position(|l| l == *h).unwrap_or_else(|| panic!("{h} not in `motionlab list`:\n{list}")))
+        .collect();
+    assert!(order.windows(2).all(|w| w[0] < w[1]), "kinds out of order: {order:?}");
+    assert!(!list.contains("(custom kind)"), "no undeclared custom kind in the workspace");
+    assert!(motionlab_match::build_matcher("multistream_two_stage", &registry::default_params()).is_ok());
+    let e = motionlab_match::build_matcher("velocity_peaks", &registry::default_params()).err().unwrap();
+    assert_eq!(e.to_string(), "\"velocity_peaks\" is a point detector, but a matcher is expected here");
+    let e = motionlab_match::build_matcher("multistream_two_stag", &registry::default_params()).err().unwrap();
+    assert!(e.to_string().starts_with("no matcher named \"multistream_two_stag\" is registered; did you mean \"multistream_two_stage\""), "{e}");
+    let d = motionlab_cli::describe::describe("heel_height").unwrap();
+    assert!(d.starts_with("heel_height (gait-cycle detector, from motionlab-features)"), "{d}");
 }
 
 #[test]

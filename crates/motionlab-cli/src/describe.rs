@@ -14,19 +14,27 @@ pub fn list() -> String {
     for w in workflows() {
         let _ = writeln!(out, "  {:<28} {}", format!("[{}]", w.name), w.summary());
     }
-    for kind in StageKind::ALL {
-        let of_kind: Vec<_> = all.iter().filter(|p| p.kind == kind).collect();
+    let custom = registry::custom_plugins();
+    // Core's kinds and the kinds family crates declare, in list order; each kind's plugins.
+    let mut kinds: Vec<(u32, &str, Vec<(&str, String)>)> = StageKind::ALL
+        .iter()
+        .map(|&k| (k.list_order(), k.label(), all.iter().filter(|p| p.kind == k).map(|p| (p.name, p.summary())).collect()))
+        .collect();
+    for k in registry::declared_kinds() {
+        kinds.push((k.list_order, k.label, custom.iter().filter(|p| p.kind == k.name).map(|p| (p.name, p.summary())).collect()));
+    }
+    kinds.sort_by_key(|k| k.0);
+    for (_, label, of_kind) in kinds {
         if of_kind.is_empty() {
             continue;
         }
-        let _ = writeln!(out, "{}s:", kind.label());
-        for p in of_kind {
-            let _ = writeln!(out, "  {:<28} {}", p.name, p.summary());
+        let _ = writeln!(out, "{label}s:");
+        for (name, summary) in of_kind {
+            let _ = writeln!(out, "  {name:<28} {summary}");
         }
     }
-    // Kinds defined outside core (`register_custom_plugin!`), under their kind's name.
-    let custom = registry::custom_plugins();
-    for kind in registry::custom_kinds() {
+    // Kinds nobody declares (`register_custom_plugin!` alone), under their kind's name.
+    for kind in registry::custom_kinds().into_iter().filter(|k| registry::declared_kind(k).is_none()) {
         let _ = writeln!(out, "{kind} (custom kind):");
         for p in custom.iter().filter(|p| p.kind == kind) {
             let _ = writeln!(out, "  {:<28} {}", p.name, p.summary());
@@ -47,10 +55,15 @@ pub fn describe(name: &str) -> Result<String> {
     }
     if let Some(p) = registry::find_custom(name) {
         let mut out = String::new();
-        let _ = writeln!(out, "{} ({}, a custom kind, from {})\n", p.name, p.kind, p.crate_name);
+        match registry::declared_kind(p.kind) {
+            Some(k) => writeln!(out, "{} ({}, from {})\n", p.name, k.label, p.crate_name),
+            None => writeln!(out, "{} ({}, a custom kind, from {})\n", p.name, p.kind, p.crate_name),
+        }
+        .ok();
         let _ = writeln!(out, "{}\n", p.doc());
         if write_params(&mut out, p.params()) {
-            let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }} where a {} is expected", p.name, p.kind);
+            let kind = registry::declared_kind(p.kind).map_or(p.kind, |k| k.label);
+            let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }} where a {kind} is expected", p.name);
         }
         return Ok(out);
     }

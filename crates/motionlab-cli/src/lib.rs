@@ -36,7 +36,7 @@ use motionlab_workflows as _;
 use motionlab_core::{Error, ErrorKind, Result};
 use motionlab_engine::{RunOptions, RunSummary};
 
-mod describe;
+pub mod describe;
 mod inspect;
 mod new;
 mod progress;

@@ -103,13 +103,57 @@ stage_kinds! {
     FeatureExtractor => FeatureExtractor, "feature extractor", build_feature_extractor;
     Segmenter => Segmenter, "segmenter", build_segmenter;
     Fuser => Fuser, "fuser", build_fuser;
-    PointDetector => PointDetector, "point detector", build_point_detector;
-    Matcher => Matcher, "matcher", build_matcher;
-    Synchroniser => Synchroniser, "synchroniser", build_synchroniser;
-    GaitCycleDetector => GaitCycleDetector, "gait-cycle detector", build_gait_cycle_detector;
-    WaveformAnalyzer => WaveformAnalyzer, "waveform analyzer", build_waveform_analyzer;
-    WalkSynthesizer => WalkSynthesizer, "walk synthesizer", build_walk_synthesizer;
     Evaluator => Evaluator, "evaluator", build_evaluator;
+}
+
+impl StageKind {
+    /// Where `motionlab list` shows this kind: ten apart, so a kind declared by a family crate
+    /// ([`declare_stage_kind!`](crate::declare_stage_kind)) can sit between two of core's.
+    pub fn list_order(self) -> u32 {
+        StageKind::ALL.iter().position(|k| *k == self).map_or(u32::MAX, |i| i as u32 * 10)
+    }
+}
+
+/// A stage kind declared by the crate that defines its trait — the matching family's
+/// `matcher` in `motionlab-match`, a researcher's own kind — rather than in core's table: core
+/// knows neither its trait nor its records. Its plugins register with
+/// [`register_custom_plugin!`](crate::register_custom_plugin) under `name` and are built with
+/// [`build_custom`]; `motionlab list` and `describe` show it like core's kinds. A custom kind
+/// nobody declares is listed as a custom kind.
+pub struct KindEntry {
+    /// The kind's name (`matcher`, `gait_cycle_detector`), as `register_custom_plugin!` uses it.
+    pub name: &'static str,
+    /// Human label (`gait-cycle detector`).
+    pub label: &'static str,
+    /// Where `motionlab list` shows it among core's kinds ([`StageKind::list_order`]).
+    pub list_order: u32,
+    /// The crate that declared it.
+    pub crate_name: &'static str,
+}
+
+inventory::collect!(KindEntry);
+
+/// Every declared kind, in list order.
+pub fn declared_kinds() -> Vec<&'static KindEntry> {
+    let mut v: Vec<&'static KindEntry> = inventory::iter::<KindEntry>.into_iter().collect();
+    v.sort_by_key(|k| (k.list_order, k.name));
+    v
+}
+
+/// The declared kind named `name`, if any.
+pub fn declared_kind(name: &str) -> Option<&'static KindEntry> {
+    inventory::iter::<KindEntry>.into_iter().find(|k| k.name == name)
+}
+
+/// Declares a stage kind whose trait lives in this crate:
+/// `declare_stage_kind!("matcher", label = "matcher", list_order = 52);`
+#[macro_export]
+macro_rules! declare_stage_kind {
+    ($name:literal, label = $label:literal, list_order = $order:literal) => {
+        $crate::inventory::submit! {
+            $crate::registry::KindEntry { name: $name, label: $label, list_order: $order, crate_name: env!("CARGO_PKG_NAME") }
+        }
+    };
 }
 
 /// Validation of deserialised parameters into the type a stage runs with (linfa's ParamGuard).
@@ -501,19 +545,22 @@ pub fn build_custom<T: ?Sized + 'static>(kind: &str, name: &str, params: &toml::
         let close = closest_names(kind, custom_kinds());
         return Err(Error::new(ErrorKind::UnknownPlugin, format!("no custom stage kind {kind:?} is registered{}", hint(close))));
     }
+    fn label(k: &str) -> &str {
+        declared_kind(k).map_or(k, |d| d.label)
+    }
     let entry = match all.iter().find(|p| p.name == name) {
         Some(p) if p.kind == kind => *p,
         Some(p) => {
-            let msg = format!("{name:?} is a {}, but a {kind} is expected here", p.kind);
+            let msg = format!("{name:?} is a {}, but a {} is expected here", label(p.kind), label(kind));
             return Err(Error::new(ErrorKind::UnknownPlugin, msg));
         }
         None => {
             if let Some(p) = plugins().into_iter().find(|p| p.name == name) {
-                let msg = format!("{name:?} is a {}, but a {kind} is expected here", p.kind.label());
+                let msg = format!("{name:?} is a {}, but a {} is expected here", p.kind.label(), label(kind));
                 return Err(Error::new(ErrorKind::UnknownPlugin, msg));
             }
             let close = closest_names(name, all.iter().filter(|p| p.kind == kind).map(|p| p.name));
-            return Err(Error::new(ErrorKind::UnknownPlugin, format!("no {kind} named {name:?} is registered{}", hint(close))));
+            return Err(Error::new(ErrorKind::UnknownPlugin, format!("no {} named {name:?} is registered{}", label(kind), hint(close))));
         }
     };
     let built = (entry.build)(params)?;
@@ -595,6 +642,12 @@ pub fn check_registry() -> Vec<String> {
     for kind in custom_kinds() {
         if !snake(kind) || StageKind::ALL.iter().any(|k| k.label() == kind) {
             problems.push(format!("custom kind {kind:?} is not a snake_case name distinct from the built-in kinds"));
+        }
+    }
+    let mut declared = std::collections::HashSet::new();
+    for k in declared_kinds() {
+        if !declared.insert(k.name) || !snake(k.name) || StageKind::ALL.iter().any(|c| c.label() == k.label) {
+            problems.push(format!("declared kind {:?} ({}) is not a unique snake_case name with a label distinct from core's kinds", k.name, k.crate_name));
         }
     }
     for p in plugins() {

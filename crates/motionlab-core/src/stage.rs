@@ -6,7 +6,7 @@
 //! complete example.
 
 use std::any::Any;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
@@ -15,7 +15,6 @@ use serde::{Deserialize, Serialize};
 use crate::motion::Motion;
 use crate::segmentation::Segmentation;
 use crate::table::Table;
-use crate::units::FrameRate;
 use crate::{Error, ErrorKind, Result};
 
 // ---------------------------------------------------------------------------------------------
@@ -81,101 +80,6 @@ pub struct MethodCandidates<'a> {
     pub frames: &'a [usize],
 }
 
-/// What a point detector finds in a continuous take of repetitions (Yabe & Tanaka §3.1.1).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PointDetection {
-    /// The velocity function `v(i) = |s_i − s_{i+1}|` of the chosen marker (mm per frame).
-    pub velocity: Trace,
-    /// The threshold at which exactly N peaks stood above it.
-    pub threshold: f64,
-    /// Frame of each peak's maximum, in time order.
-    pub peaks: Vec<usize>,
-    /// Window `start..end` (end exclusive) cut around each peak.
-    pub windows: Vec<(usize, usize)>,
-}
-
-/// A model motion aligned to a stretch of a target motion (Yabe & Tanaka §3.1).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Alignment {
-    /// First matched target frame `a` (0-based, into the target given to the matcher).
-    pub start: usize,
-    /// Last matched target frame `b` (inclusive).
-    pub end: usize,
-    /// Per-point distance `h_l`, in the order of the model's points (mm, summed along the path).
-    pub point_distances: Vec<f64>,
-    /// `H = Σ h_l`.
-    pub total_distance: f64,
-    /// Per-point warping path as (model frame i, target frame j) pairs from `(0, start)` to
-    /// `(n−1, end)`; empty when the matcher was asked not to keep paths.
-    pub paths: Vec<Vec<(usize, usize)>>,
-}
-
-/// Synchronisation of the points along an alignment (Yabe & Tanaka §3.2).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Synchronisation {
-    /// The k model frames examined (dividing the model into k+1 equal sections).
-    pub model_frames: Vec<usize>,
-    /// `r_q`: population variance over points of the matched target index at each model frame.
-    pub section_values: Vec<f64>,
-    /// `R = Σ r_q`.
-    pub total: f64,
-}
-
-/// One gait cycle: same-side foot strike to the next foot strike, frames `start..end`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GaitCycle {
-    pub start: usize,
-    pub end: usize,
-    /// `Left` / `Right`.
-    pub side: String,
-}
-
-/// Joint-angle waveforms: channel-major curves in degrees at a frame rate.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct AngleCurves {
-    pub frame_rate: FrameRate,
-    /// `joint.axis` names (`knee_l.flexion`, `lfemur.rx`).
-    pub channels: Vec<String>,
-    /// `values[channel][frame]`, degrees.
-    pub values: Vec<Vec<f64>>,
-}
-
-impl AngleCurves {
-    pub fn n_frames(&self) -> usize {
-        self.values.first().map(Vec::len).unwrap_or(0)
-    }
-    pub fn channel_index(&self, name: &str) -> Result<usize> {
-        self.channels.iter().position(|c| c == name).ok_or_else(|| {
-            let close = crate::registry::closest_names(name, self.channels.iter().map(String::as_str));
-            Error::new(ErrorKind::UnknownName, format!("no angle channel {name:?} (closest: {})", close.join(", ")))
-                .with_field(name)
-        })
-    }
-}
-
-/// Posture, size and speed of a walk's channels (Osafune et al. §2.2).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct WaveformParameters {
-    pub channels: Vec<String>,
-    /// DC component (mean angle) per channel, degrees.
-    pub dc: Vec<f64>,
-    /// Amplitude per channel, degrees.
-    pub amplitude: Vec<f64>,
-    /// Gait frequency (1 / cycle duration), Hz — common to all channels.
-    pub frequency_hz: f64,
-}
-
-/// Change rates to apply to a walk: only the listed channels change (Osafune et al. §4).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct WalkChanges {
-    /// Per channel: DC change rate μ_DC in %.
-    pub dc_percent: BTreeMap<String, f64>,
-    /// Per channel: amplitude change rate μ_A in %.
-    pub amplitude_percent: BTreeMap<String, f64>,
-    /// Frequency change rate μ_f in %.
-    pub frequency_percent: f64,
-}
-
 // ---------------------------------------------------------------------------------------------
 // Evaluator inputs
 // ---------------------------------------------------------------------------------------------
@@ -195,40 +99,6 @@ pub struct SequenceResult {
     pub truth: Option<Segmentation>,
     /// Each segmenter in experiment order, then the fuser's output (method name = fuser name).
     pub methods: Vec<MethodResult>,
-}
-
-/// One repetition matched against the model.
-#[derive(Clone, Debug)]
-pub struct RepetitionResult {
-    /// Label for tables (`rep1`, `(b) delayed`).
-    pub repetition: String,
-    /// Start frame of the cut window in the user's take.
-    pub window_start: usize,
-    pub alignment: Alignment,
-    pub synchronisation: Synchronisation,
-}
-
-/// The matched repetitions of one user take against one model.
-#[derive(Clone, Debug)]
-pub struct MatchingResult {
-    pub take: String,
-    pub point_names: Vec<String>,
-    pub repetitions: Vec<RepetitionResult>,
-}
-
-/// Waveform parameters of one subject's walk in one condition.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GaitTrial {
-    pub subject: String,
-    pub condition: String,
-    pub parameters: WaveformParameters,
-}
-
-/// A gait study: every subject in every condition, and which condition is "normal" (G).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GaitStudy {
-    pub normal_condition: String,
-    pub trials: Vec<GaitTrial>,
 }
 
 /// The kind of results an evaluator reads, named by their Rust type: a workflow hands its
@@ -259,15 +129,6 @@ impl EvalInputType {
     /// segmentation workflows hand their evaluators.
     pub fn segmentation() -> Self {
         Self::of::<Vec<SequenceResult>>("segmentation results")
-    }
-    /// Every user take's matched repetitions (`Vec<MatchingResult>`): what the matching
-    /// workflow hands its evaluators.
-    pub fn matching() -> Self {
-        Self::of::<Vec<MatchingResult>>("matching results")
-    }
-    /// A gait study (`GaitStudy`): what the gait workflow hands its evaluators.
-    pub fn gait() -> Self {
-        Self::of::<GaitStudy>("a gait study")
     }
 }
 
@@ -408,36 +269,6 @@ pub trait Segmenter: Send + Sync {
 /// Combines several methods' candidates into one list.
 pub trait Fuser: Send + Sync {
     fn fuse(&self, motion: &Motion, inputs: &[MethodCandidates<'_>]) -> Result<Vec<usize>>;
-}
-
-/// Finds the repetitions in a continuous take and cuts a window around each.
-pub trait PointDetector: Send + Sync {
-    fn detect(&self, motion: &Motion) -> Result<PointDetection>;
-}
-
-/// Aligns a model motion to (a stretch of) a target motion with the same points.
-pub trait Matcher: Send + Sync {
-    fn align(&self, model: &Motion, target: &Motion) -> Result<Alignment>;
-}
-
-/// Measures how synchronised the points of an alignment are.
-pub trait Synchroniser: Send + Sync {
-    fn synchronise(&self, alignment: &Alignment, model_frames: usize) -> Result<Synchronisation>;
-}
-
-/// Finds gait cycles in a walk.
-pub trait GaitCycleDetector: Send + Sync {
-    fn cycles(&self, motion: &Motion) -> Result<Vec<GaitCycle>>;
-}
-
-/// Computes posture (DC), size (amplitude) and speed (frequency) of angle curves over cycles.
-pub trait WaveformAnalyzer: Send + Sync {
-    fn parameters(&self, curves: &AngleCurves, cycles: &[GaitCycle]) -> Result<WaveformParameters>;
-}
-
-/// Produces a changed walk from a recorded one.
-pub trait WalkSynthesizer: Send + Sync {
-    fn synthesize(&self, walk: &AngleCurves, cycles: &[GaitCycle], changes: &WalkChanges) -> Result<AngleCurves>;
 }
 
 /// What an evaluator produced: its tables and, for an evaluator whose analysis a workflow

@@ -11,7 +11,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, GaitCycle, GaitCycleDetector, Location, Motion, Result, TimeSpan};
+use motionlab_core::{Error, ErrorKind, Location, Motion, Result, TimeSpan};
+use crate::{GaitCycle, GaitCycleDetector};
 
 use crate::signal::percentile;
 
@@ -173,7 +174,7 @@ impl GaitCycleDetector for C3dEventsParams {
     }
 }
 
-motionlab_core::register_plugin!(GaitCycleDetector, C3dEventsParams, "c3d_events");
+motionlab_core::register_custom_plugin!(crate::GaitCycleDetector, C3dEventsParams, "c3d_events", kind = "gait_cycle_detector");
 
 // ---------------------------------------------------------------------------------------------
 // From the heel marker's height
@@ -482,12 +483,12 @@ impl GaitCycleDetector for HeelHeightParams {
     }
 }
 
-motionlab_core::register_plugin!(GaitCycleDetector, HeelHeightParams, "heel_height");
+motionlab_core::register_custom_plugin!(crate::GaitCycleDetector, HeelHeightParams, "heel_height", kind = "gait_cycle_detector");
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::build_gait_cycle_detector;
+    use crate::build_gait_cycle_detector;
     use motionlab_core::{Event, Seconds};
     use motionlab_testkit::named_motion;
 

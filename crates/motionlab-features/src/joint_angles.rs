@@ -28,10 +28,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{
-    AngleCurves, ChannelKind, Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, FrameRate, Location, Motion,
-    Result, SkeletonMotion, Trace,
-};
+use motionlab_core::{ChannelKind, Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, FrameRate, Location, Motion, Result, SkeletonMotion, Trace};
+use crate::AngleCurves;
 
 // ---------------------------------------------------------------------------------------------
 // Cardan angles

@@ -13,6 +13,7 @@ pub mod smoothing;
 pub mod speed;
 pub mod joint_angles;
 pub mod gait_cycles;
+pub mod gait_stages;
 pub mod waveform;
 pub mod curvature;
 pub mod hull;
@@ -20,3 +21,5 @@ pub mod virtual_markers;
 pub mod gap_fill;
 pub mod butterworth;
 mod simd;
+
+pub use gait_stages::{build_gait_cycle_detector, build_waveform_analyzer, AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters};

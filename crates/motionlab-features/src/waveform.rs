@@ -10,7 +10,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{AngleCurves, Error, ErrorKind, GaitCycle, Result, WaveformAnalyzer, WaveformParameters};
+use motionlab_core::{Error, ErrorKind, Result};
+use crate::{AngleCurves, GaitCycle, WaveformAnalyzer, WaveformParameters};
 
 /// How the amplitude of a channel is measured on its mean gait cycle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
@@ -227,12 +228,12 @@ impl WaveformAnalyzer for WaveformParametersStage {
     }
 }
 
-motionlab_core::register_plugin!(WaveformAnalyzer, WaveformParametersParams, "waveform_parameters");
+motionlab_core::register_custom_plugin!(crate::WaveformAnalyzer, WaveformParametersParams, "waveform_parameters", kind = "waveform_analyzer");
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::build_waveform_analyzer;
+    use crate::build_waveform_analyzer;
     use motionlab_core::FrameRate;
     use std::f64::consts::TAU;
 

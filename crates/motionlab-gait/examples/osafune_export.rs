@@ -16,7 +16,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{ColumnValues, Evaluator, GaitCycleDetector, Table, WaveformAnalyzer};
+use motionlab_core::{ColumnValues, Evaluator, Table};
+use motionlab_features::{GaitCycleDetector, WaveformAnalyzer};
 use motionlab_features::gait_cycles::{C3dEventsParams, HeelHeightParams};
 use motionlab_features::joint_angles::{AbsentMarkers, IsbJointAnglesParams};
 use motionlab_features::waveform::WaveformParametersParams;

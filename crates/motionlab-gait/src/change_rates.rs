@@ -7,7 +7,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Analysis, Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, GaitStudy, GaitTrial, Result, Table, WalkChanges};
+use motionlab_core::{Analysis, Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, Result, Table};
+use crate::{GaitStudy, GaitTrial, WalkChanges};
 
 /// Change rates of every channel from the normal walk to each other condition, their mean,
 /// population s.d. and coefficient of variation over subjects, and the feature channels
@@ -562,7 +563,7 @@ struct FrequencyRecord {
 
 impl Evaluator for ChangeRates {
     fn input_type(&self) -> EvalInputType {
-        EvalInputType::gait()
+        crate::gait_study()
     }
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
         self.evaluate_with_analysis(input).map(|e| e.tables)
@@ -570,7 +571,7 @@ impl Evaluator for ChangeRates {
     /// The tables and the [`ChangeRateAnalysis`] behind them (the gait workflow's Tables 2–3,
     /// control and leave-one-out build on it).
     fn evaluate_with_analysis(&self, input: EvalInput<'_>) -> Result<Evaluation> {
-        let study: &GaitStudy = input.read(EvalInputType::gait(), "change_rates")?;
+        let study: &GaitStudy = input.read(crate::gait_study(), "change_rates")?;
         let changes = self.analyse(study)?;
         let tables = self.tables_of(study, &changes)?;
         Ok(Evaluation { tables, analysis: Some(Analysis::new(ChangeRateAnalysis { rates: self.clone(), changes })) })
@@ -615,7 +616,10 @@ mod tests {
     use super::*;
     use motionlab_core::registry::build_evaluator;
     use motionlab_core::ColumnValues;
-    use motionlab_testkit::gait_trial as trial;
+
+    fn trial(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64; 2], f: f64) -> crate::stages::GaitTrial {
+        crate::stages::GaitTrial::hand_made(subject, condition, dc, amplitude, f)
+    }
 
     /// Three subjects, normal and fast. Knee DC: 20 → 24, 10 → 11, 40 → 52 (K = 20, 10, 30 %);
     /// hip rotation DC: 2° for s1 (excluded: near zero), −10 → −12, 8 → 6 (K = 20, −25 %).
@@ -727,7 +731,7 @@ mod tests {
         let t: toml::Value = toml::from_str("max_abs_cv_pct = -1.0").unwrap();
         assert_eq!(build_evaluator("change_rates", &t).err().unwrap().location().field.as_deref(), Some("max_abs_cv_pct"));
         let e = build_evaluator("change_rates", &motionlab_core::registry::default_params()).unwrap();
-        assert_eq!(e.input_type(), EvalInputType::gait());
-        assert_eq!(e.evaluate(EvalInput::new(&Vec::<motionlab_core::MatchingResult>::new())).unwrap_err().kind(), ErrorKind::Mismatch);
+        assert_eq!(e.input_type(), crate::gait_study());
+        assert_eq!(e.evaluate(EvalInput::new(&Vec::<motionlab_match::MatchingResult>::new())).unwrap_err().kind(), ErrorKind::Mismatch);
     }
 }

@@ -22,5 +22,8 @@ pub const PLUGIN_COUNT: usize = 2;
 
 pub mod change_rates;
 pub mod loso;
+pub mod stages;
 pub mod study;
 pub mod synthesis;
+
+pub use stages::{build_walk_synthesizer, gait_study, GaitStudy, GaitTrial, WalkChanges, WalkSynthesizer};

@@ -27,7 +27,8 @@
 
 use serde::Serialize;
 
-use motionlab_core::{Error, ErrorKind, Result, Table, WalkChanges, WalkSynthesizer};
+use motionlab_core::{Error, ErrorKind, Result, Table};
+use crate::{WalkChanges, WalkSynthesizer};
 use motionlab_features::waveform::{cycles_by_side, mean_cycle_between};
 use motionlab_match::dp::dtw_full_1d;
 
@@ -288,7 +289,8 @@ mod tests {
     use crate::study::AnalysedWalk;
     use crate::synthesis::FeatureChannelControl;
     use motionlab_core::registry::ParamGuard;
-    use motionlab_core::{AngleCurves, FrameRate, GaitCycle, WaveformAnalyzer};
+    use motionlab_core::FrameRate;
+    use motionlab_features::{AngleCurves, GaitCycle, WaveformAnalyzer};
     use motionlab_features::waveform::WaveformParametersParams;
     use std::f64::consts::TAU;
 

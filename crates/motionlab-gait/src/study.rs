@@ -1,10 +1,9 @@
 //! One walk through the analysis stages: angles → gait cycles → waveform parameters, and the
 //! gait study assembled from many such walks (what an experiment workflow runs per file).
 
-use motionlab_core::{
-    AngleCurves, FeatureCache, FeatureExtractor, GaitCycle, GaitCycleDetector, GaitStudy, GaitTrial, Motion, Result,
-    WaveformAnalyzer, WaveformParameters,
-};
+use motionlab_core::{FeatureCache, FeatureExtractor, Motion, Result};
+use motionlab_features::{AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters};
+use crate::{GaitStudy, GaitTrial};
 use motionlab_features::joint_angles::angle_curves_from_features;
 
 /// A walk's angle curves and its gait cycles.

@@ -12,10 +12,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{
-    AngleCurves, ChannelKind, Error, ErrorKind, FrameRate, GaitCycle, Result, Skeleton, SkeletonMotion, WalkChanges,
-    WalkSynthesizer,
-};
+use motionlab_core::{ChannelKind, Error, ErrorKind, FrameRate, Result, Skeleton, SkeletonMotion};
+use motionlab_features::{AngleCurves, GaitCycle};
+use crate::{WalkChanges, WalkSynthesizer};
 use motionlab_features::waveform::{channel_dc, check_cycles};
 
 /// How the walk is resampled in time.
@@ -308,7 +307,7 @@ impl WalkSynthesizer for FeatureChannelControl {
     }
 }
 
-motionlab_core::register_plugin!(WalkSynthesizer, FeatureChannelControlParams, "feature_channel_control");
+motionlab_core::register_custom_plugin!(crate::WalkSynthesizer, FeatureChannelControlParams, "feature_channel_control", kind = "walk_synthesizer");
 
 /// Every channel of a skeleton in BVH spelling, with whether it is a rotation.
 fn bvh_channel_names(skeleton: &Skeleton) -> Vec<(String, bool)> {
@@ -328,8 +327,9 @@ pub fn skeleton_rotation_channels(skeleton: &Skeleton) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::build_walk_synthesizer;
-    use motionlab_core::{Axis, Joint, WaveformAnalyzer};
+    use crate::build_walk_synthesizer;
+    use motionlab_core::{Axis, Joint};
+    use motionlab_features::WaveformAnalyzer;
     use motionlab_features::waveform::{AmplitudeDefinition, WaveformParametersParams};
     use std::f64::consts::TAU;
 

@@ -2,7 +2,8 @@
 //! through a marker-channel → BVH-channel map, written as BVH and read back.
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{GaitCycleDetector, WalkChanges, WaveformAnalyzer};
+use motionlab_features::{GaitCycleDetector, WaveformAnalyzer};
+use motionlab_gait::WalkChanges;
 use motionlab_features::gait_cycles::HeelHeightParams;
 use motionlab_features::joint_angles::{skeleton_angle_curves, ChannelNaming};
 use motionlab_features::waveform::WaveformParametersParams;
@@ -55,11 +56,11 @@ fn a_bvh_walk_is_changed_resampled_written_and_read_back() {
     let after = skeleton_angle_curves(reread.skeleton.as_ref().unwrap(), reread.frame_rate(), ChannelNaming::Bvh).unwrap();
     let scaled: Vec<_> = cycles
         .iter()
-        .map(|c| motionlab_core::GaitCycle { start: (c.start as f64 / 1.2).round() as usize, end: (c.end as f64 / 1.2).round() as usize, side: c.side.clone() })
+        .map(|c| motionlab_features::GaitCycle { start: (c.start as f64 / 1.2).round() as usize, end: (c.end as f64 / 1.2).round() as usize, side: c.side.clone() })
         .collect();
     let p0 = analyzer.parameters(&before, &cycles).unwrap();
     let p1 = analyzer.parameters(&after, &scaled).unwrap();
-    let get = |p: &motionlab_core::WaveformParameters, ch: &str| {
+    let get = |p: &motionlab_features::WaveformParameters, ch: &str| {
         let i = p.channels.iter().position(|c| c == ch).unwrap();
         (p.dc[i], p.amplitude[i])
     };

@@ -6,7 +6,8 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{AngleCurves, GaitCycle, GaitCycleDetector, Motion, WaveformAnalyzer};
+use motionlab_core::Motion;
+use motionlab_features::{AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer};
 use motionlab_features::gait_cycles::{C3dEventsParams, HeelHeightParams};
 use motionlab_features::joint_angles::{AbsentMarkers, IsbJointAnglesParams};
 use motionlab_features::waveform::WaveformParametersParams;

@@ -102,7 +102,8 @@ motionlab_core::register_plugin!(Preprocessor, DelayPointsParams, "delay_points"
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::{build_loader, build_matcher, build_preprocessor, default_params};
+    use motionlab_core::registry::{build_loader, build_preprocessor, default_params};
+    use crate::build_matcher;
     use motionlab_testkit::motion_from_fn;
     // Links the loaders the real-data test looks up by name.
     use motionlab_io as _;

@@ -4,7 +4,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalInputType, EvalInput, Evaluator, MatchingResult, Result, Table};
+use motionlab_core::{Error, ErrorKind, EvalInputType, EvalInput, Evaluator, Result, Table};
+use crate::MatchingResult;
 
 /// Similar/dissimilar judgement of each repetition, and the user's tendencies (§4.1–4.2).
 ///
@@ -258,10 +259,10 @@ fn judge_take(take: &MatchingResult, out: &mut JudgementRecords) -> Result<()> {
 
 impl Evaluator for Judgement {
     fn input_type(&self) -> EvalInputType {
-        EvalInputType::matching()
+        crate::matching_results()
     }
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
-        let results: &Vec<MatchingResult> = input.read(EvalInputType::matching(), "judgement")?;
+        let results: &Vec<MatchingResult> = input.read(crate::matching_results(), "judgement")?;
         let rec = judge(results)?;
         Ok(vec![
             Table::from_records(
@@ -289,7 +290,8 @@ motionlab_core::register_plugin!(Evaluator, JudgementParams, "judgement");
 mod tests {
     use super::*;
     use motionlab_core::registry::{build_evaluator, default_params};
-    use motionlab_core::{Alignment, ColumnValues, GaitStudy, RepetitionResult, Synchronisation};
+    use motionlab_core::ColumnValues;
+    use crate::{Alignment, RepetitionResult, Synchronisation};
 
     #[test]
     fn scores_and_ranks_follow_the_rule() {
@@ -356,7 +358,7 @@ mod tests {
     fn zero_means_normalise_to_one_and_tables_have_unit_columns() {
         let t = take(vec![rep("a", &[1.0, 1.0], &[0.0, 0.0]), rep("b", &[2.0, 2.0], &[0.0, 0.0])]);
         let ev = build_evaluator("judgement", &default_params()).unwrap();
-        assert_eq!(ev.input_type(), EvalInputType::matching());
+        assert_eq!(ev.input_type(), crate::matching_results());
         let tables = ev.evaluate(EvalInput::new(&vec![t])).unwrap();
         let names: Vec<&str> = tables.iter().map(|t| t.name.as_str()).collect();
         assert_eq!(names, ["judgement", "tendency_parts", "tendency_sections"]);
@@ -373,7 +375,8 @@ mod tests {
         let nan = take(vec![rep("a", &[f64::NAN, 1.0], &[0.0, 0.0])]);
         assert_eq!(ev.evaluate(EvalInput::new(&vec![nan])).unwrap_err().kind(), ErrorKind::NonFinite);
         assert_eq!(ev.evaluate(EvalInput::new(&vec![take(vec![])])).unwrap_err().kind(), ErrorKind::EmptySequence);
-        let study = GaitStudy { normal_condition: "C4".into(), trials: vec![] };
-        assert_eq!(ev.evaluate(EvalInput::new(&study)).unwrap_err().kind(), ErrorKind::Mismatch);
+        // Another workflow's results: an error naming what judgement reads.
+        let e = ev.evaluate(EvalInput::new(&vec![1_u8])).unwrap_err();
+        assert!(e.kind() == ErrorKind::Mismatch && e.to_string().contains("judgement evaluates matching results"), "{e}");
     }
 }

@@ -68,8 +68,14 @@ pub mod multistream;
 pub mod peaks;
 pub mod retrieval;
 pub mod simd;
+pub mod stage;
 pub mod subsequence;
 pub mod sync;
+
+pub use stage::{
+    build_matcher, build_point_detector, build_synchroniser, matching_results, Alignment, Matcher, MatchingResult, PointDetection, PointDetector,
+    RepetitionResult, Synchronisation, Synchroniser,
+};
 
 #[cfg(test)]
 mod tests {

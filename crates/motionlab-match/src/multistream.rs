@@ -6,7 +6,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Alignment, Error, ErrorKind, Matcher, Motion, Result};
+use motionlab_core::{Error, ErrorKind, Motion, Result};
+use crate::{Alignment, Matcher};
 
 use crate::dp::{Trajectory3, argmin_first};
 use crate::input::{check_names, trajectories};
@@ -242,13 +243,13 @@ impl Matcher for MultistreamTwoStage {
     }
 }
 
-motionlab_core::register_plugin!(Matcher, MultistreamTwoStageParams, "multistream_two_stage");
+motionlab_core::register_custom_plugin!(crate::Matcher, MultistreamTwoStageParams, "multistream_two_stage", kind = "matcher");
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::dp::{Euclidean3, dtw_full_3d, subsequence_costs};
-    use motionlab_core::registry::build_matcher;
+    use crate::build_matcher;
     use motionlab_testkit::{Rng, motion_from_fn};
 
     /// A smooth, non-repeating 3-D movement per marker (mm).

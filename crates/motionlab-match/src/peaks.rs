@@ -5,7 +5,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, Motion, PointDetection, PointDetector, Result, TimeSpan, Trace};
+use motionlab_core::{Error, ErrorKind, Motion, Result, TimeSpan, Trace};
+use crate::{PointDetection, PointDetector};
 use motionlab_features::smoothing::moving_average_positions;
 
 use crate::input::{check_names, trajectories};
@@ -187,12 +188,12 @@ impl PointDetector for VelocityPeaks {
     }
 }
 
-motionlab_core::register_plugin!(PointDetector, VelocityPeaksParams, "velocity_peaks");
+motionlab_core::register_custom_plugin!(crate::PointDetector, VelocityPeaksParams, "velocity_peaks", kind = "point_detector");
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::build_point_detector;
+    use crate::build_point_detector;
     use motionlab_testkit::{Rng, motion_from_fn};
 
     /// A marker moving along x whose per-frame step is `speed(i)`: v(i) = speed(i) exactly.

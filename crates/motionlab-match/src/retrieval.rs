@@ -71,7 +71,8 @@ use std::collections::BinaryHeap;
 
 use rayon::prelude::*;
 
-use motionlab_core::{Alignment, Error, ErrorKind, Result};
+use motionlab_core::{Error, ErrorKind, Result};
+use crate::Alignment;
 
 use crate::dp::Trajectory3;
 use crate::lanes::{self, Cell8, MarkerBlocks};

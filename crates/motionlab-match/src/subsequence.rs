@@ -4,7 +4,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Alignment, Matcher, Motion, Result};
+use motionlab_core::{Motion, Result};
+use crate::{Alignment, Matcher};
 
 use crate::dp::{Euclidean3, Workspace, subsequence_match};
 use crate::input::{check_names, trajectories};
@@ -65,12 +66,13 @@ impl Matcher for SubsequenceDp {
     }
 }
 
-motionlab_core::register_plugin!(Matcher, SubsequenceDpParams, "subsequence_dp");
+motionlab_core::register_custom_plugin!(crate::Matcher, SubsequenceDpParams, "subsequence_dp", kind = "matcher");
 
 #[cfg(test)]
 mod tests {
     use motionlab_core::ErrorKind;
-    use motionlab_core::registry::{build_matcher, default_params};
+    use motionlab_core::registry::default_params;
+    use crate::build_matcher;
     use motionlab_testkit::motion_from_fn;
 
     fn wave(i: usize) -> [f64; 3] {

@@ -4,7 +4,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Alignment, Error, ErrorKind, Result, Synchronisation, Synchroniser};
+use motionlab_core::{Error, ErrorKind, Result};
+use crate::{Alignment, Synchronisation, Synchroniser};
 
 /// Synchronisation of the markers along a two-stage alignment (Yabe & Tanaka §3.2).
 ///
@@ -150,12 +151,12 @@ impl Synchroniser for SynchronisationStage {
     }
 }
 
-motionlab_core::register_plugin!(Synchroniser, SynchronisationParams, "synchronisation");
+motionlab_core::register_custom_plugin!(crate::Synchroniser, SynchronisationParams, "synchronisation", kind = "synchroniser");
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::build_synchroniser;
+    use crate::build_synchroniser;
 
     fn alignment(paths: Vec<Vec<(usize, usize)>>) -> Alignment {
         let l = paths.len();

@@ -2,10 +2,12 @@
 //! user's take → matcher per window → synchroniser → judgement — on a constructed take holding
 //! the paper's three kinds of repetition: (a) close to the model, (b) timing-shifted, (c) wrong.
 
-use motionlab_core::registry::{
-    build_evaluator, build_matcher, build_point_detector, build_preprocessor, build_synchroniser, default_params,
-};
-use motionlab_core::{ColumnValues, EvalInput, MatchingResult, Point3, RepetitionResult};
+use motionlab_core::registry::{build_evaluator, build_preprocessor, default_params};
+use motionlab_match::build_matcher;
+use motionlab_match::build_point_detector;
+use motionlab_match::build_synchroniser;
+use motionlab_core::{ColumnValues, EvalInput, Point3};
+use motionlab_match::{MatchingResult, RepetitionResult};
 use motionlab_match as _;
 use motionlab_testkit::{Rng, motion_from_fn};
 

@@ -1,9 +1,10 @@
 //! The matching stages on the real motion capture shipped in `data/` (CMU exercise takes from
 //! mocap6, a Qualisys walk with gaps from the MoCap Toolbox).
 
-use motionlab_core::registry::{
-    build_loader, build_matcher, build_point_detector, build_preprocessor, build_synchroniser, default_params,
-};
+use motionlab_core::registry::{build_loader, build_preprocessor, default_params};
+use motionlab_match::build_matcher;
+use motionlab_match::build_point_detector;
+use motionlab_match::build_synchroniser;
 use motionlab_core::{ErrorKind, Motion};
 // Link the crates whose plugins the registry looks up by name.
 use motionlab_io as _;

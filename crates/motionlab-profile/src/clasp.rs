@@ -139,7 +139,7 @@ fn default_random_state() -> u32 {
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ClaspParams {
-    /// Subsequence width in samples, or `"suss"` (claspy's default: learned from the data).
+    /// Subsequence width in samples, or `"suss"` (learned from the data, as claspy does unless told a width).
     #[serde(default = "default_window")]
     pub window: WindowWidth,
     /// Number of segments: `"learn"` (the validation decides; at most n / (excl_radius ×

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use motionlab_core::{Axis, FrameRate, GaitTrial, Motion, Point3, PointKind, WaveformParameters};
+use motionlab_core::{Axis, FrameRate, Motion, Point3, PointKind};
 
 /// A motion of `n_points` markers named `m0, m1, …` whose position at (frame, point) is `f`.
 /// Z is up.
@@ -89,22 +89,6 @@ impl Rng {
     /// Approximately standard normal (sum of 12 uniforms − 6).
     pub fn normal(&mut self) -> f64 {
         (0..12).map(|_| self.uniform()).sum::<f64>() - 6.0
-    }
-}
-
-/// A gait trial with two channels, `knee_l.flexion` and `hip_l.rotation`, with the given DC
-/// and amplitude (degrees) of each and the gait frequency `f` (Hz): hand-made studies for the
-/// change-rate tests.
-pub fn gait_trial(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64; 2], f: f64) -> GaitTrial {
-    GaitTrial {
-        subject: subject.into(),
-        condition: condition.into(),
-        parameters: WaveformParameters {
-            channels: vec!["knee_l.flexion".into(), "hip_l.rotation".into()],
-            dc: dc.to_vec(),
-            amplitude: amplitude.to_vec(),
-            frequency_hz: f,
-        },
     }
 }
 

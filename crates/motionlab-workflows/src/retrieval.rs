@@ -31,8 +31,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, Motion, Result, Synchroniser, Table, TimeSpan};
+use motionlab_core::{Error, ErrorKind, Motion, Result, Table, TimeSpan};
+use motionlab_match::Synchroniser;
 use motionlab_figure::{BarRow, Chart, Figure, Series};
 use motionlab_match::dp::Trajectory3;
 use motionlab_match::input::trajectories;
@@ -158,7 +158,7 @@ impl WorkflowPlugin for RetrievalWorkflow {
             ));
         }
         let synchroniser =
-            build_stage(cx.source, cx.combo, &section.synchroniser, &cx.root.key("synchroniser"), registry::build_synchroniser)?;
+            build_stage(cx.source, cx.combo, &section.synchroniser, &cx.root.key("synchroniser"), motionlab_match::build_synchroniser)?;
         Ok(RetrievalWorkflow { section, model, synchroniser })
     }
 }

@@ -172,13 +172,16 @@ mod tests {
     use super::*;
     use motionlab_core::registry::ParamGuard;
     use motionlab_gait::change_rates::ChangeRatesParams;
-    use motionlab_testkit::gait_trial as trial;
+
+    fn trial(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64; 2], f: f64) -> motionlab_gait::stages::GaitTrial {
+        motionlab_gait::stages::GaitTrial::hand_made(subject, condition, dc, amplitude, f)
+    }
 
 
     /// Knee DC K = 20, 10, 30 % (CV 40.8 %: a feature); hip-rotation DC K = 20, −20, 0 %
     /// (μ = 0: no feature); amplitudes K = 10, 10, 10 % and 50, −50, 50 %.
     fn analysis(max_abs_cv_pct: f64) -> StudyChanges {
-        let study = motionlab_core::GaitStudy {
+        let study = motionlab_gait::GaitStudy {
             normal_condition: "walk".into(),
             trials: vec![
                 trial("a", "walk", [20.0, 10.0], [30.0, 4.0], 1.0),

@@ -5,7 +5,9 @@ use std::any::TypeId;
 use std::collections::{BTreeMap, HashSet};
 
 use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, EvalInputType, FeatureExtractor, GaitCycleDetector, Result, WalkSynthesizer, WaveformAnalyzer};
+use motionlab_core::{Error, ErrorKind, FeatureExtractor, Result};
+use motionlab_features::{GaitCycleDetector, WaveformAnalyzer};
+use motionlab_gait::WalkSynthesizer;
 use motionlab_experiment::build_stage;
 use motionlab_experiment::workflow::{build_evaluators, BuildContext, WorkflowPlugin};
 use motionlab_experiment::Datasets;
@@ -17,7 +19,7 @@ impl WorkflowPlugin for GaitWorkflow {
     type Section = GaitSection;
     fn build(section: GaitSection, cx: &BuildContext<'_>) -> Result<Self> {
         let stages = TrialStages::build(&section, cx)?;
-        let evaluators = build_evaluators(cx.source, cx.combo, EvalInputType::gait())?;
+        let evaluators = build_evaluators(cx.source, cx.combo, motionlab_gait::gait_study())?;
         // Tables 2–3, the control and the leave-one-out build on the change-rate analysis: one
         // evaluator must hand it over (found by the type of its analysis, not by its name).
         if !evaluators.iter().any(|(_, e)| e.analysis_type() == Some(TypeId::of::<ChangeRateAnalysis>())) {
@@ -86,8 +88,8 @@ impl TrialStages {
     fn build(section: &GaitSection, cx: &BuildContext<'_>) -> Result<Self> {
         let (source, combo, root) = (cx.source, cx.combo, &cx.root);
         let angles = build_stage(source, combo, &section.joint_angles, &root.key("joint_angles"), registry::build_feature_extractor)?;
-        let detector = build_stage(source, combo, &section.cycles, &root.key("cycles"), registry::build_gait_cycle_detector)?;
-        let analyzer = build_stage(source, combo, &section.waveform, &root.key("waveform"), registry::build_waveform_analyzer)?;
+        let detector = build_stage(source, combo, &section.cycles, &root.key("cycles"), motionlab_features::build_gait_cycle_detector)?;
+        let analyzer = build_stage(source, combo, &section.waveform, &root.key("waveform"), motionlab_features::build_waveform_analyzer)?;
         let synthesizer = match &section.synthesizer {
             Some(s) => {
                 if s.params.contains_key("channel_map") {
@@ -99,7 +101,7 @@ impl TrialStages {
                         "gait.synthesizer.channel_map",
                     ));
                 }
-                Some(build_stage(source, combo, s, &root.key("synthesizer"), registry::build_walk_synthesizer)?)
+                Some(build_stage(source, combo, s, &root.key("synthesizer"), motionlab_gait::build_walk_synthesizer)?)
             }
             None => None,
         };
@@ -280,6 +282,6 @@ fn build_control(c: &ControlSection, dataset: usize, cx: &BuildContext<'_>, norm
         spec: c.clone(),
         dataset,
         angles: build_stage(cx.source, cx.combo, &c.joint_angles, &cr.key("joint_angles"), registry::build_feature_extractor)?,
-        detector: build_stage(cx.source, cx.combo, &c.cycles, &cr.key("cycles"), registry::build_gait_cycle_detector)?,
+        detector: build_stage(cx.source, cx.combo, &c.cycles, &cr.key("cycles"), motionlab_features::build_gait_cycle_detector)?,
     })
 }

@@ -6,10 +6,9 @@ use std::path::Path;
 use serde::Serialize;
 
 use motionlab_core::registry;
-use motionlab_core::{
-    AngleCurves, ChannelKind, Error, ErrorKind, GaitCycle, LengthUnit, Location, Motion, PointKind, Result, SkeletonMotion, Table, WalkChanges,
-    WalkSynthesizer, WaveformParameters,
-};
+use motionlab_core::{ChannelKind, Error, ErrorKind, LengthUnit, Location, Motion, PointKind, Result, SkeletonMotion, Table};
+use motionlab_features::{AngleCurves, GaitCycle, WaveformParameters};
+use motionlab_gait::{WalkChanges, WalkSynthesizer};
 use motionlab_experiment::workflow::{sanitize, Output};
 use motionlab_experiment::Datasets;
 use motionlab_figure::{Chart, Figure, Series};

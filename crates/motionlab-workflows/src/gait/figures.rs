@@ -2,7 +2,8 @@
 //! leave-one-subject-out errors.
 
 use motionlab_core::registry;
-use motionlab_core::{AngleCurves, Error, ErrorKind, GaitCycle, Motion, Result};
+use motionlab_core::{Error, ErrorKind, Motion, Result};
+use motionlab_features::{AngleCurves, GaitCycle};
 use motionlab_experiment::workflow::sanitize;
 use motionlab_features::waveform::{cycles_by_side, mean_gait_cycle};
 use motionlab_figure::{Chart, Figure, Pose, RefLine, Series, StickRow};

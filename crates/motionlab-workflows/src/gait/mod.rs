@@ -81,7 +81,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::{AngleCurves, Evaluator, FeatureExtractor, GaitCycle, GaitCycleDetector, WalkSynthesizer, WaveformAnalyzer, WaveformParameters};
+use motionlab_core::{Evaluator, FeatureExtractor};
+use motionlab_features::{AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters};
+use motionlab_gait::WalkSynthesizer;
 use motionlab_experiment::Locator;
 
 /// Name of the Table 2 (posture) result table; `[[published]]` rows for it name its channels.

@@ -2,7 +2,8 @@
 //! then per combination the study, its evaluators, the paper's tables, the control and the
 //! leave-one-subject-out.
 
-use motionlab_core::{Error, ErrorKind, EvalInput, FeatureCache, FeatureExtractor, GaitCycleDetector, Motion, Result};
+use motionlab_core::{Error, ErrorKind, EvalInput, FeatureCache, FeatureExtractor, Motion, Result};
+use motionlab_features::GaitCycleDetector;
 use motionlab_experiment::workflow::{ItemData, ItemOutput, Output, WorkItem, Workflow};
 use motionlab_experiment::Datasets;
 use motionlab_features::joint_angles::angle_curves_from_features;

@@ -1,8 +1,7 @@
 //! Building the `[matching]` workflow: the model, the user takes (continuous or explicit
 //! windows, each continuous take's detector built with its own count) and the stages.
 
-use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, EvalInputType, Result};
+use motionlab_core::{Error, ErrorKind, Result};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
 use motionlab_experiment::workflow::{build_evaluators, sanitize, BuildContext, WorkflowPlugin};
@@ -33,10 +32,10 @@ impl WorkflowPlugin for MatchingWorkflow {
             }
         }
         let model = find_model(&section.model, cx.data).map_err(|e| locate(e, "model"))?;
-        let matcher = build_stage(source, combo, &section.matcher, &root.key("matcher"), registry::build_matcher)?;
-        let synchroniser = build_stage(source, combo, &section.synchroniser, &root.key("synchroniser"), registry::build_synchroniser)?;
+        let matcher = build_stage(source, combo, &section.matcher, &root.key("matcher"), motionlab_match::build_matcher)?;
+        let synchroniser = build_stage(source, combo, &section.synchroniser, &root.key("synchroniser"), motionlab_match::build_synchroniser)?;
         let matcher_points = stage_points(&section.matcher);
-        let evaluators = build_evaluators(source, combo, EvalInputType::matching())?;
+        let evaluators = build_evaluators(source, combo, motionlab_match::matching_results())?;
         let takes = build_takes(cx, &section, model)?;
         if takes.is_empty() {
             return Err(locate(
@@ -131,7 +130,7 @@ fn build_takes(cx: &BuildContext<'_>, section: &MatchingSection, model: usize) -
             };
             let mut with_count = spec.clone();
             with_count.params.insert("count".into(), toml::Value::Integer((count * section.peaks_per_repetition) as i64));
-            let detector = build_stage(cx.source, cx.combo, &with_count, &detector_path, registry::build_point_detector)?;
+            let detector = build_stage(cx.source, cx.combo, &with_count, &detector_path, motionlab_match::build_point_detector)?;
             if takes.iter().any(|t| t.name == name) {
                 return Err(cx.locate(
                     Error::new(ErrorKind::DuplicateName, format!("two takes are named {name:?}; give the datasets distinct `name`s")),

@@ -1,7 +1,8 @@
 //! The figures: per take the velocity function (Fig. 2) and two markers' warping paths
 //! (Fig. 4), per combination the H–R scatters (Figs. 5 and 6).
 
-use motionlab_core::{Error, ErrorKind, PointDetection, Result};
+use motionlab_core::{Error, ErrorKind, Result};
+use motionlab_match::PointDetection;
 use motionlab_figure::{BarRow, Chart, Figure, RefLine, Series};
 use motionlab_match::judgement::scores;
 

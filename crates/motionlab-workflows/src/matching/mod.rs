@@ -80,7 +80,8 @@ pub use section::{MatchingFigure, MatchingSection};
 
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::{Evaluator, Matcher, PointDetector, Synchroniser};
+use motionlab_core::Evaluator;
+use motionlab_match::{Matcher, PointDetector, Synchroniser};
 use motionlab_experiment::Locator;
 
 /// How a take's repetitions are given.

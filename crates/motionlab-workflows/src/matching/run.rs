@@ -3,9 +3,8 @@
 
 use serde::Serialize;
 
-use motionlab_core::{
-    Alignment, Error, ErrorKind, EvalInput, FrameRate, MatchingResult, Motion, PointDetection, RepetitionResult, Result, Seconds, Synchronisation, Table,
-};
+use motionlab_core::{Error, ErrorKind, EvalInput, FrameRate, Motion, Result, Seconds, Table};
+use motionlab_match::{Alignment, MatchingResult, PointDetection, RepetitionResult, Synchronisation};
 use motionlab_experiment::spec::Cut;
 use motionlab_experiment::workflow::{ItemData, ItemOutput, Output, WorkItem, Workflow};
 use motionlab_experiment::{BuiltDataset, Datasets};
