@@ -37,6 +37,8 @@ struct TruthRecord {
     segments: Vec<Segment>,
     /// Each annotator's own boundary frames (empty for one annotator).
     annotators: Vec<Vec<usize>>,
+    /// Their names, in the same order.
+    annotator_names: Vec<String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -101,6 +103,7 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
             boundaries: t.boundaries.clone(),
             segments: t.segments.clone(),
             annotators: t.annotators.clone(),
+            annotator_names: t.annotator_names.clone(),
         }),
     };
     let head = rmp_serde::to_vec(&header).map_err(|e| bad(format!("cannot encode: {e}")))?;
@@ -178,6 +181,7 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
             boundaries: t.boundaries,
             segments: t.segments,
             annotators: t.annotators,
+            annotator_names: t.annotator_names,
         }),
         None => None,
     };
