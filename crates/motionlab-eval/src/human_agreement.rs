@@ -28,13 +28,14 @@ use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 ///   whole motion matched to `B`'s windows, and `|B|` such frames matched to `A`'s (exact
 ///   expectation where the windows are disjoint, else the Monte Carlo mean of `chance_draws`
 ///   draws); `chance_f1 = 2E / (|A| + |B|)`;
-/// - `kappa = (M − E) / (min(|A|, |B|) − E)`: Cohen-style chance-corrected agreement on
-///   matched boundaries, observed against chance-expected matches — 1 when every boundary of
-///   the smaller set is matched, 0 at chance, negative below it; NaN when chance already
-///   matches as many as possible.
+/// - `kappa = (M − E) / ((|A| + |B|)/2 − E)` = `(f1 − chance_f1) / (1 − chance_f1)`: Cohen's
+///   form `(p_o − p_e) / (1 − p_e)` with F1 (the Dice agreement of the two sets) as the
+///   agreement and the chance model's as the expected — 1 only when the sets match
+///   boundary for boundary, 0 at chance, negative below it; NaN when chance alone agrees
+///   fully.
 ///
-/// Over several pairs, sequences or annotators, counts (`M`, `E`, `|A| + |B|`,
-/// `min(|A|, |B|)`) are summed before the ratios.
+/// Over several pairs, sequences or annotators, counts (`M`, `E`, `|A| + |B|`) are summed
+/// before the ratios.
 ///
 /// Output tables (rows at each of `tolerances`):
 /// - `annotator_agreement`: per sequence and pair of annotators (`annotator_a`,
@@ -91,8 +92,6 @@ pub struct Agreement {
     pub matched: usize,
     /// `E`, the symmetric chance expectation of `matched`.
     pub expected: f64,
-    /// `min(|A|, |B|)`: the most that can match.
-    pub most: usize,
     /// True while every part's expectation is exact.
     pub exact: bool,
 }
@@ -112,14 +111,13 @@ impl Agreement {
             }
         };
         let expected = 0.5 * (expect(a.len(), &wb, seed) + expect(b.len(), &wa, seed ^ 0x9e37_79b9_7f4a_7c15));
-        Agreement { n_a: a.len(), n_b: b.len(), matched, expected, most: a.len().min(b.len()), exact }
+        Agreement { n_a: a.len(), n_b: b.len(), matched, expected, exact }
     }
     fn add(&mut self, o: &Agreement) {
         self.n_a += o.n_a;
         self.n_b += o.n_b;
         self.matched += o.matched;
         self.expected += o.expected;
-        self.most += o.most;
         self.exact &= o.exact;
     }
     pub fn f1(&self) -> f64 {
@@ -130,7 +128,7 @@ impl Agreement {
         if n == 0 { f64::NAN } else { 2.0 * self.expected / n as f64 }
     }
     pub fn kappa(&self) -> f64 {
-        let room = self.most as f64 - self.expected;
+        let room = (self.n_a + self.n_b) as f64 / 2.0 - self.expected;
         if room > 0.0 { (self.matched as f64 - self.expected) / room } else { f64::NAN }
     }
 }
@@ -395,14 +393,17 @@ mod tests {
         let (a, b) = (vec![10, 40, 70], vec![12, 75]);
         let ab = Agreement::of(&a, &b, 4.0, 100, s, 7);
         let ba = Agreement::of(&b, &a, 4.0, 100, s, 7);
-        assert_eq!((ab.matched, ab.most), (ba.matched, ba.most));
+        assert_eq!(ab.matched, ba.matched);
         assert!((ab.expected - ba.expected).abs() < 1e-12);
         let both = total([&ab, &ba]);
-        assert_eq!((both.n_a + both.n_b, both.matched, both.most), (10, 2, 4));
+        assert_eq!((both.n_a + both.n_b, both.matched), (10, 2));
         assert_eq!(both.f1(), ab.f1());
-        // Nothing to match: kappa undefined, F1 NaN only when both sets are empty.
+        // Kappa is Cohen's form of F1 against chance F1.
+        assert!((ab.kappa() - (ab.f1() - ab.chance_f1()) / (1.0 - ab.chance_f1())).abs() < 1e-12);
+        // F1 is NaN only when both sets are empty; kappa when chance alone agrees fully.
         assert!(Agreement::of(&[], &[], 4.0, 100, s, 1).f1().is_nan());
-        assert!(Agreement::of(&[], &[5], 4.0, 100, s, 1).kappa().is_nan());
+        assert_eq!(Agreement::of(&[], &[5], 4.0, 100, s, 1).kappa(), 0.0);
+        assert!(Agreement::of(&[0, 1], &[0, 1], 200.0, 2, s, 1).kappa().is_nan());
     }
 
     #[test]

@@ -8,12 +8,13 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
-use motionlab_core::viewer::{EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
+use motionlab_core::viewer::{AnnotationSpec, EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
 use motionlab_core::{
     ColumnValues, Error, ErrorKind, EvalDomain, EvalInput, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
     Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
 };
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
+use motionlab_io::labels::tiers::{MarkTier, RunBoundaries, SequenceTiers, TierMark};
 
 use crate::parameter_choice::{MethodChoices, StageChoice};
 use motionlab_experiment::toml_paths::KeyPath;
@@ -93,6 +94,9 @@ pub struct SegmentationWorkflow {
     experiment: String,
     /// How each method's parameters were chosen: the evaluation tables' `parameters_chosen`.
     choices: MethodChoices,
+    /// The base combination of a sweep (the only one without a sweep): it alone writes the
+    /// boundaries `motionlab export` reads, as it alone draws the viewer pages.
+    base_combination: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -183,7 +187,8 @@ impl WorkflowPlugin for SegmentationWorkflow {
             methods.push((name.clone(), std::iter::once(own).chain(fuse.iter().map(|&i| stage_choices[i].clone())).collect()));
         }
         let choices = MethodChoices { methods };
-        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment, choices })
+        let base_combination = combo.index == 0;
+        Ok(SegmentationWorkflow { section, segmenters, segmenter_params, fuser, fuse, evaluators, evaluator_params, experiment, choices, base_combination })
     }
 }
 
@@ -280,9 +285,15 @@ impl Workflow for SegmentationWorkflow {
             out.tables.extend(tables);
         }
         if draw {
-            for ((id, traces), seq) in viewer_traces.iter().zip(&sequences) {
-                out.viewers.push(self.viewer(id, seq, traces, &out.tables)?);
+            for (((id, traces), seq), (_, sha)) in viewer_traces.iter().zip(&sequences).zip(&inputs) {
+                out.viewers.push(self.viewer(id, seq, traces, &out.tables, sha)?);
             }
+        }
+        if self.base_combination {
+            let tiers = sequences.iter().zip(&inputs).map(|(seq, (_, sha))| boundary_tiers(seq, sha)).collect();
+            let json = serde_json::to_vec_pretty(&RunBoundaries::new(tiers))
+                .map_err(|e| Error::new(ErrorKind::Report, format!("{}: {e}", RunBoundaries::FILE_NAME)))?;
+            out.files.push((RunBoundaries::FILE_NAME.into(), json));
         }
         Ok(out)
     }
@@ -297,6 +308,31 @@ impl Workflow for SegmentationWorkflow {
     }
 }
 
+/// A sequence's truth (tier `truth`, each boundary labelled with the truth segment that starts
+/// there) and every method's candidates, one tier each: what `motionlab export` writes.
+fn boundary_tiers(seq: &SequenceResult, input_sha256: &str) -> SequenceTiers {
+    let mut tiers = Vec::with_capacity(seq.methods.len() + 1);
+    if let Some(truth) = &seq.truth {
+        let label = |f: usize| truth.segments.iter().find(|s| s.start == f).map(|s| s.label.clone()).unwrap_or_default();
+        tiers.push(MarkTier { name: "truth".into(), marks: truth.frames().into_iter().map(|frame| TierMark { frame, label: label(frame) }).collect() });
+    }
+    tiers.extend(seq.methods.iter().map(|m| MarkTier::unlabelled(m.method.clone(), &m.candidates)));
+    SequenceTiers {
+        name: seq.sequence.clone(),
+        sequence: file_stem(seq),
+        input_sha256: input_sha256.to_string(),
+        frame_rate_hz: seq.motion.frame_rate().hz(),
+        n_frames: seq.motion.n_frames(),
+        tiers,
+    }
+}
+
+/// The motion file's stem (`86_01`), which annotation files name the sequence by; the
+/// sequence's name when the motion has no file.
+fn file_stem(seq: &SequenceResult) -> String {
+    seq.motion.source.as_deref().map_or_else(|| seq.sequence.clone(), motionlab_core::paths::stem)
+}
+
 /// Row `r` of column `c` as text (empty when the table has no such column).
 fn cell_text(t: &Table, c: &str, r: usize) -> String {
     t.column(c).map(|v| v.cell(r)).unwrap_or_default()
@@ -308,8 +344,16 @@ impl SegmentationWorkflow {
     /// `boundary_matches` table of the evaluation says, and the band drawn around each truth the
     /// tolerance that judged them (`table1_precision_recall`'s `tolerance_frames` for this
     /// sequence) — read from the evaluation's output, so the band and the statuses cannot
-    /// disagree, whatever the evaluator's parameters say or leave to their defaults.
-    fn viewer(&self, id: &str, seq: &SequenceResult, traces: &[(String, Vec<Trace>, Vec<Threshold>)], tables: &[Table]) -> Result<ViewerSpec> {
+    /// disagree, whatever the evaluator's parameters say or leave to their defaults. Annotation
+    /// mode keeps its marks under the input's SHA-256 and judges them at that tolerance.
+    fn viewer(
+        &self,
+        id: &str,
+        seq: &SequenceResult,
+        traces: &[(String, Vec<Trace>, Vec<Threshold>)],
+        tables: &[Table],
+        input_sha256: &str,
+    ) -> Result<ViewerSpec> {
         let motion = &seq.motion;
         let vm = ViewerMotion::from_motion(motion, &self.section.bones, Some(&self.section.root))?;
         let mut spec = ViewerSpec::new(id, format!("{} — {}", seq.sequence, self.experiment), vm);
@@ -345,6 +389,7 @@ impl SegmentationWorkflow {
                 .filter(|&r| cell_text(t, "sequence", r) == seq.sequence)
                 .find_map(|r| cell_text(t, "tolerance_frames", r).parse::<f64>().ok().filter(|f| f.is_finite()))
         });
+        spec.annotation = Some(AnnotationSpec { sequence: file_stem(seq), input_sha256: input_sha256.to_string(), tolerance_frames });
         if let Some(truth) = &seq.truth {
             let mut lane = EventLane::truth("ground truth", truth, tolerance_frames);
             if let Some(f) = fused {

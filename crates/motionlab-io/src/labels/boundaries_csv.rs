@@ -259,7 +259,8 @@ impl CsvAnnotations {
 /// The marks of every tier of `seq` as a `boundaries_csv` file: the header
 /// `sequence,frame,time_s,label,annotator`, then one row per mark, tier by tier in order, by
 /// frame within a tier. `time_s` is `frame / frame_rate_hz` in the shortest decimal that reads
-/// back to the same number; cells are quoted where CSV needs it.
+/// back to the same number; a line break in a label becomes a space (a row is a line); cells
+/// holding `,` or `"` are quoted.
 pub fn write_boundaries_csv(seq: &SequenceTiers) -> String {
     let mut w = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
     let mut rows: Vec<[String; 5]> = vec![["sequence", "frame", "time_s", "label", "annotator"].map(String::from)];
@@ -268,7 +269,8 @@ pub fn write_boundaries_csv(seq: &SequenceTiers) -> String {
         marks.sort_by_key(|m| m.frame);
         for m in marks {
             let time_s = m.frame as f64 / seq.frame_rate_hz;
-            rows.push([seq.sequence.clone(), m.frame.to_string(), time_s.to_string(), m.label.clone(), tier.name.clone()]);
+            let one_line = |t: &str| t.split(['\r', '\n']).filter(|p| !p.is_empty()).collect::<Vec<_>>().join(" ");
+            rows.push([one_line(&seq.sequence), m.frame.to_string(), time_s.to_string(), one_line(&m.label), one_line(&tier.name)]);
         }
     }
     for r in &rows {
@@ -315,6 +317,7 @@ mod tests {
         use crate::labels::tiers::{MarkTier, TierMark};
         let mark = |frame, label: &str| TierMark { frame, label: label.into() };
         let seq = SequenceTiers {
+            name: "86_01".into(),
             sequence: "86_01".into(),
             input_sha256: String::new(),
             frame_rate_hz: 120.0,

@@ -147,23 +147,39 @@ pub fn write_eaf(seq: &SequenceTiers, date: &str) -> Result<String> {
     }
     let ms = |frame: usize| (frame as f64 / rate * 1000.0).round() as u64;
     let last = seq.n_frames.saturating_sub(1);
+    // Two slots per annotation in document order; their ids go in time order, ties in
+    // document order, as ELAN lists its TIME_ORDER.
     let mut slots: Vec<u64> = Vec::new();
-    let mut tiers = String::new();
-    let mut next_annotation = 1;
+    let mut annotations: Vec<Vec<(usize, &str)>> = Vec::with_capacity(seq.tiers.len());
     for tier in &seq.tiers {
         let mut marks: Vec<_> = tier.marks.iter().filter(|m| m.frame < last).collect();
         marks.sort_by_key(|m| m.frame);
         marks.dedup_by_key(|m| m.frame);
+        let mut list = Vec::with_capacity(marks.len());
+        for (i, m) in marks.iter().enumerate() {
+            list.push((slots.len(), m.label.as_str()));
+            slots.push(ms(m.frame));
+            slots.push(ms(marks.get(i + 1).map_or(last, |n| n.frame)));
+        }
+        annotations.push(list);
+    }
+    let mut order: Vec<usize> = (0..slots.len()).collect();
+    order.sort_by_key(|&i| (slots[i], i));
+    let mut id = vec![0; slots.len()];
+    for (rank, &i) in order.iter().enumerate() {
+        id[i] = rank + 1;
+    }
+    let mut tiers = String::new();
+    let mut next_annotation = 1;
+    for (tier, list) in seq.tiers.iter().zip(&annotations) {
         let name = xml_escape(&tier.name);
         tiers.push_str(&format!("    <TIER LINGUISTIC_TYPE_REF=\"default-lt\" TIER_ID=\"{name}\" ANNOTATOR=\"{name}\">\n"));
-        for (i, m) in marks.iter().enumerate() {
-            let end = marks.get(i + 1).map_or(last, |n| n.frame);
-            slots.push(ms(m.frame));
-            slots.push(ms(end));
-            let (a, b) = (slots.len() - 1, slots.len());
+        for &(k, label) in list {
             tiers.push_str(&format!(
-                "        <ANNOTATION>\n            <ALIGNABLE_ANNOTATION ANNOTATION_ID=\"a{next_annotation}\" TIME_SLOT_REF1=\"ts{a}\" TIME_SLOT_REF2=\"ts{b}\">\n                <ANNOTATION_VALUE>{}</ANNOTATION_VALUE>\n            </ALIGNABLE_ANNOTATION>\n        </ANNOTATION>\n",
-                xml_escape(&m.label)
+                "        <ANNOTATION>\n            <ALIGNABLE_ANNOTATION ANNOTATION_ID=\"a{next_annotation}\" TIME_SLOT_REF1=\"ts{}\" TIME_SLOT_REF2=\"ts{}\">\n                <ANNOTATION_VALUE>{}</ANNOTATION_VALUE>\n            </ALIGNABLE_ANNOTATION>\n        </ANNOTATION>\n",
+                id[k],
+                id[k + 1],
+                xml_escape(label)
             ));
             next_annotation += 1;
         }
@@ -182,8 +198,8 @@ pub fn write_eaf(seq: &SequenceTiers, date: &str) -> Result<String> {
     }
     out.push_str(&format!("        <PROPERTY NAME=\"lastUsedAnnotationId\">{}</PROPERTY>\n", next_annotation - 1));
     out.push_str("    </HEADER>\n    <TIME_ORDER>\n");
-    for (i, t) in slots.iter().enumerate() {
-        out.push_str(&format!("        <TIME_SLOT TIME_SLOT_ID=\"ts{}\" TIME_VALUE=\"{t}\"/>\n", i + 1));
+    for (rank, &i) in order.iter().enumerate() {
+        out.push_str(&format!("        <TIME_SLOT TIME_SLOT_ID=\"ts{}\" TIME_VALUE=\"{}\"/>\n", rank + 1, slots[i]));
     }
     out.push_str("    </TIME_ORDER>\n");
     out.push_str(&tiers);
@@ -245,6 +261,7 @@ mod tests {
     fn written_documents_parse_back_to_one_tier_per_name_with_labels() {
         use crate::labels::tiers::{MarkTier, TierMark};
         let seq = SequenceTiers {
+            name: "86_01".into(),
             sequence: "86_01".into(),
             input_sha256: "ab".repeat(32),
             frame_rate_hz: 120.0,

@@ -48,7 +48,11 @@ impl MarkTier {
 /// Every tier of one sequence, with what a writer needs of its motion.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SequenceTiers {
-    /// The motion file's stem (`86_01`): the CSV `sequence` cell, the exported file's name.
+    /// The run's name of the sequence (a dataset's `name`, or `name/stem`): what exported
+    /// files are named after.
+    pub name: String,
+    /// The motion file's stem (`86_01`): the CSV `sequence` cell, as the `boundaries_csv`
+    /// reader matches it.
     pub sequence: String,
     /// SHA-256 of the motion's input file, lower-case hex (empty when unknown).
     pub input_sha256: String,
