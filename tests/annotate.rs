@@ -5,6 +5,10 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+// The run helpers of the users'-annotations tests: running motionlab, finding the run, reading
+// a table.
+use crate::own_annotations::{motionlab_ok, read_table, run_dir};
+
 use motionlab_core::{registry, Motion, Segmentation};
 use motionlab_io::labels::boundaries_csv::{parse_boundaries_csv, write_boundaries_csv};
 use motionlab_io::labels::elan_eaf::{parse_eaf, write_eaf};
@@ -15,28 +19,6 @@ use motionlab_eval as _;
 
 fn repo() -> PathBuf {
     motionlab_testkit::repo_root()
-}
-
-/// Runs motionlab from the repository root; panics with its stderr when it fails.
-fn motionlab_ok(args: &[&str]) -> String {
-    let out = crate::motionlab_command().args(args).current_dir(repo()).output().unwrap();
-    assert!(out.status.success(), "motionlab {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// The single run directory under `reports/<experiment>/`.
-fn run_dir(reports: &Path, experiment: &str) -> PathBuf {
-    let runs: Vec<PathBuf> = std::fs::read_dir(reports.join(experiment)).unwrap().map(|e| e.unwrap().path()).filter(|p| p.is_dir()).collect();
-    assert_eq!(runs.len(), 1, "{runs:?}");
-    runs[0].clone()
-}
-
-/// A CSV table of a run (no quoted cells) as rows of column → cell.
-fn read_table(path: &Path) -> Vec<BTreeMap<String, String>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(str::to_string).collect();
-    lines.map(|l| header.iter().cloned().zip(l.split(',').map(str::to_string)).collect()).collect()
 }
 
 /// A still motion with a sequence's rate and length, named after it: all the annotation readers

@@ -36,7 +36,7 @@ from pathlib import Path
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 
-from check_pages import driver  # the same headless Chromium set-up (beside this file)
+from check_pages import driver, verdict  # the same headless Chromium set-up (beside this file)
 
 REPO = Path(__file__).resolve().parent.parent.parent
 LOADERS = {"amc": "asf_amc", "bvh": "bvh", "c3d": "c3d", "tsv": "qualisys_tsv"}
@@ -278,13 +278,8 @@ def main():
                 problems.append(f"eaf read back for {who}: {got}, marked {want}")
             checked[f"{fmt}_{who}"] = len(got)
 
-    print(json.dumps({"page": str(page), "rate_hz": rate, "tolerance_frames": tol, "marks": final, "read_back": checked,
-                      "screenshot": str(shot), "problems": problems}, indent=2))
-    if problems:
-        print(f"FAIL: {len(problems)} problem(s)", file=sys.stderr)
-        return 1
-    print(f"annotation test: OK ({len(final)} marks of 2 annotators; CSV and .eaf read back to the same frames)")
-    return 0
+    result = {"page": str(page), "rate_hz": rate, "tolerance_frames": tol, "marks": final, "read_back": checked, "screenshot": str(shot), "problems": problems}
+    return verdict(result, problems, f"annotation test: OK ({len(final)} marks of 2 annotators; CSV and .eaf read back to the same frames)")
 
 
 if __name__ == "__main__":

@@ -43,6 +43,17 @@ def driver(window_size="1280,900", console_log=False, downloads=None):
     return d
 
 
+def verdict(result, problems, ok_line):
+    """Prints the result as JSON, then FAIL with the number of problems (returns 1) or the
+    one-line OK (returns 0): the end of every check here."""
+    print(json.dumps(result, indent=2))
+    if problems:
+        print(f"FAIL: {len(problems)} problem(s)", file=sys.stderr)
+        return 1
+    print(ok_line)
+    return 0
+
+
 def check_page(d, page: Path, screenshot: Path):
     problems = []
     url = page.resolve().as_uri()

@@ -43,7 +43,8 @@ pub struct AnnotationSpec {
     /// marks under it, so every page of the same take (another run, another experiment) finds
     /// them.
     pub input_sha256: String,
-    /// Half-width of the match window, frames: the tolerance the run judged candidates at.
+    /// Half-width of the match window, frames: the tolerance the run judged candidates at
+    /// (None: exact frames only).
     pub tolerance_frames: Option<f64>,
 }
 

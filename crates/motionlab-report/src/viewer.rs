@@ -36,6 +36,7 @@ use motionlab_core::{Error, ErrorKind, Location, Result};
 const TEMPLATE: &str = include_str!("../templates/viewer.html");
 const SCRIPT: &str = include_str!("../templates/viewer.js");
 const ANNOTATE_SCRIPT: &str = include_str!("../templates/viewer_annotate.js");
+const NO_ANNOTATION: &str = "const ANNO = null, anno = null;\nfunction annoInit() {}\nfunction annoKey() { return false; }\nfunction annoDrawNearest() {}\n";
 
 /// How one channel's 16-bit codes map back to values: `value = offset + (code − 1) · step`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -201,7 +202,9 @@ pub fn render_page(spec: &ViewerSpec, back_link: Option<&str>) -> Result<String>
     // Split at the data's place first: no text from the spec can then be taken for a placeholder.
     let (head, tail) = TEMPLATE.split_once("{{DATA}}").unwrap_or((TEMPLATE, ""));
     let head = crate::fonts::with_cjk_font(head.replace("{{TITLE}}", &escape_html(&spec.title)).replace("{{META}}", &json));
-    let script = SCRIPT.replace("/*{{ANNOTATE}}*/", ANNOTATE_SCRIPT);
+    // Pages without annotation mode (matching, gait) get the few names the player calls.
+    let annotate = if spec.annotation.is_some() { ANNOTATE_SCRIPT } else { NO_ANNOTATION };
+    let script = SCRIPT.replace("/*{{ANNOTATE}}*/", annotate);
     Ok([head.as_str(), &data, &tail.replace("{{SCRIPT}}", &script)].concat())
 }
 
@@ -299,7 +302,7 @@ mod tests {
         let meta: serde_json::Value = serde_json::from_str(&json).unwrap();
         assert_eq!(meta["lanes"][0]["marks"][1]["frame"], 150);
         assert!(meta["annotation"].is_null());
-        assert!(page.contains("function annoInit()") && !page.contains("{{ANNOTATE}}"), "the annotation script is spliced in");
+        assert!(!page.contains("{{ANNOTATE}}") && !page.contains("function annoEafText"), "no annotation script without annotation mode");
         let packed = base64::engine::general_purpose::STANDARD.decode(data).unwrap();
         let mut planes = Vec::new();
         flate2::read::GzDecoder::new(&packed[..]).read_to_end(&mut planes).unwrap();
@@ -331,6 +334,7 @@ mod tests {
         s.annotation = Some(AnnotationSpec { sequence: "take".into(), input_sha256: "0f".repeat(32), tolerance_frames: Some(6.0) });
         let (json, _) = encode(&s, None).unwrap();
         let meta: serde_json::Value = serde_json::from_str(&json).unwrap();
+        assert!(render_page(&s, None).unwrap().contains("function annoEafText"), "the annotation script is spliced in");
         assert_eq!(meta["annotation"]["input_sha256"], "0f".repeat(32));
         assert_eq!(meta["annotation"]["tolerance_frames"], 6.0);
         s.annotation.as_mut().unwrap().input_sha256 = "xyz".into();

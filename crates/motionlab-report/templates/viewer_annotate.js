@@ -161,24 +161,18 @@ function annoAccept() {
   seek(best.frame);
   annoAddAt(best.frame, "", `Accepted ${lane.name}'s candidate`);
 }
-function annoUndo() {
-  if (!anno.undo.length) { annoSay("Nothing to undo."); return; }
-  anno.redo.push(JSON.stringify(anno.marks));
-  anno.marks = JSON.parse(anno.undo.pop());
+// Undo takes the last state from `anno.undo` (keeping the present for redo), redo the reverse.
+function annoStep(from, to, word) {
+  if (!from.length) { annoSay(`Nothing to ${word}.`); return; }
+  to.push(JSON.stringify(anno.marks));
+  anno.marks = JSON.parse(from.pop());
   anno.pending++;
   annoSave();
   annoRefresh();
-  annoSay("Undone.");
+  annoSay(`${word[0].toUpperCase()}${word.slice(1)} done.`);
 }
-function annoRedo() {
-  if (!anno.redo.length) { annoSay("Nothing to redo."); return; }
-  anno.undo.push(JSON.stringify(anno.marks));
-  anno.marks = JSON.parse(anno.redo.pop());
-  anno.pending++;
-  annoSave();
-  annoRefresh();
-  annoSay("Redone.");
-}
+function annoUndo() { annoStep(anno.undo, anno.redo, "undo"); }
+function annoRedo() { annoStep(anno.redo, anno.undo, "redo"); }
 
 // ---- the live judgement: maximum one-to-one matching within the tolerance ----
 // Your marks are the truth, each accepting [t − tol, t + tol]; candidates are swept in order
@@ -232,6 +226,7 @@ function annoRefresh(draw = true) {
   warn.hidden = !unsaved;
   warn.textContent = anno.pending > 0 ? `⚠ ${anno.pending} change${anno.pending === 1 ? "" : "s"} not downloaded yet — keep them with ⤓ CSV or ⤓ ELAN` : "⚠ not kept in this browser";
   annoEl("anno-flag").hidden = !unsaved;
+  annoEl("anno-flag").textContent = `⚠ ${anno.pending} annotation change${anno.pending === 1 ? "" : "s"} not downloaded`;
   const tol = ANNO.tolerance_frames;
   const rows = anno.results.map(r => `<tr data-lane="${r.lane}"${r.lane === anno.judge ? ' class="current"' : ""}><td></td><td class="num">${r.found}</td><td class="num">${r.matched}</td><td class="num">${annoFmt(r.precision)}</td><td class="num">${annoFmt(r.recall)}</td><td class="num">${annoFmt(r.f1)}</td></tr>`);
   const judge = annoEl("anno-judge");
@@ -381,7 +376,7 @@ async function annoImport(file) {
     }
   });
   if (!anno.name) annoSetName(tracks[0].annotator || "imported");
-  annoSay(`${file.name}: loaded ${tracks.map(t => `${t.marks.length} marks of ${t.annotator || anno.name}`).join(", ")}.`);
+  annoSay(`${file.name}: loaded ${tracks.map(t => `${t.marks.length} marks of ${t.annotator || anno.name}`).join(", ")} (replacing theirs here; u undoes).`);
 }
 function annoParseEaf(text) {
   const doc = new DOMParser().parseFromString(text, "application/xml");

@@ -14,6 +14,7 @@ use motionlab_core::{
     Segment, Segmentation, Segmenter, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
 };
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
+use motionlab_eval::boundaries::default_tolerance;
 use motionlab_io::labels::tiers::{MarkTier, RunBoundaries, SequenceTiers, TierMark};
 
 use crate::parameter_choice::{MethodChoices, StageChoice};
@@ -389,7 +390,9 @@ impl SegmentationWorkflow {
                 .filter(|&r| cell_text(t, "sequence", r) == seq.sequence)
                 .find_map(|r| cell_text(t, "tolerance_frames", r).parse::<f64>().ok().filter(|f| f.is_finite()))
         });
-        spec.annotation = Some(AnnotationSpec { sequence: file_stem(seq), input_sha256: input_sha256.to_string(), tolerance_frames });
+        // Without an evaluator's tolerance, marks are judged at boundary_pr's default.
+        let judged_at = tolerance_frames.or_else(|| Some(default_tolerance().frames_at(motion.frame_rate())));
+        spec.annotation = Some(AnnotationSpec { sequence: file_stem(seq), input_sha256: input_sha256.to_string(), tolerance_frames: judged_at });
         if let Some(truth) = &seq.truth {
             let mut lane = EventLane::truth("ground truth", truth, tolerance_frames);
             if let Some(f) = fused {
