@@ -19,7 +19,7 @@ fn repo() -> PathBuf {
 }
 
 /// Runs motionlab from the repository root; panics with its stderr when it fails.
-fn motionlab_ok(args: &[&str]) -> String {
+pub(crate) fn motionlab_ok(args: &[&str]) -> String {
     let out = crate::motionlab_command().args(args).current_dir(repo()).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "motionlab {args:?} failed: {err}");
@@ -27,14 +27,14 @@ fn motionlab_ok(args: &[&str]) -> String {
 }
 
 /// The single run directory under `reports/<experiment>/`.
-fn run_dir(reports: &Path, experiment: &str) -> PathBuf {
+pub(crate) fn run_dir(reports: &Path, experiment: &str) -> PathBuf {
     let runs: Vec<PathBuf> = std::fs::read_dir(reports.join(experiment)).unwrap().map(|e| e.unwrap().path()).filter(|p| p.is_dir()).collect();
     assert_eq!(runs.len(), 1, "{runs:?}");
     runs[0].clone()
 }
 
 /// A CSV table as rows of column → cell.
-fn read_table(path: &Path) -> Vec<BTreeMap<String, String>> {
+pub(crate) fn read_table(path: &Path) -> Vec<BTreeMap<String, String>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header: Vec<String> = lines.next().unwrap().split(',').map(str::to_string).collect();

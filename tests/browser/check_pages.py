@@ -21,8 +21,9 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 
 
-def driver(window_size="1280,900", console_log=False):
-    """Headless Debian Chromium; with console_log, its console is kept for get_log("browser")."""
+def driver(window_size="1280,900", console_log=False, downloads=None):
+    """Headless Debian Chromium; with console_log, its console is kept for get_log("browser");
+    with downloads (a folder), files the page downloads land there."""
     opts = webdriver.ChromeOptions()
     opts.binary_location = os.environ.get("CHROMIUM", "/usr/bin/chromium")
     for flag in [
@@ -33,8 +34,24 @@ def driver(window_size="1280,900", console_log=False):
         opts.add_argument(flag)
     if console_log:
         opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    if downloads is not None:
+        opts.add_experimental_option("prefs", {"download.default_directory": str(downloads), "download.prompt_for_download": False})
     service = Service(executable_path=os.environ.get("CHROMEDRIVER", "/usr/bin/chromedriver"))
-    return webdriver.Chrome(service=service, options=opts)
+    d = webdriver.Chrome(service=service, options=opts)
+    if downloads is not None:
+        d.execute_cdp_cmd("Browser.setDownloadBehavior", {"behavior": "allow", "downloadPath": str(downloads)})
+    return d
+
+
+def verdict(result, problems, ok_line):
+    """Prints the result as JSON, then FAIL with the number of problems (returns 1) or the
+    one-line OK (returns 0): the end of every check here."""
+    print(json.dumps(result, indent=2))
+    if problems:
+        print(f"FAIL: {len(problems)} problem(s)", file=sys.stderr)
+        return 1
+    print(ok_line)
+    return 0
 
 
 def check_page(d, page: Path, screenshot: Path):

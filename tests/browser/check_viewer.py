@@ -12,14 +12,13 @@ time: navigation start → first frame drawn, as the page measures it, and wall 
 
 Usage: check_viewer.py VIEWER [SCREENSHOT]
 """
-import json
 import sys
 import time
 from pathlib import Path
 
 from selenium.webdriver.common.by import By
 
-from check_pages import driver  # the same headless Chromium set-up (beside this file)
+from check_pages import driver, verdict  # the same headless Chromium set-up (beside this file)
 
 
 # Distinct colours in a canvas, sampled on a grid (a blank canvas has one).
@@ -108,12 +107,7 @@ def main():
         "open_ms_in_page": round(open_ms, 1) if open_ms else None, "open_ms_wall": round(wall_ms, 1), "phases_ms": phases,
         "lane": state["lane"], "marks": len(marks), "screenshot": str(shot), "problems": problems,
     }
-    print(json.dumps(result, indent=2))
-    if problems:
-        print(f"FAIL: {len(problems)} problem(s)", file=sys.stderr)
-        return 1
-    print(f"viewer test: OK ({page.name}: {result['bytes'] / 1e6:.2f} MB, opened in {result['open_ms_in_page']} ms)")
-    return 0
+    return verdict(result, problems, f"viewer test: OK ({page.name}: {result['bytes'] / 1e6:.2f} MB, opened in {result['open_ms_in_page']} ms)")
 
 
 if __name__ == "__main__":

@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Browser test of the HTML reports: needs Debian's chromium and chromium-driver.
-# Usage: tests/browser/run.sh REPORTS_DIR RUN_DIR   (exit 0 = pass, 1 = fail, 77 = skipped)
+# Usage: MOTIONLAB=path/to/motionlab tests/browser/run.sh REPORTS_DIR RUN_DIR
+#   (exit 0 = pass, 1 = fail, 77 = skipped)
 # Checks reports/index.html and RUN_DIR/index.html (check_pages.py), then one viewer page
 # (check_viewer.py): CMU 86_01 of sonoda_table1 when REPORTS_DIR has it, else the first found;
-# then, when REPORTS_DIR has a yabe_exercises run, its 13_29 matching viewer (screenshot beside
-# it: the committed docs/ screenshot stays the segmentation viewer's).
+# then annotation mode on that 86_01 page (check_annotate.py: keys, reload, downloads read back
+# by a run of $MOTIONLAB); then, when REPORTS_DIR has a yabe_exercises run, its 13_29 matching
+# viewer (screenshots beside the pages: the committed docs/ screenshots are copies).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 chromium=${CHROMIUM:-/usr/bin/chromium}
@@ -25,6 +27,17 @@ if [ -z "$viewer" ]; then
   exit 0
 fi
 "$venv/bin/python" "$here/check_viewer.py" "$viewer"
+annotate=$(ls "$1"/sonoda_table1/*/viewers/86_01.html 2>/dev/null | head -1 || true)
+if [ -z "$annotate" ]; then
+  echo "annotation test SKIPPED: no sonoda_table1/*/viewers/86_01.html under $1"
+else
+  motionlab=${MOTIONLAB:-$(command -v motionlab || true)}
+  if [ -z "$motionlab" ] || [ ! -x "$motionlab" ]; then
+    echo "annotation test FAILED: it reads the page's downloads back with motionlab; set MOTIONLAB to the binary"
+    exit 1
+  fi
+  "$venv/bin/python" "$here/check_annotate.py" "$annotate" "$motionlab"
+fi
 matching=$(ls "$1"/yabe_exercises/*/viewers/13_29.html 2>/dev/null | head -1 || true)
 if [ -z "$matching" ]; then
   echo "matching viewer test SKIPPED: no yabe_exercises/*/viewers/13_29.html under $1"

@@ -41,6 +41,8 @@ struct TruthRecord {
     segments: Vec<Segment>,
     /// Each annotator's own boundary frames (empty for one annotator).
     annotators: Vec<Vec<usize>>,
+    /// Their names, in the same order.
+    annotator_names: Vec<String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -105,6 +107,7 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
             boundaries: t.boundaries.clone(),
             segments: t.segments.clone(),
             annotators: t.annotators.clone(),
+            annotator_names: t.annotator_names.clone(),
         }),
         channels: (!motion.channels().is_empty()).then(|| (motion.channels().names().to_vec(), motion.channels().units().to_vec())),
     };
@@ -204,6 +207,7 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
             boundaries: t.boundaries,
             segments: t.segments,
             annotators: t.annotators,
+            annotator_names: t.annotator_names,
         }),
         None => None,
     };

@@ -37,6 +37,7 @@ use motionlab_core::{Error, ErrorKind, Result};
 use motionlab_engine::{RunOptions, RunSummary};
 
 pub mod describe;
+mod export;
 mod inspect;
 mod new;
 mod progress;
@@ -164,6 +165,17 @@ enum Command {
         /// Link the committed runs of record rather than the latest runs.
         #[arg(long)]
         records: bool,
+    },
+    /// Write a segmentation run's ground truth and each method's candidates as annotation
+    /// files, one per sequence (one tier or annotator per method plus `truth`), to correct in
+    /// ELAN and read back as ground truth.
+    Export {
+        run_dir: PathBuf,
+        #[arg(long, value_enum)]
+        format: export::ExportFormat,
+        /// Folder to write into (default `<run_dir>/export/`).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
 }
 
@@ -350,6 +362,12 @@ fn dispatch(command: Command) -> Result<ExitCode> {
         Command::Index { experiments, reports, records } => {
             let p = motionlab_report::pages::write_reproduction_index(&experiments, &reports, records)?;
             println!("wrote {}", p.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Export { run_dir, format, out } => {
+            for path in export::export(&run_dir, format, out.as_deref())? {
+                println!("wrote {}", path.display());
+            }
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -34,6 +34,9 @@ pub struct Segmentation {
     /// consensus); empty when they are one annotator's. Metrics defined over several
     /// annotators (TCPDBench's F1 and covering) read these, kept separately.
     pub annotators: Vec<Vec<usize>>,
+    /// The names of [`Segmentation::annotators`], in the same order (the file's annotator or
+    /// tier names); empty when the source names none.
+    pub annotator_names: Vec<String>,
 }
 
 impl Segmentation {
@@ -49,7 +52,7 @@ impl Segmentation {
             }
         }
         let boundaries = segments.iter().skip(1).map(|s| Boundary { frame: s.start, window: None }).collect();
-        Ok(Segmentation { frame_rate, boundaries, segments, annotators: Vec::new() })
+        Ok(Segmentation { frame_rate, boundaries, segments, annotators: Vec::new(), annotator_names: Vec::new() })
     }
     pub fn frames(&self) -> Vec<usize> {
         self.boundaries.iter().map(|b| b.frame).collect()

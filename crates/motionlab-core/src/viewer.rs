@@ -26,6 +26,26 @@ pub struct ViewerSpec {
     pub motion: ViewerMotion,
     /// Drawn top to bottom in this order.
     pub lanes: Vec<Lane>,
+    /// When set, the page offers annotation mode: boundaries marked at the playhead, judged
+    /// live against the candidate lanes, kept in the browser and downloaded as annotation files.
+    #[serde(default)]
+    pub annotation: Option<AnnotationSpec>,
+}
+
+/// What a page needs to annotate its motion: the name its files give the sequence, the key its
+/// marks are kept under in the browser, and the tolerance they are judged at.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AnnotationSpec {
+    /// The `sequence` cell of the files it writes: the motion file's stem (`86_01`), as the
+    /// `boundaries_csv` reader matches it.
+    pub sequence: String,
+    /// SHA-256 of the motion's input file, 64 lower-case hex digits: the browser keeps a take's
+    /// marks under it, so every page of the same take (another run, another experiment) finds
+    /// them.
+    pub input_sha256: String,
+    /// Half-width of the match window, frames: the tolerance the run judged candidates at
+    /// (None: exact frames only).
+    pub tolerance_frames: Option<f64>,
 }
 
 /// The motion a viewer plays back.
@@ -281,7 +301,7 @@ impl Lane {
 
 impl ViewerSpec {
     pub fn new(name: impl Into<String>, title: impl Into<String>, motion: ViewerMotion) -> Self {
-        ViewerSpec { name: name.into(), title: title.into(), motion, lanes: Vec::new() }
+        ViewerSpec { name: name.into(), title: title.into(), motion, lanes: Vec::new(), annotation: None }
     }
 
     /// Checks what a renderer relies on: a file-safe name, a positive rate, positions for every
@@ -309,6 +329,17 @@ impl ViewerSpec {
         }
         if let Some(r) = m.root.filter(|r| *r >= m.n_points()) {
             return bad(format!("root {r} is outside 0..{}", m.n_points()));
+        }
+        if let Some(a) = &self.annotation {
+            if a.sequence.trim().is_empty() {
+                return bad("annotation: the sequence name is empty".into());
+            }
+            if a.input_sha256.len() != 64 || !a.input_sha256.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)) {
+                return bad(format!("annotation: input_sha256 {:?} is not 64 lower-case hex digits", a.input_sha256));
+            }
+            if a.tolerance_frames.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
+                return bad("annotation: the tolerance must be a finite number of frames ≥ 0".into());
+            }
         }
         for lane in &self.lanes {
             match lane {
@@ -413,6 +444,14 @@ mod tests {
         spec.lanes[0] = Lane::Trace(TraceLane { name: "V".into(), unit: String::new(), series: vec![TraceSeries { name: "V".into(), values: vec![1.0] }], thresholds: vec![] });
         assert!(spec.validate().unwrap_err().to_string().contains("1 values for 2 frames"));
         spec.lanes.clear();
+        let sha = "0123456789abcdef".repeat(4);
+        spec.annotation = Some(AnnotationSpec { sequence: "m".into(), input_sha256: sha.clone(), tolerance_frames: Some(5.0) });
+        assert!(spec.validate().is_ok());
+        spec.annotation = Some(AnnotationSpec { sequence: "m".into(), input_sha256: sha.to_uppercase(), tolerance_frames: None });
+        assert!(spec.validate().unwrap_err().to_string().contains("input_sha256"));
+        spec.annotation = Some(AnnotationSpec { sequence: "m".into(), input_sha256: sha, tolerance_frames: Some(-1.0) });
+        assert!(spec.validate().unwrap_err().to_string().contains("tolerance"));
+        spec.annotation = None;
         spec.name = "a/b".into();
         assert!(spec.validate().is_err());
     }

@@ -60,8 +60,8 @@ pub struct BoundaryMetricsParams {
     pub chance_seed: u64,
 }
 
-
-fn default_tolerances() -> Vec<TimeSpan> {
+/// The default tolerances of the evaluators that score at several (this one, `human_agreement`).
+pub(crate) fn default_tolerances() -> Vec<TimeSpan> {
     vec![TimeSpan::Seconds(1.0 / 12.0), TimeSpan::Seconds(0.25), TimeSpan::Seconds(0.5), TimeSpan::Seconds(1.0)]
 }
 
@@ -110,7 +110,7 @@ pub struct ToleranceRow {
 
 /// `0.0833 s` or `10 frames`: the tolerance as a short label (4 decimals of a second are
 /// finer than any frame period).
-fn tolerance_label(t: TimeSpan) -> String {
+pub(crate) fn tolerance_label(t: TimeSpan) -> String {
     match t {
         TimeSpan::Seconds(s) => format!("{} s", (s * 1e4).round() / 1e4),
         TimeSpan::Frames(n) => format!("{n} frames"),

@@ -268,7 +268,7 @@ impl Consensus {
                 a
             })
             .collect();
-        Ok(Segmentation { frame_rate: motion.frame_rate(), boundaries, segments: Vec::new(), annotators })
+        Ok(Segmentation { frame_rate: motion.frame_rate(), boundaries, segments: Vec::new(), annotators, annotator_names: Vec::new() })
     }
 }
 

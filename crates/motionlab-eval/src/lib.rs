@@ -14,11 +14,14 @@
 //!   [`span`]: its option to count only found frames within the annotated span.
 //! - [`cpd_metrics`]: TCPDBench/TSSB's F1 with several annotators and segment covering;
 //!   [`boundary_metrics`]: evaluator plugin for them and for F1 at several tolerances.
+//! - [`human_agreement`]: evaluator plugin for the annotators' agreement with each other (F1
+//!   and a chance-corrected kappa per pair), the ceiling each method is shown under.
 //! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
 //!   (`boundaries_csv`, `elan_eaf`; formats parsed in `motionlab-io`), one annotator or the
 //!   consensus of several.
 //!
-//! Evaluator plugins registered here: `boundary_metrics`, `boundary_pr`, `transitions`;
+//! Evaluator plugins registered here: `boundary_metrics`, `boundary_pr`, `human_agreement`,
+//! `transitions`;
 //! ground-truth readers: `boundaries_csv`, `elan_eaf`.
 //!
 //! Written by hand: the two matching algorithms (a point–interval sweep and Hopcroft–Karp, each
@@ -30,7 +33,7 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 5;
+pub const PLUGIN_COUNT: usize = 6;
 
 pub mod boundaries;
 pub mod boundary_analysis;
@@ -39,6 +42,7 @@ pub mod boundary_pr;
 pub mod chance;
 pub mod consensus;
 pub mod cpd_metrics;
+pub mod human_agreement;
 mod sequences;
 pub mod span;
 pub mod transitions;

@@ -60,7 +60,7 @@ mod tests {
     fn only_frames_within_the_annotations_and_tolerance_count() {
         let rate = FrameRate::new(100.0).unwrap();
         let b = |frame| Boundary { frame, window: None };
-        let points = Segmentation { frame_rate: rate, boundaries: vec![b(300), b(500), b(700)], segments: vec![], annotators: vec![] };
+        let points = Segmentation { frame_rate: rate, boundaries: vec![b(300), b(500), b(700)], segments: vec![], annotators: vec![], annotator_names: vec![] };
         let found = [50, 289, 290, 600, 710, 711, 900];
         assert_eq!(counted(&found, &points, Span::Whole, 10.0).as_ref(), &found);
         assert_eq!(counted(&found, &points, Span::Annotated, 10.0).as_ref(), &[290, 600, 710]);
@@ -70,10 +70,11 @@ mod tests {
             boundaries: vec![b(300)],
             segments: vec![Segment { start: 200, end: 300, label: "a".into() }, Segment { start: 300, end: 720, label: "b".into() }],
             annotators: vec![],
+            annotator_names: vec![],
         };
         assert_eq!(annotated_span(&segs), Some((200, 720)));
         assert_eq!(counted(&found, &segs, Span::Annotated, 0.0).as_ref(), &[289, 290, 600, 710, 711]);
-        let empty = Segmentation { frame_rate: rate, boundaries: vec![], segments: vec![], annotators: vec![] };
+        let empty = Segmentation { frame_rate: rate, boundaries: vec![], segments: vec![], annotators: vec![], annotator_names: vec![] };
         assert!(counted(&found, &empty, Span::Annotated, 10.0).is_empty());
     }
 

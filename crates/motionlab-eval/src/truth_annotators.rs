@@ -87,7 +87,9 @@ impl Annotators {
                     .iter()
                     .map(|t| track_segmentation(t, to_frame, rule, origin, rate, n).map(|s| s.frames()))
                     .collect::<Result<Vec<_>>>()?;
-                rule_c.segmentation(&marks, motion).map_err(|e| e.in_file(origin))
+                let mut truth = rule_c.segmentation(&marks, motion).map_err(|e| e.in_file(origin))?;
+                truth.annotator_names = tracks.iter().map(|t| t.annotator.clone()).collect();
+                Ok(truth)
             }
         }
     }
@@ -122,6 +124,7 @@ mod tests {
         // Each annotator's own marks stay beside the consensus (for TCPDBench's metrics).
         let kept = consensus.truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file").unwrap();
         assert_eq!(kept.annotators, vec![vec![100, 200], vec![103], vec![98, 250]]);
+        assert_eq!(kept.annotator_names, vec!["ana", "ben", "cy"]);
         assert_eq!(kept.annotator_frames().len(), 3);
         // One named annotator is one annotator's truth.
         let one = Annotators::Named("ana".into()).truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file").unwrap();

@@ -26,9 +26,11 @@ use crate::truth_annotators::Annotators;
 ///
 /// - `sequence` (optional): the motion file's stem (`dance1` for `dance1.c3d`); without the
 ///   column every row belongs to the motion read (one file per motion: `file = "{stem}.csv"`).
-/// - one row per **boundary**: `frame` or `time_s`; or one row per **segment**:
-///   `start_frame` + `end_frame` or `start_s` + `end_s`, plus an optional `label`. The time
-///   columns are exclusive (a header mixing them is an error).
+/// - one row per **boundary**: `frame` or `time_s` (or both: then `frame` is the boundary
+///   and `time_s` must agree with it to within half a frame at the motion's rate — the files
+///   the viewer pages and `motionlab export` write carry both); or one row per **segment**:
+///   `start_frame` + `end_frame` or `start_s` + `end_s`, plus an optional `label`. Points and
+///   segments, and frames and seconds of segments, do not mix (such a header is an error).
 /// - `annotator` (optional): who marked the row.
 ///
 /// **Boundaries**: each point row is one; segment rows give their starts plus the end of the
@@ -47,7 +49,8 @@ use crate::truth_annotators::Annotators;
 /// `boundary_metrics`' TCPDBench F1 and covering).
 ///
 /// **Errors** (one line naming the file, the line and the column): no header or an unknown,
-/// repeated, missing or mixed time column; a non-numeric, negative or non-finite cell; a
+/// repeated, missing or mixed time column; a `time_s` more than half a frame from its row's
+/// `frame` (another rate?); a non-numeric, negative or non-finite cell; a
 /// segment whose start is after its end; a row with the wrong number of cells; an empty
 /// `sequence` or `annotator` cell; an instant past the motion's end; **a loaded sequence with
 /// no rows** (the message lists the sequences the file has); **a row naming no loaded
@@ -180,6 +183,9 @@ impl GroundTruthReader for BoundariesCsv {
         let scale = self.frame_rate.map_or(1.0, |r| rate / r.hz());
         let rule = EndRule::LastEndOnly;
         let where_ = format!("sequence {sequence:?}");
+        if csv.unit == CsvUnit::Frames {
+            check_times_agree_with_frames(&csv, &sequence, path, rate, move |f| (f - first) * scale)?;
+        }
         match csv.unit {
             CsvUnit::Seconds => self.annotators.truth(&tracks, move |s| s * rate, rule, path, motion, "annotator", &where_),
             CsvUnit::Frames => {
@@ -187,6 +193,29 @@ impl GroundTruthReader for BoundariesCsv {
             }
         }
     }
+}
+
+/// A row giving both `frame` and `time_s` must name one instant: the two, as motion frames,
+/// within half a frame of each other.
+fn check_times_agree_with_frames(csv: &CsvAnnotations, sequence: &str, origin: &Path, rate: f64, to_frame: impl Fn(f64) -> f64) -> Result<()> {
+    let rows = csv.rows.iter().filter(|r| !csv.has_sequence || r.sequence.as_deref() == Some(sequence));
+    for r in rows {
+        let Some(t) = r.time_s else { continue };
+        let (by_frame, by_time) = (to_frame(r.item.start), t * rate);
+        if (by_frame - by_time).abs() > 0.5 {
+            return Err(Error::at_line(
+                ErrorKind::Mismatch,
+                origin,
+                r.item.line,
+                format!(
+                    "time_s {t} is motion frame {by_time:.2} at {rate} Hz, but frame {} is motion frame {by_frame:.2}; the file's frames and times disagree (written at another rate? set frame_rate_hz)",
+                    r.item.start
+                ),
+            )
+            .with_field("time_s"));
+        }
+    }
+    Ok(())
 }
 
 motionlab_core::register_plugin!(GroundTruth, BoundariesCsvParams, "boundaries_csv");
@@ -224,6 +253,14 @@ mod tests {
         let e = read("", csv, &motion("d3")).unwrap_err();
         assert_eq!((e.kind(), e.location().line, e.location().field.as_deref()), (ErrorKind::EmptySequence, Some(1), Some("sequence")));
         assert!(e.to_string().contains("the file has rows for d1, d2"), "{e}");
+        // Frames with their times (as the viewer writes them): the frames are the boundaries,
+        // and times more than half a frame off are refused — here frames of a 50 Hz file read
+        // as 100 Hz motion frames.
+        let both = "sequence,frame,time_s,label,annotator\nd1,200,2,walk,ana\nd1,551,5.51,,ana\n";
+        assert_eq!(read("", both, &m).unwrap().frames(), vec![200, 551]);
+        let e = read("", "frame,time_s\n200,2.004\n100,2\n", &m).unwrap_err();
+        assert_eq!((e.kind(), e.location().line, e.location().field.as_deref()), (ErrorKind::Mismatch, Some(3), Some("time_s")));
+        assert_eq!(read("frame_rate_hz = 50.0", "frame,time_s\n100,2\n", &m).unwrap().frames(), vec![200]);
     }
 
     #[test]

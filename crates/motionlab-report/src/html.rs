@@ -20,6 +20,7 @@ const RUN_TEMPLATE: &str = include_str!("../templates/run.html");
 const INDEX_TEMPLATE: &str = include_str!("../templates/index.html");
 const COMPARE_TEMPLATE: &str = include_str!("../templates/compare.html");
 const COMPARISON_PARTIAL: &str = include_str!("../templates/comparison.html");
+const CEILING_PARTIAL: &str = include_str!("../templates/ceiling.html");
 const STYLE: &str = include_str!("../templates/style.css");
 
 fn env() -> Result<Environment<'static>> {
@@ -29,6 +30,7 @@ fn env() -> Result<Environment<'static>> {
         ("index.html", INDEX_TEMPLATE),
         ("compare.html", COMPARE_TEMPLATE),
         ("comparison.html", COMPARISON_PARTIAL),
+        ("ceiling.html", CEILING_PARTIAL),
     ] {
         env.add_template(name, src).map_err(template_error)?;
     }
@@ -179,6 +181,53 @@ fn toml_number(v: &toml::Value) -> String {
     }
 }
 
+/// One method's pooled F1 between the chance floor and the annotators' agreement (a pooled
+/// row of `human_agreement`'s `human_ceiling` table), with the three as percentages of the
+/// 0–1 scale for the bar drawn beside it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CeilingBar {
+    pub method: String,
+    pub tolerance: String,
+    pub chance_f1: String,
+    pub f1: String,
+    pub human_f1: String,
+    pub fraction_of_ceiling: String,
+    /// `40` or `12.5`: a CSS percentage without its `%`.
+    pub chance_pct: String,
+    pub f1_pct: String,
+    pub human_pct: String,
+}
+
+/// The bars of a `human_ceiling` table's pooled rows (none for any other table).
+pub fn ceiling_bars(table: &Table) -> Vec<CeilingBar> {
+    if table.name != "human_ceiling" {
+        return Vec::new();
+    }
+    let text = |c: &str, r: usize| table.column(c).map(|v| v.cell(r)).unwrap_or_default();
+    let num = |c: &str, r: usize| match table.column(c) {
+        Some(ColumnValues::F64(v)) => v[r],
+        Some(ColumnValues::I64(v)) => v[r] as f64,
+        Some(other) => other.cell(r).parse().unwrap_or(f64::NAN),
+        None => f64::NAN,
+    };
+    let pct = |v: f64| format!("{}", if v.is_finite() { (v.clamp(0.0, 1.0) * 1000.0).round() / 10.0 } else { 0.0 });
+    let shown = |v: f64| if v.is_finite() { format!("{v:.3}") } else { "—".into() };
+    (0..table.n_rows())
+        .filter(|&r| text("sequence", r) == "pooled")
+        .map(|r| CeilingBar {
+            method: text("method", r),
+            tolerance: text("tolerance", r),
+            chance_f1: shown(num("chance_f1", r)),
+            f1: shown(num("f1", r)),
+            human_f1: shown(num("human_f1", r)),
+            fraction_of_ceiling: shown(num("fraction_of_ceiling", r)),
+            chance_pct: pct(num("chance_f1", r)),
+            f1_pct: pct(num("f1", r)),
+            human_pct: pct(num("human_f1", r)),
+        })
+        .collect()
+}
+
 /// Everything on a run's page.
 #[derive(Clone, Debug, Serialize)]
 pub struct RunPage {
@@ -198,6 +247,8 @@ pub struct RunPage {
     pub screenshot: Option<String>,
     /// Interactive viewer pages of the run (`viewers/<sequence>.html`), relative links.
     pub viewers: Vec<ViewerLink>,
+    /// Each method between chance and the annotators' agreement, when the run measured it.
+    pub ceiling: Vec<CeilingBar>,
 }
 
 /// A link to a viewer page.
@@ -251,6 +302,8 @@ pub struct IndexEntry {
     pub comparisons: Vec<Comparison>,
     /// Viewer pages of the run shown.
     pub viewers: Vec<ViewerLink>,
+    /// Each method between chance and the annotators' agreement, when the run measured it.
+    pub ceiling: Vec<CeilingBar>,
 }
 
 /// Writes `<reports>/index.html`.
@@ -307,6 +360,33 @@ mod tests {
     }
 
     #[derive(serde::Serialize)]
+    struct CeilingRow {
+        sequence: &'static str,
+        method: &'static str,
+        tolerance: &'static str,
+        f1: f64,
+        chance_f1: f64,
+        human_f1: f64,
+        fraction_of_ceiling: f64,
+    }
+
+    fn ceiling_table() -> Table {
+        let row = |sequence, f1| CeilingRow { sequence, method: "fused", tolerance: "0.5 s", f1, chance_f1: 0.1, human_f1: 0.8, fraction_of_ceiling: (f1 - 0.1) / 0.7 };
+        Table::from_records("human_ceiling", "", &[row("86_01", 0.25), row("pooled", 0.4)]).unwrap()
+    }
+
+    #[test]
+    fn ceiling_bars_are_the_pooled_rows_on_a_zero_to_one_scale() {
+        let bars = ceiling_bars(&ceiling_table());
+        assert_eq!(bars.len(), 1);
+        assert_eq!((bars[0].chance_pct.as_str(), bars[0].f1_pct.as_str(), bars[0].human_pct.as_str()), ("10", "40", "80"));
+        assert_eq!((bars[0].f1.as_str(), bars[0].fraction_of_ceiling.as_str()), ("0.400", "0.429"));
+        let mut other = ceiling_table();
+        other.name = "table1_precision_recall".into();
+        assert!(ceiling_bars(&other).is_empty());
+    }
+
+    #[derive(serde::Serialize)]
     struct Row {
         method: &'static str,
         precision: f64,
@@ -349,6 +429,7 @@ mod tests {
             index_link: "../../index.html".into(),
             screenshot: None,
             viewers: vec![ViewerLink { name: "86_01".into(), href: "viewers/86_01.html".into() }],
+            ceiling: ceiling_bars(&ceiling_table()),
         };
         let dir = std::env::temp_dir().join(format!("mlab-html-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -359,6 +440,9 @@ mod tests {
         let unescaped = html.replace("&#x2f;", "/");
         assert!(unescaped.contains("href=\"tables/t1.csv\"") && unescaped.contains("src=\"figures/f.svg\""), "{html}");
         assert!(unescaped.contains("href=\"viewers/86_01.html\""), "viewer link");
+        // The fused method's pooled F1 0.4 between chance 0.1 and the humans' 0.8.
+        assert!(html.contains("Between chance and the annotators"), "ceiling section");
+        assert!(html.contains("left:40%") && html.contains("width:10%") && html.contains("left:80%"), "{html}");
         assert!(!html.contains("http://") && !html.contains("https://"), "no network references");
         std::fs::remove_dir_all(&dir).ok();
     }

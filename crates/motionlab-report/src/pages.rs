@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
 
-use crate::html::{compare_published, viewer_links, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
+use crate::html::{ceiling_bars, compare_published, viewer_links, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
 use crate::output::{FigureEntry, Written};
 use motionlab_experiment::spec::{ExperimentFile, Headline};
 
@@ -107,6 +107,7 @@ fn write_page(
         screenshot: None,
         // Whatever viewer pages the run wrote (`viewers/<sequence>.html`).
         viewers: viewer_links(run_dir, ""),
+        ceiling: tables.iter().flat_map(ceiling_bars).collect(),
     };
     write_run_page(run_dir, &page)
 }
@@ -287,6 +288,11 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
             let id = r.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
             viewer_links(r, &format!("{}/{id}/", file.experiment.name))
         });
+        let ceiling = run
+            .as_ref()
+            .and_then(|r| read_table_csv(&r.join("tables").join("human_ceiling.csv"), "human_ceiling"))
+            .map(|t| ceiling_bars(&t))
+            .unwrap_or_default();
         let (latest_link, latest_id, finished_utc, headline, comparisons) = match &run {
             Some(run) => {
                 let id = run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -319,6 +325,7 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
             headline,
             comparisons,
             viewers: viewers.unwrap_or_default(),
+            ceiling,
         });
     }
     write_index(reports, &entries, None)

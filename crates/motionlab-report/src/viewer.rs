@@ -3,7 +3,12 @@
 //! The page plays the motion back as a 3-D stick figure (orbit and zoom with the mouse, floor
 //! grid, root path) above time-aligned lanes (candidates, fused candidates, ground truth with
 //! its tolerance, traces with thresholds, intervals), with a playhead, keyboard stepping and a
-//! list of every mark with its matched / false positive / missed status.
+//! list of every mark with its matched / false positive / missed status. A spec with an
+//! [`AnnotationSpec`] adds annotation mode (`viewer_annotate.js`, spliced into the script):
+//! boundaries marked at the playhead per annotator, judged live against the candidate lanes at
+//! the run's tolerance, kept in the browser's `localStorage` under the input's SHA-256 and
+//! downloaded as `boundaries_csv` / ELAN `.eaf` files in the bytes `motionlab_io`'s writers
+//! give (`tests/browser/check_annotate.py` drives it and reads the files back).
 //!
 //! It must open from the file system: Chromium blocks `fetch()` of a local file on `file://`,
 //! so the data are embedded in the page. The JavaScript is hand-written (about 600 lines, no
@@ -25,11 +30,13 @@ use std::path::{Path, PathBuf};
 use base64::Engine;
 use serde::Serialize;
 
-use motionlab_core::viewer::{EventKind, IntervalKind, Lane, MarkStatus, ViewerSpec};
+use motionlab_core::viewer::{AnnotationSpec, EventKind, IntervalKind, Lane, MarkStatus, ViewerSpec};
 use motionlab_core::{Error, ErrorKind, Location, Result};
 
 const TEMPLATE: &str = include_str!("../templates/viewer.html");
 const SCRIPT: &str = include_str!("../templates/viewer.js");
+const ANNOTATE_SCRIPT: &str = include_str!("../templates/viewer_annotate.js");
+const NO_ANNOTATION: &str = "const ANNO = null, anno = null;\nfunction annoInit() {}\nfunction annoKey() { return false; }\nfunction annoDrawNearest() {}\n";
 
 /// How one channel's 16-bit codes map back to values: `value = offset + (code − 1) · step`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -107,6 +114,7 @@ struct Meta<'a> {
     /// Per point, x, y, z quantisation (point-major, as the data planes).
     positions: Vec<[Quant; 3]>,
     lanes: Vec<MetaLane<'a>>,
+    annotation: Option<&'a AnnotationSpec>,
 }
 
 /// The page's metadata (JSON) and data (gzip of the byte planes, base64).
@@ -171,6 +179,7 @@ fn encode(spec: &ViewerSpec, back_link: Option<&str>) -> Result<(String, String)
         root: m.root,
         positions,
         lanes,
+        annotation: spec.annotation.as_ref(),
     };
     let json = serde_json::to_string(&meta).map_err(|e| Error::new(ErrorKind::Report, format!("viewer metadata: {e}")))?;
     let mut gz = flate2::write::GzEncoder::new(Vec::with_capacity(planes.len() / 3), flate2::Compression::new(6));
@@ -193,7 +202,10 @@ pub fn render_page(spec: &ViewerSpec, back_link: Option<&str>) -> Result<String>
     // Split at the data's place first: no text from the spec can then be taken for a placeholder.
     let (head, tail) = TEMPLATE.split_once("{{DATA}}").unwrap_or((TEMPLATE, ""));
     let head = crate::fonts::with_cjk_font(head.replace("{{TITLE}}", &escape_html(&spec.title)).replace("{{META}}", &json));
-    Ok([head.as_str(), &data, &tail.replace("{{SCRIPT}}", SCRIPT)].concat())
+    // Pages without annotation mode (matching, gait) get the few names the player calls.
+    let annotate = if spec.annotation.is_some() { ANNOTATE_SCRIPT } else { NO_ANNOTATION };
+    let script = SCRIPT.replace("/*{{ANNOTATE}}*/", annotate);
+    Ok([head.as_str(), &data, &tail.replace("{{SCRIPT}}", &script)].concat())
 }
 
 /// Writes `<dir>/<spec.name>.html` (creating `dir`), linking "../index.html" as the run page.
@@ -289,6 +301,8 @@ mod tests {
         let (json, data) = encode(&s, None).unwrap();
         let meta: serde_json::Value = serde_json::from_str(&json).unwrap();
         assert_eq!(meta["lanes"][0]["marks"][1]["frame"], 150);
+        assert!(meta["annotation"].is_null());
+        assert!(!page.contains("{{ANNOTATE}}") && !page.contains("function annoEafText"), "no annotation script without annotation mode");
         let packed = base64::engine::general_purpose::STANDARD.decode(data).unwrap();
         let mut planes = Vec::new();
         flate2::read::GzDecoder::new(&packed[..]).read_to_end(&mut planes).unwrap();
@@ -312,6 +326,19 @@ mod tests {
         let page = render_page(&spec(36_000, 31), None).unwrap();
         eprintln!("36 000 frames × 31 points: {} bytes", page.len());
         assert!(page.len() < 10_000_000, "{} bytes", page.len());
+    }
+
+    #[test]
+    fn the_annotation_section_reaches_the_page() {
+        let mut s = spec(50, 2);
+        s.annotation = Some(AnnotationSpec { sequence: "take".into(), input_sha256: "0f".repeat(32), tolerance_frames: Some(6.0) });
+        let (json, _) = encode(&s, None).unwrap();
+        let meta: serde_json::Value = serde_json::from_str(&json).unwrap();
+        assert!(render_page(&s, None).unwrap().contains("function annoEafText"), "the annotation script is spliced in");
+        assert_eq!(meta["annotation"]["input_sha256"], "0f".repeat(32));
+        assert_eq!(meta["annotation"]["tolerance_frames"], 6.0);
+        s.annotation.as_mut().unwrap().input_sha256 = "xyz".into();
+        assert!(render_page(&s, None).is_err());
     }
 
     #[test]

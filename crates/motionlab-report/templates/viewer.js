@@ -6,7 +6,7 @@ const t0 = performance.now();
 const meta = JSON.parse(document.getElementById("viewer-meta").textContent);
 const N = meta.n_frames, P = meta.point_names.length, RATE = meta.frame_rate_hz;
 const COLORS = { matched: "#2ca02c", false_positive: "#d62728", missed: "#ff7f0e", none: "#5b6b7f" };
-const KIND_COLORS = { candidates: "#1f77b4", fused: "#6a3d9a", truth: "#111111", other: "#8c564b" };
+const KIND_COLORS = { candidates: "#1f77b4", fused: "#6a3d9a", truth: "#111111", other: "#8c564b", annotation: "#0b5cad" };
 const SERIES_COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b"];
 
 const state = {
@@ -50,7 +50,6 @@ const FLOOR = [[1, 2], [0, 2], [0, 1]][UP];
 const FLIP = ((FLOOR[0] + 1) % 3 === UP && (UP + 1) % 3 === FLOOR[1]) ? 1 : -1;
 let pos = null; // Float32Array N*P*3 in view space
 let floorY = 0, bodyHeight = 1800, pathBox = [0, 0, 0, 0];
-const traces = []; // per lane index: array of Float32Array (trace lanes)
 
 function toView(raw) {
   pos = new Float32Array(N * P * 3);
@@ -220,14 +219,14 @@ const LABEL_W = 170, AXIS_H = 24;
 const laneBoxes = []; // {index, y, h}
 let lanesImage = null; // offscreen canvas with everything but the playhead
 
-function laneHeight(l) { return l.type === "trace" ? 74 : 24; }
+function laneHeight(l) { return l.type === "trace" ? 74 : l.kind === "annotation" ? 32 : 24; }
 function xOf(f, w) { return LABEL_W + (f - state.view0) / (state.view1 - state.view0) * (w - LABEL_W - 10); }
 function frameOf(x, w) { return state.view0 + (x - LABEL_W) / (w - LABEL_W - 10) * (state.view1 - state.view0); }
 
 function layoutLanes() {
   laneBoxes.length = 0;
   let y = 4;
-  meta.lanes.forEach((l, i) => { const h = laneHeight(l); laneBoxes.push({ index: i, y, h }); y += h + 4; });
+  meta.lanes.forEach((l, i) => { if (l.hidden) return; const h = laneHeight(l); laneBoxes.push({ index: i, y, h }); y += h + 4; });
   const total = y + AXIS_H;
   lanesCanvas.style.height = total + "px";
   return total;
@@ -299,6 +298,13 @@ function drawEventLane(ctx, l, box, w) {
     ctx.beginPath(); ctx.moveTo(x, box.y + 3); ctx.lineTo(x, box.y + box.h - 3); ctx.stroke();
   }
   ctx.setLineDash([]);
+  // Other annotators' marks (loaded from a file), thin and grey under yours.
+  if (l.others && l.others.length) {
+    ctx.strokeStyle = "#9aa5b1"; ctx.lineWidth = 1;
+    ctx.beginPath();
+    for (const m of l.others) { const x = Math.round(xOf(m.frame, w)) + 0.5; ctx.moveTo(x, box.y + box.h / 2); ctx.lineTo(x, box.y + box.h - 2); }
+    ctx.stroke();
+  }
 }
 
 function traceRange(l, data) {
@@ -312,7 +318,7 @@ function traceRange(l, data) {
 }
 
 function drawTraceLane(ctx, l, box, w) {
-  const data = traces[meta.lanes.indexOf(l)];
+  const data = l._data;
   const [lo, hi] = traceRange(l, data);
   const yOf = v => box.y + box.h - 4 - (v - lo) / (hi - lo) * (box.h - 8);
   ctx.fillStyle = "#777"; ctx.textBaseline = "top"; ctx.font = "10px " + getComputedStyle(document.body).fontFamily;
@@ -389,17 +395,22 @@ function drawLanes() {
     lctx.fillStyle = "#222";
     lctx.beginPath(); lctx.moveTo(x - 5, h - AXIS_H + 2); lctx.lineTo(x + 5, h - AXIS_H + 2); lctx.lineTo(x, h - AXIS_H - 5); lctx.fill();
   }
+  annoDrawNearest(lctx, w);
 }
 
 // ---- marks list -------------------------------------------------------------------------------
+// (Re)built whenever marks change; lanes keep their open or closed state.
 function buildList() {
   const list = document.getElementById("list");
+  const open = new Map([...list.querySelectorAll("details")].map(d => [d.dataset.name, d.open]));
+  list.textContent = "";
   meta.lanes.forEach((l, i) => {
-    if (l.type !== "events") return;
+    if (l.type !== "events" || l.hidden) return;
     const counts = {};
     for (const m of l.marks) counts[m.status || "none"] = (counts[m.status || "none"] || 0) + 1;
     const d = document.createElement("details");
-    d.open = l.kind === "fused" || l.kind === "truth" || l.marks.length <= 12;
+    d.dataset.name = l.kind === "annotation" ? "\u0000annotation" : l.name;
+    d.open = open.has(d.dataset.name) ? open.get(d.dataset.name) : l.kind === "fused" || l.kind === "truth" || l.kind === "annotation" || l.marks.length <= 12;
     const s = document.createElement("summary");
     s.dataset.lane = i;
     const parts = Object.entries(counts).filter(([k]) => k !== "none").map(([k, n]) => `${n} ${k.replace("_", " ")}`);
@@ -430,6 +441,9 @@ function setActiveLane(i) {
   state.activeLane = i;
   document.getElementById("active-lane").textContent = i >= 0 ? meta.lanes[i].name : "—";
   for (const s of document.querySelectorAll("#list summary")) s.classList.toggle("active", Number(s.dataset.lane) === i);
+  // Choosing a lane of candidates also judges your marks against it.
+  const l = meta.lanes[i];
+  if (ANNO && anno.lane && l && (l.kind === "candidates" || l.kind === "fused") && anno.judge !== i) { anno.judge = i; annoRefresh(false); buildList(); }
   lanesImage = null;
   redraw();
 }
@@ -491,6 +505,7 @@ function wireInput() {
   scrub.addEventListener("input", () => seek(Number(scrub.value)));
   document.addEventListener("keydown", e => {
     if (e.target && (e.target.tagName === "INPUT" && e.target.type !== "range" || e.target.tagName === "SELECT")) return;
+    if (annoKey(e)) { e.preventDefault(); return; }
     const k = e.key;
     if (k === " ") { setPlaying(!state.playing); }
     else if (k === "ArrowRight") { setPlaying(false); seek(state.frame + (e.shiftKey ? 10 : 1)); }
@@ -578,6 +593,8 @@ function hitInterval(x, y) {
   return hit ? { lane: l.name, a: hit[0], b: hit[1], label: hit[2] } : null;
 }
 
+/*{{ANNOTATE}}*/
+
 // ---- start ------------------------------------------------------------------------------------
 async function start() {
   const raw = await inflate(base64Bytes(document.getElementById("viewer-data").textContent));
@@ -586,7 +603,7 @@ async function start() {
   for (let k = 0; k < P; k++) for (let a = 0; a < 3; a++) off = decodeChannel(raw, off, meta.positions[k][a], xyz, 3 * k + a, 3 * P);
   meta.lanes.forEach((l, i) => {
     if (l.type !== "trace") return;
-    traces[i] = l.series.map(([, q]) => { const s = new Float32Array(N); off = decodeChannel(raw, off, q, s, 0, 1); return s; });
+    l._data = l.series.map(([, q]) => { const s = new Float32Array(N); off = decodeChannel(raw, off, q, s, 0, 1); return s; });
   });
   if (off !== raw.length) throw new Error(`viewer data: ${raw.length} bytes, expected ${off}`);
   const tDecoded = performance.now();
@@ -597,11 +614,12 @@ async function start() {
     const a = document.createElement("a"); a.href = meta.back_link; a.textContent = "← run page";
     document.getElementById("back").appendChild(a);
   }
+  annoInit();
   buildList();
   const tList = performance.now();
   wireInput();
   const fused = meta.lanes.findIndex(l => l.type === "events" && l.kind === "fused");
-  const cand = meta.lanes.findIndex(l => l.type === "events" && l.kind !== "truth");
+  const cand = meta.lanes.findIndex(l => l.type === "events" && l.kind !== "truth" && l.kind !== "annotation");
   setActiveLane(fused >= 0 ? fused : cand >= 0 ? cand : meta.lanes.findIndex(l => l.type === "events"));
   seek(0);
   state.ready = true;
@@ -620,6 +638,18 @@ window.viewer = {
   get phases() { return state.phases; },
   meta, seek, setActiveLane, stepMark,
   setPlaying,
+  // Annotation mode (null on pages without it): its marks, the judgement and the files.
+  annotation: ANNO && {
+    get on() { return anno.on; },
+    get name() { return anno.name; },
+    get marks() { return anno.marks.map(m => ({ ...m })); },
+    get pending() { return anno.pending; },
+    get results() { return anno.results.map(r => ({ ...r })); },
+    get judgedAgainst() { return anno.lane.judged_against; },
+    get message() { return anno.message; },
+    get storageKey() { return STORE_KEY; },
+    setName: annoSetName, match: annoMatch, csv: annoCsvText, eaf: annoEafText,
+  },
 };
 start().catch(e => { fail("The viewer could not start: " + e.message); console.error(e); });
 })();

@@ -8,13 +8,15 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
-use motionlab_core::viewer::{EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
+use motionlab_core::viewer::{AnnotationSpec, EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
 use motionlab_core::{
     Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
     Segment, Segmentation, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
 };
 use motionlab_eval::boundary_analysis::{BoundaryAnalysis, MatchOutcome, SequenceBoundaries};
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
+use motionlab_eval::boundaries::default_tolerance;
+use motionlab_io::labels::tiers::{MarkTier, RunBoundaries, SequenceTiers, TierMark};
 
 use crate::parameter_choice::{MethodChoices, StageChoice};
 use motionlab_experiment::toml_paths::KeyPath;
@@ -94,6 +96,9 @@ pub struct SegmentationWorkflow {
     experiment: String,
     /// How each method's parameters were chosen: the evaluation tables' `parameters_chosen`.
     choices: MethodChoices,
+    /// The base combination of a sweep (the only one without a sweep): it alone writes the
+    /// boundaries `motionlab export` reads, as it alone draws the viewer pages.
+    base_combination: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -172,7 +177,8 @@ impl WorkflowPlugin for SegmentationWorkflow {
             methods.push((name.clone(), std::iter::once(own).chain(fuse.iter().map(|&i| stage_choices[i].clone())).collect()));
         }
         let choices = MethodChoices { methods };
-        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, evaluator_params, experiment, choices })
+        let base_combination = combo.index == 0;
+        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, evaluator_params, experiment, choices, base_combination })
     }
 }
 
@@ -273,9 +279,15 @@ impl Workflow for SegmentationWorkflow {
         if draw {
             let judged = out.analysis::<BoundaryAnalysis>();
             // A channel file has no figure to play: its traces are in the figures.
-            for ((id, traces), seq) in viewer_traces.iter().zip(&sequences).filter(|(_, seq)| seq.motion.n_points() > 0) {
-                out.viewers.push(self.viewer(id, seq, traces, judged.as_ref().and_then(|j| j.sequence(&seq.sequence)))?);
+            for (((id, traces), seq), (_, sha)) in viewer_traces.iter().zip(&sequences).zip(&inputs).filter(|((_, seq), _)| seq.motion.n_points() > 0) {
+                out.viewers.push(self.viewer(id, seq, traces, judged.as_ref().and_then(|j| j.sequence(&seq.sequence)), sha)?);
             }
+        }
+        if self.base_combination {
+            let tiers = sequences.iter().zip(&inputs).map(|(seq, (_, sha))| boundary_tiers(seq, sha)).collect();
+            let json = serde_json::to_vec_pretty(&RunBoundaries::new(tiers))
+                .map_err(|e| Error::new(ErrorKind::Report, format!("{}: {e}", RunBoundaries::FILE_NAME)))?;
+            out.files.push((RunBoundaries::FILE_NAME.into(), json));
         }
         Ok(out)
     }
@@ -290,13 +302,47 @@ impl Workflow for SegmentationWorkflow {
     }
 }
 
+/// A sequence's truth (tier `truth`, each boundary labelled with the truth segment that starts
+/// there) and every method's candidates, one tier each: what `motionlab export` writes.
+fn boundary_tiers(seq: &SequenceResult, input_sha256: &str) -> SequenceTiers {
+    let mut tiers = Vec::with_capacity(seq.methods.len() + 1);
+    if let Some(truth) = &seq.truth {
+        let label = |f: usize| truth.segments.iter().find(|s| s.start == f).map(|s| s.label.clone()).unwrap_or_default();
+        tiers.push(MarkTier { name: "truth".into(), marks: truth.frames().into_iter().map(|frame| TierMark { frame, label: label(frame) }).collect() });
+    }
+    tiers.extend(seq.methods.iter().map(|m| MarkTier::unlabelled(m.method.clone(), &m.candidates)));
+    SequenceTiers {
+        name: seq.sequence.clone(),
+        sequence: file_stem(seq),
+        input_sha256: input_sha256.to_string(),
+        frame_rate_hz: seq.motion.frame_rate().hz(),
+        n_frames: seq.motion.n_frames(),
+        tiers,
+    }
+}
+
+/// The motion file's stem (`86_01`), which annotation files name the sequence by; the
+/// sequence's name when the motion has no file.
+fn file_stem(seq: &SequenceResult) -> String {
+    seq.motion.source.as_deref().map_or_else(|| seq.sequence.clone(), motionlab_core::paths::stem)
+}
+
 impl SegmentationWorkflow {
     /// The viewer page of one sequence: ground truth (judged against the fused method), the
     /// fused candidates, then each segmenter's candidates and traces; statuses as the boundary
     /// evaluation judged them, and the band drawn around each truth the tolerance that judged
     /// them — both from the evaluation's analysis (`judged`), so the band and the statuses
     /// cannot disagree, whatever the evaluator's parameters say or leave to their defaults.
-    fn viewer(&self, id: &str, seq: &SequenceResult, traces: &[(String, Vec<Trace>, Vec<Threshold>)], judged: Option<&SequenceBoundaries>) -> Result<ViewerSpec> {
+    /// Annotation mode keeps its marks under the input's SHA-256 and judges them at that
+    /// tolerance.
+    fn viewer(
+        &self,
+        id: &str,
+        seq: &SequenceResult,
+        traces: &[(String, Vec<Trace>, Vec<Threshold>)],
+        judged: Option<&SequenceBoundaries>,
+        input_sha256: &str,
+    ) -> Result<ViewerSpec> {
         let motion = &seq.motion;
         let vm = ViewerMotion::from_motion(motion, &self.section.bones, Some(&self.section.root))?;
         let mut spec = ViewerSpec::new(id, format!("{} — {}", seq.sequence, self.experiment), vm);
@@ -317,6 +363,9 @@ impl SegmentationWorkflow {
         };
         let fused = self.fuser.as_ref().and_then(|_| seq.methods.last());
         let tolerance_frames = judged.map(|j| j.tolerance_frames).filter(|f| f.is_finite());
+        // Without an evaluator's tolerance, marks are judged at boundary_pr's default.
+        let judged_at = tolerance_frames.or_else(|| Some(default_tolerance().frames_at(motion.frame_rate())));
+        spec.annotation = Some(AnnotationSpec { sequence: file_stem(seq), input_sha256: input_sha256.to_string(), tolerance_frames: judged_at });
         if let Some(truth) = &seq.truth {
             let mut lane = EventLane::truth("ground truth", truth, tolerance_frames);
             if let Some(f) = fused {

@@ -107,6 +107,7 @@ pub fn track_segmentation(
         boundaries: boundaries.into_iter().map(|frame| Boundary { frame, window: None }).collect(),
         segments,
         annotators: Vec::new(),
+        annotator_names: Vec::new(),
     })
 }
 

@@ -11,14 +11,15 @@
 //! | column | |
 //! |---|---|
 //! | `sequence` | optional: the motion file's stem (`86_01` for `86_01.amc.gz`); without it every row belongs to the one motion read |
-//! | `frame` **or** `time_s` | one row per boundary: a frame (fractional allowed) or seconds from the motion's first frame |
+//! | `frame` **or** `time_s` (or both) | one row per boundary: a frame (fractional allowed) or seconds from the motion's first frame; with both, `frame` is the boundary and `time_s` must agree with it to within half a frame (the files motionlab writes carry both) |
 //! | `start_frame` + `end_frame` **or** `start_s` + `end_s` | one row per segment |
 //! | `label` | optional segment label |
 //! | `annotator` | optional: who marked it; several annotators feed a consensus or are evaluated one at a time |
 //!
-//! The four time columns are exclusive: a header mixing them (`frame` with `start_s`, `frame`
-//! with `time_s`) is an error, as is a header naming none, a segment start without its end, an
-//! unknown or repeated column. Cells: numbers ≥ 0 (`12`, `12.5`, `1e3`); `start ≤ end`.
+//! Points and segments do not mix: a header with a point column and a segment column (`frame`
+//! with `start_s`), or with frames and seconds of segments (`start_frame` with `start_s`), is
+//! an error, as is a header naming none, a segment start without its end, an unknown or
+//! repeated column. Cells: numbers ≥ 0 (`12`, `12.5`, `1e3`); `start ≤ end`.
 //!
 //! ```text
 //! sequence,start_s,end_s,label,annotator
@@ -28,13 +29,15 @@
 //! ```
 //!
 //! Parsed with the `csv` crate (quoting, CRLF, comment lines); errors name the file, the line
-//! and the column.
+//! and the column. [`write_boundaries_csv`] writes a [`SequenceTiers`] in this format (one row
+//! per mark: `sequence,frame,time_s,label,annotator`).
 
 use std::path::Path;
 
 use motionlab_core::{Error, ErrorKind, Result};
 
 use super::annotations::{AnnotatedItem, AnnotatorTrack, parse_instant, start_after_end};
+use super::tiers::SequenceTiers;
 
 /// The unit of the time columns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,6 +52,9 @@ pub struct CsvRow {
     pub sequence: Option<String>,
     pub annotator: Option<String>,
     pub item: AnnotatedItem,
+    /// The row's `time_s` when the file gives it beside `frame` (the reader, which knows the
+    /// motion's rate, checks that the two agree).
+    pub time_s: Option<f64>,
 }
 
 /// A parsed file.
@@ -135,7 +141,7 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
     let col = |n: &str| names.iter().position(|c| c == n);
     let present: Vec<&str> = TIME_COLUMNS.iter().copied().filter(|n| col(n).is_some()).collect();
     let (unit, start_name, end_name) = match present.as_slice() {
-        ["frame"] => (CsvUnit::Frames, "frame", None),
+        ["frame"] | ["frame", "time_s"] => (CsvUnit::Frames, "frame", None),
         ["time_s"] => (CsvUnit::Seconds, "time_s", None),
         ["start_frame", "end_frame"] => (CsvUnit::Frames, "start_frame", Some("end_frame")),
         ["start_s", "end_s"] => (CsvUnit::Seconds, "start_s", Some("end_s")),
@@ -172,6 +178,8 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
         }
     };
     let (start_col, end_col) = (col(start_name), end_name.and_then(col));
+    // `time_s` beside `frame`: kept for the reader's check.
+    let time_col = if start_name == "frame" { col("time_s") } else { None };
     let (seq_col, ann_col, label_col) = (col("sequence"), col("annotator"), col("label"));
     let mut rows = Vec::new();
     for record in records {
@@ -210,7 +218,8 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
             _ => None,
         };
         let label = cell(label_col).unwrap_or("").to_string();
-        rows.push(CsvRow { sequence, annotator, item: AnnotatedItem { line, start_field: start_name.into(), start, end, label } });
+        let time_s = time_col.map(|c| parse_instant(record.get(c).unwrap_or(""), origin, line, "time_s")).transpose()?;
+        rows.push(CsvRow { sequence, annotator, item: AnnotatedItem { line, start_field: start_name.into(), start, end, label }, time_s });
     }
     Ok(CsvAnnotations { unit, segments: end_name.is_some(), has_sequence: seq_col.is_some(), header_line: hline, rows })
 }
@@ -247,6 +256,30 @@ impl CsvAnnotations {
     }
 }
 
+/// The marks of every tier of `seq` as a `boundaries_csv` file: the header
+/// `sequence,frame,time_s,label,annotator`, then one row per mark, tier by tier in order, by
+/// frame within a tier. `time_s` is `frame / frame_rate_hz` in the shortest decimal that reads
+/// back to the same number; a line break in a label becomes a space (a row is a line); cells
+/// holding `,` or `"` are quoted.
+pub fn write_boundaries_csv(seq: &SequenceTiers) -> String {
+    let mut w = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
+    let mut rows: Vec<[String; 5]> = vec![["sequence", "frame", "time_s", "label", "annotator"].map(String::from)];
+    for tier in &seq.tiers {
+        let mut marks: Vec<_> = tier.marks.iter().collect();
+        marks.sort_by_key(|m| m.frame);
+        for m in marks {
+            let time_s = m.frame as f64 / seq.frame_rate_hz;
+            let one_line = |t: &str| t.split(['\r', '\n']).filter(|p| !p.is_empty()).collect::<Vec<_>>().join(" ");
+            rows.push([one_line(&seq.sequence), m.frame.to_string(), time_s.to_string(), one_line(&m.label), one_line(&tier.name)]);
+        }
+    }
+    for r in &rows {
+        // Writing into a Vec cannot fail.
+        let _ = w.write_record(r);
+    }
+    w.into_inner().map(|bytes| String::from_utf8_lossy(&bytes).into_owned()).unwrap_or_default()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -273,6 +306,36 @@ mod tests {
         let p = parse("frame\tlabel\n10.5\ta\n20\tb\n").unwrap();
         assert_eq!((p.unit, p.segments, p.has_sequence), (CsvUnit::Frames, false, false));
         assert_eq!(p.tracks("whatever")[0].items.len(), 2);
+        assert_eq!(p.rows[0].time_s, None);
+        // A frame with its time: the frame is the boundary, the time kept for the reader's check.
+        let b = parse("time_s,frame\n0.5,60\n").unwrap();
+        assert_eq!((b.unit, b.rows[0].item.start, b.rows[0].time_s), (CsvUnit::Frames, 60.0, Some(0.5)));
+    }
+
+    #[test]
+    fn written_files_parse_back_to_their_marks_labels_and_annotators() {
+        use crate::labels::tiers::{MarkTier, TierMark};
+        let mark = |frame, label: &str| TierMark { frame, label: label.into() };
+        let seq = SequenceTiers {
+            name: "86_01".into(),
+            sequence: "86_01".into(),
+            input_sha256: String::new(),
+            frame_rate_hz: 120.0,
+            n_frames: 4579,
+            tiers: vec![
+                MarkTier { name: "ana".into(), marks: vec![mark(1149, "walk, fast"), mark(549, "jump \"high\"")] },
+                MarkTier::unlabelled("fused", &[3, 4577]),
+            ],
+        };
+        let text = write_boundaries_csv(&seq);
+        assert!(text.starts_with("sequence,frame,time_s,label,annotator\n86_01,549,4.575,\"jump \"\"high\"\"\",ana\n"), "{text}");
+        let back = parse(&text).unwrap();
+        let ana = &back.tracks("86_01")[0];
+        assert_eq!(ana.annotator, "ana");
+        let got: Vec<(f64, &str)> = ana.items.iter().map(|i| (i.start, i.label.as_str())).collect();
+        assert_eq!(got, vec![(549.0, "jump \"high\""), (1149.0, "walk, fast")]);
+        assert_eq!(back.rows[1].time_s, Some(1149.0 / 120.0));
+        assert_eq!(back.tracks("86_01")[1].items.iter().map(|i| i.start).collect::<Vec<_>>(), vec![3.0, 4577.0]);
     }
 
     #[test]
@@ -283,6 +346,10 @@ mod tests {
         assert_eq!(at(&e), (ErrorKind::OutOfRange, Some(2), Some("end_frame")));
         let e = parse("sequence,frame,start_s,end_s\n").unwrap_err();
         assert_eq!(at(&e), (ErrorKind::InvalidParameter, Some(1), Some("start_s")));
+        let e = parse("start_frame,end_frame,start_s,end_s\n").unwrap_err();
+        assert_eq!(at(&e), (ErrorKind::InvalidParameter, Some(1), Some("end_frame")));
+        let e = parse("frame,time_s\n12,x\n").unwrap_err();
+        assert_eq!(at(&e), (ErrorKind::Syntax, Some(2), Some("time_s")));
         let e = parse("sequence,label\nd1,x\n").unwrap_err();
         assert_eq!(at(&e), (ErrorKind::MissingKey, Some(1), Some("frame")));
         let e = parse("sequence,start_s\nd1,1\n").unwrap_err();

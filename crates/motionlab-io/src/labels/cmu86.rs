@@ -197,7 +197,7 @@ pub fn trial_segmentation(
         segments.push(Segment { start, end, label: l.action.clone() });
         start = end;
     }
-    Ok(Segmentation { frame_rate: motion_rate, boundaries, segments, annotators: Vec::new() })
+    Ok(Segmentation { frame_rate: motion_rate, boundaries, segments, annotators: Vec::new(), annotator_names: Vec::new() })
 }
 
 impl GroundTruthReader for Cmu86Labels {

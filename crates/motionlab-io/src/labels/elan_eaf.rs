@@ -13,6 +13,8 @@
 //! twice, a negative or non-numeric time, an annotation that ends before it starts.
 //!
 //! Parsed with `roxmltree` (a read-only XML tree with line/column positions; no dependencies).
+//! [`write_eaf`] writes a [`SequenceTiers`] as an EAF 3.0 document (by hand: a few fixed
+//! elements, no XML crate needed to write them).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -20,6 +22,7 @@ use std::path::Path;
 use motionlab_core::{Error, ErrorKind, Result};
 
 use super::annotations::{AnnotatedItem, AnnotatorTrack, parse_instant, start_after_end};
+use super::tiers::SequenceTiers;
 
 /// One tier: its id, where it starts, and its time-aligned annotations in ms (as items whose
 /// `start`/`end` are milliseconds on ELAN's time line).
@@ -121,6 +124,90 @@ pub fn parse_eaf(text: &str, origin: &Path) -> Result<Vec<EafTier>> {
     Ok(tiers)
 }
 
+/// Text safe in an XML attribute or element.
+fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&apos;")
+}
+
+/// The marks of every tier of `seq` as an ELAN document (EAF 3.0, times in whole ms from the
+/// motion's first frame): one tier per [`super::tiers::MarkTier`] (`TIER_ID` and `ANNOTATOR`
+/// its name), one annotation from each mark to the next (the last to the motion's last frame)
+/// holding the mark's label. `date` is the document's `DATE` (ISO 8601).
+///
+/// Frame `f` is written as `round(f / rate × 1000)` ms, which reads back to `f` at any rate
+/// up to 1000 Hz (the rounding moves it less than half a frame); a faster motion is an error,
+/// since two frames could then share a millisecond.
+pub fn write_eaf(seq: &SequenceTiers, date: &str) -> Result<String> {
+    let rate = seq.frame_rate_hz;
+    if !(rate.is_finite() && rate > 0.0 && rate <= 1000.0) {
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("{}: ELAN keeps whole milliseconds, which tell frames apart only up to 1000 Hz; this motion is at {rate} Hz", seq.sequence),
+        ));
+    }
+    let ms = |frame: usize| (frame as f64 / rate * 1000.0).round() as u64;
+    let last = seq.n_frames.saturating_sub(1);
+    // Two slots per annotation in document order; their ids go in time order, ties in
+    // document order, as ELAN lists its TIME_ORDER.
+    let mut slots: Vec<u64> = Vec::new();
+    let mut annotations: Vec<Vec<(usize, &str)>> = Vec::with_capacity(seq.tiers.len());
+    for tier in &seq.tiers {
+        let mut marks: Vec<_> = tier.marks.iter().filter(|m| m.frame < last).collect();
+        marks.sort_by_key(|m| m.frame);
+        marks.dedup_by_key(|m| m.frame);
+        let mut list = Vec::with_capacity(marks.len());
+        for (i, m) in marks.iter().enumerate() {
+            list.push((slots.len(), m.label.as_str()));
+            slots.push(ms(m.frame));
+            slots.push(ms(marks.get(i + 1).map_or(last, |n| n.frame)));
+        }
+        annotations.push(list);
+    }
+    let mut order: Vec<usize> = (0..slots.len()).collect();
+    order.sort_by_key(|&i| (slots[i], i));
+    let mut id = vec![0; slots.len()];
+    for (rank, &i) in order.iter().enumerate() {
+        id[i] = rank + 1;
+    }
+    let mut tiers = String::new();
+    let mut next_annotation = 1;
+    for (tier, list) in seq.tiers.iter().zip(&annotations) {
+        let name = xml_escape(&tier.name);
+        tiers.push_str(&format!("    <TIER LINGUISTIC_TYPE_REF=\"default-lt\" TIER_ID=\"{name}\" ANNOTATOR=\"{name}\">\n"));
+        for &(k, label) in list {
+            tiers.push_str(&format!(
+                "        <ANNOTATION>\n            <ALIGNABLE_ANNOTATION ANNOTATION_ID=\"a{next_annotation}\" TIME_SLOT_REF1=\"ts{}\" TIME_SLOT_REF2=\"ts{}\">\n                <ANNOTATION_VALUE>{}</ANNOTATION_VALUE>\n            </ALIGNABLE_ANNOTATION>\n        </ANNOTATION>\n",
+                id[k],
+                id[k + 1],
+                xml_escape(label)
+            ));
+            next_annotation += 1;
+        }
+        tiers.push_str("    </TIER>\n");
+    }
+    let mut out = String::new();
+    out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    out.push_str(&format!(
+        "<ANNOTATION_DOCUMENT AUTHOR=\"motionlab\" DATE=\"{}\" FORMAT=\"3.0\" VERSION=\"3.0\">\n",
+        xml_escape(date)
+    ));
+    out.push_str("    <HEADER MEDIA_FILE=\"\" TIME_UNITS=\"milliseconds\">\n");
+    out.push_str(&format!("        <PROPERTY NAME=\"motionlab:sequence\">{}</PROPERTY>\n", xml_escape(&seq.sequence)));
+    if !seq.input_sha256.is_empty() {
+        out.push_str(&format!("        <PROPERTY NAME=\"motionlab:input_sha256\">{}</PROPERTY>\n", xml_escape(&seq.input_sha256)));
+    }
+    out.push_str(&format!("        <PROPERTY NAME=\"lastUsedAnnotationId\">{}</PROPERTY>\n", next_annotation - 1));
+    out.push_str("    </HEADER>\n    <TIME_ORDER>\n");
+    for (rank, &i) in order.iter().enumerate() {
+        out.push_str(&format!("        <TIME_SLOT TIME_SLOT_ID=\"ts{}\" TIME_VALUE=\"{}\"/>\n", rank + 1, slots[i]));
+    }
+    out.push_str("    </TIME_ORDER>\n");
+    out.push_str(&tiers);
+    out.push_str("    <LINGUISTIC_TYPE GRAPHIC_REFERENCES=\"false\" LINGUISTIC_TYPE_ID=\"default-lt\" TIME_ALIGNABLE=\"true\"/>\n");
+    out.push_str("</ANNOTATION_DOCUMENT>\n");
+    Ok(out)
+}
+
 /// The child elements of `n` named `tag`.
 fn children<'a, 'input>(n: roxmltree::Node<'a, 'input>, tag: &str) -> Vec<roxmltree::Node<'a, 'input>> {
     n.children().filter(|c| c.is_element() && c.tag_name().name() == tag).collect()
@@ -168,6 +255,32 @@ mod tests {
             tiers[0].track.items.iter().map(|i| (i.start, i.end.as_ref().unwrap().1, i.label.as_str(), i.line)).collect();
         assert_eq!(spans, vec![(1000.0, 2500.0, "step", 17), (2500.0, 4000.0, "turn", 12)]);
         assert!(!tiers[1].time_aligned);
+    }
+
+    #[test]
+    fn written_documents_parse_back_to_one_tier_per_name_with_labels() {
+        use crate::labels::tiers::{MarkTier, TierMark};
+        let seq = SequenceTiers {
+            name: "86_01".into(),
+            sequence: "86_01".into(),
+            input_sha256: "ab".repeat(32),
+            frame_rate_hz: 120.0,
+            n_frames: 4579,
+            tiers: vec![
+                MarkTier { name: "ana & co".into(), marks: vec![TierMark { frame: 1149, label: "walk <fast>".into() }, TierMark { frame: 549, label: "jump".into() }] },
+                MarkTier::unlabelled("empty", &[]),
+            ],
+        };
+        let text = write_eaf(&seq, "2026-01-01T00:00:00Z").unwrap();
+        let tiers = parse_eaf(&text, Path::new("w.eaf")).unwrap();
+        assert_eq!(tiers.iter().map(|t| t.id.as_str()).collect::<Vec<_>>(), vec!["ana & co", "empty"]);
+        // 549 / 120 s = 4575 ms; 1149 → 9575 ms; the last annotation ends at frame 4578 → 38150 ms.
+        let spans: Vec<(f64, f64, &str)> = tiers[0].track.items.iter().map(|i| (i.start, i.end.as_ref().unwrap().1, i.label.as_str())).collect();
+        assert_eq!(spans, vec![(4575.0, 9575.0, "jump"), (9575.0, 38150.0, "walk <fast>")]);
+        assert!(tiers[1].track.items.is_empty());
+        let mut fast = seq.clone();
+        fast.frame_rate_hz = 2000.0;
+        assert_eq!(write_eaf(&fast, "").unwrap_err().kind(), ErrorKind::OutOfRange);
     }
 
     #[test]

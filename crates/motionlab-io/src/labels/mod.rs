@@ -12,6 +12,9 @@
 //!   ([`annotations`]). Their ground-truth plugins live in `motionlab-eval`, beside the
 //!   annotator consensus they can apply.
 //!
+//! - [`tiers`] — labelled boundary tiers (per annotator or per method) and the file a
+//!   segmentation run keeps them in; `boundaries_csv` and `elan_eaf` write them back out.
+//!
 //! The two dataset formats are a few lines of whitespace-separated words, parsed by hand (no
 //! crate reads them); CSV is read with the `csv` crate and EAF XML with `roxmltree`. Errors
 //! name the file and line (and the column or attribute).
@@ -21,4 +24,5 @@ pub mod boundaries_csv;
 pub mod cmu86;
 pub mod elan_eaf;
 pub mod mocap6;
+pub mod tiers;
 pub mod tssb_desc;
