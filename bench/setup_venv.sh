@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Creates bench/.venv with the pinned Python peers (scipy, dtaidistance, tslearn, numpy, ruptures).
+# Creates bench/.venv with the pinned Python peers (scipy, dtaidistance, tslearn, numpy, ruptures,
+# ezc3d, c3d).
 # Idempotent: does nothing when the venv already satisfies requirements.txt.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
