@@ -81,6 +81,26 @@ def main() -> None:
         for k in (1, 10):
             seeds["c3d"][f"{stem}_{k}f.c3d"] = C3d(read(p)).keep_frames(k)
 
+    # Other writers' files (tests/fixtures/conformance/), each exposing a reading repair or its
+    # control: whole up to 320 KB; the three larger (Intel) ones cut to 10 frames, counts
+    # patched — MotionMonitor's with the 576-byte stride of its parameters' account, which is
+    # the one that fits it. The PyMO walk at 1 and 8 frames.
+    conformance = FIXTURES / "conformance"
+    for p in sorted((conformance / "c3d").glob("*")):
+        if p.suffix.lower() != ".c3d":
+            continue
+        data = p.read_bytes()
+        if len(data) > 320_000:
+            c = C3d(data)
+            stride = 576 if "MotionMonitor" in p.name else c.frame_bytes
+            c.keep_frames(10)
+            data = bytes(c.b[: c.data_start + 10 * stride])
+        seeds["c3d"][f"conformance_{p.name}"] = data
+    for p in sorted((conformance / "bvh").glob("*.bvh")):
+        text = p.read_text()
+        for k in (1, 8):
+            seeds["bvh"][f"conformance_{p.stem}_{k}f.bvh"] = bvh_frames(text, k).encode()
+
     walk1 = read(DATA / "mct/walk1.tsv.gz").decode()
     seeds["qualisys_tsv"]["walk1_rows_0_10.tsv"] = tsv_rows(walk1, 0, 10).encode()
     # walk1's 27 missing samples (NaN) are in rows 201–211 and 306–321 (1-based).
