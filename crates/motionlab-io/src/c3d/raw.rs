@@ -460,8 +460,9 @@ impl<'a> C3dFile<'a> {
 
     /// The parameters' account of the data section: `POINT:USED` points, `ANALOG:USED`
     /// channels × (`ANALOG:RATE` / `POINT:RATE`) analog words per frame, from block
-    /// `POINT:DATA_START`; where a parameter is absent, the header's value. The analog count
-    /// is `None` when the rates give no whole number of samples per frame.
+    /// `POINT:DATA_START`; where a parameter is absent, the header's value. When the rates give
+    /// no whole number of analog samples per frame, the header's analog count, and the reason
+    /// (to be said).
     fn parameter_account(&self, header: Account) -> Result<(Account, Option<String>)> {
         let ctx = self.ctx;
         let points = match self.param("POINT", "USED") {
@@ -496,8 +497,7 @@ impl<'a> C3dFile<'a> {
                     } else {
                         if analog_rate.is_finite() {
                             odd_rate = Some(format!(
-                                "ANALOG:RATE {analog_rate} Hz is not a whole multiple of POINT:RATE {point_rate} Hz, so the parameters give no analog word count; the header's {} words per frame are used",
-                                header.analog_words
+                                "ANALOG:RATE {analog_rate} Hz is not a whole multiple of POINT:RATE {point_rate} Hz, so the parameters give no analog word count"
                             ));
                         }
                         header.analog_words
@@ -532,8 +532,9 @@ impl<'a> C3dFile<'a> {
         };
         let (params, odd_rate) = self.parameter_account(header)?;
         let have = self.bytes.len() as u64;
-        let frame_bytes = |a: &Account| (4 * a.points + a.analog_words) * word;
-        let need = |a: &Account| (frame_bytes(a) as u64).checked_mul(n_frames).and_then(|b| b.checked_add(a.start as u64));
+        // Checked: POINT:USED and the analog rates are whatever the file says.
+        let frame_bytes = |a: &Account| a.points.checked_mul(4).and_then(|w| w.checked_add(a.analog_words)).and_then(|w| w.checked_mul(word));
+        let need = |a: &Account| frame_bytes(a).and_then(|f| (f as u64).checked_mul(n_frames)).and_then(|b| b.checked_add(a.start as u64));
         // An account fits when its frames end at the file's last byte, or in the file's last
         // block when the file is whole blocks (the C3D padding). Nothing looser: two accounts
         // a few words apart would both "fit" a file that ends anywhere after them.
@@ -543,20 +544,26 @@ impl<'a> C3dFile<'a> {
         let strict_err = |msg: String| self.ctx.err(ErrorKind::WrongValueCount, header.start, format!("{msg} (strict reading)"));
         let chosen = if header == params {
             let Some(n) = need(&header).filter(|n| *n <= have) else {
-                return Err(self.truncated(&header, frame_bytes(&header), n_frames, need(&header)));
+                return Err(self.truncated(&header, frame_bytes(&header).unwrap_or(usize::MAX), n_frames, need(&header)));
             };
-            if let Some(note) = odd_rate {
-                repairs.make(note.clone(), || strict_err(note).with_field("ANALOG:RATE"))?;
+            if let Some(fact) = odd_rate {
+                let note = format!("{fact}; the header's {} words per frame are used", header.analog_words);
+                repairs.make(note, || strict_err(fact).with_field("ANALOG:RATE"))?;
             }
             if have - n >= BLOCK as u64 {
-                let note = format!("{} bytes after the last frame (byte {n}) are not read", have - n);
-                repairs.make(note.clone(), || strict_err(note))?;
+                let extra = have - n;
+                repairs.make(format!("{extra} bytes after the last frame (byte {n}) are not read"), || {
+                    strict_err(format!("the file holds {extra} bytes after the last frame (byte {n}); expected at most a block's padding"))
+                })?;
             }
             header
         } else {
             let differences = self.account_differences(&header, &params);
             let describe = |a: &Account| {
-                need(a).map_or_else(|| "more than 2^64 bytes".to_string(), |n| format!("{} frames of {} bytes from byte {} end at byte {n}", n_frames, frame_bytes(a), a.start))
+                match (need(a), frame_bytes(a)) {
+                    (Some(n), Some(f)) => format!("{n_frames} frames of {f} bytes from byte {} end at byte {n}", a.start),
+                    _ => "more bytes than 2^64".to_string(),
+                }
             };
             let (chosen, whose) = match (fits(&header), fits(&params)) {
                 (true, false) => (header, "the header's"),
@@ -583,7 +590,10 @@ impl<'a> C3dFile<'a> {
                 }
             };
             let note = format!("{differences}: {whose} account fits the file ({have} bytes) and is used");
-            repairs.make(note.clone(), || strict_err(note).with_field(self.account_field(&header, &params)))?;
+            repairs.make(note, || {
+                strict_err(format!("{differences}; expected the header's and the parameters' accounts of the data section to agree"))
+                    .with_field(self.account_field(&header, &params))
+            })?;
             chosen
         };
         // `need` fits in the (in-memory) file, so these are usize-safe.
@@ -595,7 +605,7 @@ impl<'a> C3dFile<'a> {
             first_frame: first,
             points: chosen.points,
             analog_words: chosen.analog_words,
-            frame_bytes: frame_bytes(&chosen),
+            frame_bytes: frame_bytes(&chosen).unwrap_or(0),
             repairs: repairs.notes,
         })
     }

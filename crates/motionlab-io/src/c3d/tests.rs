@@ -444,6 +444,26 @@ fn a_data_section_that_fits_neither_account_is_refused() {
 }
 
 #[test]
+fn absurd_parameter_counts_are_checked_not_overflowed() {
+    // ANALOG:RATE 1e30 Hz: 2 × 1e28 analog words per frame; POINT:USED 4e9, stored as a float.
+    let mut rate = C3dSpec::small();
+    rate.extra = vec![rate.raw_ints("ANALOG", "USED", &[2]), rate.raw_floats("ANALOG", "RATE", vec![], &[1e30])];
+    let mut used = C3dSpec::small();
+    used.extra = vec![used.raw_floats("POINT", "USED", vec![], &[4.0e9])];
+    for spec in [rate, used] {
+        // The header's account fits: read, the absurd parameter said.
+        let m = parse(&spec.build()).unwrap();
+        assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+        assert!(m.load_notes.repairs[0].contains("the header's account fits the file"), "{:?}", m.load_notes);
+        // With bytes neither explains: refused, the impossible size said in words.
+        let mut bytes = spec.build();
+        bytes.extend([0u8; 600]);
+        let e = err(&bytes);
+        assert!(e.message().contains("fits neither account") && e.message().contains("bytes"), "{e}");
+    }
+}
+
+#[test]
 fn bytes_after_the_last_frame_beyond_a_block_are_noted() {
     let mut bytes = C3dSpec::small().build();
     let n = bytes.len();
