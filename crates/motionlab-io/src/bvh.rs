@@ -937,6 +937,28 @@ mod tests {
     /// A 170-unit figure (cm) standing along y: hips at 100, head end at 170, feet at 0.
     const STANDING: &str = "HIERARCHY\nROOT hips\n{\n  OFFSET 0 100 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT head\n  {\n    OFFSET 0 50 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 20 0\n    }\n  }\n  JOINT leg\n  {\n    OFFSET 0 -50 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 -50 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.01\n0 100 0 0 0 0 0 0 0 0 0 0\n3 100 0 0 0 0 0 0 0 0 0 0\n";
 
+    /// The Bandai-Namco layout: six channels on every joint, position values equal to the
+    /// OFFSETs. Replacing reads the figure the 3-channel file describes; adding doubles every
+    /// bone.
+    #[test]
+    fn position_channels_on_every_joint_equal_to_the_offsets_read_as_the_plain_skeleton() {
+        let six = STANDING
+            .replace("    CHANNELS 3 Zrotation Xrotation Yrotation", "    CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation")
+            .replace("0 100 0 0 0 0 0 0 0 0 0 0\n", "0 100 0 0 0 0 0 50 0 0 0 0 0 -50 0 0 0 0\n")
+            .replace("3 100 0 0 0 0 0 0 0 0 0 0\n", "3 100 0 0 0 0 0 50 0 0 0 0 0 -50 0 0 0 0\n");
+        let cm = BvhOptions { length_unit: Some(LengthUnit::Centimetre), ..BvhOptions::default() };
+        let plain = parse_bvh(STANDING, Path::new("p.bvh"), &cm).unwrap();
+        let replace = parse_bvh(&six, Path::new("s.bvh"), &cm).unwrap();
+        assert_eq!(replace.positions(), plain.positions());
+        let add = parse_bvh(&six, Path::new("s.bvh"), &BvhOptions { position_channels: PositionChannels::Add, ..cm }).unwrap();
+        // The head end: 2 × 1 m (hips) + 2 × 0.5 m (head) + 0.2 m, instead of 1.7 m.
+        assert_eq!(add.position(0, add.point_index("head_end").unwrap())[1], 3200.0);
+        assert_eq!(replace.position(0, replace.point_index("head_end").unwrap())[1], 1700.0);
+        // Inferred from the rest pose (every joint at its OFFSET), not from doubled bones.
+        let d = parse_bvh_channels(&six, Path::new("s.bvh"), &BvhOptions::default()).unwrap();
+        assert_eq!((d.length_unit, d.length_unit_from.as_str()), (LengthUnit::Centimetre, "inferred from the rest pose: 170 units tall along y"));
+    }
+
     #[test]
     fn the_length_unit_is_inferred_from_the_rest_pose_the_first_frame_or_the_longest_extent() {
         let d = parse_bvh_channels(STANDING, Path::new("s.bvh"), &BvhOptions::default()).unwrap();

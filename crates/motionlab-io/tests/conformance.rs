@@ -99,6 +99,11 @@ fn assert_matches_reference(m: &Motion, r: &Value, mm_per_unit: f64) -> usize {
     covered
 }
 
+/// Every coordinate's bits, for bit-for-bit comparisons (NaN included).
+fn bits(m: &Motion) -> Vec<u64> {
+    m.positions().iter().flat_map(|p| p.map(f64::to_bits)).collect()
+}
+
 /// The reference's labels, blank ones as `P<n>` (the loader's documented naming).
 fn reference_names(r: &Value) -> Vec<String> {
     r["labels"].as_array().unwrap().iter().enumerate().map(|(i, l)| match l.as_str().unwrap() {
@@ -160,7 +165,6 @@ fn sgi_int_reads_like_pc_int_bit_for_bit() {
     let pc = load_c3d("sample_02_pc_int.c3d");
     assert_eq!(m.point_names(), pc.point_names());
     assert_eq!(m.missing_mask(), pc.missing_mask());
-    let bits = |m: &Motion| m.positions().iter().flat_map(|p| p.map(f64::to_bits)).collect::<Vec<u64>>();
     assert_eq!(bits(&m), bits(&pc));
     assert_eq!(m.load_notes.repairs.len(), 1);
     assert!(m.load_notes.repairs[0].contains("LABELS's offset to the next record (16129) points to byte 21558, past the parameter section's end at byte 6144"), "{:?}", m.load_notes);
@@ -320,7 +324,6 @@ fn every_shipped_bvh_reads_the_same_under_both_position_conventions() {
             .collect();
         assert_eq!(translated, ["Hips"], "{}", path.display());
         assert_eq!(sk.joints[0].offset, [0.0; 3], "{}", path.display());
-        let bits = |m: &Motion| m.positions().iter().flat_map(|p| p.map(f64::to_bits)).collect::<Vec<u64>>();
         assert_eq!(bits(&replace), bits(&add), "{}", path.display());
         let (r, a) = (replace.skeleton.as_ref().unwrap(), add.skeleton.as_ref().unwrap());
         assert_eq!((&r.skeleton, r.channel_values()), (&a.skeleton, a.channel_values()));

@@ -539,7 +539,7 @@ impl<'a> C3dFile<'a> {
         // block when the file is whole blocks (the C3D padding). Nothing looser: two accounts
         // a few words apart would both "fit" a file that ends anywhere after them.
         let block = BLOCK as u64;
-        let fits = |a: &Account| need(a).is_some_and(|n| n == have || (have % block == 0 && n <= have && have - n < block));
+        let fits = |a: &Account| need(a).is_some_and(|n| n == have || (have.is_multiple_of(block) && n <= have && have - n < block));
         let mut repairs = Repairs::new(self.repairs.is_strict());
         let strict_err = |msg: String| self.ctx.err(ErrorKind::WrongValueCount, header.start, format!("{msg} (strict reading)"));
         let chosen = if header == params {
