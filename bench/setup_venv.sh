@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Creates bench/.venv with the pinned Python peers (scipy, dtaidistance, tslearn, numpy, ruptures).
-# `setup_venv.sh requirements-NAME.txt` creates bench/.venv-NAME from that file instead (peers
-# whose pins conflict with the main set: claspy needs numpy < 2.3).
+# Creates bench/.venv with the pinned Python peers (scipy, dtaidistance, tslearn, numpy, ruptures,
+# ezc3d, c3d). `setup_venv.sh requirements-NAME.txt` creates bench/.venv-NAME from that file
+# instead (peers whose pins conflict with the main set: claspy needs numpy < 2.3).
 # Idempotent: does nothing when the venv already satisfies its requirements file.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)

@@ -81,6 +81,28 @@ def main() -> None:
         for k in (1, 10):
             seeds["c3d"][f"{stem}_{k}f.c3d"] = C3d(read(p)).keep_frames(k)
 
+    # Other writers' files (tests/fixtures/conformance/), each exposing a reading repair or its
+    # control, cut to 10 frames with their counts patched (MotionMonitor's with the 576-byte
+    # stride of its parameters' account, the one that fits it; the processor-0 file whole).
+    # The PyMO walk at 1 and 8 frames.
+    conformance = FIXTURES / "conformance"
+    for p in sorted((conformance / "c3d").glob("*")):
+        if p.suffix.lower() != ".c3d":
+            continue
+        data = p.read_bytes()
+        try:
+            c = C3d(data)
+        except ValueError:
+            seeds["c3d"][f"conformance_{p.name}"] = data
+            continue
+        stride = 576 if "MotionMonitor" in p.name else c.frame_bytes
+        c.keep_frames(10)
+        seeds["c3d"][f"conformance_{p.name}"] = bytes(c.b[: c.data_start + 10 * stride])
+    for p in sorted((conformance / "bvh").glob("*.bvh")):
+        text = p.read_text()
+        for k in (1, 8):
+            seeds["bvh"][f"conformance_{p.stem}_{k}f.bvh"] = bvh_frames(text, k).encode()
+
     walk1 = read(DATA / "mct/walk1.tsv.gz").decode()
     seeds["qualisys_tsv"]["walk1_rows_0_10.tsv"] = tsv_rows(walk1, 0, 10).encode()
     # walk1's 27 missing samples (NaN) are in rows 201–211 and 306–321 (1-based).

@@ -15,6 +15,7 @@ mod malformed;
 mod matching;
 mod missing_data;
 mod own_annotations;
+mod reader_repairs;
 mod registry;
 mod retrieval;
 mod safe_outputs;

@@ -35,6 +35,12 @@ fn load(loader: &str, name: &str) -> Result<Motion> {
     registry::build_loader(loader, &empty).expect("loader builds").load(&fixture(name))
 }
 
+/// Loads a fixture with a loader plugin at the parameters of a TOML table.
+fn load_with(loader: &str, params: &str, name: &str) -> Result<Motion> {
+    let params: toml::Value = toml::from_str(params).expect("parameters parse");
+    registry::build_loader(loader, &params).expect("loader builds").load(&fixture(name))
+}
+
 fn load_ok(loader: &str, name: &str) -> Motion {
     load(loader, name).unwrap_or_else(|e| panic!("{name} should load: {e}"))
 }
@@ -261,7 +267,30 @@ fn c3d_defects_name_kind_byte_offset_and_parameter() {
     // The integer file with its scale factor made negative reads as floats: twice the bytes.
     assert_error(load("c3d", "c3d_negative_scale.c3d"), "c3d_negative_scale.c3d", ErrorKind::Truncated, At::Byte(C3D_DATA_START + 5 * C3D_FRAME_BYTES), "frames");
     assert_error(load("c3d", "c3d_zero_scale.c3d"), "c3d_zero_scale.c3d", ErrorKind::OutOfRange, At::Field("POINT:SCALE"), "point scale factor is 0");
-    assert_error(load("c3d", "c3d_duplicate_label.c3d"), "c3d_duplicate_label.c3d", ErrorKind::DuplicateName, At::Field("POINT:LABELS"), "names points 1 and 2");
+    // A repeated label is read (renamed, below) unless the reading is strict.
+    assert_error(
+        load_with("c3d", "strict = true", "c3d_duplicate_label.c3d"),
+        "c3d_duplicate_label.c3d",
+        ErrorKind::DuplicateName,
+        At::Field("POINT:LABELS"),
+        "names points 1 and 2",
+    );
+    // POINT:USED 29 against the header's 28, and 600 bytes more than the header's frames:
+    // neither account of the data section fits the file.
+    assert_error(
+        load("c3d", "c3d_neither_account_fits.c3d"),
+        "c3d_neither_account_fits.c3d",
+        ErrorKind::WrongValueCount,
+        At::ByteField(C3D_DATA_START, "POINT:USED"),
+        "POINT:USED is 29 but the header says 28 points per frame, and the data section fits neither account",
+    );
+    assert_error(
+        load_with("c3d", "strict = true", "c3d_parameters_account_fits.c3d"),
+        "c3d_parameters_account_fits.c3d",
+        ErrorKind::WrongValueCount,
+        At::ByteField(C3D_DATA_START, "ANALOG:USED"),
+        "the header says 0 analog words per frame but ANALOG:USED 4 × 1 samples = 4",
+    );
     // +inf at frame 4, marker 3 (Head_BL), Y.
     assert_error(
         load("c3d", "c3d_inf.c3d"),
@@ -292,6 +321,24 @@ fn c3d_float_and_integer_storage_give_the_real_positions() {
     let one = load_ok("c3d", "c3d_one_frame.c3d");
     assert_eq!(one.n_frames(), 1);
     assert_eq!(one.frame(0), float.frame(0));
+}
+
+#[test]
+fn c3d_repairs_read_the_real_positions_and_say_so() {
+    let float = load_ok("c3d", "c3d_float_storage.c3d");
+    assert!(float.load_notes.repairs.is_empty());
+    // Head_FL written twice: the second is Head_FL#2, the positions untouched.
+    let dup = load_ok("c3d", "c3d_duplicate_label.c3d");
+    assert_eq!(&dup.point_names()[..3], ["Head_FL", "Head_FL#2", "Head_BL"]);
+    assert_eq!(dup.positions(), float.positions());
+    assert_eq!(dup.load_notes.repairs, [r#"duplicate point labels made unique: "Head_FL" (points 1, 2) → Head_FL, Head_FL#2"#]);
+    // Four analog words the header does not count: read with the parameters' stride, every
+    // frame is the float file's (read with the header's, frame 2 would start in frame 1's
+    // analog words).
+    let stride = load_ok("c3d", "c3d_parameters_account_fits.c3d");
+    assert_eq!(stride.positions(), float.positions());
+    assert_eq!(stride.load_notes.repairs.len(), 1);
+    assert!(stride.load_notes.repairs[0].ends_with("the parameters' account fits the file (7712 bytes) and is used"), "{:?}", stride.load_notes);
 }
 
 #[test]

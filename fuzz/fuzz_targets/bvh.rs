@@ -1,6 +1,7 @@
 //! BVH: `parse_bvh` with the inferred and with an explicit length unit (the inference rejects
 //! most mutated skeletons, which would otherwise hide the frame scanner and forward
-//! kinematics), then a write → re-read round trip of whatever parsed.
+//! kinematics), position channels replacing and adding to the OFFSET, then a write → re-read
+//! round trip of whatever parsed.
 #![no_main]
 
 mod common;
@@ -9,7 +10,7 @@ use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
 use motionlab_core::{Axis, LengthUnit};
-use motionlab_io::bvh::{BvhOptions, parse_bvh, parse_bvh_channels, write_bvh};
+use motionlab_io::bvh::{BvhOptions, PositionChannels, parse_bvh, parse_bvh_channels, write_bvh};
 
 fuzz_target!(|data: &[u8]| {
     let Some(text) = common::text(data) else { return };
@@ -17,7 +18,7 @@ fuzz_target!(|data: &[u8]| {
     if let Err(e) = parse_bvh(text, origin, &BvhOptions::default()) {
         common::assert_names_file(&e, "fuzz.bvh");
     }
-    let explicit = BvhOptions { length_unit: Some(LengthUnit::Centimetre), up_axis: Axis::Y };
+    let explicit = BvhOptions { length_unit: Some(LengthUnit::Centimetre), up_axis: Axis::Y, position_channels: PositionChannels::Add };
     match parse_bvh_channels(text, origin, &explicit) {
         Ok(data) => {
             // Whatever the reader accepts, the writer must write and the reader re-read with

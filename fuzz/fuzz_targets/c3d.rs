@@ -1,4 +1,5 @@
-//! C3D: `parse_c3d` with both options, and every analog channel of the raw reader.
+//! C3D: `parse_c3d` with the default options and with every option flipped (strict reading
+//! included), and every analog channel of the raw reader.
 #![no_main]
 
 mod common;
@@ -19,7 +20,7 @@ fuzz_target!(|data: &[u8]| {
         }
         Err(e) => common::assert_names_file(&e, "fuzz.c3d"),
     }
-    let zeros = C3dOptions { up_axis: Axis::Y, zero_means_missing: true, strip_subject_prefix: false };
+    let zeros = C3dOptions { up_axis: Axis::Y, zero_means_missing: true, strip_subject_prefix: false, strict: true };
     let _ = parse_c3d(data, origin, &zeros);
     if let Ok(file) = C3dFile::parse(data, origin) {
         let _ = file.params();

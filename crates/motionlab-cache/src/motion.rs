@@ -13,7 +13,7 @@ use nalgebra::{Matrix3, Rotation3};
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::skeleton::{ChannelKind, Joint, Skeleton, SkeletonMotion};
-use motionlab_core::{Axis, Boundary, Channels, Segment, Error, ErrorKind, Event, FrameRate, Motion, PointKind, Result, Seconds, Segmentation};
+use motionlab_core::{Axis, Boundary, Channels, Segment, Error, ErrorKind, Event, FrameRate, LoadNotes, Motion, PointKind, Result, Seconds, Segmentation};
 
 #[derive(Serialize, Deserialize)]
 struct Header {
@@ -31,6 +31,9 @@ struct Header {
     /// The motion's channels' names and units (values after the skeleton's).
     #[serde(default)]
     channels: Option<(Vec<String>, Vec<String>)>,
+    /// The loader's length unit and repairs, for `inspect` and the run's provenance.
+    #[serde(default)]
+    load_notes: LoadNotes,
 }
 
 /// A ground truth as cached.
@@ -110,6 +113,7 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
             annotator_names: t.annotator_names.clone(),
         }),
         channels: (!motion.channels().is_empty()).then(|| (motion.channels().names().to_vec(), motion.channels().units().to_vec())),
+        load_notes: motion.load_notes.clone(),
     };
     let head = rmp_serde::to_vec(&header).map_err(|e| bad(format!("cannot encode: {e}")))?;
     let values = motion.skeleton.as_ref().map_or(&[][..], |s| s.channel_values());
@@ -177,6 +181,7 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
     motion.source = h.source;
     motion.format = h.format;
     motion.events = h.events.into_iter().map(|(label, context, t, frame)| Event { label, context, time: Seconds(t), frame }).collect();
+    motion.load_notes = h.load_notes;
     match h.skeleton {
         Some(joints) => {
             let joints: Vec<Joint> = joints
@@ -228,6 +233,9 @@ mod tests {
         let child = Joint::new("b", Some(0), [0.0, 10.0, 0.0], vec![ChannelKind::Rotation(Axis::X)]);
         m.skeleton = Some(SkeletonMotion::new(Skeleton { joints: vec![root, child] }, vec![1.0, 2.0, 3.0, 4.0, 5.0, 0.1]).unwrap());
         m.events.push(Event { label: "Foot Strike".into(), context: "Left".into(), time: Seconds(0.5), frame: 1.25 });
+        m.load_notes.length_unit = Some(motionlab_core::LengthUnit::CmuUnit);
+        m.load_notes.length_unit_from = "ASF :units length 0.45".into();
+        m.load_notes.repairs = vec!["duplicate label \"a\" renamed".into()];
         let bytes = encode(&m, None).unwrap();
         let (back, truth) = decode(&bytes).unwrap();
         assert!(truth.is_none());
@@ -240,6 +248,7 @@ mod tests {
         assert_eq!(s0.skeleton, s1.skeleton);
         assert_eq!(s0.channel_values(), s1.channel_values());
         assert_eq!(back.events, m.events);
+        assert_eq!(back.load_notes, m.load_notes);
         // Damaged payloads are errors, never a different motion.
         assert!(decode(&bytes[..bytes.len() - 8]).is_err());
         assert!(decode(&bytes[..5]).is_err());

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use serde::Serialize;
 
 use motionlab_core::registry::{self, Build, StageKind};
-use motionlab_core::{Error, ErrorKind, Loader, Motion, Result};
+use motionlab_core::{Error, ErrorKind, LengthUnit, Loader, Motion, Result};
 
 #[derive(Serialize)]
 struct Report {
@@ -20,9 +20,20 @@ struct Report {
     points: Vec<String>,
     missing_samples: usize,
     missing_percent: f64,
+    /// The file's length unit as the loader read or inferred it (`None`: not stated).
+    length_unit: Option<LengthUnit>,
+    length_unit_from: String,
+    /// The extent of the figure along the up axis in the first frame with a sample.
+    height_mm: Option<f64>,
+    height_frame: Option<usize>,
+    /// What the loader repaired to read the file (see the loader's documentation).
+    repairs: Vec<String>,
     skeleton_joints: Option<usize>,
     skeleton_channels: Option<usize>,
     events: Vec<EventRow>,
+    /// Where `--npy` wrote the positions.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    positions_npy: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -50,10 +61,31 @@ pub(crate) fn loader_for(path: &Path) -> Result<(&'static str, Box<dyn Loader>)>
         .with_location(motionlab_core::Location::file(path)))
 }
 
-fn report(path: &Path) -> Result<Report> {
+/// The extent along the up axis of the first frame holding any sample, and that frame.
+fn first_height(m: &Motion) -> Option<(f64, usize)> {
+    let up = m.up_axis().index();
+    (0..m.n_frames()).find_map(|f| {
+        let heights = m.frame(f).iter().zip(m.frame_missing(f)).filter(|(_, gone)| !**gone).map(|(p, _)| p[up]);
+        let (lo, hi) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), h| (lo.min(h), hi.max(h)));
+        (lo <= hi).then_some((hi - lo, f))
+    })
+}
+
+fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
     let (name, loader) = loader_for(path)?;
     let m: Motion = loader.load(path).map_err(|e| e.in_file(path))?;
     let total = m.n_frames() * m.n_points();
+    let height = first_height(&m);
+    let positions_npy = match npy {
+        Some(out) => {
+            let io = |e: std::io::Error| Error::io(out, e);
+            let mut w = std::io::BufWriter::new(std::fs::File::create(out).map_err(io)?);
+            motionlab_external::npy::write_positions(&mut w, m.positions(), m.n_frames(), m.n_points()).map_err(io)?;
+            std::io::Write::flush(&mut w).map_err(io)?;
+            Some(out.display().to_string())
+        }
+        None => None,
+    };
     Ok(Report {
         file: path.display().to_string(),
         format: name.to_string(),
@@ -65,16 +97,43 @@ fn report(path: &Path) -> Result<Report> {
         points: m.point_names().to_vec(),
         missing_samples: m.missing_count(),
         missing_percent: if total == 0 { 0.0 } else { 100.0 * m.missing_count() as f64 / total as f64 },
+        length_unit: m.load_notes.length_unit,
+        length_unit_from: m.load_notes.length_unit_from.clone(),
+        height_mm: height.map(|h| h.0),
+        height_frame: height.map(|h| h.1),
+        repairs: m.load_notes.repairs.clone(),
         skeleton_joints: m.skeleton.as_ref().map(|s| s.skeleton.joints.len()),
         skeleton_channels: m.skeleton.as_ref().map(|s| s.n_channels()),
         events: m.events.iter().map(|e| EventRow { label: e.label.clone(), context: e.context.clone(), time_s: e.time.value(), frame: e.frame }).collect(),
+        positions_npy,
     })
+}
+
+/// A rate to the 7 significant digits a file can mean: C3D stores rates as 32-bit floats
+/// (`25.000001907…` is 25 Hz), BVH a frame time of a few decimals.
+fn rate_text(hz: f64) -> String {
+    if !hz.is_finite() || hz <= 0.0 {
+        return hz.to_string();
+    }
+    let decimals = (6 - hz.log10().floor() as i32).max(0) as usize;
+    let s = format!("{hz:.decimals$}");
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+}
+
+fn unit_text(unit: LengthUnit) -> &'static str {
+    match unit {
+        LengthUnit::Millimetre => "mm",
+        LengthUnit::Centimetre => "cm",
+        LengthUnit::Metre => "m",
+        LengthUnit::Inch => "in",
+        LengthUnit::CmuUnit => "CMU unit, 1/0.45 in",
+    }
 }
 
 fn text(r: &Report) -> String {
     let mut s = format!("{}\n", r.file);
     s += &format!("  format    {}\n", r.format);
-    s += &format!("  frames    {} at {} Hz ({:.3} s)\n", r.frames, r.frame_rate_hz, r.duration_s);
+    s += &format!("  frames    {} at {} Hz ({:.3} s)\n", r.frames, rate_text(r.frame_rate_hz), r.duration_s);
     let kind = match r.point_kind {
         motionlab_core::PointKind::Marker => "markers",
         motionlab_core::PointKind::Joint => "joints",
@@ -82,6 +141,17 @@ fn text(r: &Report) -> String {
     s += &format!("  {kind:<9} {}: {}\n", r.points.len(), r.points.join(" "));
     s += &format!("  missing   {} samples ({:.2} %)\n", r.missing_samples, r.missing_percent);
     s += &format!("  up axis   {}\n", r.up_axis);
+    s += &match r.length_unit {
+        Some(u) => format!("  unit      {} — {}\n", unit_text(u), r.length_unit_from),
+        None => "  unit      not stated by the loader (positions are mm)\n".to_string(),
+    };
+    s += &match (r.height_mm, r.height_frame) {
+        (Some(h), Some(f)) => format!("  height    {h:.0} mm along {} in frame {} (the figure's extent)\n", r.up_axis, f + 1),
+        _ => "  height    none (no sample in any frame)\n".to_string(),
+    };
+    for repair in &r.repairs {
+        s += &format!("  repaired  {repair}\n");
+    }
     if let (Some(j), Some(c)) = (r.skeleton_joints, r.skeleton_channels) {
         s += &format!("  skeleton  {j} joints, {c} channels\n");
     }
@@ -97,15 +167,19 @@ fn text(r: &Report) -> String {
 }
 
 /// Inspects every file; a bad file prints its one-line error and makes the exit code non-zero,
-/// but the other files are still described.
-pub fn inspect(files: &[PathBuf], json: bool) -> Result<ExitCode> {
+/// but the other files are still described. With `npy`, file k's positions go to `npy/k.npy`.
+pub fn inspect(files: &[PathBuf], json: bool, npy: Option<&Path>) -> Result<ExitCode> {
     if files.is_empty() {
         return Err(Error::new(ErrorKind::MissingKey, "inspect needs at least one file"));
     }
+    if let Some(dir) = npy {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    }
     let mut ok = true;
     let mut reports = Vec::new();
-    for f in files {
-        match report(f) {
+    for (k, f) in files.iter().enumerate() {
+        let out = npy.map(|dir| dir.join(format!("{k}.npy")));
+        match report(f, out.as_deref()) {
             Ok(r) => {
                 if !json {
                     print!("{}", text(&r));
@@ -122,4 +196,19 @@ pub fn inspect(files: &[PathBuf], json: bool) -> Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&reports).unwrap_or_default());
     }
     Ok(if ok { ExitCode::SUCCESS } else { ExitCode::from(1) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_print_to_what_the_file_can_mean() {
+        assert_eq!(rate_text(f64::from(25.000_002_f32)), "25");
+        assert_eq!(rate_text(120.0), "120");
+        assert_eq!(rate_text(1.0 / 0.0081), "123.4568");
+        assert_eq!(rate_text(59.940_059_94), "59.94006");
+        assert_eq!(rate_text(0.5), "0.5");
+        assert_eq!(rate_text(1500.0), "1500");
+    }
 }

@@ -108,12 +108,17 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// Describe motion files: format, frames, rate, duration, points, missing samples, events.
+    /// Describe motion files: format, frames, rate, duration, points, missing samples, length
+    /// unit and standing height, what the loader repaired, events.
     Inspect {
         files: Vec<PathBuf>,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
+        /// Also write each file's positions (mm, NaN = missing) to DIR/<n>.npy, numbering the
+        /// files from 0 in the order given (float64, frames × points × 3).
+        #[arg(long, value_name = "DIR")]
+        npy: Option<PathBuf>,
     },
     /// Combine the shards of a sharded run into the tables and figures of a plain run.
     Merge {
@@ -281,7 +286,7 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Reproduce { experiments, opts, record, only } => reproduce(&experiments, &opts, record, only.as_deref()),
-        Command::Inspect { files, json } => inspect::inspect(&files, json),
+        Command::Inspect { files, json, npy } => inspect::inspect(&files, json, npy.as_deref()),
         Command::New { input, truth, output, force } => {
             let path = new::new_experiment(&new::NewArgs { input, truth, output, force })?;
             println!("wrote {} (valid); run it with: motionlab run {}", path.display(), path.display());

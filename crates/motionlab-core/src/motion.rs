@@ -14,7 +14,7 @@ use std::path::PathBuf;
 
 use crate::channels::Channels;
 use crate::skeleton::SkeletonMotion;
-use crate::units::{Axis, FrameRate, Seconds};
+use crate::units::{Axis, FrameRate, LengthUnit, Seconds};
 use crate::{Error, ErrorKind, Location, Result};
 
 /// A 3-D point in millimetres.
@@ -39,6 +39,22 @@ pub struct Event {
     pub time: Seconds,
     /// Fractional frame index into this motion's frames (0 = the first stored frame).
     pub frame: f64,
+}
+
+/// What a loader knew or decided about a file beyond its numbers: the unit its lengths were
+/// in, and every repair it made to read a file that departs from its format's letter but that
+/// other readers open (a renamed duplicate label, a truncated unit string). `motionlab inspect`
+/// prints both; a run's `provenance.json` lists the repairs of each input.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LoadNotes {
+    /// The unit of the file's lengths (positions are mm whatever it was); `None` when the
+    /// loader does not say.
+    pub length_unit: Option<LengthUnit>,
+    /// How `length_unit` was known, for people: `POINT:UNITS "mm"`, `inferred from the
+    /// first frame: 59.66 units tall along y`.
+    pub length_unit_from: String,
+    /// One line per repair, in the order the loader made them (a strict loader refuses them).
+    pub repairs: Vec<String>,
 }
 
 /// A motion-capture recording: `n_frames` frames of `point_names.len()` points, and of its
@@ -66,6 +82,9 @@ pub struct Motion {
     /// Signals at the frame rate besides the positions (one sample per frame); empty for a
     /// marker or skeleton file.
     channels: Channels,
+    /// The loader's length unit and repairs ([`LoadNotes`]); empty for a motion not loaded
+    /// from a file.
+    pub load_notes: LoadNotes,
 }
 
 impl Motion {
@@ -122,6 +141,7 @@ impl Motion {
             skeleton: None,
             events: Vec::new(),
             channels: Channels::default(),
+            load_notes: LoadNotes::default(),
         })
     }
 
@@ -144,6 +164,7 @@ impl Motion {
             skeleton: None,
             events: Vec::new(),
             channels,
+            load_notes: LoadNotes::default(),
         })
     }
 
@@ -307,6 +328,7 @@ impl Motion {
         out.format = self.format.clone();
         out.events = self.events.clone();
         out.channels = self.channels.clone();
+        out.load_notes = self.load_notes.clone();
         Ok(out)
     }
     /// Fails with [`ErrorKind::EmptySequence`] naming the stage when the motion has no points

@@ -91,6 +91,9 @@ struct ShardManifest {
     config_sha256: String,
     items: Vec<(usize, String)>,
     finished_utc: String,
+    /// What the loader repaired in the inputs this shard loaded, for the merged provenance.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    load_repairs: std::collections::BTreeMap<PathBuf, Vec<String>>,
 }
 
 #[derive(Serialize)]
@@ -98,6 +101,9 @@ struct InputFile {
     path: String,
     bytes: u64,
     sha256: String,
+    /// What the loader repaired to read it (`LoadNotes::repairs`), when anything.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    load_repairs: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -266,6 +272,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
             config_sha256: config_hash,
             items: done.iter().map(|d| (d.1, d.2.id.clone())).collect(),
             finished_utc: utc_iso(SystemTime::now()),
+            load_repairs: plan.cache.load_repairs(),
         };
         let dir = rundir.subdir("shards")?;
         write_atomic(&dir.join(format!("shard-{shard}-of-{shards}.json")), &json_bytes(&m)?)?;
@@ -374,6 +381,7 @@ fn write_provenance(
 ) -> Result<()> {
     // A merged run's items ran in other processes: their cache log is in no one's memory here.
     let cache = if shards.is_none() { cache_provenance(plan, opts) } else { None };
+    let repairs = plan.cache.load_repairs();
     let inputs = plan
         .input_files()
         .iter()
@@ -383,6 +391,7 @@ fn write_provenance(
                 bytes: std::fs::metadata(p).map(|m| m.len()).unwrap_or(0),
                 // The run cache hashed every input already (its keys): read once per run.
                 sha256: motionlab_cache::hex(&plan.cache.file_sha256(p)?),
+                load_repairs: repairs.get(p).cloned().unwrap_or_default(),
             })
         })
         .collect::<Result<Vec<_>>>()?;
@@ -490,6 +499,11 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
         done.push((c, item, ItemData(bytes)));
     }
     let total = done.len();
+    for s in &shards {
+        for (path, repairs) in &s.load_repairs {
+            plan.cache.note_repairs(path, repairs);
+        }
+    }
     let rundir = RunDir::shared(run_dir)?;
     let by_combo = group_by_combo(&plan, done);
     // The evaluation reloads every input (once, shared by the combinations) and may find its

@@ -209,6 +209,7 @@ impl Datasets {
             Ok(k.finish())
         };
         let (mut item, origin) = self.cache.get_or_load(&recipe, content_key, || self.load_uncached(dataset, file))?;
+        self.cache.note_repairs(&self.datasets[dataset].files[file], &item.motion.load_notes.repairs);
         if origin == Origin::Disk {
             // The entry is content-addressed: the same bytes may have been read from elsewhere.
             let mut m = (*item.motion).clone();
@@ -278,9 +279,13 @@ impl Datasets {
             (Some((reader, _)), Some(gt_path)) => Some(reader.read(&gt_path, &motion).map_err(|e| e.in_file(&gt_path))?),
             _ => None,
         };
+        // What the loader noted stays with the motion (a preprocessor may build a new one),
+        // so a motion from the disk cache still says it for the provenance.
+        let notes = motion.load_notes.clone();
         for p in d.preprocess.iter().chain(&self.preprocess) {
             motion = p.apply(motion).map_err(|e| e.in_file(path))?;
         }
+        motion.load_notes = notes;
         Ok(LoadedItem { name: d.sequence_name(file), motion: Arc::new(motion), truth, key: None })
     }
     /// The dataset whose tag `key` equals `value`.

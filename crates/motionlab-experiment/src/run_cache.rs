@@ -24,7 +24,7 @@
 //! evaluation) store their outputs under their resolved parameters and the inputs' keys. Every
 //! use is logged with its [`Origin`] for the run's provenance.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
@@ -73,6 +73,9 @@ pub struct RunCache {
     disk: RwLock<Option<Cache>>,
     file_hashes: Mutex<HashMap<PathBuf, [u8; 32]>>,
     loads: AtomicUsize,
+    /// What the loader repaired in each input file ([`motionlab_core::LoadNotes`]), for the
+    /// run's provenance; kept when the memory is cleared.
+    load_repairs: Mutex<BTreeMap<PathBuf, Vec<String>>>,
 }
 
 impl Default for RunCache {
@@ -84,7 +87,14 @@ impl Default for RunCache {
 
 impl RunCache {
     pub fn with_budget(budget_bytes: usize) -> Self {
-        RunCache { budget_bytes, table: Mutex::default(), disk: RwLock::new(None), file_hashes: Mutex::default(), loads: AtomicUsize::new(0) }
+        RunCache {
+            budget_bytes,
+            table: Mutex::default(),
+            disk: RwLock::new(None),
+            file_hashes: Mutex::default(),
+            loads: AtomicUsize::new(0),
+            load_repairs: Mutex::default(),
+        }
     }
     /// Uses (or, with `None`, stops using) an on-disk cache.
     pub fn set_disk(&self, cache: Option<Cache>) {
@@ -105,6 +115,20 @@ impl RunCache {
     /// How many inputs were loaded from their files (not from memory or disk) so far.
     pub fn loads(&self) -> usize {
         self.loads.load(Ordering::Relaxed)
+    }
+    /// Records what the loader repaired in `path` (nothing when `repairs` is empty; the first
+    /// record of a file stands: every load of it repairs the same).
+    pub fn note_repairs(&self, path: &Path, repairs: &[String]) {
+        if repairs.is_empty() {
+            return;
+        }
+        if let Ok(mut m) = self.load_repairs.lock() {
+            m.entry(path.to_path_buf()).or_insert_with(|| repairs.to_vec());
+        }
+    }
+    /// Every input's recorded repairs, by file.
+    pub fn load_repairs(&self) -> BTreeMap<PathBuf, Vec<String>> {
+        self.load_repairs.lock().map(|m| m.clone()).unwrap_or_default()
     }
     /// SHA-256 of a file's bytes, read once per run.
     pub fn file_sha256(&self, path: &Path) -> Result<[u8; 32]> {

@@ -119,7 +119,10 @@ impl Loader for AsfAmcLoader {
         let asf = parse_asf(&crate::read::read_text(&asf_path)?, &asf_path)?;
         let amc = crate::read::read_text(path)?;
         let channels = parse_amc(&amc, path, &asf)?;
-        amc_motion(channels, path, self.frame_rate)
+        let mut motion = amc_motion(channels, path, self.frame_rate)?;
+        motion.load_notes.length_unit = asf.length_unit;
+        motion.load_notes.length_unit_from = format!("the ASF's :units length ({} mm per unit)", asf.mm_per_unit);
+        Ok(motion)
     }
 }
 

@@ -56,6 +56,19 @@ impl LengthUnitSetting {
     }
 }
 
+/// How a joint's position channels combine with its OFFSET.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum PositionChannels {
+    /// A position channel is the joint's translation from its parent along its axis; the
+    /// OFFSET keeps only the axes without one (the rest pose). How Blender, bvhio and the
+    /// exporters people use read and write BVH.
+    #[default]
+    Replace,
+    /// Translation = OFFSET + position channels, the reading of some older tools.
+    Add,
+}
+
 /// Loads a BVH motion: the joint hierarchy, every frame's channel values, and the world
 /// positions of every joint and end site by forward kinematics.
 ///
@@ -65,20 +78,28 @@ impl LengthUnitSetting {
 ///
 /// Channels: any number per joint (usually 3 or 6), any order of `Xposition Yposition
 /// Zposition Xrotation Yrotation Zrotation`; rotations compose in the listed order
-/// (`Zrotation Xrotation Yrotation` ⇒ `L = Rz·Rx·Ry`, matrices acting on column vectors),
-/// position channels add to the OFFSET. Forward kinematics: `G_j = G_parent·L_j`,
-/// `p_j = p_parent + G_parent·(offset_j + translation_j)`.
+/// (`Zrotation Xrotation Yrotation` ⇒ `L = Rz·Rx·Ry`, matrices acting on column vectors).
+/// Position channels replace the OFFSET along their axes (`position_channels = "replace"`,
+/// as Blender and bvhio read them: a root whose OFFSET is its rest position and whose
+/// position channels its motion stands where the channels put it) or add to it (`"add"`).
+/// Forward kinematics: `G_j = G_parent·L_j`, `p_j = p_parent + G_parent·t_j`, with `t_j` the
+/// translation so formed. Files whose joints with position channels have a zero OFFSET (the
+/// CMU conversions: only the root has them) read the same either way. With `replace` the
+/// stored skeleton holds 0 for the replaced OFFSET axes, so forward kinematics and the BVH
+/// writer see the translation the file means.
 ///
 /// Frame rate: `1 / Frame Time`, except that a frame time within 1e-4 (relative) of `1/n` for a
 /// whole number n is taken as exactly n Hz (files round the frame time: `.0083333` → 120 Hz).
 ///
-/// Length unit, `auto`: the rest-pose standing height h (all channels 0; the extent along
-/// `up_axis` of every joint and end site) is compared with the height of a 1.2–2.2 m human in
-/// each unit: 1.2–2.2 → metres, 21.26–38.98 → CMU units (1/0.45 inch), 47.24–86.61 → inches,
-/// 120–220 → centimetres, 1200–2200 → millimetres. These ranges do not overlap; a skeleton
-/// outside all of them (a child, an animal, a prop, a wrong `up_axis`) is an error asking for
-/// an explicit `length_unit`. (CMU's BVH conversions stand 24.3 units = 1.37 m tall in their
-/// rest pose: the legs splay 20° sideways.)
+/// Length unit, `auto`: a standing height h is compared with the height of a 1.2–2.2 m human
+/// in each unit: 1.2–2.2 → metres, 21.26–38.98 → CMU units (1/0.45 inch), 47.24–86.61 →
+/// inches, 120–220 → centimetres, 1200–2200 → millimetres (the ranges do not overlap). h is,
+/// in this order until one falls in a range: the rest pose's extent along `up_axis` (every
+/// rotation 0, every joint at its OFFSET; CMU's BVH conversions stand 24.3 units = 1.37 m
+/// there, legs splayed 20°), the first frame's extent along `up_axis`, and the rest pose's
+/// extent along the axis it is longest on (a skeleton modelled lying along +X). The evidence
+/// used is said (`motionlab inspect`); none in range (a child, an animal, a prop, a wrong
+/// `up_axis`) is an error giving all three and asking for an explicit `length_unit`.
 ///
 /// Missing samples: BVH has none — every channel of every frame must be a finite number. A frame
 /// line with the wrong number of values, a value that is not a number, NaN/inf, fewer frame lines
@@ -94,6 +115,10 @@ pub struct BvhParams {
     /// The axis pointing up in the file (the default is the BVH convention).
     #[serde(default = "default_up_axis")]
     pub up_axis: Axis,
+    /// How position channels combine with the OFFSET: `"replace"` (Blender, bvhio) or
+    /// `"add"`.
+    #[serde(default)]
+    pub position_channels: PositionChannels,
 }
 
 fn default_up_axis() -> Axis {
@@ -103,14 +128,15 @@ fn default_up_axis() -> Axis {
 /// Options of [`parse_bvh`] (the validated [`BvhParams`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BvhOptions {
-    /// `None` = infer from the rest-pose height.
+    /// `None` = infer from a standing height (see the loader docs).
     pub length_unit: Option<LengthUnit>,
     pub up_axis: Axis,
+    pub position_channels: PositionChannels,
 }
 
 impl Default for BvhOptions {
     fn default() -> Self {
-        BvhOptions { length_unit: None, up_axis: Axis::Y }
+        BvhOptions { length_unit: None, up_axis: Axis::Y, position_channels: PositionChannels::Replace }
     }
 }
 
@@ -123,7 +149,9 @@ pub struct BvhLoader {
 impl ParamGuard for BvhParams {
     type Checked = BvhLoader;
     fn check(self) -> Result<BvhLoader> {
-        Ok(BvhLoader { options: BvhOptions { length_unit: self.length_unit.unit(), up_axis: self.up_axis } })
+        Ok(BvhLoader {
+            options: BvhOptions { length_unit: self.length_unit.unit(), up_axis: self.up_axis, position_channels: self.position_channels },
+        })
     }
 }
 
@@ -149,6 +177,8 @@ pub struct BvhData {
     pub frame_time_s: f64,
     /// The unit the file's lengths were read in (given or inferred).
     pub length_unit: LengthUnit,
+    /// How `length_unit` was known: the loader's setting, or the evidence `auto` used.
+    pub length_unit_from: String,
 }
 
 /// Parses BVH text into a [`Motion`] with joint positions (mm) and its skeleton.
@@ -169,6 +199,8 @@ pub fn bvh_motion(data: BvhData, origin: &Path, up_axis: Axis) -> Result<Motion>
         .map_err(|e| e.in_file(origin))?
         .with_source(origin, "bvh");
     motion.skeleton = Some(data.motion);
+    motion.load_notes.length_unit = Some(data.length_unit);
+    motion.load_notes.length_unit_from = data.length_unit_from;
     Ok(motion)
 }
 
@@ -177,10 +209,30 @@ pub fn parse_bvh_channels(text: &str, origin: &Path, options: &BvhOptions) -> Re
     let text = strip_bom(text);
     let header = parse_header(text, origin)?;
     let Header { mut skeleton, n_frames, frame_time, frame_rate, data_pos, data_line } = header;
+    let is_translation: Vec<bool> =
+        skeleton.joints.iter().flat_map(|j| j.channels.iter()).map(|c| matches!(c, ChannelKind::Translation(_))).collect();
+    let read = |scale: &[f64]| read_frames(text.as_bytes(), data_pos, data_line, n_frames, scale, origin);
 
-    let length_unit = match options.length_unit {
-        Some(u) => u,
-        None => infer_length_unit(&skeleton, options.up_axis).map_err(|e| e.with_location(Location::file(origin)))?,
+    // The unit, and the frames when inferring it needed them (read in file units).
+    let (length_unit, length_unit_from, file_unit_values) = match options.length_unit {
+        Some(u) => (u, format!("length_unit = \"{}\" (loader setting)", unit_setting_name(u)), None),
+        None => {
+            let rest = UnitEvidence::RestPoseHeight(options.up_axis, rest_pose_height(&skeleton, options.up_axis));
+            match rest.unit() {
+                Some(u) => (u, format!("inferred from {rest}"), None),
+                None => {
+                    let values = read(&vec![1.0; is_translation.len()])?;
+                    let posed = with_position_convention(skeleton.clone(), options.position_channels);
+                    let first = UnitEvidence::FirstFrameHeight(options.up_axis, first_frame_height(&posed, &values, options.up_axis));
+                    let (axis, extent) = rest_pose_longest_extent(&skeleton);
+                    let lying = UnitEvidence::RestPoseExtent(axis, extent);
+                    match [first, lying].into_iter().find_map(|e| e.unit().map(|u| (u, e))) {
+                        Some((u, e)) => (u, format!("inferred from {e} (rest pose: {} units tall along {})", fmt_units(rest.height()), options.up_axis), Some(values)),
+                        None => return Err(cannot_infer(&[rest, first, lying]).with_location(Location::file(origin))),
+                    }
+                }
+            }
+        }
     };
     let mm = length_unit.millimetres_per_unit();
     for j in &mut skeleton.joints {
@@ -189,21 +241,132 @@ pub fn parse_bvh_channels(text: &str, origin: &Path, options: &BvhOptions) -> Re
             *e = e.map(|c| c * mm);
         }
     }
-    let scale: Vec<f64> = skeleton
-        .joints
-        .iter()
-        .flat_map(|j| j.channels.iter())
-        .map(|c| match c {
-            ChannelKind::Translation(_) => mm,
-            ChannelKind::Rotation(_) => 1.0,
-        })
-        .collect();
-    let n_channels = scale.len();
-
-    let values = read_frames(text.as_bytes(), data_pos, data_line, n_frames, &scale, origin)?;
+    let skeleton = with_position_convention(skeleton, options.position_channels);
+    let values = match file_unit_values {
+        // `v × 1.0 × mm` is `v × mm` exactly: the same bits as scaling while reading.
+        Some(mut values) => {
+            let c = is_translation.len();
+            for (k, v) in values.iter_mut().enumerate() {
+                if is_translation[k % c] {
+                    *v *= mm;
+                }
+            }
+            values
+        }
+        None => read(&is_translation.iter().map(|t| if *t { mm } else { 1.0 }).collect::<Vec<f64>>())?,
+    };
+    let n_channels = is_translation.len();
     let motion = SkeletonMotion::new(skeleton, values).map_err(|e| e.in_file(origin))?;
     debug_assert_eq!(motion.n_channels(), n_channels);
-    Ok(BvhData { motion, frame_rate, frame_time_s: frame_time, length_unit })
+    Ok(BvhData { motion, frame_rate, frame_time_s: frame_time, length_unit, length_unit_from })
+}
+
+/// With `Replace`, zeroes each OFFSET axis that a position channel of the same joint drives:
+/// forward kinematics (`offset + translation`) then gives the channel value alone there.
+fn with_position_convention(mut skeleton: Skeleton, convention: PositionChannels) -> Skeleton {
+    if convention == PositionChannels::Replace {
+        for j in &mut skeleton.joints {
+            for c in &j.channels {
+                if let ChannelKind::Translation(a) = c {
+                    j.offset[a.index()] = 0.0;
+                }
+            }
+        }
+    }
+    skeleton
+}
+
+/// The extent along `up` of the first frame's joints and end sites.
+fn first_frame_height(skeleton: &Skeleton, values: &[f64], up: Axis) -> f64 {
+    let n = skeleton.n_channels();
+    let (points, _) = skeleton.forward_kinematics(values.get(..n).unwrap_or(&[]));
+    extent(&points, up.index())
+}
+
+fn extent(points: &[[f64; 3]], axis: usize) -> f64 {
+    let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[axis]), hi.max(p[axis])));
+    hi - lo
+}
+
+/// The axis the rest pose extends most along, and that extent.
+fn rest_pose_longest_extent(skeleton: &Skeleton) -> (Axis, f64) {
+    let (points, _) = skeleton.forward_kinematics(&vec![0.0; skeleton.n_channels()]);
+    [Axis::X, Axis::Y, Axis::Z]
+        .into_iter()
+        .map(|a| (a, extent(&points, a.index())))
+        .fold((Axis::Y, f64::NEG_INFINITY), |best, e| if e.1 > best.1 { e } else { best })
+}
+
+/// A standing height `auto` can infer the length unit from, in file units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum UnitEvidence {
+    /// The rest pose's extent along the up axis.
+    RestPoseHeight(Axis, f64),
+    /// The first frame's extent along the up axis.
+    FirstFrameHeight(Axis, f64),
+    /// The rest pose's extent along the axis it is longest on.
+    RestPoseExtent(Axis, f64),
+}
+
+impl UnitEvidence {
+    pub fn height(self) -> f64 {
+        match self {
+            UnitEvidence::RestPoseHeight(_, h) | UnitEvidence::FirstFrameHeight(_, h) | UnitEvidence::RestPoseExtent(_, h) => h,
+        }
+    }
+    /// The unit in whose human height range the height lies.
+    pub fn unit(self) -> Option<LengthUnit> {
+        let h = self.height();
+        INFERABLE_UNITS.iter().copied().find(|u| {
+            let (lo, hi) = human_height_range(*u);
+            (lo..=hi).contains(&h)
+        })
+    }
+}
+
+impl std::fmt::Display for UnitEvidence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            UnitEvidence::RestPoseHeight(a, h) => write!(f, "the rest pose: {} units tall along {a}", fmt_units(*h)),
+            UnitEvidence::FirstFrameHeight(a, h) => write!(f, "the first frame: {} units tall along {a}", fmt_units(*h)),
+            UnitEvidence::RestPoseExtent(a, h) => write!(f, "the rest pose's longest extent: {} units along {a}", fmt_units(*h)),
+        }
+    }
+}
+
+fn fmt_units(h: f64) -> String {
+    format!("{h:.4}").trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// The `length_unit` setting that names `unit`.
+fn unit_setting_name(unit: LengthUnit) -> &'static str {
+    match unit {
+        LengthUnit::Millimetre => "millimetre",
+        LengthUnit::Centimetre => "centimetre",
+        LengthUnit::Metre => "metre",
+        LengthUnit::Inch => "inch",
+        LengthUnit::CmuUnit => "cmu_unit",
+    }
+}
+
+fn cannot_infer(evidence: &[UnitEvidence]) -> Error {
+    let ranges: Vec<String> = INFERABLE_UNITS
+        .iter()
+        .map(|u| {
+            let (lo, hi) = human_height_range(*u);
+            format!("{u:?} {lo:.4}–{hi:.4}")
+        })
+        .collect();
+    let seen: Vec<String> = evidence.iter().map(ToString::to_string).collect();
+    Error::new(
+        ErrorKind::OutOfRange,
+        format!(
+            "cannot infer the length unit: {}; none is within the range of a 1.2–2.2 m human in any unit ({}); set length_unit explicitly",
+            seen.join(", "),
+            ranges.join(", ")
+        ),
+    )
+    .with_field("length_unit")
 }
 
 /// Reads `n_frames` lines of `scale.len()` values each, starting at byte `pos` (line `line`).
@@ -517,9 +680,7 @@ fn channel_kind(word: &str) -> Option<ChannelKind> {
 pub fn rest_pose_height(skeleton: &Skeleton, up: Axis) -> f64 {
     let zeros = vec![0.0; skeleton.n_channels()];
     let (points, _) = skeleton.forward_kinematics(&zeros);
-    let u = up.index();
-    let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[u]), hi.max(p[u])));
-    hi - lo
+    extent(&points, up.index())
 }
 
 /// Human standing heights `auto` accepts: 1.2 m to 2.2 m.
@@ -536,34 +697,11 @@ pub fn human_height_range(unit: LengthUnit) -> (f64, f64) {
     (HUMAN_HEIGHT_MM.0 / mm, HUMAN_HEIGHT_MM.1 / mm)
 }
 
-/// Infers the length unit from [`rest_pose_height`] (see the loader docs for the ranges).
+/// Infers the length unit from [`rest_pose_height`] alone (see the loader docs for the
+/// ranges; the loader also tries the first frame and the rest pose's longest extent).
 pub fn infer_length_unit(skeleton: &Skeleton, up: Axis) -> Result<LengthUnit> {
-    let h = rest_pose_height(skeleton, up);
-    INFERABLE_UNITS
-        .iter()
-        .copied()
-        .find(|u| {
-            let (lo, hi) = human_height_range(*u);
-            (lo..=hi).contains(&h)
-        })
-        .ok_or_else(|| {
-            let ranges: Vec<String> = INFERABLE_UNITS
-                .iter()
-                .map(|u| {
-                    let (lo, hi) = human_height_range(*u);
-                    format!("{u:?} {lo:.4}–{hi:.4}")
-                })
-                .collect();
-            Error::new(
-                ErrorKind::OutOfRange,
-                format!(
-                    "cannot infer the length unit: the rest-pose standing height along {up} is {h:.4} file units, outside \
-                     the range of a 1.2–2.2 m human in every unit ({}); set length_unit explicitly",
-                    ranges.join(", ")
-                ),
-            )
-            .with_field("length_unit")
-        })
+    let rest = UnitEvidence::RestPoseHeight(up, rest_pose_height(skeleton, up));
+    rest.unit().ok_or_else(|| cannot_infer(&[rest]))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -743,7 +881,7 @@ mod tests {
     const ARM: &str = "HIERARCHY\nROOT hip\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT knee\n  {\n    OFFSET 0 -10 0\n    CHANNELS 3 Xrotation Yrotation Zrotation\n    End Site\n    {\n      OFFSET 0 -10 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n1 2 3 0 0 0 0 0 0\n0 0 0 90 0 0 90 0 0\n";
 
     fn opts_mm() -> BvhOptions {
-        BvhOptions { length_unit: Some(LengthUnit::Millimetre), up_axis: Axis::Y }
+        BvhOptions { length_unit: Some(LengthUnit::Millimetre), up_axis: Axis::Y, ..BvhOptions::default() }
     }
 
     #[test]
@@ -759,6 +897,101 @@ mod tests {
         // then turns its (0,-10,0) segment: Rz(90)·Rx(90)·(0,-10,0) = Rz(90)·(0,0,-10) = (0,0,-10).
         assert!(close(m.position(1, 1), [10.0, 0.0, 0.0]), "{:?}", m.position(1, 1));
         assert!(close(m.position(1, 2), [10.0, 0.0, -10.0]), "{:?}", m.position(1, 2));
+    }
+
+    #[test]
+    fn position_channels_replace_the_offset_by_default_and_add_on_request() {
+        // Root OFFSET (5, 7, 9), its channels put it at (1, 2, 3); the knee has a Yposition
+        // channel (value 4) beside its OFFSET (0, -10, 0).
+        let text = ARM
+            .replace("  OFFSET 0 0 0\n", "  OFFSET 5 7 9\n")
+            .replace("    CHANNELS 3 Xrotation Yrotation Zrotation", "    CHANNELS 4 Yposition Xrotation Yrotation Zrotation")
+            .replace("1 2 3 0 0 0 0 0 0\n", "1 2 3 0 0 0 4 0 0 0\n")
+            .replace("0 0 0 90 0 0 90 0 0\n", "0 0 0 0 0 0 -10 0 0 0\n");
+        let replace = parse_bvh(&text, Path::new("r.bvh"), &opts_mm()).unwrap();
+        assert_eq!(replace.position(0, 0), [1.0, 2.0, 3.0]);
+        // Knee: x and z keep the OFFSET's 0, y is the channel's 4.
+        assert_eq!(replace.position(0, 1), [1.0, 6.0, 3.0]);
+        assert_eq!(replace.position(1, 1), [0.0, -10.0, 0.0]);
+        let add = parse_bvh(&text, Path::new("a.bvh"), &BvhOptions { position_channels: PositionChannels::Add, ..opts_mm() }).unwrap();
+        assert_eq!(add.position(0, 0), [6.0, 9.0, 12.0]);
+        assert_eq!(add.position(0, 1), [6.0, 3.0, 12.0]);
+        // The stored skeleton holds 0 on the replaced axes, so what the writer writes reads the
+        // same under either convention.
+        let sk = &replace.skeleton.as_ref().unwrap().skeleton;
+        assert_eq!((sk.joints[0].offset, sk.joints[1].offset), ([0.0; 3], [0.0, 0.0, 0.0]));
+        let mut out = Vec::new();
+        write_bvh(replace.skeleton.as_ref().unwrap(), replace.frame_rate(), LengthUnit::Millimetre, &mut out).unwrap();
+        let written = String::from_utf8(out).unwrap();
+        for convention in [PositionChannels::Replace, PositionChannels::Add] {
+            let back = parse_bvh(&written, Path::new("w.bvh"), &BvhOptions { position_channels: convention, ..opts_mm() }).unwrap();
+            assert_eq!(back.positions(), replace.positions(), "{convention:?}");
+        }
+        // A zero OFFSET under the position channels: both conventions agree bit for bit.
+        let plain_add = parse_bvh(ARM, Path::new("p.bvh"), &BvhOptions { position_channels: PositionChannels::Add, ..opts_mm() }).unwrap();
+        assert_eq!(parse_bvh(ARM, Path::new("p.bvh"), &opts_mm()).unwrap().positions(), plain_add.positions());
+        let p: BvhParams = motionlab_core::registry::parse_params(&toml::from_str("position_channels = \"add\"").unwrap()).unwrap();
+        assert_eq!(p.position_channels, PositionChannels::Add);
+    }
+
+    /// A 170-unit figure (cm) standing along y: hips at 100, head end at 170, feet at 0.
+    const STANDING: &str = "HIERARCHY\nROOT hips\n{\n  OFFSET 0 100 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT head\n  {\n    OFFSET 0 50 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 20 0\n    }\n  }\n  JOINT leg\n  {\n    OFFSET 0 -50 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 -50 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.01\n0 100 0 0 0 0 0 0 0 0 0 0\n3 100 0 0 0 0 0 0 0 0 0 0\n";
+
+    /// The Bandai-Namco layout: six channels on every joint, position values equal to the
+    /// OFFSETs. Replacing reads the figure the 3-channel file describes; adding doubles every
+    /// bone.
+    #[test]
+    fn position_channels_on_every_joint_equal_to_the_offsets_read_as_the_plain_skeleton() {
+        let six = STANDING
+            .replace("    CHANNELS 3 Zrotation Xrotation Yrotation", "    CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation")
+            .replace("0 100 0 0 0 0 0 0 0 0 0 0\n", "0 100 0 0 0 0 0 50 0 0 0 0 0 -50 0 0 0 0\n")
+            .replace("3 100 0 0 0 0 0 0 0 0 0 0\n", "3 100 0 0 0 0 0 50 0 0 0 0 0 -50 0 0 0 0\n");
+        let cm = BvhOptions { length_unit: Some(LengthUnit::Centimetre), ..BvhOptions::default() };
+        let plain = parse_bvh(STANDING, Path::new("p.bvh"), &cm).unwrap();
+        let replace = parse_bvh(&six, Path::new("s.bvh"), &cm).unwrap();
+        assert_eq!(replace.positions(), plain.positions());
+        let add = parse_bvh(&six, Path::new("s.bvh"), &BvhOptions { position_channels: PositionChannels::Add, ..cm }).unwrap();
+        // The head end: 2 × 1 m (hips) + 2 × 0.5 m (head) + 0.2 m, instead of 1.7 m.
+        assert_eq!(add.position(0, add.point_index("head_end").unwrap())[1], 3200.0);
+        assert_eq!(replace.position(0, replace.point_index("head_end").unwrap())[1], 1700.0);
+        // Inferred from the rest pose (every joint at its OFFSET), not from doubled bones.
+        let d = parse_bvh_channels(&six, Path::new("s.bvh"), &BvhOptions::default()).unwrap();
+        assert_eq!((d.length_unit, d.length_unit_from.as_str()), (LengthUnit::Centimetre, "inferred from the rest pose: 170 units tall along y"));
+    }
+
+    #[test]
+    fn the_length_unit_is_inferred_from_the_rest_pose_the_first_frame_or_the_longest_extent() {
+        let d = parse_bvh_channels(STANDING, Path::new("s.bvh"), &BvhOptions::default()).unwrap();
+        assert_eq!(d.length_unit, LengthUnit::Centimetre);
+        assert_eq!(d.length_unit_from, "inferred from the rest pose: 170 units tall along y");
+        // Modelled lying along +x (every OFFSET turned from y to x), standing in its frames
+        // (the root turned 90° about z): the first frame says it.
+        let lying = STANDING
+            .replace("OFFSET 0 100 0", "OFFSET 100 0 0")
+            .replace("OFFSET 0 50 0", "OFFSET 50 0 0")
+            .replace("OFFSET 0 20 0", "OFFSET 20 0 0")
+            .replace("OFFSET 0 -50 0", "OFFSET -50 0 0")
+            .replace("0 100 0 0 0 0 0 0", "0 100 0 90 0 0 0 0")
+            .replace("3 100 0 0 0 0 0 0", "3 100 0 90 0 0 0 0");
+        let d = parse_bvh_channels(&lying, Path::new("l.bvh"), &BvhOptions::default()).unwrap();
+        assert_eq!(d.length_unit, LengthUnit::Centimetre);
+        assert_eq!(d.length_unit_from, "inferred from the first frame: 170 units tall along y (rest pose: 0 units tall along y)");
+        // Lying in its frames too: the rest pose's longest extent (x) says it.
+        let still = lying.replace(" 90 0 0 0 0", " 0 0 0 0 0");
+        let d = parse_bvh_channels(&still, Path::new("l.bvh"), &BvhOptions::default()).unwrap();
+        assert_eq!(d.length_unit, LengthUnit::Centimetre);
+        assert_eq!(d.length_unit_from, "inferred from the rest pose's longest extent: 170 units along x (rest pose: 0 units tall along y)");
+        // The frames read while inferring are scaled exactly as a one-pass read scales them.
+        let explicit = parse_bvh_channels(&still, Path::new("l.bvh"), &BvhOptions { length_unit: Some(LengthUnit::Centimetre), ..BvhOptions::default() }).unwrap();
+        assert_eq!(explicit.motion.channel_values(), d.motion.channel_values());
+        assert_eq!(explicit.length_unit_from, "length_unit = \"centimetre\" (loader setting)");
+        // No evidence in range: all three are named.
+        let tiny = still.replace("OFFSET 50 0 0", "OFFSET 5 0 0").replace("OFFSET 20 0 0", "OFFSET 2 0 0").replace("OFFSET -50 0 0", "OFFSET -5 0 0");
+        let e = parse_bvh(&tiny, Path::new("t.bvh"), &BvhOptions::default()).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::OutOfRange);
+        for said in ["t.bvh", "the rest pose: 0 units tall along y", "the first frame: ", "longest extent: 17 units along x", "set length_unit"] {
+            assert!(e.to_string().contains(said), "{said}: {e}");
+        }
     }
 
     #[test]
@@ -830,7 +1063,7 @@ mod tests {
         let text = String::from_utf8(out).unwrap();
         assert!(text.contains("\tJOINT y\n\t{\n\t\tOFFSET 0.000000 10.000000 0.000000\n\t\tCHANNELS 0\n"), "{text}");
         assert!(text.contains("Frame Time: 0.03333333333333333\n"), "{text}");
-        let back = parse_bvh(&text, Path::new("w.bvh"), &BvhOptions { length_unit: Some(LengthUnit::Centimetre), up_axis: Axis::Y }).unwrap();
+        let back = parse_bvh(&text, Path::new("w.bvh"), &BvhOptions { length_unit: Some(LengthUnit::Centimetre), up_axis: Axis::Y, ..BvhOptions::default() }).unwrap();
         let names = back.point_names().to_vec();
         assert_eq!(names, ["r", "x", "x2", "y", "x2_end", "x2_end2"]);
         assert_eq!(back.frame_rate().hz(), 30.0);

@@ -210,7 +210,7 @@ fn bvh_other_shipped_files_load() {
 #[test]
 fn bvh_explicit_length_unit_and_up_axis_are_used() {
     let text = text_of("cmu131/131_01.bvh.gz");
-    let opts = BvhOptions { length_unit: Some(LengthUnit::Inch), up_axis: Axis::Z };
+    let opts = BvhOptions { length_unit: Some(LengthUnit::Inch), up_axis: Axis::Z, ..BvhOptions::default() };
     let d = parse_bvh_channels(&text, Path::new("x.bvh"), &opts).unwrap();
     assert_eq!(d.length_unit, LengthUnit::Inch);
     assert_eq!(d.motion.skeleton.joints[2].offset[0], 1.24777 * 25.4);
@@ -693,5 +693,5 @@ fn plugins_are_registered_documented_and_valid() {
         .collect();
     assert!(problems.is_empty(), "{problems:?}");
     let describe: Vec<String> = find("bvh").unwrap().params().iter().map(|p| p.name.to_string()).collect();
-    assert_eq!(describe, ["length_unit", "up_axis"]);
+    assert_eq!(describe, ["length_unit", "up_axis", "position_channels"]);
 }

@@ -34,9 +34,9 @@ use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::units::{Axis, FrameRate, LengthUnit, Seconds};
-use motionlab_core::{ErrorKind, Event, Loader, Motion, PointKind, Result};
+use motionlab_core::{ErrorKind, Event, LoadNotes, Loader, Motion, PointKind, Result};
 
-use raw::{header_offset, C3dFile, DataLayout, Param};
+use raw::{header_offset, C3dFile, DataLayout, Param, Repairs};
 
 /// Reads C3D motion-capture files (Vicon, Qualisys, Motion Analysis, …): marker positions,
 /// point rate, marker labels and the events of the `EVENT` group.
@@ -49,8 +49,26 @@ use raw::{header_offset, C3dFile, DataLayout, Param};
 /// … `ACTUAL_END_FIELD` when present, else header words 4–5. Units: `POINT:UNITS` (`mm`, `cm`,
 /// `m`, `in`) converted to mm; absent or blank means mm. Names: `POINT:LABELS`, `LABELS2`,
 /// … in order, trimmed; labels beyond the point count are ignored, a blank label becomes
-/// `P<n>` (1-based point number), fewer labels than points or a repeated label is an error;
-/// a Vicon subject prefix (`Subject:`) is removed unless `strip_subject_prefix = false`.
+/// `P<n>` (1-based point number), fewer labels than points is an error; a Vicon subject
+/// prefix (`Subject:`) is removed unless `strip_subject_prefix = false`.
+///
+/// The data section's size is checked against the file: the header's account of it (points,
+/// analog words per frame, first block: header words 2, 3 and 9) and the parameters'
+/// (`POINT:USED`, `ANALOG:USED` × `ANALOG:RATE` / `POINT:RATE`, `POINT:DATA_START`) must hold
+/// the frames; when the two differ, the one whose frames end in the file's last 512-byte
+/// block is read, and when neither does the file is refused (reading either would shift or
+/// cut the frames without a word).
+///
+/// Read leniently, as ezc3d and py-c3d read them, and always said (each repair is a line of
+/// `motionlab inspect` and of the run's provenance): the header's and the parameters'
+/// accounts disagreeing (resolved by the file size, above); a label written twice (the later
+/// points become `RKNE#2`, `RKNE#3`, …); no `POINT:LABELS` at all (points `P1`…`Pn`); group or
+/// parameter names with spaces (`Splines Fitted`); a parameter defined twice (the first is
+/// kept); a last parameter record whose next-record offset points past the parameter
+/// section (SGI/MIPS writers: read as the last record); a `POINT:UNITS` cut short (`mete`
+/// is metres); bytes after the last frame beyond one block's padding (not read). With
+/// `strict = true` each of these is an error instead. A processor type other than 84, 85 or
+/// 86 (0 in files whose writer never set it) is refused, as ezc3d and py-c3d refuse it.
 ///
 /// Events: `EVENT:LABELS`, `EVENT:CONTEXTS` and `EVENT:TIMES`, a 2 × N array of (minutes,
 /// seconds): time = 60·minutes + seconds from the start of the capture, where time 0 is frame
@@ -68,8 +86,9 @@ use raw::{header_offset, C3dFile, DataLayout, Param};
 /// `zero_means_missing`.
 ///
 /// Errors name the file, the byte offset and the parameter (`POINT:SCALE`): a wrong key byte
-/// or parameter block pointer, a file shorter than its frames need (`Truncated`), a zero or
-/// NaN scale factor or rate, last frame < first frame, too few labels, non-UTF-8 labels.
+/// or parameter block pointer, a file shorter than its frames need (`Truncated`), a data
+/// section that fits neither account, a zero or NaN scale factor or rate, last frame < first
+/// frame, too few labels, non-UTF-8 labels.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct C3dParams {
@@ -89,6 +108,10 @@ pub struct C3dParams {
     /// prefix, so their names are unchanged either way.
     #[serde(default = "default_strip_subject_prefix")]
     pub strip_subject_prefix: bool,
+    /// Refuse every departure from the C3D letter that is read leniently by default (the
+    /// repairs listed above), each with the error naming the file, byte and parameter.
+    #[serde(default)]
+    pub strict: bool,
 }
 
 fn default_strip_subject_prefix() -> bool {
@@ -105,11 +128,12 @@ pub struct C3dOptions {
     pub up_axis: Axis,
     pub zero_means_missing: bool,
     pub strip_subject_prefix: bool,
+    pub strict: bool,
 }
 
 impl Default for C3dOptions {
     fn default() -> Self {
-        C3dOptions { up_axis: Axis::Z, zero_means_missing: false, strip_subject_prefix: true }
+        C3dOptions { up_axis: Axis::Z, zero_means_missing: false, strip_subject_prefix: true, strict: false }
     }
 }
 
@@ -126,6 +150,7 @@ impl ParamGuard for C3dParams {
             up_axis: self.up_axis,
             zero_means_missing: self.zero_means_missing,
             strip_subject_prefix: self.strip_subject_prefix,
+            strict: self.strict,
         } })
     }
 }
@@ -144,33 +169,26 @@ motionlab_core::register_plugin!(Loader, C3dParams, "c3d");
 
 /// Parses a whole C3D file held in memory; `origin` names it in errors and in the motion.
 pub fn parse_c3d(bytes: &[u8], origin: &Path, options: &C3dOptions) -> Result<Motion> {
-    let file = C3dFile::parse(bytes, origin)?;
+    let file = C3dFile::parse_with(bytes, origin, Repairs::new(options.strict))?;
     let ctx = file.ctx;
     let layout = file.data_layout()?;
+    let mut repairs = file.repairs.clone();
+    repairs.notes.extend(layout.repairs.iter().cloned());
     if layout.points == 0 {
         return Err(ctx
             .err(ErrorKind::EmptySequence, header_offset::POINT_COUNT, "the file holds no 3-D points; expected at least one marker")
             .with_field("header.point_count"));
     }
-    if let Some(p) = file.param("POINT", "USED") {
-        let used = p.first_unsigned(ctx)? as usize;
-        if used != layout.points {
-            return Err(ctx.param_err(
-                ErrorKind::WrongValueCount,
-                p,
-                format!("POINT:USED is {used} but the header says {} points per frame", layout.points),
-            ));
-        }
-    }
     let rate = frame_rate(&file)?;
-    let mm_per_unit = units(&file)?;
-    let names = point_names(&file, layout.points, options.strip_subject_prefix)?;
-    let positions = decode_points(&file, &layout, mm_per_unit, options.zero_means_missing, &names)?;
+    let (unit, unit_from) = units(&file, &mut repairs)?;
+    let names = point_names(&file, layout.points, options.strip_subject_prefix, &mut repairs)?;
+    let positions = decode_points(&file, &layout, unit.millimetres_per_unit(), options.zero_means_missing, &names)?;
     let events = events(&file, &layout, rate)?;
     let mut motion = Motion::new(crate::read::stem(origin), rate, options.up_axis, PointKind::Marker, names, positions)
         .map_err(|e| e.in_file(origin))?
         .with_source(origin, "c3d");
     motion.events = events;
+    motion.load_notes = LoadNotes { length_unit: Some(unit), length_unit_from: unit_from, repairs: repairs.notes };
     Ok(motion)
 }
 
@@ -194,24 +212,63 @@ fn frame_rate(file: &C3dFile<'_>) -> Result<FrameRate> {
     }
 }
 
-fn units(file: &C3dFile<'_>) -> Result<f64> {
-    let Some(p) = file.param("POINT", "UNITS") else { return Ok(1.0) };
+/// The unit of `POINT:UNITS` and how it was read. A name cut short by its writer (`mete`,
+/// 4 characters of `metre`) is the unit it begins, noted as a repair.
+fn units(file: &C3dFile<'_>, repairs: &mut Repairs) -> Result<(LengthUnit, String)> {
+    let Some(p) = file.param("POINT", "UNITS") else { return Ok((LengthUnit::Millimetre, "no POINT:UNITS: the C3D default".into())) };
     let label = p.strings(file.ctx)?.into_iter().next().unwrap_or_default();
     if label.is_empty() {
-        return Ok(1.0);
+        return Ok((LengthUnit::Millimetre, "POINT:UNITS is blank: the C3D default".into()));
     }
-    LengthUnit::from_label(&label).map(LengthUnit::millimetres_per_unit).ok_or_else(|| {
-        file.ctx.param_err(ErrorKind::OutOfRange, p, format!("unknown length unit {label:?}; expected mm, cm, m or in"))
-    })
+    if let Some(unit) = LengthUnit::from_label(&label) {
+        return Ok((unit, format!("POINT:UNITS {label:?}")));
+    }
+    let Some((unit, full)) = unit_by_prefix(&label) else {
+        return Err(file.ctx.param_err(ErrorKind::OutOfRange, p, format!("unknown length unit {label:?}; expected mm, cm, m or in")));
+    };
+    repairs.make(format!("POINT:UNITS {label:?} read as {full:?} (a unit name cut short)"), || {
+        file.ctx.param_err(ErrorKind::OutOfRange, p, format!("length unit {label:?} is a cut-short {full:?}; expected mm, cm, m or in (strict reading)"))
+    })?;
+    Ok((unit, format!("POINT:UNITS {label:?}, read as {full:?}")))
+}
+
+/// The unit whose spelled-out name begins with `label` (at least two letters, and every
+/// name it begins naming the same unit).
+fn unit_by_prefix(label: &str) -> Option<(LengthUnit, &'static str)> {
+    const NAMES: [(&str, LengthUnit); 7] = [
+        ("millimetre", LengthUnit::Millimetre),
+        ("millimeter", LengthUnit::Millimetre),
+        ("centimetre", LengthUnit::Centimetre),
+        ("centimeter", LengthUnit::Centimetre),
+        ("metre", LengthUnit::Metre),
+        ("meter", LengthUnit::Metre),
+        ("inches", LengthUnit::Inch),
+    ];
+    let label = label.trim().to_ascii_lowercase();
+    if label.len() < 2 {
+        return None;
+    }
+    let mut hits = NAMES.iter().filter(|(name, _)| name.starts_with(&label));
+    let (name, unit) = hits.next()?;
+    hits.all(|(_, u)| u == unit).then_some((*unit, *name))
 }
 
 /// `POINT:LABELS`, `LABELS2`, `LABELS3`, … concatenated, cut to the point count.
-fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool) -> Result<Vec<String>> {
+///
+/// Repairs (noted; refused when strict): no `POINT:LABELS` at all names the points `P1`…`Pn`;
+/// a label written twice becomes unique with `#2`, `#3`, … on its later points (`RKNE`,
+/// `RKNE#2`), as several writers' files need (Motion Analysis repeats labels). Two labels
+/// that only become equal once subject prefixes are stripped stay an error: renaming them
+/// would mix two subjects' markers.
+fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool, repairs: &mut Repairs) -> Result<Vec<String>> {
     let ctx = file.ctx;
     let Some(first) = file.param("POINT", "LABELS") else {
-        return Err(ctx
-            .err(ErrorKind::MissingKey, header_offset::POINT_COUNT, format!("no POINT:LABELS parameter; expected {n_points} marker names"))
-            .with_field("POINT:LABELS"));
+        let refuse = || {
+            ctx.err(ErrorKind::MissingKey, header_offset::POINT_COUNT, format!("no POINT:LABELS parameter; expected {n_points} marker names"))
+                .with_field("POINT:LABELS")
+        };
+        repairs.make(format!("no POINT:LABELS: the {n_points} points are named P1…P{n_points}"), refuse)?;
+        return Ok((1..=n_points).map(|i| format!("P{i}")).collect());
     };
     let mut labels = first.strings(ctx)?;
     let mut k = 2;
@@ -245,20 +302,52 @@ fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool) 
             }
         }
     }
-    let mut seen = std::collections::HashMap::with_capacity(n_points);
-    for (i, l) in labels.iter().enumerate() {
-        if let Some(j) = seen.insert(l.as_str(), i) {
-            let hint = if written[i] != written[j] {
-                format!(" once subject prefixes are stripped (written {:?} and {:?}); set strip_subject_prefix = false", written[j], written[i])
-            } else {
-                String::new()
-            };
-            return Err(ctx.param_err(
+    let taken: std::collections::HashSet<String> = labels.iter().cloned().collect();
+    let mut first_use: std::collections::HashMap<String, usize> = std::collections::HashMap::with_capacity(n_points);
+    // label → (its points, 1-based, and the names they got), in the order first repeated.
+    let mut renamed: Vec<(String, Vec<(usize, String)>)> = Vec::new();
+    let mut used: std::collections::HashSet<String> = std::collections::HashSet::with_capacity(n_points);
+    for i in 0..n_points {
+        let l = labels[i].clone();
+        let Some(&j) = first_use.get(&l) else {
+            first_use.insert(l.clone(), i);
+            used.insert(l);
+            continue;
+        };
+        let duplicate = |hint: String| {
+            ctx.param_err(
                 ErrorKind::DuplicateName,
                 first,
                 format!("label {l:?} names points {} and {}{hint}; expected unique marker names", j + 1, i + 1),
-            ));
+            )
+        };
+        if written[i] != written[j] {
+            return Err(duplicate(format!(
+                " once subject prefixes are stripped (written {:?} and {:?}); set strip_subject_prefix = false",
+                written[j], written[i]
+            )));
         }
+        if repairs.is_strict() {
+            return Err(duplicate(" (strict reading)".into()));
+        }
+        let unique = (2..).map(|k| format!("{l}#{k}")).find(|c| !taken.contains(c) && !used.contains(c)).unwrap_or_default();
+        used.insert(unique.clone());
+        match renamed.iter_mut().find(|(name, _)| *name == l) {
+            Some((_, points)) => points.push((i + 1, unique.clone())),
+            None => renamed.push((l.clone(), vec![(j + 1, l.clone()), (i + 1, unique.clone())])),
+        }
+        labels[i] = unique;
+    }
+    if !renamed.is_empty() {
+        let each: Vec<String> = renamed
+            .iter()
+            .map(|(l, points)| {
+                let numbers: Vec<String> = points.iter().map(|(p, _)| p.to_string()).collect();
+                let names: Vec<&str> = points.iter().map(|(_, n)| n.as_str()).collect();
+                format!("{l:?} (points {}) → {}", numbers.join(", "), names.join(", "))
+            })
+            .collect();
+        repairs.notes.push(format!("duplicate point labels made unique: {}", each.join("; ")));
     }
     Ok(labels)
 }

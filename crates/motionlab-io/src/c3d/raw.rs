@@ -91,6 +91,34 @@ impl Ctx<'_> {
     }
 }
 
+/// The departures from the C3D letter a reading met and accepted because other readers do
+/// (a parameter name with a space, a duplicated parameter, a data section the parameters
+/// describe better than the header): one line of text each, for the motion's
+/// [`LoadNotes`](motionlab_core::LoadNotes). A strict reading returns the error instead.
+#[derive(Clone, Debug, Default)]
+pub struct Repairs {
+    strict: bool,
+    /// The notes so far, in the order made.
+    pub notes: Vec<String>,
+}
+
+impl Repairs {
+    pub fn new(strict: bool) -> Self {
+        Repairs { strict, notes: Vec::new() }
+    }
+    pub fn is_strict(&self) -> bool {
+        self.strict
+    }
+    /// Records `note`, or, reading strictly, fails with `error()`.
+    pub fn make(&mut self, note: impl Into<String>, error: impl FnOnce() -> Error) -> Result<()> {
+        if self.strict {
+            return Err(error());
+        }
+        self.notes.push(note.into());
+        Ok(())
+    }
+}
+
 /// The fixed header in block 1 (words are 16-bit, numbered from 1 in the C3D guide).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Header {
@@ -264,6 +292,9 @@ pub struct C3dFile<'a> {
     pub header: Header,
     params: HashMap<(String, String), Param<'a>>,
     pub ctx: Ctx<'a>,
+    /// What reading the parameter section repaired ([`Repairs`]); its strictness also rules
+    /// [`C3dFile::data_layout`].
+    pub repairs: Repairs,
 }
 
 fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
@@ -271,8 +302,14 @@ fn take<const N: usize>(bytes: &[u8], at: usize) -> Option<[u8; N]> {
 }
 
 impl<'a> C3dFile<'a> {
-    /// Parses the header and the whole parameter section.
+    /// Parses the header and the whole parameter section, accepting (and noting in
+    /// [`C3dFile::repairs`]) what other readers accept.
     pub fn parse(bytes: &'a [u8], origin: &'a Path) -> Result<Self> {
+        Self::parse_with(bytes, origin, Repairs::new(false))
+    }
+
+    /// [`C3dFile::parse`], with the strictness (and any notes already made) of `repairs`.
+    pub fn parse_with(bytes: &'a [u8], origin: &'a Path, mut repairs: Repairs) -> Result<Self> {
         let ctx = Ctx { origin };
         if bytes.len() < BLOCK {
             return Err(ctx.err(
@@ -310,10 +347,13 @@ impl<'a> C3dFile<'a> {
         }
         let processor_byte = bytes[param_start + 3];
         let processor = Processor::from_byte(processor_byte).ok_or_else(|| {
+            // 0 is what a writer that never filled the parameter section leaves; ezc3d and
+            // py-c3d refuse such a file too, since nothing says how its numbers are stored.
+            let unset = if processor_byte == 0 { " (never set: nothing says how the numbers are stored)" } else { "" };
             ctx.err(
                 ErrorKind::Syntax,
                 param_start + 3,
-                format!("processor type is {processor_byte}; expected 84 (Intel), 85 (DEC) or 86 (MIPS)"),
+                format!("processor type is {processor_byte}{unset}; expected 84 (Intel), 85 (DEC) or 86 (MIPS)"),
             )
             .with_field("parameters.processor")
         })?;
@@ -332,8 +372,8 @@ impl<'a> C3dFile<'a> {
             analog_samples_per_frame: w(18),
             frame_rate: f(header_offset::FRAME_RATE),
         };
-        let params = parse_parameters(bytes, param_start, processor, ctx)?;
-        Ok(C3dFile { bytes, processor, header, params, ctx })
+        let params = parse_parameters(bytes, param_start, processor, ctx, &mut repairs)?;
+        Ok(C3dFile { bytes, processor, header, params, ctx, repairs })
     }
 
     /// A parameter by group and name (case-insensitive, as C3D names are).
@@ -418,47 +458,212 @@ impl<'a> C3dFile<'a> {
         Ok((first, last))
     }
 
-    /// The layout of the data section, checked against the file length.
+    /// The parameters' account of the data section: `POINT:USED` points, `ANALOG:USED`
+    /// channels × (`ANALOG:RATE` / `POINT:RATE`) analog words per frame, from block
+    /// `POINT:DATA_START`; where a parameter is absent, the header's value. When the rates give
+    /// no whole number of analog samples per frame, the header's analog count, and the reason
+    /// (to be said).
+    fn parameter_account(&self, header: Account) -> Result<(Account, Option<String>)> {
+        let ctx = self.ctx;
+        let points = match self.param("POINT", "USED") {
+            Some(p) => p.first_unsigned(ctx)? as usize,
+            None => header.points,
+        };
+        let start = match self.param("POINT", "DATA_START") {
+            Some(p) => match p.first_unsigned(ctx)? as usize {
+                block if block >= 2 => (block - 1) * BLOCK,
+                _ => header.start,
+            },
+            None => header.start,
+        };
+        let mut odd_rate = None;
+        let analog_words = match self.param("ANALOG", "USED") {
+            None => header.analog_words,
+            Some(p) => match p.first_unsigned(ctx)? as usize {
+                0 => 0,
+                channels => {
+                    let analog_rate = match self.param("ANALOG", "RATE") {
+                        Some(p) => p.first_float(ctx)?,
+                        None => f64::NAN,
+                    };
+                    let point_rate = match self.param("POINT", "RATE") {
+                        Some(p) => p.first_float(ctx)?,
+                        None => self.header.frame_rate,
+                    };
+                    let per_frame = analog_rate / point_rate;
+                    let whole = per_frame.round();
+                    if per_frame.is_finite() && whole >= 1.0 && (per_frame - whole).abs() <= 1e-6 * whole {
+                        channels.saturating_mul(whole as usize)
+                    } else {
+                        if analog_rate.is_finite() {
+                            odd_rate = Some(format!(
+                                "ANALOG:RATE {analog_rate} Hz is not a whole multiple of POINT:RATE {point_rate} Hz, so the parameters give no analog word count"
+                            ));
+                        }
+                        header.analog_words
+                    }
+                }
+            },
+        };
+        Ok((Account { points, analog_words, start }, odd_rate))
+    }
+
+    /// The layout of the data section: the header's and the parameters' accounts of it
+    /// (points, analog words per frame, first block) checked against the file's length.
+    ///
+    /// When they agree, the file must hold their frames (`Truncated` otherwise; bytes past the
+    /// last frame beyond one block's padding are noted). When they differ (writers disagree
+    /// with themselves: a header with 16 analog words and `ANALOG:USED` 16 × 7, `POINT:USED`
+    /// 12 and a header of 11 points), the account whose frames end at the file's end — at its
+    /// last byte, or in its last 512-byte block when the file is whole blocks — is used and
+    /// the disagreement noted (both: the header's); when neither does, the file is refused:
+    /// reading either would be a silent partial or shifted read. A strict reading
+    /// ([`Repairs`]) refuses every disagreement.
     pub fn data_layout(&self) -> Result<DataLayout> {
         let scale = self.point_scale()?;
         let float = scale < 0.0;
         let word = if float { 4 } else { 2 };
         let (first, last) = self.frame_range()?;
         let n_frames = last - first + 1;
-        let points = usize::from(self.header.point_count);
-        let analog_words = usize::from(self.header.analog_per_frame);
-        let frame_bytes = (4 * points + analog_words) * word;
-        let start = self.data_offset()?;
-        let need = (frame_bytes as u64).checked_mul(n_frames).and_then(|b| b.checked_add(start as u64));
+        let header = Account {
+            points: usize::from(self.header.point_count),
+            analog_words: usize::from(self.header.analog_per_frame),
+            start: self.data_offset()?,
+        };
+        let (params, odd_rate) = self.parameter_account(header)?;
         let have = self.bytes.len() as u64;
-        match need {
-            Some(need) if need <= have => {}
-            _ => {
-                // Point at the first frame that does not fit.
-                let whole = if frame_bytes == 0 { 0 } else { have.saturating_sub(start as u64) / frame_bytes as u64 };
-                let at = start as u64 + whole * frame_bytes as u64;
-                let need_text = need.map_or_else(|| "more than 2^64".to_string(), |n| n.to_string());
-                return Err(Error::new(
-                    ErrorKind::Truncated,
-                    format!(
-                        "file ends at byte {have} inside frame {} of {n_frames}: {n_frames} frames of {points} points and {analog_words} analog values ({frame_bytes} bytes each) from byte {start} need {need_text} bytes",
-                        whole + 1
-                    ),
-                )
-                .with_location(Location::file(self.ctx.origin).byte_offset(at)));
+        // Checked: POINT:USED and the analog rates are whatever the file says.
+        let frame_bytes = |a: &Account| a.points.checked_mul(4).and_then(|w| w.checked_add(a.analog_words)).and_then(|w| w.checked_mul(word));
+        let need = |a: &Account| frame_bytes(a).and_then(|f| (f as u64).checked_mul(n_frames)).and_then(|b| b.checked_add(a.start as u64));
+        // An account fits when its frames end at the file's last byte, or in the file's last
+        // block when the file is whole blocks (the C3D padding). Nothing looser: two accounts
+        // a few words apart would both "fit" a file that ends anywhere after them.
+        let block = BLOCK as u64;
+        let fits = |a: &Account| need(a).is_some_and(|n| n == have || (have.is_multiple_of(block) && n <= have && have - n < block));
+        let mut repairs = Repairs::new(self.repairs.is_strict());
+        let strict_err = |msg: String| self.ctx.err(ErrorKind::WrongValueCount, header.start, format!("{msg} (strict reading)"));
+        let chosen = if header == params {
+            let Some(n) = need(&header).filter(|n| *n <= have) else {
+                return Err(self.truncated(&header, frame_bytes(&header).unwrap_or(usize::MAX), n_frames, need(&header)));
+            };
+            if let Some(fact) = odd_rate {
+                let note = format!("{fact}; the header's {} words per frame are used", header.analog_words);
+                repairs.make(note, || strict_err(fact).with_field("ANALOG:RATE"))?;
             }
-        }
+            if have - n >= BLOCK as u64 {
+                let extra = have - n;
+                repairs.make(format!("{extra} bytes after the last frame (byte {n}) are not read"), || {
+                    strict_err(format!("the file holds {extra} bytes after the last frame (byte {n}); expected at most a block's padding"))
+                })?;
+            }
+            header
+        } else {
+            let differences = self.account_differences(&header, &params);
+            let describe = |a: &Account| {
+                match (need(a), frame_bytes(a)) {
+                    (Some(n), Some(f)) => format!("{n_frames} frames of {f} bytes from byte {} end at byte {n}", a.start),
+                    _ => "more bytes than 2^64".to_string(),
+                }
+            };
+            let (chosen, whose) = match (fits(&header), fits(&params)) {
+                (true, false) => (header, "the header's"),
+                (false, true) => (params, "the parameters'"),
+                (true, true) => (header, "both accounts fit; the header's"),
+                (false, false) => {
+                    let kind = if need(&header).is_none_or(|n| n > have) && need(&params).is_none_or(|n| n > have) {
+                        ErrorKind::Truncated
+                    } else {
+                        ErrorKind::WrongValueCount
+                    };
+                    return Err(self
+                        .ctx
+                        .err(
+                            kind,
+                            header.start,
+                            format!(
+                                "{differences}, and the data section fits neither account: the header's ({}) nor the parameters' ({}) ends at the file's end (byte {have}, or its last block)",
+                                describe(&header),
+                                describe(&params)
+                            ),
+                        )
+                        .with_field(self.account_field(&header, &params)));
+                }
+            };
+            let note = format!("{differences}: {whose} account fits the file ({have} bytes) and is used");
+            repairs.make(note, || {
+                strict_err(format!("{differences}; expected the header's and the parameters' accounts of the data section to agree"))
+                    .with_field(self.account_field(&header, &params))
+            })?;
+            chosen
+        };
         // `need` fits in the (in-memory) file, so these are usize-safe.
         Ok(DataLayout {
-            start,
+            start: chosen.start,
             float,
             scale,
             n_frames: n_frames as usize,
             first_frame: first,
-            points,
-            analog_words,
-            frame_bytes,
+            points: chosen.points,
+            analog_words: chosen.analog_words,
+            frame_bytes: frame_bytes(&chosen).unwrap_or(0),
+            repairs: repairs.notes,
         })
+    }
+
+    /// The parameter naming the first way two accounts differ (for error locations).
+    fn account_field(&self, header: &Account, params: &Account) -> &'static str {
+        if header.points != params.points {
+            "POINT:USED"
+        } else if header.analog_words != params.analog_words {
+            "ANALOG:USED"
+        } else {
+            "POINT:DATA_START"
+        }
+    }
+
+    /// How the header's and the parameters' accounts differ, in words.
+    fn account_differences(&self, header: &Account, params: &Account) -> String {
+        let mut parts = Vec::new();
+        if header.points != params.points {
+            parts.push(format!("POINT:USED is {} but the header says {} points per frame", params.points, header.points));
+        }
+        if header.analog_words != params.analog_words {
+            let channels = self.param("ANALOG", "USED").and_then(|p| p.first_unsigned(self.ctx).ok()).unwrap_or(0);
+            let from_params = if channels == 0 {
+                "ANALOG:USED is 0".to_string()
+            } else {
+                format!("ANALOG:USED {channels} × {} samples = {}", params.analog_words / channels as usize, params.analog_words)
+            };
+            parts.push(format!("the header says {} analog words per frame but {from_params}", header.analog_words));
+        }
+        if header.start != params.start {
+            parts.push(format!(
+                "POINT:DATA_START is block {} but the header says block {}",
+                params.start / BLOCK + 1,
+                header.start / BLOCK + 1
+            ));
+        }
+        parts.join("; ")
+    }
+
+    /// The error of a file shorter than the frames both accounts agree on, pointing at the
+    /// first frame that does not fit.
+    fn truncated(&self, a: &Account, frame_bytes: usize, n_frames: u64, need: Option<u64>) -> Error {
+        let have = self.bytes.len() as u64;
+        let start = a.start as u64;
+        let whole = if frame_bytes == 0 { 0 } else { have.saturating_sub(start) / frame_bytes as u64 };
+        let at = start + whole * frame_bytes as u64;
+        let need_text = need.map_or_else(|| "more than 2^64".to_string(), |n| n.to_string());
+        Error::new(
+            ErrorKind::Truncated,
+            format!(
+                "file ends at byte {have} inside frame {} of {n_frames}: {n_frames} frames of {} points and {} analog values ({frame_bytes} bytes each) from byte {start} need {need_text} bytes",
+                whole + 1,
+                a.points,
+                a.analog_words
+            ),
+        )
+        .with_location(Location::file(self.ctx.origin).byte_offset(at))
     }
 
     /// Analog channel `channel` (0-based) over the whole file, in physical units:
@@ -517,8 +722,17 @@ impl<'a> C3dFile<'a> {
     }
 }
 
+/// One account of the data section: the header's or the parameters'.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Account {
+    points: usize,
+    analog_words: usize,
+    /// Byte offset of frame 0.
+    start: usize,
+}
+
 /// Where the frames are and how they are stored.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DataLayout {
     /// Byte offset of frame 0.
     pub start: usize,
@@ -533,19 +747,41 @@ pub struct DataLayout {
     /// Analog words per frame (they follow the points of each frame and are skipped).
     pub analog_words: usize,
     pub frame_bytes: usize,
+    /// How the header's and the parameters' accounts of the data section were reconciled,
+    /// when they needed to be ([`C3dFile::data_layout`]).
+    pub repairs: Vec<String>,
 }
 
 /// Parses the parameter section starting at byte `start` (the 4-byte block header, then
-/// group and parameter records chained by "offset to next" words until a zero name length or
-/// a zero offset).
-fn parse_parameters<'a>(bytes: &'a [u8], start: usize, processor: Processor, ctx: Ctx<'_>) -> Result<HashMap<(String, String), Param<'a>>> {
+/// group and parameter records chained by "offset to next" words until a zero name length, a
+/// zero offset, or an offset past the section's end).
+///
+/// Accepted as other readers accept them, each noted in `repairs`: names with spaces
+/// (`Splines Fitted`), a last record whose offset points past the section (SGI/MIPS writers;
+/// py-c3d stops at the section's end likewise), and a parameter defined twice in one group
+/// (per-subject groups of some writers; the first definition is kept, as ezc3d keeps it).
+fn parse_parameters<'a>(
+    bytes: &'a [u8],
+    start: usize,
+    processor: Processor,
+    ctx: Ctx<'_>,
+    repairs: &mut Repairs,
+) -> Result<HashMap<(String, String), Param<'a>>> {
     let truncated = |at: usize, what: &str| {
         ctx.err(ErrorKind::Truncated, at, format!("parameter section ends inside {what}; expected a complete record or an end marker"))
     };
+    // The section ends where the data section starts (header word 9), or after the blocks
+    // its byte 3 declares if that is later: some writers declare too few (the c3d.org FP1
+    // sample's last groups lie past its 3 declared blocks; ezc3d reads them too). With
+    // neither (0 blocks and no data start past it), nothing bounds the chain.
+    let declared_end = bytes.get(start + 2).map_or(0, |&blocks| start + usize::from(blocks) * BLOCK);
+    let data_start = take::<2>(bytes, header_offset::DATA_START).map_or(0, |w| (usize::from(processor.u16(w)).max(1) - 1) * BLOCK);
+    let section_end = Some(declared_end.max(data_start)).filter(|&end| end > start);
     let mut groups: HashMap<u8, String> = HashMap::new();
     // (group id, param) with the group name filled in once every group record is seen:
     // C3D allows a parameter before its group.
     let mut pending: Vec<(u8, Param<'a>)> = Vec::new();
+    let mut spaced: Vec<String> = Vec::new();
     let mut pos = start + 4;
     loop {
         let [name_len, group_id] = take::<2>(bytes, pos).ok_or_else(|| truncated(pos, "a record header"))?;
@@ -555,11 +791,25 @@ fn parse_parameters<'a>(bytes: &'a [u8], start: usize, processor: Processor, ctx
             break;
         }
         let name_bytes = bytes.get(pos + 2..pos + 2 + name_len).ok_or_else(|| truncated(pos + 2, "a name"))?;
-        let name = std::str::from_utf8(name_bytes)
-            .ok()
-            .filter(|n| n.bytes().all(|b| b.is_ascii_graphic()))
-            .ok_or_else(|| ctx.err(ErrorKind::Syntax, pos + 2, "group or parameter name is not printable ASCII; expected a name like POINT"))?
-            .to_ascii_uppercase();
+        if let Some(k) = name_bytes.iter().position(|b| !(b.is_ascii_graphic() || *b == b' ')) {
+            return Err(ctx.err(
+                ErrorKind::Syntax,
+                pos + 2 + k,
+                format!(
+                    "byte 0x{:02X} in a group or parameter name; expected printable ASCII (letters, digits, punctuation or spaces) in a name like POINT",
+                    name_bytes[k]
+                ),
+            ));
+        }
+        // Checked above: every byte is printable ASCII.
+        let written = String::from_utf8_lossy(name_bytes).into_owned();
+        let name = written.to_ascii_uppercase();
+        if written.contains(' ') {
+            if repairs.is_strict() {
+                return Err(ctx.err(ErrorKind::Syntax, pos + 2, format!("name {written:?} has a space; C3D names are letters, digits and _ (strict reading)")));
+            }
+            spaced.push(written);
+        }
         let next_at = pos + 2 + name_len;
         let next = take::<2>(bytes, next_at).map(|b| processor.i16(b)).ok_or_else(|| truncated(next_at, "an offset word"))?;
         let body = next_at + 2;
@@ -600,8 +850,17 @@ fn parse_parameters<'a>(bytes: &'a [u8], start: usize, processor: Processor, ctx
         }
         let next_pos = usize::try_from(next).ok().map(|n| next_at + n);
         match next_pos {
+            Some(p) if p >= record_end => {
+                if let Some(end) = section_end
+                    && p >= end
+                {
+                    let what = format!("record {name}'s offset to the next record ({next}) points to byte {p}, past the parameter section's end at byte {end}");
+                    repairs.make(format!("{what}; read as the last record"), || ctx.err(ErrorKind::Syntax, next_at, format!("{what} (strict reading)")))?;
+                    break;
+                }
+                pos = p;
+            }
             // The chain must move forward past this record, or a corrupt file could loop.
-            Some(p) if p >= record_end => pos = p,
             _ => {
                 return Err(ctx.err(
                     ErrorKind::Syntax,
@@ -611,14 +870,28 @@ fn parse_parameters<'a>(bytes: &'a [u8], start: usize, processor: Processor, ctx
             }
         }
     }
+    if !spaced.is_empty() {
+        let quoted: Vec<String> = spaced.iter().map(|n| format!("{n:?}")).collect();
+        repairs.notes.push(format!("group or parameter names with spaces accepted: {}", quoted.join(", ")));
+    }
     let mut params = HashMap::with_capacity(pending.len());
+    let mut twice: Vec<String> = Vec::new();
     for (id, mut p) in pending {
         p.group = groups.get(&id).cloned().unwrap_or_else(|| format!("GROUP{id}"));
         let key = (p.group.clone(), p.name.clone());
         if params.contains_key(&key) {
-            return Err(ctx.err(ErrorKind::DuplicateName, p.data_offset, "parameter is defined twice").with_field(p.key()));
+            if repairs.is_strict() {
+                return Err(ctx.err(ErrorKind::DuplicateName, p.data_offset, "parameter is defined twice (strict reading)").with_field(p.key()));
+            }
+            twice.push(p.key());
+            continue;
         }
         params.insert(key, p);
+    }
+    if !twice.is_empty() {
+        let shown: Vec<&str> = twice.iter().take(5).map(String::as_str).collect();
+        let more = if twice.len() > shown.len() { format!(" and {} more", twice.len() - shown.len()) } else { String::new() };
+        repairs.notes.push(format!("{} parameters defined twice, the first definition of each kept: {}{more}", twice.len(), shown.join(", ")));
     }
     Ok(params)
 }

@@ -27,6 +27,18 @@ fn err(bytes: &[u8]) -> motionlab_core::Error {
     }
 }
 
+/// The error of a strict reading (every repair refused).
+fn strict_err(bytes: &[u8]) -> motionlab_core::Error {
+    let strict = C3dOptions { strict: true, ..C3dOptions::default() };
+    match parse_c3d(bytes, Path::new(ORIGIN), &strict) {
+        Ok(m) => panic!("strict reading loaded {} frames; notes {:?}", m.n_frames(), m.load_notes),
+        Err(e) => {
+            assert!(e.to_string().contains(ORIGIN) && !e.to_string().contains('\n'), "{e}");
+            e
+        }
+    }
+}
+
 fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
     a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol)
 }
@@ -300,16 +312,46 @@ fn fewer_labels_than_points_is_an_error_naming_point_labels() {
     let e = err(&spec.build());
     assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:LABELS")));
     assert!(e.message().contains("1 labels") && e.message().contains("2 points"), "{e}");
-    spec.omit = vec!["POINT:LABELS"];
-    assert_eq!(err(&spec.build()).kind(), ErrorKind::MissingKey);
 }
 
 #[test]
-fn duplicate_labels_are_an_error() {
+fn no_point_labels_names_the_points_p1_to_pn_and_says_so() {
     let mut spec = C3dSpec::small();
-    spec.labels = vec!["a".into(), "a".into()];
-    let e = err(&spec.build());
+    spec.omit = vec!["POINT:LABELS"];
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.point_names(), ["P1", "P2"]);
+    assert_eq!(m.load_notes.repairs, ["no POINT:LABELS: the 2 points are named P1…P2"]);
+    assert_eq!(strict_err(&spec.build()).kind(), ErrorKind::MissingKey);
+}
+
+#[test]
+fn duplicate_labels_get_unique_names_with_a_note_and_are_refused_when_strict() {
+    let mut spec = C3dSpec::small();
+    spec.frames = vec![vec![[1.0, 2.0, 3.0, 0.0]; 5]; 2];
+    // "b#2" is taken by a later point, so the second "b" becomes "b#3".
+    spec.labels = vec!["a".into(), "b".into(), "a".into(), "b".into(), "b#2".into()];
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.point_names(), ["a", "b", "a#2", "b#3", "b#2"]);
+    assert_eq!(m.load_notes.repairs, [r#"duplicate point labels made unique: "a" (points 1, 3) → a, a#2; "b" (points 2, 4) → b, b#3"#]);
+    let e = strict_err(&spec.build());
     assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::DuplicateName, Some("POINT:LABELS")));
+    assert!(e.message().contains("names points 1 and 3"), "{e}");
+    // A clean file has no notes, and says where its unit came from.
+    let clean = parse(&C3dSpec::small().build()).unwrap();
+    assert!(clean.load_notes.repairs.is_empty());
+    assert_eq!(clean.load_notes.length_unit, Some(motionlab_core::LengthUnit::Millimetre));
+    assert_eq!(clean.load_notes.length_unit_from, r#"POINT:UNITS "mm""#);
+}
+
+#[test]
+fn labels_equal_only_once_prefixes_are_stripped_stay_an_error() {
+    let mut spec = C3dSpec::small();
+    spec.labels = vec!["vsk:LFWT".into(), "vsk2:LFWT".into()];
+    let e = err(&spec.build());
+    assert_eq!(e.kind(), ErrorKind::DuplicateName);
+    assert!(e.message().contains("strip_subject_prefix = false"), "{e}");
+    let keep = C3dOptions { strip_subject_prefix: false, ..C3dOptions::default() };
+    assert_eq!(parse_c3d(&spec.build(), Path::new(ORIGIN), &keep).unwrap().point_names(), ["vsk:LFWT", "vsk2:LFWT"]);
 }
 
 #[test]
@@ -326,12 +368,212 @@ fn non_utf8_labels_are_a_syntax_error_at_the_bad_byte() {
     assert_eq!(bytes[at], 0xE9);
 }
 
+/// Header word 3 (analog words per frame) set to `words`.
+fn set_header_analog_words(bytes: &mut [u8], words: u16) {
+    bytes[4..6].copy_from_slice(&words.to_le_bytes());
+}
+
 #[test]
-fn point_used_disagreeing_with_the_header_is_an_error() {
+fn point_used_disagreeing_with_the_header_is_resolved_by_the_file_size() {
+    // Header: 2 points (the frames written); POINT:USED 3 would need 3 × 48 bytes more.
     let mut spec = C3dSpec::small();
     spec.extra = vec![spec.raw_ints("POINT", "USED", &[3])];
-    let e = err(&spec.build());
+    let bytes = spec.build();
+    let m = parse(&bytes).unwrap();
+    assert_eq!((m.n_points(), m.position(2, 1)), (2, [12.0, 22.0, 32.0]));
+    assert_eq!(
+        m.load_notes.repairs,
+        [format!("POINT:USED is 3 but the header says 2 points per frame: the header's account fits the file ({} bytes) and is used", bytes.len())]
+    );
+    let e = strict_err(&bytes);
     assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:USED")));
+    // Padded to whole blocks, both accounts end in the last block: the header's is read, and
+    // that is said.
+    let mut padded = bytes.clone();
+    padded.resize(bytes.len().div_ceil(BLOCK) * BLOCK, 0);
+    assert!(bytes.len() % BLOCK + 3 * 16 <= BLOCK, "the parameters' frames must end in the same block");
+    let m = parse(&padded).unwrap();
+    assert_eq!(m.n_points(), 2);
+    assert!(m.load_notes.repairs[0].ends_with(&format!("both accounts fit; the header's account fits the file ({} bytes) and is used", padded.len())), "{:?}", m.load_notes);
+    // Unpadded, a file ending between the two accounts fits neither.
+    let mut between = bytes.clone();
+    between.extend([0u8; 20]);
+    assert_eq!(err(&between).kind(), ErrorKind::WrongValueCount);
+}
+
+#[test]
+fn the_parameters_account_is_read_when_it_alone_fits_the_file() {
+    // Four analog words per frame written; the header says 2, ANALOG:USED 2 × (200 / 100 Hz) = 4.
+    let mut spec = C3dSpec::small();
+    spec.analog_per_frame = 4;
+    spec.extra = vec![spec.raw_ints("ANALOG", "USED", &[2]), spec.raw_floats("ANALOG", "RATE", vec![], &[200.0])];
+    let mut bytes = spec.build();
+    set_header_analog_words(&mut bytes, 2);
+    let m = parse(&bytes).unwrap();
+    // Read with the header's stride, frame 2 would start inside frame 1's analog filler.
+    assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+    assert_eq!(
+        m.load_notes.repairs,
+        [format!(
+            "the header says 2 analog words per frame but ANALOG:USED 2 × 2 samples = 4: the parameters' account fits the file ({} bytes) and is used",
+            bytes.len()
+        )]
+    );
+    assert_eq!(strict_err(&bytes).location().field.as_deref(), Some("ANALOG:USED"));
+    // The analog channels follow the layout read.
+    let file = C3dFile::parse(&bytes, Path::new(ORIGIN)).unwrap();
+    let layout = file.data_layout().unwrap();
+    assert_eq!(layout.analog_words, 4);
+    assert_eq!(file.analog_channel(&layout, 1).unwrap(), [10000.0, 10002.0, 10000.0, 10002.0, 10000.0, 10002.0]);
+}
+
+#[test]
+fn a_data_section_that_fits_neither_account_is_refused() {
+    // POINT:USED 200 needs far more than the file; the header's 2 points leave 600 bytes over.
+    let mut spec = C3dSpec::small();
+    spec.extra = vec![spec.raw_ints("POINT", "USED", &[200])];
+    let mut bytes = spec.build();
+    bytes.extend(vec![0u8; 600]);
+    let e = err(&bytes);
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:USED")));
+    assert!(e.message().contains("fits neither account"), "{e}");
+    assert!(e.message().contains("POINT:USED is 200 but the header says 2 points per frame"), "{e}");
+    // Both accounts longer than the file: truncated.
+    let cut = &spec.build()[..spec.build().len() - 20];
+    assert_eq!(err(cut).kind(), ErrorKind::Truncated);
+}
+
+#[test]
+fn absurd_parameter_counts_are_checked_not_overflowed() {
+    // ANALOG:RATE 1e30 Hz: 2 × 1e28 analog words per frame; POINT:USED 4e9, stored as a float.
+    let mut rate = C3dSpec::small();
+    rate.extra = vec![rate.raw_ints("ANALOG", "USED", &[2]), rate.raw_floats("ANALOG", "RATE", vec![], &[1e30])];
+    let mut used = C3dSpec::small();
+    used.extra = vec![used.raw_floats("POINT", "USED", vec![], &[4.0e9])];
+    for spec in [rate, used] {
+        // The header's account fits: read, the absurd parameter said.
+        let m = parse(&spec.build()).unwrap();
+        assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+        assert!(m.load_notes.repairs[0].contains("the header's account fits the file"), "{:?}", m.load_notes);
+        // With bytes neither explains: refused, the impossible size said in words.
+        let mut bytes = spec.build();
+        bytes.extend([0u8; 600]);
+        let e = err(&bytes);
+        assert!(e.message().contains("fits neither account") && e.message().contains("bytes"), "{e}");
+    }
+}
+
+#[test]
+fn bytes_after_the_last_frame_beyond_a_block_are_noted() {
+    let mut bytes = C3dSpec::small().build();
+    let n = bytes.len();
+    bytes.extend(vec![0u8; 600]);
+    let m = parse(&bytes).unwrap();
+    assert_eq!(m.load_notes.repairs, [format!("600 bytes after the last frame (byte {n}) are not read")]);
+    assert_eq!(strict_err(&bytes).kind(), ErrorKind::WrongValueCount);
+    // Padding to the end of the block is no note.
+    let mut padded = C3dSpec::small().build();
+    padded.resize(padded.len().div_ceil(BLOCK) * BLOCK, 0);
+    assert!(parse(&padded).unwrap().load_notes.repairs.is_empty());
+}
+
+#[test]
+fn an_analog_rate_that_is_no_whole_multiple_keeps_the_header_and_says_so() {
+    let mut spec = C3dSpec::small();
+    spec.analog_per_frame = 4;
+    spec.extra = vec![spec.raw_ints("ANALOG", "USED", &[2]), spec.raw_floats("ANALOG", "RATE", vec![], &[250.0])];
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+    assert_eq!(
+        m.load_notes.repairs,
+        ["ANALOG:RATE 250 Hz is not a whole multiple of POINT:RATE 100 Hz, so the parameters give no analog word count; the header's 4 words per frame are used"]
+    );
+}
+
+#[test]
+fn a_unit_name_cut_short_is_the_unit_it_begins() {
+    for (written, mm) in [("mete", 1000.0), ("metr", 1000.0), ("millim", 1.0), ("centi", 10.0), ("inch", 25.4)] {
+        let mut spec = C3dSpec::small();
+        spec.units = Some(written);
+        let m = parse(&spec.build()).unwrap_or_else(|e| panic!("{written}: {e}"));
+        assert!(close(m.position(0, 0), [mm, 2.0 * mm, 3.0 * mm], 1e-9), "{written}");
+        assert!(m.load_notes.length_unit_from.contains(written), "{:?}", m.load_notes);
+    }
+    let mut spec = C3dSpec::small();
+    spec.units = Some("mete");
+    let m = parse(&spec.build()).unwrap();
+    assert_eq!(m.load_notes.repairs, [r#"POINT:UNITS "mete" read as "meter" (a unit name cut short)"#]);
+    assert_eq!(m.load_notes.length_unit, Some(motionlab_core::LengthUnit::Metre));
+    let e = strict_err(&spec.build());
+    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:UNITS")));
+    // Too short to say, or beginning no unit: refused as before.
+    for bad in ["c", "mx", "furl"] {
+        spec.units = Some(bad);
+        assert_eq!(err(&spec.build()).kind(), ErrorKind::OutOfRange, "{bad}");
+    }
+}
+
+/// Byte positions of every record's "offset to next" word in a hand-made file's parameter
+/// section (walked independently of the reader).
+fn offset_words(bytes: &[u8], processor: Processor) -> Vec<usize> {
+    let mut pos = BLOCK + 4;
+    let mut out = Vec::new();
+    loop {
+        let name_len = usize::from(bytes[pos]);
+        if name_len == 0 {
+            return out;
+        }
+        let at = pos + 2 + name_len;
+        out.push(at);
+        let w = [bytes[at], bytes[at + 1]];
+        let next = if processor == Processor::Mips { i16::from_be_bytes(w) } else { i16::from_le_bytes(w) };
+        pos = at + next as usize;
+    }
+}
+
+#[test]
+fn a_last_record_pointing_past_the_parameter_section_ends_it() {
+    let mut spec = C3dSpec::small();
+    spec.processor = Processor::Mips;
+    let mut bytes = spec.build();
+    let last = *offset_words(&bytes, Processor::Mips).last().unwrap();
+    // SGI writers leave the last record pointing far past the section (into the data).
+    bytes[last..last + 2].copy_from_slice(&30000i16.to_be_bytes());
+    let m = parse(&bytes).unwrap();
+    assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
+    assert_eq!(m.load_notes.repairs.len(), 1, "{:?}", m.load_notes);
+    assert!(m.load_notes.repairs[0].contains("past the parameter section's end at byte 1024; read as the last record"), "{:?}", m.load_notes);
+    let e = strict_err(&bytes);
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Syntax, Some(last as u64)));
+}
+
+#[test]
+fn names_with_spaces_and_parameters_defined_twice_are_read_with_notes() {
+    let mut spec = C3dSpec::small();
+    let width = spec.raw_floats("SUBJECT", "Pelvis Width", vec![], &[250.0]);
+    spec.extra = vec![width, spec.raw_floats("SUBJECT", "MASS", vec![], &[70.0]), spec.raw_floats("SUBJECT", "MASX", vec![], &[80.0])];
+    let mut bytes = spec.build();
+    // MASX → MASS: SUBJECT:MASS defined twice, 70 first.
+    let at = bytes.windows(4).position(|w| w == b"MASX").unwrap();
+    bytes[at + 3] = b'S';
+    let file = C3dFile::parse(&bytes, Path::new(ORIGIN)).unwrap();
+    assert_eq!(file.param("SUBJECT", "pelvis width").unwrap().floats(file.ctx).unwrap(), [250.0]);
+    assert_eq!(file.param("SUBJECT", "MASS").unwrap().floats(file.ctx).unwrap(), [70.0]);
+    let m = parse(&bytes).unwrap();
+    assert_eq!(
+        m.load_notes.repairs,
+        [r#"group or parameter names with spaces accepted: "Pelvis Width""#, "1 parameters defined twice, the first definition of each kept: SUBJECT:MASS"]
+    );
+    let e = strict_err(&bytes);
+    assert_eq!(e.kind(), ErrorKind::Syntax);
+    assert!(e.message().contains("\"Pelvis Width\" has a space"), "{e}");
+    // A byte that is no printable ASCII is named in the message.
+    let mut bad = bytes.clone();
+    let at = bad.windows(5).position(|w| w == b"Width").unwrap();
+    bad[at] = 0x07;
+    let e = err(&bad);
+    assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Syntax, Some(at as u64)));
+    assert!(e.message().contains("byte 0x07") && !e.message().contains("space is"), "{e}");
 }
 
 #[test]
