@@ -203,11 +203,10 @@ fn invalid(field: &str, message: String) -> Error {
 impl ParamGuard for ClaspParams {
     type Checked = Clasp;
     fn check(self) -> Result<Clasp> {
-        if let WindowWidth::Samples(w) = self.window {
-            if w < 3 {
+        if let WindowWidth::Samples(w) = self.window
+            && w < 3 {
                 return Err(invalid("window", format!("window is {w} samples; expected at least 3 (or \"suss\")")));
             }
-        }
         if let SegmentCount::Count(0) = self.n_segments {
             return Err(invalid("n_segments", "n_segments is 0; expected at least 1 (or \"learn\")".into()));
         }

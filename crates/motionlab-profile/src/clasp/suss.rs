@@ -103,9 +103,8 @@ fn rolling_mean_std(t: &[f64], w: usize) -> (Vec<f64>, Vec<f64>) {
         let mut mean = sum / nobs as f64;
         if same >= nobs {
             mean = prev_value;
-        } else if neg_ct == 0 && mean < 0.0 {
-            mean = 0.0;
-        } else if neg_ct == nobs && mean > 0.0 {
+        } else if (neg_ct == 0 && mean < 0.0) || (neg_ct == nobs && mean > 0.0) {
+            // pandas: a mean of one-signed values cannot change sign.
             mean = 0.0;
         }
         let var = if vnobs == 1.0 || vsame as f64 >= vnobs { 0.0 } else { ssqdm / vnobs };
