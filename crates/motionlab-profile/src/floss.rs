@@ -42,8 +42,8 @@ fn default_excl_factor() -> usize {
 /// and the paper leaves the threshold to the application).
 ///
 /// **Defaults**: `excl_factor` is stumpy's; the paper has no default width ("about one
-/// period"), stumpy requires one; `"suss"` takes claspy's SuSS width (unhalved), the width
-/// rule of the ClaSP benchmark. None was tuned on a benchmark series.
+/// period") and stumpy requires one, so `"suss"` takes claspy's data-driven SuSS width
+/// (unhalved). None was tuned on a benchmark series.
 ///
 /// **Peer equality**: the matrix profile index is stumpy's (ties broken in stumpy's traversal
 /// order) and the CAC is `stumpy.fluss`'s given the same idealised arc curve; stumpy's own
