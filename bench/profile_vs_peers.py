@@ -13,7 +13,7 @@ Checks (the script exits non-zero when one fails):
   * ClaSP change points: ours (`clasp` at its defaults) vs claspy
     `BinaryClaSPSegmentation().fit_predict(ts)`; with `--min-agree N` at least N series must
     agree exactly (default: all chosen);
-  * two channels (a series and its first difference, `--multichannel N` series): profile
+  * two channels (a series and its first difference, `--multichannel NAME…`): profile
     within 1e-9 and change points identical;
   * matrix profile index: ours vs `stumpy.stump(ts, m)[:, 1]`, identical (ties go to the nearer
     diagonal, then the earlier window: the order of stumpy's traversal and thread merge);
@@ -115,7 +115,7 @@ def main():
     ap.add_argument("--all", action="store_true", help="all 75 TSSB series")
     ap.add_argument("--series", nargs="*", default=None)
     ap.add_argument("--min-agree", type=int, default=None, help="series whose change points must agree (default: all)")
-    ap.add_argument("--multichannel", type=int, default=3, help="series also compared as two channels (with their differences)")
+    ap.add_argument("--multichannel", nargs="*", default=["ArrowHead"], help="series also compared as two channels (with their differences)")
     ap.add_argument("--random", type=int, default=4, help="random series for the matrix profile / FLUSS checks")
     ap.add_argument("--json", default=None, help="write per-series results here")
     args = ap.parse_args()
@@ -178,7 +178,7 @@ def main():
     # Multichannel input (claspy 1.x semantics of 0.2.8: per-channel z-normalised distances
     # averaged, the smallest SuSS width, threshold 1e-30): each series with its first difference.
     multi_rows = []
-    for name in names[:args.multichannel]:
+    for name in args.multichannel:
         ts, window, _ = data[name]
         X = np.stack([ts, np.diff(ts, prepend=ts[0])], axis=1)
         flat = X.reshape(-1).tolist()
