@@ -146,7 +146,8 @@ pub struct ClaspParams {
     /// window)) or an upper bound.
     #[serde(default = "default_n_segments")]
     pub n_segments: SegmentCount,
-    /// ClaSPs in each ensemble (random temporal constraints; the whole series is the first).
+    /// ClaSPs in each ensemble (random temporal constraints; the whole series is the first);
+    /// at most 1000.
     #[serde(default = "default_n_estimators")]
     pub n_estimators: usize,
     /// Nearest neighbours per window (k of the k-NN classifier).
@@ -203,16 +204,16 @@ fn invalid(field: &str, message: String) -> Error {
 impl ParamGuard for ClaspParams {
     type Checked = Clasp;
     fn check(self) -> Result<Clasp> {
-        if let WindowWidth::Samples(w) = self.window {
-            if w < 3 {
+        if let WindowWidth::Samples(w) = self.window
+            && w < 3 {
                 return Err(invalid("window", format!("window is {w} samples; expected at least 3 (or \"suss\")")));
             }
-        }
         if let SegmentCount::Count(0) = self.n_segments {
             return Err(invalid("n_segments", "n_segments is 0; expected at least 1 (or \"learn\")".into()));
         }
-        if self.n_estimators == 0 {
-            return Err(invalid("n_estimators", "n_estimators is 0; expected at least 1".into()));
+        if self.n_estimators == 0 || self.n_estimators > 1000 {
+            // Each constraint keeps k neighbours per window: the bound keeps that in memory.
+            return Err(invalid("n_estimators", format!("n_estimators is {}; expected 1 to 1000", self.n_estimators)));
         }
         if self.k_neighbours == 0 {
             return Err(invalid("k_neighbours", "k_neighbours is 0; expected at least 1".into()));
@@ -410,6 +411,7 @@ mod tests {
             ("excl_radius = 3", "excl_radius"),
             ("k_neighbours = 0", "k_neighbours"),
             ("n_estimators = 0", "n_estimators"),
+            ("n_estimators = 5000", "n_estimators"),
             ("n_segments = 0", "n_segments"),
             ("threshold = 0.0", "threshold"),
         ] {

@@ -42,8 +42,8 @@ fn default_excl_factor() -> usize {
 /// and the paper leaves the threshold to the application).
 ///
 /// **Defaults**: `excl_factor` is stumpy's; the paper has no default width ("about one
-/// period"), stumpy requires one; `"suss"` takes claspy's SuSS width (unhalved), the width
-/// rule of the ClaSP benchmark. None was tuned on a benchmark series.
+/// period") and stumpy requires one, so `"suss"` takes claspy's data-driven SuSS width
+/// (unhalved). None was tuned on a benchmark series.
 ///
 /// **Peer equality**: the matrix profile index is stumpy's (ties broken in stumpy's traversal
 /// order) and the CAC is `stumpy.fluss`'s given the same idealised arc curve; stumpy's own
@@ -81,11 +81,10 @@ pub struct Floss {
 impl ParamGuard for FlossParams {
     type Checked = Floss;
     fn check(self) -> Result<Floss> {
-        if let WindowWidth::Samples(w) = self.window {
-            if w < 3 {
+        if let WindowWidth::Samples(w) = self.window
+            && w < 3 {
                 return Err(Error::new(ErrorKind::OutOfRange, format!("window is {w} samples; expected at least 3 (or \"suss\")")).with_field("window"));
             }
-        }
         match (self.n_regimes, self.cac_threshold) {
             (Some(_), Some(_)) | (None, None) => {
                 return Err(Error::new(ErrorKind::InvalidParameter, "floss needs exactly one of n_regimes (the number of regimes) and cac_threshold (a bound on the corrected arc curve)").with_field("n_regimes"));
@@ -154,7 +153,7 @@ fn regimes(cac: &[f64], count: Option<usize>, below: Option<f64>, excl: usize) -
                 at = i;
             }
         }
-        if below.is_some_and(|t| !(tmp[at] < t)) {
+        if below.is_some_and(|t| tmp[at] >= t || tmp[at].is_nan()) {
             break;
         }
         out.push(at);

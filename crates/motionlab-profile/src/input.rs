@@ -25,7 +25,7 @@ pub(crate) fn channels(values: &[f64], n_channels: usize, stage: &str) -> Result
     if n_channels == 0 {
         return Err(Error::new(ErrorKind::OutOfRange, format!("{stage}: n_channels is 0, expected at least one channel")).with_field("n_channels"));
     }
-    if values.len() % n_channels != 0 {
+    if !values.len().is_multiple_of(n_channels) {
         return Err(Error::new(
             ErrorKind::WrongValueCount,
             format!("{stage}: {} values do not split into {n_channels} channels (expected a multiple of {n_channels})", values.len()),

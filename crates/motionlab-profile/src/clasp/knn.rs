@@ -99,6 +99,8 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
         .iter()
         .map(|&(lb, ub)| (0..intervals.len()).filter(|&i| intervals[i].0 >= lb && intervals[i].1 <= ub + 1 - w).collect())
         .collect();
+    let w_means: Vec<Vec<f64>> = stats.iter().map(|(m, _)| m.iter().map(|&v| w as f64 * v).collect()).collect();
+    let inv_stds: Vec<Vec<f64>> = stats.iter().map(|(_, s)| s.iter().map(|&v| 1.0 / v).collect()).collect();
     let n_tc = tcs.len();
     let mut offsets = vec![0u32; l * n_tc * k];
     let threads = rayon::current_num_threads().max(1);
@@ -129,18 +131,36 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
                     let prev_c = &prev[c];
                     let (a, b) = (t[r + w - 1], t[r - 1]);
                     cur_c[0] = first_row[c][r];
-                    for j in 1..l {
-                        cur_c[j] = prev_c[j - 1] + a * t[j + w - 1] - b * t[j - 1];
+                    for (((o, &p), &tn), &to) in cur_c[1..].iter_mut().zip(&prev_c[..l - 1]).zip(&t[w..w + l - 1]).zip(&t[..l - 1]) {
+                        *o = p + a * tn - b * to;
                     }
                 }
-                let (mu_r, sd_r) = (means[r], stds[r]);
                 let dist_c = &mut dist[c];
-                let mut max = f64::NEG_INFINITY;
-                for j in 0..l {
-                    let v = two_w * (1.0 - (cur_c[j] - wf * means[j] * mu_r) / (wf * stds[j] * sd_r));
-                    dist_c[j] = v;
-                    max = max.max(v);
-                }
+                let max = if d == 1 {
+                    // One channel: the row is ranked on (w·μ_r·μ_j − dot_j)/σ_j, an increasing
+                    // function of claspy's distance 2w(1 − (dot_j − w·μ_j·μ_r)/(w·σ_j·σ_r))
+                    // for the fixed row r, without the division per window.
+                    let mu_r = means[r];
+                    let (mut lanes, chunks) = ([f64::NEG_INFINITY; 4], dist_c.len() / 4 * 4);
+                    for (((dv, &dot), &am), &is) in dist_c.iter_mut().zip(cur_c.iter()).zip(&w_means[c]).zip(&inv_stds[c]) {
+                        *dv = (mu_r * am - dot) * is;
+                    }
+                    for quad in dist_c[..chunks].chunks_exact(4) {
+                        for (m, &v) in lanes.iter_mut().zip(quad) {
+                            *m = m.max(v);
+                        }
+                    }
+                    dist_c[chunks..].iter().chain(lanes.iter()).fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+                } else {
+                    let (mu_r, sd_r) = (means[r], stds[r]);
+                    let mut max = f64::NEG_INFINITY;
+                    for (((dv, &dot), &mu), &sd) in dist_c.iter_mut().zip(cur_c.iter()).zip(means.iter()).zip(stds.iter()) {
+                        let v = two_w * (1.0 - (dot - wf * mu * mu_r) / (wf * sd * sd_r));
+                        *dv = v;
+                        max = max.max(v);
+                    }
+                    max
+                };
                 for v in &mut dist_c[z0..z1] {
                     *v = max;
                 }
@@ -155,8 +175,8 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
                 }
             }
             std::mem::swap(&mut prev, &mut cur);
-            // A univariate row is selected on its raw distances: claspy's normalisation is
-            // monotone there and leaves the order of the nearest unchanged.
+            // A univariate row is selected on its own ranking values: claspy's normalisation
+            // is monotone there and leaves the order of the nearest unchanged.
             let row: &[f64] = if d == 1 {
                 &dist[0]
             } else {
@@ -183,8 +203,36 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
                 if !needed[i] {
                     continue;
                 }
-                for j in a..b {
-                    top.offer(k, row[j], j as u32);
+                // Ascending indices: a later equal value never displaces an earlier one, so
+                // only a strictly smaller value than the current k-th needs the insertion.
+                // Blocks of 8 are tested at once (vectorised) and walked only when one of
+                // their values beats the k-th.
+                let mut kth = f64::INFINITY;
+                let mut j = a;
+                while j < b {
+                    let end = (j + 8).min(b);
+                    let block = &row[j..end];
+                    let mut hit = top.vals.len() < k;
+                    if let Ok(full) = <&[f64; 8]>::try_from(block) {
+                        let mut lanes = [false; 8];
+                        for (h, &v) in lanes.iter_mut().zip(full) {
+                            *h = v < kth;
+                        }
+                        hit |= lanes.iter().any(|&h| h);
+                    } else {
+                        hit |= block.iter().any(|&v| v < kth);
+                    }
+                    if hit {
+                        for (o, &v) in block.iter().enumerate() {
+                            if v < kth || (top.vals.len() < k && !v.is_nan()) {
+                                top.offer(k, v, (j + o) as u32);
+                                if top.vals.len() == k {
+                                    kth = top.vals[k - 1];
+                                }
+                            }
+                        }
+                    }
+                    j = end;
                 }
             }
             let out_row = &mut out[(r - r0) * n_tc * k..(r - r0 + 1) * n_tc * k];
@@ -247,10 +295,10 @@ mod tests {
         let nn = k_subsequence_neighbours(&[&t], w, 3, &tcs);
         for (c, &(lb, ub)) in tcs.iter().enumerate() {
             let want = brute(&t, w, 3, lb, ub);
-            for r in lb..ub + 1 - w {
+            for (r, exp) in want.iter().enumerate().take(ub + 1 - w).skip(lb) {
                 let at = (r * tcs.len() + c) * 3;
                 let mut got = nn.offsets[at..at + 3].to_vec();
-                let mut exp = want[r].clone();
+                let mut exp = exp.clone();
                 got.sort_unstable();
                 exp.sort_unstable();
                 assert_eq!(got, exp, "row {r}, constraint {c}");

@@ -182,12 +182,13 @@ mod tests {
             .map(|x| {
                 let (i, j) = (x / k, x % k);
                 let h = (i * 7919 + j * 104_729) % 97;
-                let side = if (i < 90) ^ (h < 15) { h % 90 } else { 90 + h % (n as usize - 90) };
+                let side = if (i < 90) ^ (h < 15) { h % 90 } else { 90 + h % (n - 90) };
                 side as u32
             })
             .collect();
         for score in [Score::RocAuc, Score::F1] {
-            for k_used in [3] {
+            {
+                let k_used = 3;
                 assert_eq!(profile(&offsets, k_used, len, w, 25, score), naive(&offsets, k_used, len, w, 25, score));
             }
         }

@@ -52,7 +52,7 @@ fn temporal_constraints(n: usize, min_seg: usize, n_estimators: usize, seed: u32
         tcs.push((lbound, lbound + area));
     }
     // Stable, as Python's sorted.
-    tcs.sort_by(|a, b| (b.1 - b.0).cmp(&(a.1 - a.0)));
+    tcs.sort_by_key(|&(lb, ub)| std::cmp::Reverse(ub - lb));
     tcs
 }
 
@@ -103,13 +103,11 @@ fn fit_ensemble(channels: &[&[f64]], s: &Settings) -> EnsembleFit {
         } else if s.early_stopping {
             break;
         }
-        if s.early_stopping {
-            if let Some((_, prof, offsets)) = &best {
-                if validated(s, prof, offsets, 0).is_some() {
+        if s.early_stopping
+            && let Some((_, prof, offsets)) = &best
+                && validated(s, prof, offsets, 0).is_some() {
                     break;
                 }
-            }
-        }
     }
     let mut full = vec![f64::NEG_INFINITY; n + 1 - w];
     match best {
@@ -152,12 +150,11 @@ pub(crate) fn binary_segmentation(channels: &[&[f64]], s: &Settings, n_segments:
     if n_segments > 1 {
         let fit = fit_ensemble(channels, s);
         profile = fit.profile.clone();
-        if let Some(cp) = split(&fit, s) {
-            if valid(cp, &[]) {
+        if let Some(cp) = split(&fit, s)
+            && valid(cp, &[]) {
                 queue.push((-fit.profile[cp], tree.len()));
                 tree.push(((0, n), fit));
             }
-        }
     } else {
         profile = vec![f64::NEG_INFINITY; n + 1 - w];
     }

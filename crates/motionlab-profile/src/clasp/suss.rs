@@ -3,112 +3,118 @@
 
 use crate::numpy;
 
+/// pandas' rolling-mean state (Kahan-compensated sum; separate compensations for adding and
+/// removing, as pandas).
+#[derive(Default)]
+struct MeanState {
+    sum: f64,
+    comp_add: f64,
+    comp_rem: f64,
+    nobs: i64,
+    neg_ct: i64,
+}
+
+/// pandas' rolling-variance state (Welford with Kahan compensation).
+#[derive(Default)]
+struct VarState {
+    mean: f64,
+    ssqdm: f64,
+    nobs: f64,
+    comp_add: f64,
+    comp_rem: f64,
+}
+
+impl MeanState {
+    fn add(&mut self, v: f64) {
+        self.nobs += 1;
+        let y = v - self.comp_add;
+        let t = self.sum + y;
+        self.comp_add = t - self.sum - y;
+        self.sum = t;
+        if v.is_sign_negative() {
+            self.neg_ct += 1;
+        }
+    }
+    fn remove(&mut self, v: f64) {
+        self.nobs -= 1;
+        let y = -v - self.comp_rem;
+        let t = self.sum + y;
+        self.comp_rem = t - self.sum - y;
+        self.sum = t;
+        if v.is_sign_negative() {
+            self.neg_ct -= 1;
+        }
+    }
+}
+
+impl VarState {
+    fn add(&mut self, v: f64) {
+        self.nobs += 1.0;
+        let prev_mean = self.mean - self.comp_add;
+        let y = v - self.comp_add;
+        let t = y - self.mean;
+        self.comp_add = t + self.mean - y;
+        self.mean = if self.nobs != 0.0 { self.mean + t / self.nobs } else { 0.0 };
+        self.ssqdm += (v - prev_mean) * (v - self.mean);
+    }
+    fn remove(&mut self, v: f64) {
+        self.nobs -= 1.0;
+        if self.nobs != 0.0 {
+            let prev_mean = self.mean - self.comp_rem;
+            let y = v - self.comp_rem;
+            let t = y - self.mean;
+            self.comp_rem = t + self.mean - y;
+            self.mean -= t / self.nobs;
+            self.ssqdm -= (v - prev_mean) * (v - self.mean);
+        } else {
+            self.mean = 0.0;
+            self.ssqdm = 0.0;
+        }
+    }
+}
+
 /// pandas' `rolling(w).mean()` and `.std(ddof=0)` for the full windows ending at index
-/// `w - 1..n` (Kahan-compensated running sums, Welford variance, pandas' special cases).
+/// `w - 1..n` (pandas' running states, its repeated-value and sign special cases).
 fn rolling_mean_std(t: &[f64], w: usize) -> (Vec<f64>, Vec<f64>) {
     let n = t.len();
     let (mut means, mut stds) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    // Rolling mean state.
-    let (mut sum, mut comp_add, mut comp_rem) = (0.0f64, 0.0f64, 0.0f64);
-    let (mut nobs, mut neg_ct) = (0i64, 0i64);
+    let (mut ms, mut vs) = (MeanState::default(), VarState::default());
+    // Consecutive repeats of the last added value (pandas' guard against rounding artefacts
+    // on constant stretches), the same for both statistics.
     let (mut same, mut prev_value) = (0i64, 0.0f64);
-    // Rolling variance state.
-    let (mut vmean, mut ssqdm, mut vnobs, mut vcomp_add, mut vcomp_rem) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    let (mut vsame, mut vprev) = (0i64, 0.0f64);
-    let add_mean = |v: f64, nobs: &mut i64, sum: &mut f64, neg: &mut i64, comp: &mut f64, same: &mut i64, prev: &mut f64| {
-        *nobs += 1;
-        let y = v - *comp;
-        let t = *sum + y;
-        *comp = t - *sum - y;
-        *sum = t;
-        if v.is_sign_negative() {
-            *neg += 1;
-        }
-        if v == *prev {
-            *same += 1;
-        } else {
-            *same = 1;
-        }
-        *prev = v;
-    };
-    let add_var = |v: f64, nobs: &mut f64, mean: &mut f64, ssq: &mut f64, comp: &mut f64, same: &mut i64, prev: &mut f64| {
-        *nobs += 1.0;
-        if v == *prev {
-            *same += 1;
-        } else {
-            *same = 1;
-        }
-        *prev = v;
-        let prev_mean = *mean - *comp;
-        let y = v - *comp;
-        let t = y - *mean;
-        *comp = t + *mean - y;
-        *mean = if *nobs != 0.0 { *mean + t / *nobs } else { 0.0 };
-        *ssq += (v - prev_mean) * (v - *mean);
-    };
     for i in 0..n {
         let s = (i + 1).saturating_sub(w);
         let e = i + 1;
-        let reset = i == 0 || s >= i;
-        if reset {
-            sum = 0.0;
-            comp_add = 0.0;
-            comp_rem = 0.0;
-            nobs = 0;
-            neg_ct = 0;
-            prev_value = t[s];
+        let added = if i == 0 || s >= i {
+            ms = MeanState::default();
+            vs = VarState::default();
             same = 0;
-            vmean = 0.0;
-            ssqdm = 0.0;
-            vnobs = 0.0;
-            vcomp_add = 0.0;
-            vcomp_rem = 0.0;
-            vprev = t[s];
-            vsame = 0;
-            for &v in &t[s..e] {
-                add_mean(v, &mut nobs, &mut sum, &mut neg_ct, &mut comp_add, &mut same, &mut prev_value);
-                add_var(v, &mut vnobs, &mut vmean, &mut ssqdm, &mut vcomp_add, &mut vsame, &mut vprev);
-            }
+            prev_value = t[s];
+            &t[s..e]
         } else {
-            let prev_s = i.saturating_sub(w);
-            for &v in &t[prev_s..s] {
-                nobs -= 1;
-                let y = -v - comp_rem;
-                let tt = sum + y;
-                comp_rem = tt - sum - y;
-                sum = tt;
-                if v.is_sign_negative() {
-                    neg_ct -= 1;
-                }
-                vnobs -= 1.0;
-                if vnobs != 0.0 {
-                    let prev_mean = vmean - vcomp_rem;
-                    let y = v - vcomp_rem;
-                    let tt = y - vmean;
-                    vcomp_rem = tt + vmean - y;
-                    vmean -= tt / vnobs;
-                    ssqdm -= (v - prev_mean) * (v - vmean);
-                } else {
-                    vmean = 0.0;
-                    ssqdm = 0.0;
-                }
+            for &v in &t[i.saturating_sub(w)..s] {
+                ms.remove(v);
+                vs.remove(v);
             }
-            let v = t[i];
-            add_mean(v, &mut nobs, &mut sum, &mut neg_ct, &mut comp_add, &mut same, &mut prev_value);
-            add_var(v, &mut vnobs, &mut vmean, &mut ssqdm, &mut vcomp_add, &mut vsame, &mut vprev);
+            &t[i..e]
+        };
+        for &v in added {
+            ms.add(v);
+            vs.add(v);
+            same = if v == prev_value { same + 1 } else { 1 };
+            prev_value = v;
         }
         if e < w {
             continue;
         }
-        let mut mean = sum / nobs as f64;
-        if same >= nobs {
+        let mut mean = ms.sum / ms.nobs as f64;
+        if same >= ms.nobs {
             mean = prev_value;
-        } else if neg_ct == 0 && mean < 0.0 {
-            mean = 0.0;
-        } else if neg_ct == nobs && mean > 0.0 {
+        } else if (ms.neg_ct == 0 && mean < 0.0) || (ms.neg_ct == ms.nobs && mean > 0.0) {
+            // pandas: a mean of one-signed values cannot change sign.
             mean = 0.0;
         }
-        let var = if vnobs == 1.0 || vsame as f64 >= vnobs { 0.0 } else { ssqdm / vnobs };
+        let var = if vs.nobs == 1.0 || same as f64 >= vs.nobs { 0.0 } else { vs.ssqdm / vs.nobs };
         means.push(mean);
         stds.push(if var < 0.0 { 0.0 } else { var.sqrt() });
     }
