@@ -8,6 +8,7 @@
 
 mod cache;
 mod cli;
+mod consent;
 mod data_manifest;
 mod gait;
 mod malformed;

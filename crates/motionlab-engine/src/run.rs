@@ -17,6 +17,7 @@ use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
 use motionlab_report::output::{FileLists, Written};
 use motionlab_report::pages::write_run_html;
 
+use crate::consent::{self, Consent, ExternalCommand, ExternalPolicy};
 use crate::plan::{plan, Plan};
 use crate::rundir::{sha256_bytes, utc_iso, write_atomic, RunDir};
 use motionlab_experiment::workflow::{ComboOutput, ItemData, Output, WorkItem};
@@ -49,6 +50,8 @@ pub struct RunOptions {
     /// The on-disk cache of loaded inputs and stage outputs (`None`: compute everything; each
     /// input is still loaded once per run).
     pub cache: Option<motionlab_cache::Cache>,
+    /// Whether the programs an experiment names may start (`--allow-external`, trust records).
+    pub external: ExternalPolicy,
 }
 
 impl Default for RunOptions {
@@ -61,6 +64,7 @@ impl Default for RunOptions {
             progress: Arc::new(Silent),
             command: std::env::args().collect(),
             cache: None,
+            external: ExternalPolicy::default(),
         }
     }
 }
@@ -125,6 +129,11 @@ struct Provenance {
     /// `memory`: shared within this run, `disk`: the on-disk cache).
     #[serde(skip_serializing_if = "Option::is_none")]
     cache: Option<serde_json::Value>,
+    /// The programs the experiment names, and who allowed them (absent when it names none).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    external_commands: Vec<ExternalCommand>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    external_consent: Option<String>,
 }
 
 /// Per combination and input, where each logged stage came from (a stage logged twice — the
@@ -199,12 +208,15 @@ type DoneItem = (usize, usize, WorkItem, ItemData, Written);
 
 /// Where an item's result and the record of its written output are persisted.
 fn item_files(items_dir: &Path, c: usize, item: &WorkItem) -> (PathBuf, PathBuf) {
-    (items_dir.join(format!("c{c}-{}.msgpack", item.id)), items_dir.join(format!("c{c}-{}.output.json", item.id)))
+    let id = motionlab_core::paths::safe_file_name(&item.id);
+    (items_dir.join(format!("c{c}-{id}.msgpack")), items_dir.join(format!("c{c}-{id}.output.json")))
 }
 
 /// Runs a validated plan.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let started = (SystemTime::now(), Instant::now());
+    // Before anything is written or started.
+    let consent = consent::require(plan, &opts.external)?;
     let config = config_text(plan);
     let config_hash = sha256_bytes(config.as_bytes());
     let rundir = match (&opts.shard, &opts.run_dir) {
@@ -274,7 +286,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     }
     let item_outputs: Vec<(PathBuf, Written)> = done.iter().map(|d| (item_files(&items_dir, d.1, &d.2).1, d.4.clone())).collect();
     let by_combo = group_by_combo(plan, done.into_iter().map(|d| (d.1, d.2, d.3)).collect());
-    let written = complete(plan, opts, &rundir, started, None, by_combo, item_outputs)?;
+    let written = complete(plan, opts, &rundir, started, None, by_combo, item_outputs, &consent)?;
     let target = rundir.finalize()?;
     Ok(RunSummary { run_dir: target, written, items: items.len(), complete: true })
 }
@@ -292,13 +304,14 @@ fn complete(
     shards: Option<usize>,
     by_combo: Vec<Vec<(WorkItem, ItemData)>>,
     mut item_outputs: Vec<(PathBuf, Written)>,
+    consent: &Consent,
 ) -> Result<Written> {
     let total_items = item_outputs.len();
     let finished = finish_all(plan, rundir, by_combo, opts);
     plan.cache.clear_memory();
     let (tables, finished) = finished?;
     let in_item_order = Written::concat(item_outputs.iter().map(|(_, w)| w).chain([&finished]));
-    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order))?;
+    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order), consent)?;
     item_outputs.sort_by(|a, b| a.0.cmp(&b.0));
     let page_order: Vec<&Written> = [&finished].into_iter().chain(item_outputs.iter().map(|(_, w)| w)).collect();
     let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -371,6 +384,7 @@ fn write_provenance(
     items: usize,
     shards: Option<usize>,
     outputs: FileLists,
+    consent: &Consent,
 ) -> Result<()> {
     // A merged run's items ran in other processes: their cache log is in no one's memory here.
     let cache = if shards.is_none() { cache_provenance(plan, opts) } else { None };
@@ -406,6 +420,8 @@ fn write_provenance(
         inputs,
         outputs,
         cache,
+        external_commands: consent::external_commands(plan),
+        external_consent: (*consent != Consent::NotNeeded).then(|| consent.describe()),
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
 }
@@ -441,6 +457,8 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     let manifest_path = run_dir.join("run.json");
     let manifest: RunManifest = read_json(&manifest_path)?;
     let plan = plan(&manifest.experiment_file, &manifest.overrides)?;
+    // `finish` may run stages again (an evaluation reloads inputs): the same consent as a run.
+    let consent = consent::require(&plan, &opts.external)?;
     let config = config_text(&plan);
     let hash = sha256_bytes(config.as_bytes());
     if hash != manifest.config_sha256 {
@@ -495,7 +513,7 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     // The evaluation reloads every input (once, shared by the combinations) and may find its
     // tables on disk, as in a plain run.
     plan.cache.set_disk(opts.cache.clone());
-    let written = complete(&plan, opts, &rundir, started, Some(n), by_combo, item_outputs)?;
+    let written = complete(&plan, opts, &rundir, started, Some(n), by_combo, item_outputs, &consent)?;
     Ok(RunSummary { run_dir: run_dir.to_path_buf(), written, items: total, complete: true })
 }
 
