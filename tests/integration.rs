@@ -11,6 +11,7 @@ mod cli;
 mod consent;
 mod data_manifest;
 mod gait;
+mod input_limits;
 mod malformed;
 mod matching;
 mod missing_data;
