@@ -15,6 +15,7 @@ mod input_limits;
 mod malformed;
 mod matching;
 mod missing_data;
+mod odd_names;
 mod own_annotations;
 mod registry;
 mod retrieval;
