@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use motionlab_core::programs::shell_word;
 use motionlab_core::{Error, ErrorKind, Location, Result};
 
 /// What to put in the job scripts.
@@ -20,14 +21,6 @@ pub struct SlurmJob {
     /// Pass `--allow-external` to the shard and merge commands (the user gave it to `slurm`).
     pub allow_external: bool,
     pub binary: PathBuf,
-}
-
-fn shell_quote(s: &str) -> String {
-    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c)) {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
-    }
 }
 
 /// `#SBATCH` lines must all come before the first command: sbatch stops reading them there.
@@ -55,19 +48,19 @@ fn header(job: &SlurmJob, name: &str, log: &str, extra: &[String]) -> String {
 /// The array script (one task per shard) and the merge script.
 pub fn scripts(job: &SlurmJob) -> (String, String) {
     let dir = job.run_dir.to_string_lossy();
-    let bin = shell_quote(&job.binary.to_string_lossy());
-    let overrides: String = job.overrides.iter().map(|o| format!(" {}", shell_quote(o))).collect();
+    let bin = shell_word(&job.binary.to_string_lossy());
+    let overrides: String = job.overrides.iter().map(|o| format!(" {}", shell_word(o))).collect();
     let allow = if job.allow_external { " --allow-external" } else { "" };
     let mut array = header(job, "motionlab-shard", &format!("{dir}/slurm/shard-%a.log"), &[format!("--array=0-{}", job.shards - 1)]);
     array += &format!(
         "exec {bin} run {}{overrides} --quiet{allow} --threads {} --shard \"$SLURM_ARRAY_TASK_ID/{}\" --run-dir {}\n",
-        shell_quote(&job.experiment.to_string_lossy()),
+        shell_word(&job.experiment.to_string_lossy()),
         job.threads,
         job.shards,
-        shell_quote(&dir)
+        shell_word(&dir)
     );
     let mut merge = header(job, "motionlab-merge", &format!("{dir}/slurm/merge.log"), &[]);
-    merge += &format!("exec {bin} merge --quiet{allow} --threads {} {}\n", job.threads, shell_quote(&dir));
+    merge += &format!("exec {bin} merge --quiet{allow} --threads {} {}\n", job.threads, shell_word(&dir));
     (array, merge)
 }
 

@@ -79,6 +79,16 @@ pub fn command_line(command: &[String]) -> String {
     command.iter().map(quote).collect::<Vec<_>>().join(" ")
 }
 
+/// `s` as one POSIX shell word, for a command the user can copy (or a job script): unchanged
+/// when it holds only characters no shell treats specially, else single-quoted.
+pub fn shell_word(s: &str) -> String {
+    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c)) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -102,5 +112,7 @@ mod tests {
         assert_eq!(command_line(&v(&["sh", "-c", "exit 1"])), "sh -c \"exit 1\"");
         assert_eq!(command_line(&v(&["python3", "my_seg.py"])), "python3 my_seg.py");
         assert_eq!(command_line(&v(&["a\u{1b}[2Jb", "", "r\u{202e}l", "日本"])), "\"a\\u{1b}[2Jb\" \"\" \"r\\u{202e}l\" 日本");
+        assert_eq!(shell_word("/x/exp.toml"), "/x/exp.toml");
+        assert_eq!(shell_word("it's here"), "'it'\\''s here'");
     }
 }

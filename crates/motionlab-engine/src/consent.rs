@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use motionlab_core::{programs, registry, Error, ErrorKind, Location, Result};
 
-use crate::plan::Plan;
+use crate::plan::{Combo, Plan};
 use crate::rundir::{sha256_bytes, utc_iso, write_atomic};
 
 /// The environment variable naming the configuration folder (trust records), for tests and for
@@ -54,10 +54,15 @@ impl ExternalCommand {
 /// Every program the plan's combinations would start, in document order, each (place,
 /// command line) once.
 pub fn external_commands(plan: &Plan) -> Vec<ExternalCommand> {
+    commands_of(&plan.combos)
+}
+
+/// [`external_commands`] of sweep combinations (the documents after overrides and sweeping).
+pub fn commands_of(combos: &[Combo]) -> Vec<ExternalCommand> {
     let mut out: Vec<ExternalCommand> = Vec::new();
     // Plugin name → its command key, looked up once (a schema is generated per lookup).
     let mut keys: HashMap<String, Option<String>> = HashMap::new();
-    for combo in &plan.combos {
+    for combo in combos {
         for (key, value) in &combo.doc {
             walk(value, key.clone(), &mut keys, &mut out);
         }
@@ -178,7 +183,7 @@ pub fn check(path: &Path, commands: &[ExternalCommand], policy: &ExternalPolicy)
         TrustStatus::Changed { trusted_utc } => format!(" (you trusted this file on {trusted_utc}, but its command lines have changed since)"),
         _ => String::new(),
     };
-    let shown = shell_word(&path.display().to_string());
+    let shown = programs::shell_word(&path.display().to_string());
     let store_hint = if policy.trust.is_none() { format!(" (needs a configuration folder: set {CONFIG_DIR_ENV} or HOME)") } else { String::new() };
     Err(Error::new(
         ErrorKind::NotAllowed,
@@ -192,15 +197,6 @@ pub fn check(path: &Path, commands: &[ExternalCommand], policy: &ExternalPolicy)
         ),
     )
     .with_location(Location::file(path)))
-}
-
-/// A path as one shell word, for a command the user can copy.
-fn shell_word(s: &str) -> String {
-    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c)) {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
-    }
 }
 
 /// Trust records in the user's configuration folder: `<dir>/trust/<sha256 of the experiment's

@@ -178,6 +178,12 @@ fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value>
     }))
 }
 
+/// When a run started, and why it may start the programs its experiment names.
+struct Started {
+    at: (SystemTime, Instant),
+    consent: Consent,
+}
+
 /// The canonical text of the resolved configuration (hashed to check shards belong together).
 pub fn config_text(plan: &Plan) -> String {
     toml::to_string(&plan.doc).unwrap_or_default()
@@ -214,9 +220,8 @@ fn item_files(items_dir: &Path, c: usize, item: &WorkItem) -> (PathBuf, PathBuf)
 
 /// Runs a validated plan.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
-    let started = (SystemTime::now(), Instant::now());
-    // Before anything is written or started.
-    let consent = consent::require(plan, &opts.external)?;
+    // Consent before anything is written or started.
+    let started = Started { at: (SystemTime::now(), Instant::now()), consent: consent::require(plan, &opts.external)? };
     let config = config_text(plan);
     let config_hash = sha256_bytes(config.as_bytes());
     let rundir = match (&opts.shard, &opts.run_dir) {
@@ -286,7 +291,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     }
     let item_outputs: Vec<(PathBuf, Written)> = done.iter().map(|d| (item_files(&items_dir, d.1, &d.2).1, d.4.clone())).collect();
     let by_combo = group_by_combo(plan, done.into_iter().map(|d| (d.1, d.2, d.3)).collect());
-    let written = complete(plan, opts, &rundir, started, None, by_combo, item_outputs, &consent)?;
+    let written = complete(plan, opts, &rundir, &started, None, by_combo, item_outputs)?;
     let target = rundir.finalize()?;
     Ok(RunSummary { run_dir: target, written, items: items.len(), complete: true })
 }
@@ -300,18 +305,17 @@ fn complete(
     plan: &Plan,
     opts: &RunOptions,
     rundir: &RunDir,
-    started: (SystemTime, Instant),
+    started: &Started,
     shards: Option<usize>,
     by_combo: Vec<Vec<(WorkItem, ItemData)>>,
     mut item_outputs: Vec<(PathBuf, Written)>,
-    consent: &Consent,
 ) -> Result<Written> {
     let total_items = item_outputs.len();
     let finished = finish_all(plan, rundir, by_combo, opts);
     plan.cache.clear_memory();
     let (tables, finished) = finished?;
     let in_item_order = Written::concat(item_outputs.iter().map(|(_, w)| w).chain([&finished]));
-    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order), consent)?;
+    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order))?;
     item_outputs.sort_by(|a, b| a.0.cmp(&b.0));
     let page_order: Vec<&Written> = [&finished].into_iter().chain(item_outputs.iter().map(|(_, w)| w)).collect();
     let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -380,11 +384,10 @@ fn write_provenance(
     plan: &Plan,
     opts: &RunOptions,
     rundir: &RunDir,
-    started: (SystemTime, Instant),
+    started: &Started,
     items: usize,
     shards: Option<usize>,
     outputs: FileLists,
-    consent: &Consent,
 ) -> Result<()> {
     // A merged run's items ran in other processes: their cache log is in no one's memory here.
     let cache = if shards.is_none() { cache_provenance(plan, opts) } else { None };
@@ -410,9 +413,9 @@ fn write_provenance(
         overrides: plan.overrides.clone(),
         config_sha256: sha256_bytes(config_text(plan).as_bytes()),
         command: opts.command.clone(),
-        started_utc: utc_iso(started.0),
+        started_utc: utc_iso(started.at.0),
         finished_utc: utc_iso(SystemTime::now()),
-        duration_s: started.1.elapsed().as_secs_f64(),
+        duration_s: started.at.1.elapsed().as_secs_f64(),
         threads: opts.threads.unwrap_or_else(rayon::current_num_threads),
         shards,
         combinations: plan.combos.iter().map(|c| c.label()).collect(),
@@ -421,7 +424,7 @@ fn write_provenance(
         outputs,
         cache,
         external_commands: consent::external_commands(plan),
-        external_consent: (*consent != Consent::NotNeeded).then(|| consent.describe()),
+        external_consent: (started.consent != Consent::NotNeeded).then(|| started.consent.describe()),
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
 }
@@ -452,13 +455,13 @@ fn git_state(dir: &Path) -> (String, Option<bool>) {
 /// Finishes a sharded run: checks every shard is present and was produced by the same
 /// configuration, then finishes exactly as a single-machine run does.
 pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
-    let started = (SystemTime::now(), Instant::now());
+    let at = (SystemTime::now(), Instant::now());
     let loc = |p: &Path| Location::file(p);
     let manifest_path = run_dir.join("run.json");
     let manifest: RunManifest = read_json(&manifest_path)?;
     let plan = plan(&manifest.experiment_file, &manifest.overrides)?;
     // `finish` may run stages again (an evaluation reloads inputs): the same consent as a run.
-    let consent = consent::require(&plan, &opts.external)?;
+    let started = Started { at, consent: consent::require(&plan, &opts.external)? };
     let config = config_text(&plan);
     let hash = sha256_bytes(config.as_bytes());
     if hash != manifest.config_sha256 {
@@ -513,7 +516,7 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     // The evaluation reloads every input (once, shared by the combinations) and may find its
     // tables on disk, as in a plain run.
     plan.cache.set_disk(opts.cache.clone());
-    let written = complete(&plan, opts, &rundir, started, Some(n), by_combo, item_outputs, &consent)?;
+    let written = complete(&plan, opts, &rundir, &started, Some(n), by_combo, item_outputs)?;
     Ok(RunSummary { run_dir: run_dir.to_path_buf(), written, items: total, complete: true })
 }
 

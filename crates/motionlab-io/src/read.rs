@@ -22,7 +22,12 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
 
 /// [`read_bytes`] with an explicit limit on the file's (decompressed) size in bytes.
 pub fn read_bytes_within(path: &Path, limit: u64) -> Result<Vec<u8>> {
-    let raw = limits::read_input_file(path, limit)?;
+    decode_within(limits::read_input_file(path, limit)?, limit, path)
+}
+
+/// The content of a file's bytes `raw` (read from `path`, which errors name): inflated when
+/// gzip, refused past `limit` (also the fuzz target `gunzip`'s entry point).
+pub fn decode_within(raw: Vec<u8>, limit: u64, path: &Path) -> Result<Vec<u8>> {
     if raw.starts_with(&[0x1f, 0x8b]) {
         if let Some(out) = gunzip_single_member(&raw, limit) {
             return Ok(out);
@@ -38,6 +43,8 @@ pub fn read_bytes_within(path: &Path, limit: u64) -> Result<Vec<u8>> {
         Ok(out)
     } else if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
         Err(Error::new(ErrorKind::Syntax, "file name ends in .gz but the content is not gzip").with_location(Location::file(path)))
+    } else if raw.len() as u64 > limit {
+        Err(limits::too_large(path, &format!("holds {} bytes", raw.len()), limit))
     } else {
         Ok(raw)
     }
