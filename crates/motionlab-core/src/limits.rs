@@ -44,7 +44,7 @@ pub fn max_input_bytes() -> Result<u64> {
 
 /// A limit in words: `1024 MiB` (or bytes when below one MiB).
 pub fn describe_limit(limit: u64) -> String {
-    if limit >= MIB && limit % MIB == 0 { format!("{} MiB", limit / MIB) } else { format!("{limit} bytes") }
+    if limit >= MIB && limit.is_multiple_of(MIB) { format!("{} MiB", limit / MIB) } else { format!("{limit} bytes") }
 }
 
 /// The error for a motion or annotation file beyond the input limit `limit`: `what` says how
