@@ -19,7 +19,7 @@ FIXTURES = ROOT / "tests" / "fixtures"
 sys.path.insert(0, str(FIXTURES))
 from c3d_edit import C3d  # noqa: E402
 
-TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "boundaries_csv", "elan_eaf", "experiment_toml"]
+TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "boundaries_csv", "elan_eaf", "plugin_reply", "gunzip", "experiment_toml"]
 
 
 def read(p: Path) -> bytes:
@@ -122,6 +122,35 @@ def main() -> None:
 
     for p in sorted((ROOT / "experiments").glob("*.toml")):
         seeds["experiment_toml"][p.name] = read(p)
+    # An experiment naming a program (the consent scan's input), as a stage and in a sweep grid.
+    ext = ROOT / "examples/external-segmenter/speed_minima_vs_python.toml"
+    seeds["experiment_toml"][ext.name] = read(ext)
+    seeds["experiment_toml"]["external_swept.toml"] = read(ext) + (
+        b'\n[[sweep]]\ngrid = { "segmentation.segmenter[python].command" = [["sh", "-c", "echo"], ["python3", "x.py"]] }\n'
+    )
+
+    # External programs' stdout (protocol 1): replies of both kinds, valid and not; the last
+    # byte picks the motion's length (n % 17 frames).
+    replies = {
+        "segmenter_min.json": b'{"candidates": [1, 3]}\n\x05',
+        "segmenter_full.json": b'{"candidates": [0, 2], "traces": [{"name": "V_mm_per_s", "unit": "mm/s", "values": [1.5, null, 2, 0]}], '
+        b'"thresholds": [{"name": "v_low", "trace": "V_mm_per_s", "value": 1.75}], "flagged_frames": [1]}\x04',
+        "features.json": b'{"traces": [{"name": "height_mm", "unit": "mm", "values": [1, 2, 3]}], "labels": [{"name": "side", "values": ["l", "r", "l"]}]}\x03',
+        "nan.json": b'{"candidates": [], "traces": [{"name": "V", "values": [NaN, 1]}]}\x02',
+        "out_of_range.json": b'{"candidates": [7]}\x02',
+    }
+    seeds["plugin_reply"].update(replies)
+
+    # The bounded reader: shipped files re-compressed small (one member, two members, a cut
+    # stream, a lying trailer) and a few plain bytes.
+    small = tsv_rows(dance1, 0, 3).encode()
+    one = gzip.compress(small, mtime=0)
+    seeds["gunzip"]["one_member.tsv.gz"] = one
+    seeds["gunzip"]["two_members.tsv.gz"] = one + gzip.compress(b"second member\n", mtime=0)
+    seeds["gunzip"]["cut.tsv.gz"] = one[: len(one) // 2]
+    seeds["gunzip"]["lying_trailer.tsv.gz"] = one[:-4] + (3).to_bytes(4, "little")
+    seeds["gunzip"]["zeros_200k.gz"] = gzip.compress(bytes(200_000), mtime=0)
+    seeds["gunzip"]["plain.tsv"] = small
 
     # The malformed corpus, by extension.
     by_ext = {".bvh": "bvh", ".asf": "asf", ".amc": "amc", ".c3d": "c3d", ".tsv": "qualisys_tsv", ".toml": "experiment_toml", ".csv": "boundaries_csv", ".eaf": "elan_eaf"}

@@ -9,11 +9,14 @@
 mod annotate;
 mod cache;
 mod cli;
+mod consent;
 mod data_manifest;
 mod gait;
+mod input_limits;
 mod malformed;
 mod matching;
 mod missing_data;
+mod odd_names;
 mod own_annotations;
 mod reader_repairs;
 mod registry;

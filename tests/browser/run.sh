@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Browser test of the HTML reports: needs Debian's chromium and chromium-driver.
-# Usage: MOTIONLAB=path/to/motionlab tests/browser/run.sh REPORTS_DIR RUN_DIR
+# Usage: MOTIONLAB=path/to/motionlab tests/browser/run.sh REPORTS_DIR RUN_DIR [ODD_NAMES_REPORTS]
 #   (exit 0 = pass, 1 = fail, 77 = skipped)
-# Checks reports/index.html and RUN_DIR/index.html (check_pages.py), then one viewer page
+# Checks reports/index.html and RUN_DIR/index.html (check_pages.py); with ODD_NAMES_REPORTS (the
+# reports tests/odd_names.rs keeps when MOTIONLAB_KEEP_ODD_NAMES names a folder), that no odd name
+# runs as markup on any of its pages (check_odd_names.py); then one viewer page
 # (check_viewer.py): CMU 86_01 of sonoda_table1 when REPORTS_DIR has it, else the first found;
 # then annotation mode on that 86_01 page (check_annotate.py: keys, reload, downloads read back
 # by a run of $MOTIONLAB); then, when REPORTS_DIR has a yabe_exercises run, its 13_29 matching
@@ -21,6 +23,9 @@ if [ ! -x "$venv/bin/python" ]; then
 fi
 "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$here/requirements.txt"
 "$venv/bin/python" "$here/check_pages.py" "$1" "$2"
+if [ -n "${3:-}" ]; then
+  "$venv/bin/python" "$here/check_odd_names.py" "$3"
+fi
 viewer=$( { ls "$1"/sonoda_table1/*/viewers/86_01.html 2>/dev/null; find "$1" -path '*/viewers/*.html' | sort; } | head -1 || true)
 if [ -z "$viewer" ]; then
   echo "viewer test SKIPPED: no viewers/*.html under $1"

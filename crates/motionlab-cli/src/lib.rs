@@ -34,6 +34,7 @@ use motionlab_segment as _;
 use motionlab_workflows as _;
 
 use motionlab_core::{Error, ErrorKind, Result};
+use motionlab_engine::consent::{ExternalCommand, ExternalPolicy, TrustStore};
 use motionlab_engine::{RunOptions, RunSummary};
 
 pub mod describe;
@@ -67,10 +68,25 @@ enum Command {
         #[arg(long)]
         run_dir: Option<PathBuf>,
     },
-    /// Check every file, plugin and parameter of an experiment without running it.
+    /// Check every file, plugin and parameter of an experiment without running it, and list
+    /// the external programs it names (an error unless they are allowed).
     Validate {
         experiment: PathBuf,
         overrides: Vec<String>,
+        /// Allow the external programs the experiment names (as `run --allow-external` would).
+        #[arg(long)]
+        allow_external: bool,
+    },
+    /// Allow the external programs an experiment names, until any of their command lines
+    /// changes: stores the SHA-256 of the command lines in the configuration folder
+    /// (`$MOTIONLAB_CONFIG_DIR`, else `$XDG_CONFIG_HOME/motionlab`, else `~/.config/motionlab`).
+    Trust {
+        experiment: PathBuf,
+        /// Overrides that change a command line, to trust the run that uses them.
+        overrides: Vec<String>,
+        /// Remove the experiment's trust record instead.
+        #[arg(long)]
+        revoke: bool,
     },
     /// List every registered workflow and plugin by kind.
     List,
@@ -152,6 +168,9 @@ enum Command {
         /// Submit with sbatch and print the job ids.
         #[arg(long)]
         submit: bool,
+        /// Allow the external programs the experiment names, here and in the job scripts.
+        #[arg(long)]
+        allow_external: bool,
     },
     /// Parameter and metric differences between two runs of one experiment (text and HTML).
     Compare { run_a: PathBuf, run_b: PathBuf },
@@ -207,6 +226,10 @@ struct RunArgs {
     /// input is still loaded once per run).
     #[arg(long)]
     no_cache: bool,
+    /// Allow the programs the experiment names (`type = "external"` stages) to run, for this
+    /// run only; `motionlab trust EXPERIMENT` allows them until a command line changes.
+    #[arg(long)]
+    allow_external: bool,
 }
 
 fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
@@ -226,7 +249,31 @@ fn options(args: &RunArgs) -> RunOptions {
         Arc::new(motionlab_engine::Silent)
     };
     let cache = if args.no_cache { None } else { motionlab_cache::Cache::open_default() };
-    RunOptions { reports_dir: args.reports.clone(), threads: args.threads, progress, command: std::env::args().collect(), cache, ..Default::default() }
+    RunOptions {
+        reports_dir: args.reports.clone(),
+        threads: args.threads,
+        progress,
+        command: std::env::args().collect(),
+        cache,
+        external: external_policy(args.allow_external),
+        ..Default::default()
+    }
+}
+
+fn external_policy(allow_external: bool) -> ExternalPolicy {
+    ExternalPolicy { allow_external, trust: TrustStore::open_default() }
+}
+
+/// The external programs of a plan, one line each, for `validate` and `trust`.
+fn print_external(commands: &[ExternalCommand], consent: &str) {
+    if commands.is_empty() {
+        println!("external programs: none");
+        return;
+    }
+    println!("external programs ({consent}):");
+    for c in commands {
+        println!("  {} ({}): {}", c.at, c.plugin, c.command_line());
+    }
 }
 
 /// The `motionlab` command on this process's arguments, with every plugin linked into the binary.
@@ -263,8 +310,10 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             print_summary(&summary);
             Ok(ExitCode::SUCCESS)
         }
-        Command::Validate { experiment, overrides } => {
+        Command::Validate { experiment, overrides, allow_external } => {
             let plan = motionlab_engine::plan(&experiment, &overrides)?;
+            let commands = motionlab_engine::consent::external_commands(&plan);
+            let consent = motionlab_engine::consent::check(&plan.source.path, &commands, &external_policy(allow_external))?;
             let items: usize = plan.built.iter().map(|b| b.workflow.items(&b.data).len()).sum();
             println!(
                 "{}: valid — {} workflow, {} dataset(s), {} input file(s), {} combination(s), {} work item(s)",
@@ -275,8 +324,10 @@ fn dispatch(command: Command) -> Result<ExitCode> {
                 plan.combos.len(),
                 items
             );
+            print_external(&commands, &consent.describe());
             Ok(ExitCode::SUCCESS)
         }
+        Command::Trust { experiment, overrides, revoke } => trust(&experiment, &overrides, revoke),
         Command::List => {
             print!("{}", describe::list());
             Ok(ExitCode::SUCCESS)
@@ -297,12 +348,14 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             print_summary(&summary);
             Ok(ExitCode::SUCCESS)
         }
-        Command::Slurm { experiment, overrides, shards, run_dir, reports, partition, time, mem, threads, submit } => {
+        Command::Slurm { experiment, overrides, shards, run_dir, reports, partition, time, mem, threads, submit, allow_external } => {
             if shards == 0 {
                 return Err(Error::new(ErrorKind::OutOfRange, "--shards must be at least 1"));
             }
-            // Validate now, on the login node, rather than in N failing array tasks.
+            // Validate now, on the login node, rather than in N failing array tasks — consent
+            // too (the tasks check it again: a trust record must be readable there).
             let plan = motionlab_engine::plan(&experiment, &overrides)?;
+            motionlab_engine::consent::check(&plan.source.path, &motionlab_engine::consent::external_commands(&plan), &external_policy(allow_external))?;
             let run_dir = match run_dir {
                 Some(d) => d,
                 None => {
@@ -320,6 +373,7 @@ fn dispatch(command: Command) -> Result<ExitCode> {
                 time,
                 mem,
                 threads,
+                allow_external,
                 binary: std::env::current_exe().map_err(|e| Error::new(ErrorKind::Io, format!("cannot locate the motionlab binary: {e}")))?,
             };
             let (array, merge) = slurm::write_scripts(&job)?;
@@ -386,6 +440,28 @@ fn print_summary(s: &RunSummary) {
     }
 }
 
+/// `motionlab trust`: validates the experiment, lists its programs and records (or removes)
+/// the user's trust in exactly these command lines.
+fn trust(experiment: &Path, overrides: &[String], revoke: bool) -> Result<ExitCode> {
+    let store = TrustStore::open_default()
+        .ok_or_else(|| Error::new(ErrorKind::MissingKey, format!("no configuration folder: set {} (or HOME)", motionlab_engine::consent::CONFIG_DIR_ENV)))?;
+    if revoke {
+        let removed = store.revoke(experiment)?;
+        println!("{}: {}", experiment.display(), if removed { "trust record removed" } else { "had no trust record" });
+        return Ok(ExitCode::SUCCESS);
+    }
+    let plan = motionlab_engine::plan(experiment, overrides)?;
+    let commands = motionlab_engine::consent::external_commands(&plan);
+    if commands.is_empty() {
+        println!("{}: names no external program; nothing to trust", experiment.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let record = store.trust(experiment, &commands)?;
+    print_external(&commands, "trusted");
+    println!("wrote {}: these command lines may run until one of them changes (`motionlab trust --revoke {}` removes it)", record.display(), experiment.display());
+    Ok(ExitCode::SUCCESS)
+}
+
 /// Every `*.toml` in the folder, sorted.
 fn experiment_files(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -406,6 +482,10 @@ fn reproduce(dir: &Path, args: &RunArgs, record: bool, only: Option<&str>) -> Re
     // Validate everything first: a typo in the last experiment fails before an hour of work.
     let plans = files.iter().map(|f| motionlab_engine::plan(f, &[])).collect::<Result<Vec<_>>>()?;
     let opts = options(args);
+    // Consent too, for every experiment, before the first one runs.
+    for plan in &plans {
+        motionlab_engine::consent::check(&plan.source.path, &motionlab_engine::consent::external_commands(plan), &opts.external)?;
+    }
     for (f, plan) in files.iter().zip(&plans) {
         let started = std::time::Instant::now();
         let summary = motionlab_engine::run(plan, &opts)?;

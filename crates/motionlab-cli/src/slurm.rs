@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use motionlab_core::programs::shell_word;
 use motionlab_core::{Error, ErrorKind, Location, Result};
 
 /// What to put in the job scripts.
@@ -17,15 +18,9 @@ pub struct SlurmJob {
     pub time: Option<String>,
     pub mem: Option<String>,
     pub threads: usize,
+    /// Pass `--allow-external` to the shard and merge commands (the user gave it to `slurm`).
+    pub allow_external: bool,
     pub binary: PathBuf,
-}
-
-fn shell_quote(s: &str) -> String {
-    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c)) {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
-    }
 }
 
 /// `#SBATCH` lines must all come before the first command: sbatch stops reading them there.
@@ -53,18 +48,19 @@ fn header(job: &SlurmJob, name: &str, log: &str, extra: &[String]) -> String {
 /// The array script (one task per shard) and the merge script.
 pub fn scripts(job: &SlurmJob) -> (String, String) {
     let dir = job.run_dir.to_string_lossy();
-    let bin = shell_quote(&job.binary.to_string_lossy());
-    let overrides: String = job.overrides.iter().map(|o| format!(" {}", shell_quote(o))).collect();
+    let bin = shell_word(&job.binary.to_string_lossy());
+    let overrides: String = job.overrides.iter().map(|o| format!(" {}", shell_word(o))).collect();
+    let allow = if job.allow_external { " --allow-external" } else { "" };
     let mut array = header(job, "motionlab-shard", &format!("{dir}/slurm/shard-%a.log"), &[format!("--array=0-{}", job.shards - 1)]);
     array += &format!(
-        "exec {bin} run {}{overrides} --quiet --threads {} --shard \"$SLURM_ARRAY_TASK_ID/{}\" --run-dir {}\n",
-        shell_quote(&job.experiment.to_string_lossy()),
+        "exec {bin} run {}{overrides} --quiet{allow} --threads {} --shard \"$SLURM_ARRAY_TASK_ID/{}\" --run-dir {}\n",
+        shell_word(&job.experiment.to_string_lossy()),
         job.threads,
         job.shards,
-        shell_quote(&dir)
+        shell_word(&dir)
     );
     let mut merge = header(job, "motionlab-merge", &format!("{dir}/slurm/merge.log"), &[]);
-    merge += &format!("exec {bin} merge --quiet --threads {} {}\n", job.threads, shell_quote(&dir));
+    merge += &format!("exec {bin} merge --quiet{allow} --threads {} {}\n", job.threads, shell_word(&dir));
     (array, merge)
 }
 
@@ -119,6 +115,7 @@ mod tests {
             time: Some("00:10:00".into()),
             mem: None,
             threads: 2,
+            allow_external: false,
             binary: "/bin/motionlab".into(),
         };
         let (a, m) = scripts(&job);
@@ -132,5 +129,8 @@ mod tests {
         assert!(a.contains("--shard \"$SLURM_ARRAY_TASK_ID/4\" --run-dir /runs/r1"), "{a}");
         assert!(a.contains(" a.b=1 'c=two words' "), "{a}");
         assert!(m.contains("merge --quiet --threads 2 /runs/r1"), "{m}");
+        assert!(!a.contains("--allow-external") && !m.contains("--allow-external"));
+        let (a, m) = scripts(&SlurmJob { allow_external: true, ..job });
+        assert!(a.contains(" --quiet --allow-external --threads 2 --shard") && m.contains("merge --quiet --allow-external --threads 2 /runs/r1"), "{a}\n{m}");
     }
 }

@@ -45,6 +45,11 @@ pub enum ErrorKind {
     Report,
     /// A check on results failed (a merge from shards of different configs).
     Mismatch,
+    /// An input is larger than motionlab reads (a file or its decompressed content beyond the
+    /// input limit, a program's output beyond its limit).
+    TooLarge,
+    /// An experiment names a program the user has not allowed motionlab to start.
+    NotAllowed,
 }
 
 /// Where in an input a problem is.

@@ -11,13 +11,17 @@
 //! - [`Table`]: the column table results travel in (polars stays out of algorithm crates).
 //! - [`Error`]: one error type whose message names the file and line/field and what was expected.
 //! - [`stage`] and [`registry`]: the stage traits and the `inventory`-based plugin registry.
+//! - [`limits`] and [`programs`]: how much of an input is read, and which external programs
+//!   may be started (docs/security.md).
 //!
 //! It depends on no polars, plotters, clap or indicatif.
 
 pub mod channels;
 pub mod error;
+pub mod limits;
 pub mod motion;
 pub mod paths;
+pub mod programs;
 pub mod registry;
 pub mod segmentation;
 pub mod skeleton;

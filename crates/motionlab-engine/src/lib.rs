@@ -4,6 +4,7 @@
 //! every file, plugin and parameter, with errors naming the file, line and key path), expanded
 //! over its `[sweep]` grid, and run as a map–reduce of work items ([`run`]), sharded or not,
 //! into a fresh run directory ([`rundir`]) with its provenance; [`compare`] diffs two runs.
+//! No program an experiment names starts without the user's consent ([`consent`]).
 //!
 //! It knows no workflow: the experiment's workflow section names a registered
 //! [`Workflow`](motionlab_experiment::Workflow) plugin (`motionlab-experiment` holds the trait
@@ -13,6 +14,7 @@
 //! ([`motionlab_report::pages`]); the engine depends on no polars or plotters directly.
 
 pub mod compare;
+pub mod consent;
 pub mod plan;
 pub mod run;
 pub mod rundir;

@@ -121,12 +121,16 @@ fn deserialize_file(source: &Source, doc: &toml::Table) -> Result<ExperimentFile
     Ok(file)
 }
 
+/// The longest experiment name, in characters.
+pub const MAX_EXPERIMENT_NAME: usize = 100;
+
 fn check_name(source: &Source, file: &ExperimentFile) -> Result<()> {
     let n = &file.experiment.name;
-    if n.is_empty() || !n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+    // It names the run's folder (`reports/<name>/`): nothing there may climb out or hide.
+    if n.is_empty() || n.len() > MAX_EXPERIMENT_NAME || !n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
         let doc = toml::Table::new();
         return Err(source.locate(
-            Error::new(ErrorKind::OutOfRange, format!("experiment name {n:?} must be non-empty letters, digits, _ or -")),
+            Error::new(ErrorKind::OutOfRange, format!("experiment name {n:?} must be 1 to {MAX_EXPERIMENT_NAME} letters, digits, _ or -")),
             &KeyPath::parse("experiment.name")?,
             &doc,
         ));

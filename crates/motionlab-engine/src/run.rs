@@ -17,6 +17,7 @@ use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
 use motionlab_report::output::{FileLists, Written};
 use motionlab_report::pages::write_run_html;
 
+use crate::consent::{self, Consent, ExternalCommand, ExternalPolicy};
 use crate::plan::{plan, Plan};
 use crate::rundir::{sha256_bytes, utc_iso, write_atomic, RunDir};
 use motionlab_experiment::workflow::{ComboOutput, ItemData, Output, WorkItem};
@@ -49,6 +50,8 @@ pub struct RunOptions {
     /// The on-disk cache of loaded inputs and stage outputs (`None`: compute everything; each
     /// input is still loaded once per run).
     pub cache: Option<motionlab_cache::Cache>,
+    /// Whether the programs an experiment names may start (`--allow-external`, trust records).
+    pub external: ExternalPolicy,
 }
 
 impl Default for RunOptions {
@@ -61,6 +64,7 @@ impl Default for RunOptions {
             progress: Arc::new(Silent),
             command: std::env::args().collect(),
             cache: None,
+            external: ExternalPolicy::default(),
         }
     }
 }
@@ -131,6 +135,11 @@ struct Provenance {
     /// `memory`: shared within this run, `disk`: the on-disk cache).
     #[serde(skip_serializing_if = "Option::is_none")]
     cache: Option<serde_json::Value>,
+    /// The programs the experiment names, and who allowed them (absent when it names none).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    external_commands: Vec<ExternalCommand>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    external_consent: Option<String>,
 }
 
 /// Per combination and input, where each logged stage came from (a stage logged twice — the
@@ -175,6 +184,12 @@ fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value>
     }))
 }
 
+/// When a run started, and why it may start the programs its experiment names.
+struct Started {
+    at: (SystemTime, Instant),
+    consent: Consent,
+}
+
 /// The canonical text of the resolved configuration (hashed to check shards belong together).
 pub fn config_text(plan: &Plan) -> String {
     toml::to_string(&plan.doc).unwrap_or_default()
@@ -205,12 +220,14 @@ type DoneItem = (usize, usize, WorkItem, ItemData, Written);
 
 /// Where an item's result and the record of its written output are persisted.
 fn item_files(items_dir: &Path, c: usize, item: &WorkItem) -> (PathBuf, PathBuf) {
-    (items_dir.join(format!("c{c}-{}.msgpack", item.id)), items_dir.join(format!("c{c}-{}.output.json", item.id)))
+    let id = motionlab_core::paths::safe_file_name(&item.id);
+    (items_dir.join(format!("c{c}-{id}.msgpack")), items_dir.join(format!("c{c}-{id}.output.json")))
 }
 
 /// Runs a validated plan.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
-    let started = (SystemTime::now(), Instant::now());
+    // Consent before anything is written or started.
+    let started = Started { at: (SystemTime::now(), Instant::now()), consent: consent::require(plan, &opts.external)? };
     let config = config_text(plan);
     let config_hash = sha256_bytes(config.as_bytes());
     let rundir = match (&opts.shard, &opts.run_dir) {
@@ -281,7 +298,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     }
     let item_outputs: Vec<(PathBuf, Written)> = done.iter().map(|d| (item_files(&items_dir, d.1, &d.2).1, d.4.clone())).collect();
     let by_combo = group_by_combo(plan, done.into_iter().map(|d| (d.1, d.2, d.3)).collect());
-    let written = complete(plan, opts, &rundir, started, None, by_combo, item_outputs)?;
+    let written = complete(plan, opts, &rundir, &started, None, by_combo, item_outputs)?;
     let target = rundir.finalize()?;
     Ok(RunSummary { run_dir: target, written, items: items.len(), complete: true })
 }
@@ -295,7 +312,7 @@ fn complete(
     plan: &Plan,
     opts: &RunOptions,
     rundir: &RunDir,
-    started: (SystemTime, Instant),
+    started: &Started,
     shards: Option<usize>,
     by_combo: Vec<Vec<(WorkItem, ItemData)>>,
     mut item_outputs: Vec<(PathBuf, Written)>,
@@ -374,7 +391,7 @@ fn write_provenance(
     plan: &Plan,
     opts: &RunOptions,
     rundir: &RunDir,
-    started: (SystemTime, Instant),
+    started: &Started,
     items: usize,
     shards: Option<usize>,
     outputs: FileLists,
@@ -405,9 +422,9 @@ fn write_provenance(
         overrides: plan.overrides.clone(),
         config_sha256: sha256_bytes(config_text(plan).as_bytes()),
         command: opts.command.clone(),
-        started_utc: utc_iso(started.0),
+        started_utc: utc_iso(started.at.0),
         finished_utc: utc_iso(SystemTime::now()),
-        duration_s: started.1.elapsed().as_secs_f64(),
+        duration_s: started.at.1.elapsed().as_secs_f64(),
         threads: opts.threads.unwrap_or_else(rayon::current_num_threads),
         shards,
         combinations: plan.combos.iter().map(|c| c.label()).collect(),
@@ -415,6 +432,8 @@ fn write_provenance(
         inputs,
         outputs,
         cache,
+        external_commands: consent::external_commands(plan),
+        external_consent: (started.consent != Consent::NotNeeded).then(|| started.consent.describe()),
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
 }
@@ -445,11 +464,13 @@ fn git_state(dir: &Path) -> (String, Option<bool>) {
 /// Finishes a sharded run: checks every shard is present and was produced by the same
 /// configuration, then finishes exactly as a single-machine run does.
 pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
-    let started = (SystemTime::now(), Instant::now());
+    let at = (SystemTime::now(), Instant::now());
     let loc = |p: &Path| Location::file(p);
     let manifest_path = run_dir.join("run.json");
     let manifest: RunManifest = read_json(&manifest_path)?;
     let plan = plan(&manifest.experiment_file, &manifest.overrides)?;
+    // `finish` may run stages again (an evaluation reloads inputs): the same consent as a run.
+    let started = Started { at, consent: consent::require(&plan, &opts.external)? };
     let config = config_text(&plan);
     let hash = sha256_bytes(config.as_bytes());
     if hash != manifest.config_sha256 {
@@ -509,7 +530,7 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     // The evaluation reloads every input (once, shared by the combinations) and may find its
     // tables on disk, as in a plain run.
     plan.cache.set_disk(opts.cache.clone());
-    let written = complete(&plan, opts, &rundir, started, Some(n), by_combo, item_outputs)?;
+    let written = complete(&plan, opts, &rundir, &started, Some(n), by_combo, item_outputs)?;
     Ok(RunSummary { run_dir: run_dir.to_path_buf(), written, items: total, complete: true })
 }
 

@@ -23,8 +23,14 @@ pub struct Source {
 }
 
 impl Source {
+    /// Reads an experiment file of at most [`motionlab_core::limits::MAX_EXPERIMENT_BYTES`].
     pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let bytes = motionlab_core::limits::read_experiment_file(path)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let line = e.as_bytes()[..at].iter().filter(|b| **b == b'\n').count() + 1;
+            Error::at_line(ErrorKind::Syntax, path, line, format!("invalid UTF-8 at byte {at}; expected a TOML text file"))
+        })?;
         Ok(Source { path: path.to_path_buf(), text })
     }
     /// Folder that relative paths in the experiment are resolved against.

@@ -10,7 +10,7 @@ use motionlab_core::{FeatureCache, FeatureExtractor, FeatureSet, Motion, Result}
 
 use crate::protocol::{self, FeaturesReply};
 use crate::runner::Invocation;
-use crate::segmenter::default_timeout_s;
+use crate::segmenter::{default_max_output_mb, default_timeout_s};
 
 /// Per-frame features from another program (Python, R, …), over the same file protocol as the `external` segmenter.
 ///
@@ -25,8 +25,13 @@ use crate::segmenter::default_timeout_s;
 /// Errors name the plugin and the command: not found, timeout (killed), non-zero exit (last
 /// lines of stderr), malformed JSON (line and column), a trace or label whose length is not
 /// n_frames. Missing samples: passed as NaN; the program decides.
+///
+/// Safety, as for `external`: the program starts only when the user allowed it
+/// (`--allow-external`, or `motionlab trust EXPERIMENT.toml`), and its output is bounded by
+/// `max_output_mb`.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-runs-program" = "command"))]
 pub struct ExternalFeaturesParams {
     /// The program and its arguments, e.g. `["python3", "my_features.py"]`. Required. A
     /// program name without `/` is looked up on PATH; relative paths resolve against the
@@ -35,6 +40,10 @@ pub struct ExternalFeaturesParams {
     /// Seconds the program may run for one motion before it is killed.
     #[serde(default = "default_timeout_s")]
     pub timeout_s: f64,
+    /// MiB the program may print on stdout, and the largest file it may write (its
+    /// RLIMIT_FSIZE); beyond either it is stopped and the stage fails with an error saying so.
+    #[serde(default = "default_max_output_mb")]
+    pub max_output_mb: u64,
     /// Any table, passed unchanged to the program as `params` in `meta.json`.
     #[serde(default)]
     pub params: Map<String, Value>,
@@ -49,7 +58,7 @@ pub struct ExternalFeatures {
 impl ParamGuard for ExternalFeaturesParams {
     type Checked = ExternalFeatures;
     fn check(self) -> Result<ExternalFeatures> {
-        Ok(ExternalFeatures { invocation: Invocation::check("external_features", self.command, self.timeout_s, self.params)? })
+        Ok(ExternalFeatures { invocation: Invocation::check("external_features", self.command, self.timeout_s, self.max_output_mb, self.params)? })
     }
 }
 

@@ -48,6 +48,17 @@
 //! of range, not sorted or repeated, traces or labels whose length is not `n_frames`,
 //! threshold values that are not finite, or a threshold naming no returned trace.
 //!
+//! ## Consent and bounds
+//!
+//! An experiment that names a program is code, and experiment files are shared. The program
+//! is started only when its exact command line was allowed ([`motionlab_core::programs`]: the
+//! engine allows a run's command lines after `--allow-external` or a trust record from
+//! `motionlab trust`); otherwise the stage fails without starting anything. Its stdout is read
+//! up to `max_output_mb` (beyond it, the program is killed and the stage fails), of its stderr
+//! only the last 64 KiB are kept, and it runs with RLIMIT_FSIZE at `max_output_mb`, so a file
+//! it writes beyond that (a runaway `.npy`) stops it with SIGXFSZ, reported as such.
+//! `docs/security.md` is the threat model.
+//!
 //! ## Why `.npy` is written by hand
 //!
 //! A `.npy` file is a 10-byte preamble, one line of Python-literal header padded to 64 bytes,

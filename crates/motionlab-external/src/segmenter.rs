@@ -34,8 +34,15 @@ use crate::runner::Invocation;
 /// a trace whose length is not n_frames, a non-finite threshold. A worked example that
 /// re-implements `speed_minima` in Python: `examples/external-segmenter/`.
 /// Missing samples: passed to the program as NaN; what it does with them is its own rule.
+///
+/// Safety: an experiment file that names a program is code. motionlab starts `command` only
+/// when the user allowed it — `--allow-external` on the command line, or a trust record
+/// written by `motionlab trust EXPERIMENT.toml`, revoked when any command line changes — and
+/// `validate` and the run page list it. What the program prints on stdout and any file it
+/// writes are bounded by `max_output_mb` (docs/security.md).
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-runs-program" = "command"))]
 pub struct ExternalSegmenterParams {
     /// The program and its arguments, e.g. `["python3", "examples/external-segmenter/speed_minima.py"]`.
     /// Required. A program name without `/` is looked up on PATH; relative paths resolve
@@ -44,6 +51,10 @@ pub struct ExternalSegmenterParams {
     /// Seconds the program may run for one motion before it is killed.
     #[serde(default = "default_timeout_s")]
     pub timeout_s: f64,
+    /// MiB the program may print on stdout, and the largest file it may write (its
+    /// RLIMIT_FSIZE); beyond either it is stopped and the stage fails with an error saying so.
+    #[serde(default = "default_max_output_mb")]
+    pub max_output_mb: u64,
     /// Any table, passed unchanged to the program as `params` in `meta.json`.
     #[serde(default)]
     pub params: Map<String, Value>,
@@ -51,6 +62,11 @@ pub struct ExternalSegmenterParams {
 
 pub(crate) fn default_timeout_s() -> f64 {
     60.0
+}
+
+/// A segmenter's reply for a 36,000-frame take with five traces is about 4 MB of JSON.
+pub(crate) fn default_max_output_mb() -> u64 {
+    256
 }
 
 /// The validated stage.
@@ -62,7 +78,7 @@ pub struct ExternalSegmenter {
 impl ParamGuard for ExternalSegmenterParams {
     type Checked = ExternalSegmenter;
     fn check(self) -> Result<ExternalSegmenter> {
-        Ok(ExternalSegmenter { invocation: Invocation::check("external", self.command, self.timeout_s, self.params)? })
+        Ok(ExternalSegmenter { invocation: Invocation::check("external", self.command, self.timeout_s, self.max_output_mb, self.params)? })
     }
 }
 

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use motionlab_core::registry::{build_feature_extractor, build_loader, build_segmenter, default_params};
-use motionlab_core::{ErrorKind, FeatureCache, Motion, Result, SegmenterOutput};
+use motionlab_core::{programs, ErrorKind, FeatureCache, Motion, Result, SegmenterOutput};
 use motionlab_testkit::{data_path, motion_from_fn, repo_root};
 
 // Link the plugin crates whose registrations the tests look up.
@@ -22,8 +22,16 @@ fn toml_table(text: &str) -> toml::Value {
     toml::Value::Table(toml::from_str(text).unwrap())
 }
 
-/// Runs the `external` segmenter with `command` (and extra TOML lines) on `motion`.
+/// Runs the `external` segmenter with `command` (and extra TOML lines) on `motion`, the
+/// command line allowed first (as the engine does after the user's consent).
 fn external(command: &[&str], extra: &str, motion: &Motion) -> Result<SegmenterOutput> {
+    let args: Vec<String> = command.iter().map(|s| s.to_string()).collect();
+    programs::allow([args.as_slice()]);
+    external_unallowed(command, extra, motion)
+}
+
+/// [`external`] without allowing the command line.
+fn external_unallowed(command: &[&str], extra: &str, motion: &Motion) -> Result<SegmenterOutput> {
     let cmd: Vec<String> = command.iter().map(|s| format!("{s:?}")).collect();
     let params = toml_table(&format!("command = [{}]\n{extra}", cmd.join(", ")));
     build_segmenter("external", &params)?.segment(motion, &FeatureCache::new())
@@ -223,10 +231,55 @@ fn the_program_reads_exactly_the_motion_and_params_motionlab_sent() {
 
 #[test]
 fn external_features_become_a_feature_set() {
+    for script in [
+        r#"printf '%s' '{"traces": [{"name": "one", "unit": "", "values": [1,1,1,1,1,1,1,1,1,1]}], "labels": [{"name": "dir", "values": ["a","a","a","a","a","b","b","b","b","b"]}]}'"#,
+        "echo '{}'",
+    ] {
+        programs::allow([["sh".to_string(), "-c".to_string(), script.to_string()].as_slice()]);
+    }
     let params = toml_table(r#"command = ["sh", "-c", "printf '%s' '{\"traces\": [{\"name\": \"one\", \"unit\": \"\", \"values\": [1,1,1,1,1,1,1,1,1,1]}], \"labels\": [{\"name\": \"dir\", \"values\": [\"a\",\"a\",\"a\",\"a\",\"a\",\"b\",\"b\",\"b\",\"b\",\"b\"]}]}'"]"#);
     let set = build_feature_extractor("external_features", &params).unwrap().extract(&small_motion(), &FeatureCache::new()).unwrap();
     assert_eq!(set.traces[0].values, vec![1.0; 10]);
     assert_eq!(set.labels[0].values[5], "b");
     let e = build_feature_extractor("external_features", &toml_table("command = [\"sh\", \"-c\", \"echo '{}'\"]")).unwrap().extract(&small_motion(), &FeatureCache::new()).unwrap_err();
     assert!(e.to_string().starts_with("external_features `sh -c \"echo '{}'\"`: returned no trace and no label"), "{e}");
+}
+
+#[test]
+fn a_command_nobody_allowed_is_never_started() {
+    let dir = tempfile::tempdir().unwrap();
+    let marker = dir.path().join("ran");
+    let script = format!("touch {} && echo '{{\"candidates\": []}}'", marker.display());
+    let e = external_unallowed(&["sh", "-c", &script], "", &small_motion()).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::NotAllowed);
+    assert!(e.to_string().starts_with("external `sh -c \"touch ") && e.to_string().contains("not started"), "{e}");
+    assert!(!marker.exists(), "the program ran");
+    // Allowed, the same command line runs; one more argument is another command line.
+    let out = external(&["sh", "-c", &script], "", &small_motion()).unwrap();
+    assert!(out.candidates.is_empty() && marker.exists());
+    std::fs::remove_file(&marker).unwrap();
+    assert_eq!(external_unallowed(&["sh", "-c", &script, "x"], "", &small_motion()).unwrap_err().kind(), ErrorKind::NotAllowed);
+    assert!(!marker.exists());
+}
+
+#[test]
+fn a_program_that_prints_without_end_is_stopped_at_max_output_mb() {
+    let started = Instant::now();
+    // `yes` writes forever: stdout is read up to 1 MiB, then the program is killed.
+    let e = external(&["sh", "-c", "yes 12345"], "max_output_mb = 1\ntimeout_s = 60", &small_motion()).unwrap_err();
+    assert!(started.elapsed() < Duration::from_secs(20), "took {:?}", started.elapsed());
+    assert_eq!(e.kind(), ErrorKind::TooLarge, "{e}");
+    assert!(e.to_string().contains("printed more than 1 MiB on stdout (max_output_mb) and was killed"), "{e}");
+    // 50 MB on stderr is read and dropped (the end kept for messages): no block, no failure.
+    let flood = "head -c 50000000 /dev/zero | tr '\\0' e >&2; echo '{\"candidates\": [3]}'";
+    assert_eq!(external(&["sh", "-c", flood], "max_output_mb = 1", &small_motion()).unwrap().candidates, vec![3]);
+}
+
+#[test]
+fn a_program_that_writes_a_huge_file_is_stopped_at_max_output_mb() {
+    // The program itself (exec) writes 3 MB into the exchange folder: the kernel stops it at
+    // 1 MiB (RLIMIT_FSIZE, SIGXFSZ), and the error says why.
+    let e = external(&["sh", "-c", "exec head -c 3000000 /dev/zero > \"$0/huge.npy\""], "max_output_mb = 1", &small_motion()).unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Io, "{e}");
+    assert!(e.to_string().contains("was killed by signal 25 (SIGXFSZ: it wrote a file larger than 1 MiB, max_output_mb)"), "{e}");
 }

@@ -1,48 +1,93 @@
 //! Reading input files: transparent gzip (by the `.gz` suffix or the gzip magic bytes), a
 //! UTF-8 check that names the offending line, and a leading BOM stripped.
+//!
+//! Every file is bounded by the input limit ([`motionlab_core::limits`]: 1024 MiB after
+//! decompression unless `MOTIONLAB_MAX_INPUT_MB` says otherwise). A file beyond it is refused
+//! by its size before it is read; a gzip file beyond it without ever holding its content: the
+//! one-call inflate is taken only when the trailer's size is within the limit, and anything
+//! else is first inflated by the streaming decoder into a counter (a 64 KiB buffer), which stops
+//! at the limit, before the content is inflated for real into a buffer of the counted size.
 
 use std::io::Read;
 use std::path::Path;
 
+use motionlab_core::limits;
 use motionlab_core::{Error, ErrorKind, Location, Result};
 
-/// The bytes of a file, decompressed when it is gzip (by suffix or magic number).
+/// The bytes of a file, decompressed when it is gzip (by suffix or magic number), refused when
+/// they exceed the input limit ([`limits::max_input_bytes`]).
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    read_bytes_within(path, limits::max_input_bytes()?)
+}
+
+/// [`read_bytes`] with an explicit limit on the file's (decompressed) size in bytes.
+pub fn read_bytes_within(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    decode_within(limits::read_input_file(path, limit)?, limit, path)
+}
+
+/// The content of a file's bytes `raw` (read from `path`, which errors name): inflated when
+/// gzip, refused past `limit` (also the fuzz target `gunzip`'s entry point).
+pub fn decode_within(raw: Vec<u8>, limit: u64, path: &Path) -> Result<Vec<u8>> {
     if raw.starts_with(&[0x1f, 0x8b]) {
-        if let Some(out) = gunzip_single_member(&raw) {
+        if let Some(out) = gunzip_single_member(&raw, limit) {
             return Ok(out);
         }
-        // Not one whole member (several members, trailing bytes, a corrupt stream): flate2,
-        // which reads every member and names what is wrong.
-        //
-        // The gzip trailer's ISIZE is the last member's length mod 2³², so for the usual
-        // one-member file it sizes the buffer exactly (no regrowth copies); it is only a hint.
-        let isize = raw.last_chunk::<4>().map_or(0, |b| u32::from_le_bytes(*b) as usize);
-        let mut out = Vec::with_capacity(isize.clamp(raw.len(), raw.len().saturating_mul(64)) + 1);
+        // Not one whole member within the limit (several members, trailing bytes, a corrupt
+        // stream, a trailer that lies): flate2, which reads every member and names what is
+        // wrong — first only counting, so that nothing beyond the limit is ever held.
+        let len = inflated_len(&raw, limit, path)?;
+        let mut out = Vec::with_capacity(len);
         // `bufread` reads the input slice in place (the `read` decoder would copy it through a
         // 32 KiB buffer).
-        flate2::bufread::MultiGzDecoder::new(&raw[..]).read_to_end(&mut out).map_err(|e| {
-            Error::new(ErrorKind::Truncated, format!("cannot decompress gzip data: {e}")).with_location(Location::file(path))
-        })?;
+        flate2::bufread::MultiGzDecoder::new(&raw[..]).read_to_end(&mut out).map_err(|e| gzip_error(path, &e))?;
         Ok(out)
     } else if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
         Err(Error::new(ErrorKind::Syntax, "file name ends in .gz but the content is not gzip").with_location(Location::file(path)))
+    } else if raw.len() as u64 > limit {
+        Err(limits::too_large(path, &format!("holds {} bytes", raw.len()), limit))
     } else {
         Ok(raw)
     }
 }
 
+fn gzip_error(path: &Path, e: &std::io::Error) -> Error {
+    Error::new(ErrorKind::Truncated, format!("cannot decompress gzip data: {e}")).with_location(Location::file(path))
+}
+
+/// How many bytes the gzip data inflate to, counted through a small buffer; an error as soon
+/// as the count passes `limit`, or when the stream is corrupt.
+fn inflated_len(raw: &[u8], limit: u64, path: &Path) -> Result<usize> {
+    let mut decoder = flate2::bufread::MultiGzDecoder::new(raw);
+    let mut buf = vec![0u8; 64 << 10];
+    let mut total: u64 = 0;
+    loop {
+        let n = match decoder.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(gzip_error(path, &e)),
+        };
+        total += n as u64;
+        if total > limit {
+            return Err(limits::too_large(path, &format!("gzip data of {} bytes inflate to more than {total} bytes", raw.len()), limit));
+        }
+    }
+    usize::try_from(total).map_err(|_| limits::too_large(path, &format!("inflates to {total} bytes"), limit))
+}
+
 /// A gzip file of exactly one member, inflated by libdeflate in one call into a buffer of the
 /// size its trailer states (ISIZE); `None` when the data is not exactly that — a corrupt or
-/// truncated stream, a CRC or size mismatch, several members or bytes after the member — so the
-/// caller can fall back to the streaming decoder, which handles those (or reports them).
+/// truncated stream, a CRC or size mismatch, several members or bytes after the member, a size
+/// beyond `limit` — so the caller can fall back to the streaming decoder, which handles those
+/// (or reports them). A trailer that understates the size fails here (libdeflate writes no
+/// more than ISIZE bytes) and goes to the counting decoder too.
 /// libdeflate checks the member's CRC-32 and ISIZE itself.
-fn gunzip_single_member(raw: &[u8]) -> Option<Vec<u8>> {
+fn gunzip_single_member(raw: &[u8], limit: u64) -> Option<Vec<u8>> {
     let isize = raw.last_chunk::<4>().map(|b| u32::from_le_bytes(*b) as usize)?;
     // DEFLATE expands at most 1032:1; a larger ISIZE is a corrupt trailer (or a member of
-    // 4 GiB or more, whose size ISIZE only gives mod 2³²): leave it to the streaming decoder.
-    if isize == 0 || isize > raw.len().saturating_mul(1032) {
+    // 4 GiB or more, whose size ISIZE only gives mod 2³²): leave it to the streaming decoder,
+    // as a size beyond the input limit, which that decoder refuses after counting.
+    if isize == 0 || isize > raw.len().saturating_mul(1032) || isize as u64 > limit {
         return None;
     }
     let (mut used_in, mut used_out) = (0usize, 0usize);
@@ -156,7 +201,7 @@ mod tests {
         assert!(gz.len() >= 10, "{gz:?}");
         for p in gz {
             let raw = std::fs::read(&p).unwrap();
-            let fast = gunzip_single_member(&raw).unwrap_or_else(|| panic!("{}: not taken", p.display()));
+            let fast = gunzip_single_member(&raw, u64::MAX).unwrap_or_else(|| panic!("{}: not taken", p.display()));
             assert!(fast == flate2_gunzip(&raw).unwrap(), "{}", p.display());
         }
     }
@@ -169,10 +214,10 @@ mod tests {
             enc.finish().unwrap()
         };
         let one = member("one member\n");
-        assert_eq!(gunzip_single_member(&one).as_deref(), Some(&b"one member\n"[..]));
+        assert_eq!(gunzip_single_member(&one, u64::MAX).as_deref(), Some(&b"one member\n"[..]));
         // Two members: libdeflate would stop after the first; the fallback reads both.
         let two = [member("first\n"), member("second\n")].concat();
-        assert_eq!(gunzip_single_member(&two), None);
+        assert_eq!(gunzip_single_member(&two, u64::MAX), None);
         let dir = std::env::temp_dir().join(format!("mlab-read-members-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("two.txt.gz");
@@ -182,10 +227,52 @@ mod tests {
         let mut bad_crc = one.clone();
         let n = bad_crc.len();
         bad_crc[n - 8] ^= 1;
-        assert_eq!(gunzip_single_member(&bad_crc), None);
-        assert_eq!(gunzip_single_member(&one[..one.len() - 3]), None);
+        assert_eq!(gunzip_single_member(&bad_crc, u64::MAX), None);
+        assert_eq!(gunzip_single_member(&one[..one.len() - 3], u64::MAX), None);
         std::fs::write(&path, &one[..one.len() / 2]).unwrap();
         assert_eq!(read_text(&path).unwrap_err().kind(), ErrorKind::Truncated);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    fn gzip(bytes: &[u8]) -> Vec<u8> {
+        let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        enc.write_all(bytes).unwrap();
+        enc.finish().unwrap()
+    }
+
+    /// A bomb in every shape the reader takes a different path for — an honest trailer, a
+    /// trailer that understates the size, two members, a plain file — is refused at the limit
+    /// with one error naming the file, and a file at the limit is read.
+    #[test]
+    fn input_beyond_the_limit_is_refused_in_every_shape() {
+        let dir = std::env::temp_dir().join(format!("mlab-read-limit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let zeros = vec![0u8; 1 << 20];
+        let honest = gzip(&zeros);
+        let mut lying = honest.clone();
+        let n = lying.len();
+        lying[n - 4..].copy_from_slice(&1000u32.to_le_bytes());
+        let two = [gzip(&zeros[..600 << 10]), gzip(&zeros[..600 << 10])].concat();
+        let limit = 1 << 19;
+        for (name, bytes) in [("honest.tsv.gz", &honest), ("lying.tsv.gz", &lying), ("two.tsv.gz", &two), ("plain.tsv", &zeros)] {
+            let path = dir.join(name);
+            std::fs::write(&path, bytes).unwrap();
+            let e = read_bytes_within(&path, limit).unwrap_err();
+            assert_eq!(e.kind(), ErrorKind::TooLarge, "{name}: {e}");
+            assert_eq!(e.location().file.as_deref(), Some(path.as_path()), "{name}");
+            assert!(e.to_string().contains("more than the input limit of 524288 bytes (set MOTIONLAB_MAX_INPUT_MB"), "{name}: {e}");
+            // Within the limit: read — but a trailer that lies is a corrupt file, and the two
+            // members hold more than the limit.
+            match name {
+                "lying.tsv.gz" => assert_eq!(read_bytes_within(&path, 1 << 20).unwrap_err().kind(), ErrorKind::Truncated),
+                "two.tsv.gz" => assert_eq!(read_bytes_within(&path, 1 << 20).unwrap_err().kind(), ErrorKind::TooLarge),
+                _ => assert_eq!(read_bytes_within(&path, 1 << 20).unwrap().len(), 1 << 20, "{name}"),
+            }
+        }
+        // Two members of 600 KiB: within a limit of 1200 KiB, both read.
+        let path = dir.join("two.tsv.gz");
+        assert_eq!(read_bytes_within(&path, 1200 << 10).unwrap().len(), 1200 << 10);
+        assert_eq!(read_bytes_within(&path, (1200 << 10) - 1).unwrap_err().kind(), ErrorKind::TooLarge);
         std::fs::remove_dir_all(&dir).ok();
     }
 }

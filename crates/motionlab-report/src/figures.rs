@@ -58,8 +58,9 @@ fn color(i: usize) -> RGBColor {
 /// Renders a figure to `<dir>/<name>.png` and `<dir>/<name>.svg`; returns both paths.
 pub fn render(figure: &Figure, dir: &Path) -> Result<Vec<PathBuf>> {
     ensure_font();
-    let png = dir.join(format!("{}.png", figure.name));
-    let svg = dir.join(format!("{}.svg", figure.name));
+    let stem = motionlab_core::paths::safe_file_name(&figure.name);
+    let png = dir.join(format!("{stem}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
     let size = match &figure.figure {
         FigureKind::Chart(c) if c.lines.is_empty() && c.points.is_empty() => {
             (SIZE.0, (90 + 34 * c.bar_rows.len() as u32).max(160))
@@ -78,14 +79,24 @@ pub fn render(figure: &Figure, dir: &Path) -> Result<Vec<PathBuf>> {
         draw(figure, &root).map_err(|e| draw_error(&svg, e))?;
         root.present().map_err(|e| draw_error(&svg, e))?;
     }
-    embed_cjk_font_in_svg(&svg)?;
+    finish_svg(&svg)?;
     Ok(vec![png, svg])
 }
 
-/// An SVG shown through `<img>` cannot use its page's fonts: when its text has CJK characters,
+/// Makes a rendered SVG valid and self-contained: characters XML forbids are replaced, and an
+/// SVG shown through `<img>` cannot use its page's fonts, so when its text has CJK characters
 /// the bundled CJK font goes into the SVG itself (other SVGs are left byte-identical).
-fn embed_cjk_font_in_svg(path: &Path) -> Result<()> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+fn finish_svg(path: &Path) -> Result<()> {
+    let mut text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    // plotters escapes `<`, `&` and quotes in text, but writes control characters as they are,
+    // and XML forbids them: a name holding one (an experiment's method name, a file name)
+    // would make the whole SVG unreadable. They become U+FFFD, as an HTML parser shows them.
+    if text.contains(is_invalid_in_xml) {
+        text = text.replace(is_invalid_in_xml, "\u{fffd}");
+        if !crate::fonts::needs_cjk(&text) {
+            return std::fs::write(path, text).map_err(|e| Error::io(path, e));
+        }
+    }
     if !crate::fonts::needs_cjk(&text) {
         return Ok(());
     }
@@ -93,6 +104,12 @@ fn embed_cjk_font_in_svg(path: &Path) -> Result<()> {
     let style = crate::fonts::css_font_face().replace("<style>", "<defs><style><![CDATA[").replace("</style>", "]]></style></defs>");
     let out = [&text[..open_end], "\n", &style, &text[open_end..]].concat();
     std::fs::write(path, out).map_err(|e| Error::io(path, e))
+}
+
+/// Characters XML 1.0 does not allow in a document (C0 controls but tab, newline and carriage
+/// return; U+FFFE and U+FFFF).
+fn is_invalid_in_xml(c: char) -> bool {
+    (c < ' ' && !matches!(c, '\t' | '\n' | '\r')) || matches!(c, '\u{fffe}' | '\u{ffff}')
 }
 
 fn draw_error(path: &Path, e: impl std::fmt::Display) -> Error {

@@ -88,14 +88,15 @@ impl HtmlTable {
         let mut rows = formatted_rows(df);
         let omitted_rows = rows.len().saturating_sub(MAX_HTML_ROWS);
         rows.truncate(MAX_HTML_ROWS);
+        let file = motionlab_core::paths::safe_file_name(name);
         HtmlTable {
             name: name.to_string(),
             title: title.to_string(),
             headers,
             rows,
-            csv: format!("{dir_prefix}{name}.csv"),
-            parquet: Some(format!("{dir_prefix}{name}.parquet")),
-            markdown: format!("{dir_prefix}{name}.md"),
+            csv: format!("{dir_prefix}{file}.csv"),
+            parquet: Some(format!("{dir_prefix}{file}.parquet")),
+            markdown: format!("{dir_prefix}{file}.md"),
             omitted_rows,
         }
     }
@@ -249,6 +250,9 @@ pub struct RunPage {
     pub viewers: Vec<ViewerLink>,
     /// Each method between chance and the annotators' agreement, when the run measured it.
     pub ceiling: Vec<CeilingBar>,
+    /// The external programs the experiment names: (place in the experiment, plugin, command
+    /// line), from the provenance (which also says who allowed them).
+    pub external_commands: Vec<(String, String, String)>,
 }
 
 /// A link to a viewer page.
@@ -430,12 +434,14 @@ mod tests {
             screenshot: None,
             viewers: vec![ViewerLink { name: "86_01".into(), href: "viewers/86_01.html".into() }],
             ceiling: ceiling_bars(&ceiling_table()),
+            external_commands: vec![("segmentation.segmenter[1]".into(), "external".into(), "sh -c \"echo <b>\"".into())],
         };
         let dir = std::env::temp_dir().join(format!("mlab-html-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = write_run_page(&dir, &page).unwrap();
         let html = std::fs::read_to_string(p).unwrap();
         assert!(html.contains("x&lt;y") && html.contains("d &amp; e"), "escaping");
+        assert!(html.contains("External programs") && html.contains("echo &lt;b&gt;"), "external commands listed, escaped");
         // minijinja escapes `/` as `&#x2f;` in attributes; browsers decode it back.
         let unescaped = html.replace("&#x2f;", "/");
         assert!(unescaped.contains("href=\"tables/t1.csv\"") && unescaped.contains("src=\"figures/f.svg\""), "{html}");

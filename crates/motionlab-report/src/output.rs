@@ -65,7 +65,9 @@ impl Written {
 /// Writes a workflow's output into `run_dir`: tables as CSV, Parquet and Markdown under
 /// `tables/`, figures rendered to PNG and SVG under `figures/` (in parallel), other files under
 /// `files/`, viewer pages under `viewers/`. `tables/` and `figures/` are created even when
-/// empty (a run directory always has them); `files/` and `viewers/` only when needed.
+/// empty (a run directory always has them); `files/` and `viewers/` only when needed. Every
+/// name becomes a file name through [`motionlab_core::paths::safe_file_name`], so no name
+/// from the data or the experiment writes outside these folders.
 pub fn write(run_dir: &Path, out: &Output) -> Result<Written> {
     let tables_dir = subdir(run_dir, "tables")?;
     let figures_dir = subdir(run_dir, "figures")?;
@@ -80,7 +82,7 @@ pub fn write(run_dir: &Path, out: &Output) -> Result<Written> {
     if !out.files.is_empty() {
         let dir = subdir(run_dir, "files")?;
         for (name, bytes) in &out.files {
-            let path = dir.join(name);
+            let path = dir.join(motionlab_core::paths::safe_file_name(name).as_ref());
             std::fs::write(&path, bytes).map_err(|e| Error::io(&path, e))?;
         }
     }

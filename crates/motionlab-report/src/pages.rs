@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use motionlab_core::paths::safe_file_name;
 use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
 
 use crate::html::{ceiling_bars, compare_published, viewer_links, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
@@ -45,9 +46,22 @@ fn write_page(
         .unwrap_or(serde_json::Value::Null);
     let mut provenance = Vec::new();
     let mut inputs = Vec::new();
+    let mut external_commands = Vec::new();
     if let serde_json::Value::Object(m) = &prov {
         for (k, v) in m {
             match (k.as_str(), v) {
+                // Listed in a section of their own, escaped like every other text.
+                ("external_commands", serde_json::Value::Array(a)) => {
+                    for c in a {
+                        let text = |key: &str| c.get(key).and_then(|x| x.as_str()).unwrap_or_default().to_string();
+                        let args: Vec<String> = c
+                            .get("command")
+                            .and_then(|x| x.as_array())
+                            .map(|a| a.iter().map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).collect())
+                            .unwrap_or_default();
+                        external_commands.push((text("at"), text("plugin"), motionlab_core::programs::command_line(&args)));
+                    }
+                }
                 ("inputs", serde_json::Value::Array(a)) => {
                     for f in a {
                         let g = |key: &str| f.get(key).map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).unwrap_or_default();
@@ -71,11 +85,14 @@ fn write_page(
     let html_tables = tables.iter().map(|t| HtmlTable::from_table(t, "tables/")).collect::<Result<Vec<_>>>()?;
     let html_figures = figures
         .iter()
-        .map(|f| HtmlFigure {
-            name: f.name.clone(),
-            title: f.title.clone(),
-            svg: format!("figures/{}.{}", f.name, if png_only { "png" } else { "svg" }),
-            png: format!("figures/{}.png", f.name),
+        .map(|f| {
+            let file = safe_file_name(&f.name);
+            HtmlFigure {
+                name: f.name.clone(),
+                title: f.title.clone(),
+                svg: format!("figures/{file}.{}", if png_only { "png" } else { "svg" }),
+                png: format!("figures/{file}.png"),
+            }
         })
         .collect();
     let comparisons = file
@@ -108,6 +125,7 @@ fn write_page(
         // Whatever viewer pages the run wrote (`viewers/<sequence>.html`).
         viewers: viewer_links(run_dir, ""),
         ceiling: tables.iter().flat_map(ceiling_bars).collect(),
+        external_commands,
     };
     write_run_page(run_dir, &page)
 }
@@ -188,8 +206,9 @@ pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()
         .unwrap_or_default();
     let kept: Vec<FigureEntry> = entries.into_iter().filter(|f| file.experiment.record_figures.iter().any(|p| wildcard(p, &f.name))).collect();
     for f in &kept {
-        let from = run.join("figures").join(format!("{}.png", f.name));
-        std::fs::copy(&from, figures_dir.join(format!("{}.png", f.name))).map_err(|e| io(&from, e))?;
+        let file = format!("{}.png", safe_file_name(&f.name));
+        let from = run.join("figures").join(&file);
+        std::fs::copy(&from, figures_dir.join(&file)).map_err(|e| io(&from, e))?;
     }
     for name in ["provenance.json", "config.toml"] {
         let from = run.join(name);
@@ -245,7 +264,7 @@ fn split_csv_line(line: &str) -> Vec<String> {
 
 /// The value of one headline cell in a run.
 fn headline_value(run: &Path, h: &Headline) -> Option<String> {
-    let t = read_table_csv(&run.join("tables").join(format!("{}.csv", h.table)), &h.table)?;
+    let t = read_table_csv(&run.join("tables").join(format!("{}.csv", safe_file_name(&h.table))), &h.table)?;
     let row = (0..t.n_rows()).find(|&r| h.filter.iter().all(|(k, v)| t.column(k).is_some_and(|c| c.cell(r) == *v)))?;
     Some(match t.column(&h.column)? {
         ColumnValues::F64(v) => motionlab_core::table::fmt_num(v[row]),
@@ -266,7 +285,8 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
     files.sort();
     let mut entries = Vec::new();
     for f in files {
-        let Ok(text) = std::fs::read_to_string(&f) else { continue };
+        // Bounded like any experiment file: the folder may hold one from someone else.
+        let Some(text) = motionlab_core::limits::read_experiment_file(&f).ok().and_then(|b| String::from_utf8(b).ok()) else { continue };
         // Only the fixed part of the schema: the workflow section is the workflow's own.
         let Ok(doc) = toml::from_str::<toml::Table>(&text) else { continue };
         let Ok(file) = toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into::<ExperimentFile>() else { continue };
@@ -306,7 +326,7 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
                     .published
                     .iter()
                     .map(|p| {
-                        let ours = read_table_csv(&run.join("tables").join(format!("{}.csv", p.table)), &p.table);
+                        let ours = read_table_csv(&run.join("tables").join(format!("{}.csv", safe_file_name(&p.table))), &p.table);
                         compare_published(&p.table, &p.source, &p.note, &p.rows, ours.as_ref())
                     })
                     .collect();

@@ -42,12 +42,14 @@ pub struct WrittenTable {
     pub markdown: PathBuf,
 }
 
-/// Writes `<dir>/<name>.csv`, `.parquet` and `.md`.
+/// Writes `<dir>/<name>.csv`, `.parquet` and `.md` (the name made a safe file name,
+/// [`motionlab_core::paths::safe_file_name`]).
 pub fn write_table(table: &Table, dir: &Path) -> Result<WrittenTable> {
     let mut df = to_dataframe(table)?;
-    let csv = dir.join(format!("{}.csv", table.name));
-    let parquet = dir.join(format!("{}.parquet", table.name));
-    let markdown = dir.join(format!("{}.md", table.name));
+    let stem = motionlab_core::paths::safe_file_name(&table.name);
+    let csv = dir.join(format!("{stem}.csv"));
+    let parquet = dir.join(format!("{stem}.parquet"));
+    let markdown = dir.join(format!("{stem}.md"));
     let create = |p: &Path| File::create(p).map_err(|e| Error::io(p, e));
     CsvWriter::new(create(&csv)?).finish(&mut df).map_err(|e| polars_error(&table.name, e).with_location(Location::file(&csv)))?;
     ParquetWriter::new(create(&parquet)?)
@@ -88,7 +90,8 @@ pub fn markdown_of(df: &DataFrame) -> String {
         numeric.iter().map(|n| if *n { "---:" } else { "---" }).collect::<Vec<_>>().join("|")
     ));
     for row in formatted_rows(df) {
-        let cells: Vec<String> = row.into_iter().map(|c| c.replace('|', "\\|")).collect();
+        // A `|` or a line break inside a cell (a method or annotator name) would break the table.
+        let cells: Vec<String> = row.into_iter().map(|c| c.replace('|', "\\|").replace(['\n', '\r'], " ")).collect();
         out.push_str(&format!("| {} |\n", cells.join(" | ")));
     }
     out

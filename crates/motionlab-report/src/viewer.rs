@@ -197,8 +197,10 @@ fn escape_html(s: &str) -> String {
 pub fn render_page(spec: &ViewerSpec, back_link: Option<&str>) -> Result<String> {
     spec.validate()?;
     let (json, data) = encode(spec, back_link)?;
-    // JSON inside <script>: `</` must not close the element.
-    let json = json.replace("</", "<\\/");
+    // JSON inside <script>: no `<` at all, so neither `</script>` nor `<!--` (which would make
+    // the parser look for a second `</script>`) can occur; `<`, `>` and `&` only occur inside
+    // JSON strings, where `\u003c` is the same character to JSON.parse.
+    let json = json.replace('<', "\\u003c").replace('>', "\\u003e").replace('&', "\\u0026");
     // Split at the data's place first: no text from the spec can then be taken for a placeholder.
     let (head, tail) = TEMPLATE.split_once("{{DATA}}").unwrap_or((TEMPLATE, ""));
     let head = crate::fonts::with_cjk_font(head.replace("{{TITLE}}", &escape_html(&spec.title)).replace("{{META}}", &json));
@@ -217,7 +219,7 @@ pub fn write(dir: &Path, spec: &ViewerSpec) -> Result<PathBuf> {
 pub fn write_with_back_link(dir: &Path, spec: &ViewerSpec, back_link: Option<&str>) -> Result<PathBuf> {
     let page = render_page(spec, back_link)?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let path = dir.join(format!("{}.html", spec.name));
+    let path = dir.join(format!("{}.html", motionlab_core::paths::safe_file_name(&spec.name)));
     std::fs::write(&path, page).map_err(|e| Error::io(&path, e).with_location(Location::file(&path)))?;
     Ok(path)
 }
