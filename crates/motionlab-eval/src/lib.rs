@@ -13,7 +13,11 @@
 //!   chance and periodic baselines of [`chance`] beside each method (p-value, above chance);
 //!   [`span`]: its option to count only found frames within the annotated span.
 //! - [`cpd_metrics`]: TCPDBench/TSSB's F1 with several annotators and segment covering;
-//!   [`boundary_metrics`]: evaluator plugin for them and for F1 at several tolerances.
+//!   [`boundary_metrics`]: evaluator plugin for them and for F1 at several tolerances;
+//!   [`series_scores`]: the same metrics of one (series, method) with their chance draws, as a
+//!   typed value a benchmark averages over series.
+//! - [`ranks`]: methods compared over many series — mean ranks, Friedman's test, the Nemenyi
+//!   critical difference and its cliques (the critical-difference diagram's arithmetic).
 //! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
 //!   (`boundaries_csv`, `elan_eaf`; formats parsed in `motionlab-io`), one annotator or the
 //!   consensus of several.
@@ -39,7 +43,9 @@ pub mod boundary_pr;
 pub mod chance;
 pub mod consensus;
 pub mod cpd_metrics;
+pub mod ranks;
 mod sequences;
+pub mod series_scores;
 pub mod span;
 pub mod transitions;
 mod truth_annotators;

@@ -112,7 +112,7 @@ mod tests {
         let mut t = Table::new("speeds", "Speeds");
         t.push_column("v", ColumnValues::F64(vec![1.0, 2.5])).unwrap();
         let chart = Chart { title: "Speed".into(), x_label: "frame".into(), y_label: "mm/s".into(), lines: vec![Series::new("v", vec![0.0, 1.0], vec![1.0, 2.5])], ..Default::default() };
-        let out = Output { tables: vec![t], figures: vec![Figure::chart("speed", chart)], files: vec![("walk.bvh".into(), b"HIERARCHY".to_vec())], viewers: vec![] };
+        let out = Output { tables: vec![t], figures: vec![Figure::chart("speed", chart)], files: vec![("walk.bvh".into(), b"HIERARCHY".to_vec())], viewers: vec![], analyses: vec![] };
         let w = write(&dir, &out).unwrap();
         let names = |v: &[PathBuf]| v.iter().map(|p| p.to_string_lossy().into_owned()).collect::<Vec<_>>();
         assert_eq!(names(&w.tables), ["tables/speeds.csv", "tables/speeds.parquet", "tables/speeds.md"]);
