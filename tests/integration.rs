@@ -6,6 +6,7 @@
 //! one file's tests still run alone: `cargo test -p motionlab-cli --test integration gait::`.
 //! A new file here is one `mod` line below (CONTRIBUTING.md, "Tests").
 
+mod benchmark;
 mod cache;
 mod cli;
 mod data_manifest;
