@@ -7,6 +7,7 @@
 //! A new file here is one `mod` line below (CONTRIBUTING.md, "Tests").
 
 mod annotate;
+mod benchmark;
 mod cache;
 mod cli;
 mod consent;

@@ -123,6 +123,11 @@ enum Command {
         /// Overwrite the output file if it exists.
         #[arg(long)]
         force: bool,
+        /// Write a segmentation benchmark (every segmenter that reads channels, covering and F1
+        /// against chance, mean ranks, the critical-difference diagram); implied by channel
+        /// files (.txt/.csv/.npy series). Needs --truth.
+        #[arg(long)]
+        benchmark: bool,
     },
     /// Describe motion files: format, frames, rate, duration, points, missing samples, length
     /// unit and standing height, what the loader repaired, events.
@@ -338,8 +343,8 @@ fn dispatch(command: Command) -> Result<ExitCode> {
         }
         Command::Reproduce { experiments, opts, record, only } => reproduce(&experiments, &opts, record, only.as_deref()),
         Command::Inspect { files, json, npy } => inspect::inspect(&files, json, npy.as_deref()),
-        Command::New { input, truth, output, force } => {
-            let path = new::new_experiment(&new::NewArgs { input, truth, output, force })?;
+        Command::New { input, truth, output, force, benchmark } => {
+            let path = new::new_experiment(&new::NewArgs { input, truth, output, force, benchmark })?;
             println!("wrote {} (valid); run it with: motionlab run {}", path.display(), path.display());
             Ok(ExitCode::SUCCESS)
         }

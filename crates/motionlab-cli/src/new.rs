@@ -11,6 +11,11 @@
 //! when a truth file is given (`.csv` → `boundaries_csv`, `.eaf` → `elan_eaf`). With a CSV
 //! that names sequences, only the motion files it annotates are listed. The written file is
 //! validated before the command returns.
+//!
+//! With `--benchmark`, or for a folder of channel files (`.txt`/`.csv`/`.npy` series; TSSB's
+//! `desc.txt` as the truth), it writes a `[benchmark]` instead: every segmenter that reads
+//! channels at its peers' defaults (on mocap: on the fastest marker's speed, beside the Sonoda
+//! speed and hull methods and the PCA baseline), covering and F1 against chance, mean ranks.
 
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
@@ -25,6 +30,9 @@ pub struct NewArgs {
     pub truth: Option<PathBuf>,
     pub output: Option<PathBuf>,
     pub force: bool,
+    /// Write a `[benchmark]` (every strong segmenter, covering and F1 against chance, ranks)
+    /// instead of a Sonoda segmentation; implied by channel files.
+    pub benchmark: bool,
 }
 
 /// The root the experiment uses, and how it was found.
@@ -224,12 +232,11 @@ fn truth_spec(truth: &Path, out_dir: &Path, files: &[PathBuf]) -> Result<Truth> 
 /// Writes the experiment; returns its path.
 pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
     let (mut files, folder_note) = motion_files(&args.input)?;
-    let name = experiment_name(&args.input);
-    let output = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{name}.toml")));
-    if output.exists() && !args.force {
-        return Err(Error::new(ErrorKind::Report, "exists; choose another -o or pass --force to overwrite").with_location(Location::file(&output)));
+    if args.benchmark || loader_for(&files[0]).is_ok_and(|(name, _)| name == "channels") {
+        return new_benchmark(args, files, &folder_note);
     }
-    let out_dir = output.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    let name = experiment_name(&args.input);
+    let (output, out_dir) = output_path(args, &name)?;
     let truth = args.truth.as_deref().map(|t| truth_spec(t, &out_dir, &files)).transpose()?;
     let mut skipped = Vec::new();
     if let Some(seqs) = truth.as_ref().and_then(|t| t.sequences.as_ref()) {
@@ -297,13 +304,115 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
         let _ = writeln!(w, "# counts those in the unannotated start and end too).");
         let _ = writeln!(w, "[[evaluate]]\ntype = \"boundary_pr\"\ntolerance = {{ seconds = 0.5 }}\nspan = \"annotated\"");
     }
+    write_validated(&output, &t)
+}
+
+/// The output path, refusing to overwrite without `--force`; its folder.
+fn output_path(args: &NewArgs, name: &str) -> Result<(PathBuf, PathBuf)> {
+    let output = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{name}.toml")));
+    if output.exists() && !args.force {
+        return Err(Error::new(ErrorKind::Report, "exists; choose another -o or pass --force to overwrite").with_location(Location::file(&output)));
+    }
+    let out_dir = output.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    Ok((output, out_dir))
+}
+
+/// Writes the file, then validates it ("runs as is": every file, plugin and parameter).
+fn write_validated(output: &Path, text: &str) -> Result<PathBuf> {
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
-    std::fs::write(&output, t).map_err(|e| Error::io(&output, e))?;
-    // "Runs as is": every file, plugin and parameter checked now.
-    motionlab_engine::plan(&output, &[])?;
-    Ok(output)
+    std::fs::write(output, text).map_err(|e| Error::io(output, e))?;
+    motionlab_engine::plan(output, &[])?;
+    Ok(output.to_path_buf())
+}
+
+/// A `[benchmark]` over channel files (TSSB's `desc.txt` or an annotation CSV as the truth) or
+/// motion files (the segmenters that read channels on the fastest marker's speed, beside the
+/// Sonoda ones and the PCA baseline).
+fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> Result<PathBuf> {
+    let Some(truth_path) = args.truth.as_deref() else {
+        return Err(Error::new(ErrorKind::MissingKey, "a benchmark scores against ground truth: pass --truth (TSSB's desc.txt, a boundaries CSV or an ELAN .eaf)"));
+    };
+    let base = experiment_name(&args.input);
+    let name = format!("{}_benchmark", base.trim_end_matches("_segmentation"));
+    let (output, out_dir) = output_path(args, &name)?;
+    // TSSB's desc.txt (`name,width,cp,…` per line) names its series; anything else is read as
+    // the segmentation scaffold reads annotations.
+    let desc = motionlab_io::read::read_text(truth_path).ok().and_then(|t| motionlab_io::labels::tssb_desc::parse_tssb_desc(&t, truth_path).ok());
+    let (truth_table, truth_comments, sequences) = match desc {
+        Some(entries) => (
+            format!("{{ type = \"tssb_desc\", file = \"{}\" }}", toml_path(&relative(&out_dir, truth_path)?)),
+            vec![format!("TSSB's desc.txt: {} series with their change points", entries.len())],
+            Some(entries.into_iter().map(|e| e.name).collect::<Vec<_>>()),
+        ),
+        None => {
+            let t = truth_spec(truth_path, &out_dir, &files)?;
+            (t.table, t.comments, t.sequences)
+        }
+    };
+    let mut skipped = Vec::new();
+    if let Some(seqs) = &sequences {
+        let (keep, drop): (Vec<PathBuf>, Vec<PathBuf>) = files.into_iter().partition(|f| seqs.contains(&motionlab_core::paths::stem(f)));
+        if keep.is_empty() {
+            return Err(Error::new(ErrorKind::UnknownName, "the annotations name no file of the input (by its stem)").with_location(Location::file(truth_path)));
+        }
+        files = keep;
+        skipped = drop;
+    }
+    let (loader_name, loader) = loader_for(&files[0])?;
+    let channels = loader_name == "channels";
+    // A channel file without a time column needs its rate declared.
+    let loader_table = if channels && loader.load(&files[0]).is_err() {
+        "{ type = \"channels\", rate_hz = 1.0 }                 # no time_s column: one sample per frame; set your rate".to_string()
+    } else {
+        format!("{{ type = \"{loader_name}\" }}")
+    };
+    let mut t = String::new();
+    let w = &mut t;
+    let _ = writeln!(w, "# Written by `motionlab new {} --truth {} --benchmark`.", args.input, truth_path.display());
+    let _ = writeln!(w, "# Run it: motionlab run {}", output.display());
+    let _ = writeln!(w, "# Every segmenter at the defaults of its paper or peer library (never tuned on these data):");
+    let _ = writeln!(w, "# covering and TCPDBench F1 per sequence against chance, mean ranks and a critical-difference");
+    let _ = writeln!(w, "# diagram. A segmenter joins with one line in `segmenter = [...]`; `motionlab describe <type>`");
+    let _ = writeln!(w, "# documents each.\n");
+    let _ = writeln!(w, "[experiment]\nname = \"{name}\"");
+    let _ = writeln!(w, "description = \"Segmentation benchmark on {}\"", args.input.replace('"', "'"));
+    let _ = writeln!(w, "record_tables = [\"benchmark_covering\", \"benchmark_f1\", \"benchmark_ranks\", \"benchmark_rank_test\"]   # runtimes vary run to run\n");
+    let _ = writeln!(w, "[[dataset]]");
+    let _ = writeln!(w, "# {} file(s), loader `{loader_name}` (from the extension){}.", files.len(), if folder_note.is_empty() { String::new() } else { format!("; {folder_note}") });
+    if !skipped.is_empty() {
+        let s: Vec<String> = skipped.iter().map(|p| motionlab_core::paths::stem(p)).collect();
+        let _ = writeln!(w, "# Not annotated, so left out: {}.", s.join(", "));
+    }
+    let listed: Vec<String> = files.iter().map(|f| relative(&out_dir, f).map(|p| format!("\"{}\"", toml_path(&p)))).collect::<Result<_>>()?;
+    let _ = writeln!(w, "files = [{}]", listed.join(", "));
+    let _ = writeln!(w, "loader = {loader_table}");
+    for c in &truth_comments {
+        let _ = writeln!(w, "# Ground truth: {c}.");
+    }
+    let _ = writeln!(w, "ground_truth = {truth_table}\n");
+    let _ = writeln!(w, "[benchmark]");
+    let margin = if channels { "{ frames = 5 }]                             # TCPDBench's margin, in samples" } else { "{ seconds = 0.5 }]" };
+    let _ = writeln!(w, "margins = [{margin}");
+    let _ = writeln!(w, "segmenter = [");
+    if channels {
+        let _ = writeln!(w, "    {{ type = \"clasp\" }},");
+        let _ = writeln!(w, "    {{ type = \"kernel_cpd\", name = \"PELT\", search = \"pelt\" }},");
+        let _ = writeln!(w, "    {{ type = \"kernel_cpd\", name = \"BinSeg\", search = \"binseg\" }},");
+        let _ = writeln!(w, "    {{ type = \"floss\", cac_threshold = 0.45 }},        # FLOSS needs a threshold or a regime count");
+        let _ = writeln!(w, "    {{ type = \"bocpd\" }},");
+        let _ = writeln!(w, "    {{ type = \"window\" }},");
+    } else {
+        let input = "input = { features = [{ type = \"marker_speed\" }] }";
+        let _ = writeln!(w, "    {{ type = \"clasp\", {input} }},     # on the fastest marker's speed");
+        let _ = writeln!(w, "    {{ type = \"kernel_cpd\", {input} }},");
+        let _ = writeln!(w, "    {{ type = \"fastest_marker_speed\", name = \"speed\" }},");
+        let _ = writeln!(w, "    {{ type = \"hull_volume_change\", name = \"hull\" }},");
+        let _ = writeln!(w, "    {{ type = \"pca_error_rise\", name = \"pca\" }},");
+    }
+    let _ = writeln!(w, "]");
+    write_validated(&output, &t)
 }
 
 #[cfg(test)]

@@ -309,18 +309,32 @@ impl Draws {
 /// frames of `span` (sorted), its mean and the one-sided p-value of `observed` (the add-one
 /// rule of the module docs: `(1 + #{draws scoring ≥ observed}) / (1 + N)`). NaN draws (a
 /// metric undefined on a set) are left out of both.
-pub fn metric_chance(k: usize, span: std::ops::Range<usize>, draws: usize, seed: u64, observed: f64, mut metric: impl FnMut(&[usize]) -> f64) -> (f64, f64) {
+pub fn metric_chance(k: usize, span: std::ops::Range<usize>, draws: usize, seed: u64, observed: f64, metric: impl FnMut(&[usize]) -> f64) -> (f64, f64) {
+    chance_of_draws(&metric_draws(k, span, draws, seed, metric), observed)
+}
+
+/// `metric` of each of `draws` random sets of `k` distinct frames of `span` (sorted), in draw
+/// order — the draws [`metric_chance`] summarises, kept for pooling: draw `i` of a mean over
+/// sequences is the mean of draw `i` of each.
+pub fn metric_draws(k: usize, span: std::ops::Range<usize>, draws: usize, seed: u64, mut metric: impl FnMut(&[usize]) -> f64) -> Vec<f64> {
     let mut d = Draws::new(k, span, seed);
     let mut sorted = Vec::with_capacity(k);
+    (0..draws)
+        .map(|_| {
+            sorted.clear();
+            sorted.extend_from_slice(d.next_draw());
+            sorted.sort_unstable();
+            metric(&sorted)
+        })
+        .collect()
+}
+
+/// The mean of the defined draws and the one-sided p-value of `observed` against them
+/// (`(1 + #{draws ≥ observed}) / (1 + N)`, N the defined draws); NaN p-value when `observed`
+/// is NaN, NaN mean when no draw is defined.
+pub fn chance_of_draws(draws: &[f64], observed: f64) -> (f64, f64) {
     let (mut sum, mut n, mut at_least) = (0.0, 0usize, 0usize);
-    for _ in 0..draws {
-        sorted.clear();
-        sorted.extend_from_slice(d.next_draw());
-        sorted.sort_unstable();
-        let v = metric(&sorted);
-        if v.is_nan() {
-            continue;
-        }
+    for &v in draws.iter().filter(|v| !v.is_nan()) {
         sum += v;
         n += 1;
         at_least += usize::from(v >= observed);

@@ -13,9 +13,13 @@
 //!   chance and periodic baselines of [`chance`] beside each method (p-value, above chance);
 //!   [`span`]: its option to count only found frames within the annotated span.
 //! - [`cpd_metrics`]: TCPDBench/TSSB's F1 with several annotators and segment covering;
-//!   [`boundary_metrics`]: evaluator plugin for them and for F1 at several tolerances.
+//!   [`boundary_metrics`]: evaluator plugin for them and for F1 at several tolerances;
+//!   [`series_scores`]: the same metrics of one (series, method) with their chance draws, as a
+//!   typed value a benchmark averages over series.
 //! - [`human_agreement`]: evaluator plugin for the annotators' agreement with each other (F1
 //!   and a chance-corrected kappa per pair), the ceiling each method is shown under.
+//! - [`ranks`]: methods compared over many series — mean ranks, Friedman's test, the Nemenyi
+//!   critical difference and its cliques (the critical-difference diagram's arithmetic).
 //! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
 //!   (`boundaries_csv`, `elan_eaf`; formats parsed in `motionlab-io`), one annotator or the
 //!   consensus of several.
@@ -43,7 +47,9 @@ pub mod chance;
 pub mod consensus;
 pub mod cpd_metrics;
 pub mod human_agreement;
+pub mod ranks;
 mod sequences;
+pub mod series_scores;
 pub mod span;
 pub mod transitions;
 mod truth_annotators;

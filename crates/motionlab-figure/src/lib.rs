@@ -97,6 +97,33 @@ pub enum FigureKind {
     Chart(Chart),
     Sticks(StickStrip),
     TimelinePoses(TimelinePoses),
+    CriticalDifference(CriticalDifference),
+}
+
+/// A critical-difference diagram (Demšar 2006, as the TSSB and ClaSP papers draw it): an axis
+/// of mean ranks (1 = best, on the left), each method's mean rank marked and labelled — the
+/// better half on the left, the rest on the right — a bar as long as the critical difference,
+/// and a thick line under each clique of methods whose ranks do not differ significantly.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CriticalDifference {
+    pub title: String,
+    /// The methods, in any order.
+    pub methods: Vec<RankedMethod>,
+    /// The critical difference, in ranks (NaN: none drawn).
+    pub critical_difference: f64,
+    /// Groups of methods (indices into `methods`) not significantly different.
+    pub cliques: Vec<Vec<usize>>,
+    pub caption: String,
+}
+
+/// One method of a [`CriticalDifference`] diagram.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RankedMethod {
+    pub label: String,
+    pub mean_rank: f64,
+    /// Drawn in a second colour (published scores beside computed ones).
+    #[serde(default)]
+    pub secondary: bool,
 }
 
 /// A timeline of bar rows (ground truth, each method) with a stick-figure pose drawn under each
@@ -131,6 +158,7 @@ impl Figure {
             FigureKind::Chart(c) => &c.title,
             FigureKind::Sticks(s) => &s.title,
             FigureKind::TimelinePoses(t) => &t.timeline.title,
+            FigureKind::CriticalDifference(c) => &c.title,
         }
     }
 }

@@ -20,3 +20,4 @@ mod text;
 pub mod c3d;
 pub mod channel_file;
 pub mod qualisys_tsv;
+pub mod scores_csv;

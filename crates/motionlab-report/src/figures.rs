@@ -28,7 +28,7 @@ fn ensure_font() {
 
 // The specs are plain data in `motionlab-figure` (so workflows build them without plotters);
 // this module renders them.
-pub use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip, TimelinePoses};
+pub use motionlab_figure::{BarRow, Chart, CriticalDifference, Figure, FigureKind, Pose, RankedMethod, RefLine, Series, StickRow, StickStrip, TimelinePoses};
 
 /// The font family for a text: DejaVu Sans, or — only for text with CJK characters, which it
 /// lacks — the bundled Noto Sans CJK JP subset (which also draws Latin), so figures without
@@ -67,6 +67,7 @@ pub fn render(figure: &Figure, dir: &Path) -> Result<Vec<PathBuf>> {
         }
         FigureKind::Sticks(s) => (SIZE.0, 90 + 230 * s.rows.len().max(1) as u32),
         FigureKind::TimelinePoses(t) => (1400, (90 + 34 * t.timeline.bar_rows.len() as u32).max(160) + 2 * POSE_ROW_PX + 30),
+        FigureKind::CriticalDifference(c) => (1000, cd_layout(c).height),
         _ => SIZE,
     };
     {
@@ -127,7 +128,94 @@ where
         FigureKind::Chart(c) => draw_chart(c, root),
         FigureKind::Sticks(s) => draw_sticks(s, root),
         FigureKind::TimelinePoses(t) => draw_timeline_poses(t, root),
+        FigureKind::CriticalDifference(c) => draw_critical_difference(c, root),
     }
+}
+
+/// Pixel layout of a critical-difference diagram.
+struct CdLayout {
+    /// y of the rank axis.
+    axis_y: i32,
+    /// y of the first label row under the cliques.
+    first_row_y: i32,
+    height: u32,
+}
+
+const CD_ROW_PX: i32 = 24;
+const CD_MARGIN_PX: i32 = 250;
+
+fn cd_layout(c: &CriticalDifference) -> CdLayout {
+    let axis_y = 104;
+    let rows = c.methods.len().div_ceil(2) as i32;
+    let first_row_y = axis_y + 22 + 7 * c.cliques.len() as i32;
+    let height = (first_row_y + rows * CD_ROW_PX + 40).max(200) as u32;
+    CdLayout { axis_y, first_row_y, height }
+}
+
+/// Demšar's diagram as Orange's `graph_ranks` lays it out: rank 1 on the left; the better
+/// half of the methods labelled on the left (best on top), the rest on the right (worst on
+/// top); the critical difference above the axis, each clique a thick line under it.
+fn draw_critical_difference<DB: DrawingBackend>(c: &CriticalDifference, root: &DrawingArea<DB, Shift>) -> DrawResult<()>
+where
+    DB::ErrorType: 'static,
+{
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let (w, _) = root.dim_in_pixel();
+    let layout = cd_layout(c);
+    root.draw(&Text::new(c.title.clone(), (12, 8), (family(&c.title), 22)))?;
+    let k = c.methods.len().max(2);
+    let (left, right) = (CD_MARGIN_PX, w as i32 - CD_MARGIN_PX);
+    let x_of = |rank: f64| left + ((rank - 1.0) / (k as f64 - 1.0) * (right - left) as f64).round() as i32;
+    let axis = layout.axis_y;
+    let black = BLACK.stroke_width(1);
+    root.draw(&PathElement::new(vec![(left, axis), (right, axis)], black))?;
+    let centred = |size: u32, text: &str| TextStyle::from((family(text), size).into_font()).pos(Pos::new(HPos::Center, VPos::Bottom));
+    for r in 1..=k {
+        let x = x_of(r as f64);
+        root.draw(&PathElement::new(vec![(x, axis - 8), (x, axis)], black))?;
+        root.draw(&Text::new(r.to_string(), (x, axis - 10), centred(14, "1")))?;
+        if r < k {
+            let h = x_of(r as f64 + 0.5);
+            root.draw(&PathElement::new(vec![(h, axis - 4), (h, axis)], black))?;
+        }
+    }
+    if c.critical_difference.is_finite() && c.critical_difference > 0.0 {
+        let (a, b) = (x_of(1.0), x_of(1.0 + c.critical_difference));
+        let y = axis - 44;
+        root.draw(&PathElement::new(vec![(a, y), (b, y)], BLACK.stroke_width(2)))?;
+        root.draw(&PathElement::new(vec![(a, y - 4), (a, y + 4)], black))?;
+        root.draw(&PathElement::new(vec![(b, y - 4), (b, y + 4)], black))?;
+        let label = format!("CD = {}", fmt_num(c.critical_difference));
+        root.draw(&Text::new(label.clone(), ((a + b) / 2, y - 6), centred(14, &label)))?;
+    }
+    let mut order: Vec<usize> = (0..c.methods.len()).collect();
+    order.sort_by(|&a, &b| c.methods[a].mean_rank.total_cmp(&c.methods[b].mean_rank).then(a.cmp(&b)));
+    let n_left = c.methods.len().div_ceil(2);
+    let secondary = RGBColor(31, 119, 180);
+    for (pos, &m) in order.iter().enumerate() {
+        let method = &c.methods[m];
+        let colour = if method.secondary { secondary } else { BLACK };
+        let x = x_of(method.mean_rank);
+        let (row, on_left) = if pos < n_left { (pos, true) } else { (c.methods.len() - 1 - pos, false) };
+        let y = layout.first_row_y + row as i32 * CD_ROW_PX;
+        let end = if on_left { left - 10 } else { right + 10 };
+        root.draw(&PathElement::new(vec![(x, axis), (x, y), (end, y)], colour.stroke_width(1)))?;
+        let label = format!("{} ({})", method.label, fmt_num(method.mean_rank));
+        let anchor = if on_left { HPos::Right } else { HPos::Left };
+        let style = TextStyle::from((family(&label), 14).into_font()).pos(Pos::new(anchor, VPos::Center)).color(&colour);
+        root.draw(&Text::new(label, (if on_left { end - 4 } else { end + 4 }, y), style))?;
+    }
+    for (j, clique) in c.cliques.iter().enumerate() {
+        let ranks = clique.iter().filter_map(|&i| c.methods.get(i)).map(|m| m.mean_rank);
+        let (lo, hi) = ranks.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| (a.min(r), b.max(r)));
+        if lo.is_finite() {
+            let y = axis + 12 + 7 * j as i32;
+            root.draw(&PathElement::new(vec![(x_of(lo) - 4, y), (x_of(hi) + 4, y)], BLACK.stroke_width(4)))?;
+        }
+    }
+    let caption_y = layout.height as i32 - 22;
+    root.draw(&Text::new(c.caption.clone(), (12, caption_y), (family(&c.caption), 13)))?;
+    Ok(())
 }
 
 /// Height of one row of poses under a timeline, pixels.
@@ -469,7 +557,18 @@ mod tests {
                 caption: "pose at each fused candidate".into(),
             }),
         };
-        for f in [Figure::chart("a", chart), Figure::chart("b", timeline), Figure::sticks("c", sticks), combined] {
+        let ranked = |label: &str, mean_rank: f64, secondary: bool| RankedMethod { label: label.into(), mean_rank, secondary };
+        let cd = Figure {
+            name: "e".into(),
+            figure: FigureKind::CriticalDifference(CriticalDifference {
+                title: "mean rank by covering".into(),
+                methods: vec![ranked("clasp", 1.4, false), ranked("ClaSP (published)", 1.5, true), ranked("window", 4.2, false), ranked("pelt", 2.9, false), ranked("bocpd", 4.0, false)],
+                critical_difference: 0.9,
+                cliques: vec![vec![0, 1], vec![2, 4]],
+                caption: "Nemenyi, α = 0.05, 75 series".into(),
+            }),
+        };
+        for f in [Figure::chart("a", chart), Figure::chart("b", timeline), Figure::sticks("c", sticks), combined, cd] {
             let paths = render(&f, &dir).unwrap();
             for p in paths {
                 let len = std::fs::metadata(&p).unwrap().len();
@@ -478,6 +577,11 @@ mod tests {
         }
         let svg = std::fs::read_to_string(dir.join("a.svg")).unwrap();
         assert!(svg.contains("V with candidates") && svg.contains("speed (mm/s)"));
+        // The diagram labels every method with its mean rank, and the critical difference.
+        let svg = std::fs::read_to_string(dir.join("e.svg")).unwrap();
+        for text in ["clasp (1.4)", "ClaSP (published) (1.5)", "window (4.2)", "CD = 0.9", "Nemenyi"] {
+            assert!(svg.contains(text), "{text} missing");
+        }
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -11,6 +11,9 @@
 //!   paper's figures and its (a)/(b)/(c) timing test.
 //! - [`retrieval`] — `[retrieval]` (Yabe & Tanaka's match across a corpus): the stretches of
 //!   every take most similar and most dissimilar to one model, exactly pruned.
+//! - [`benchmark`] — `[benchmark]`: every listed segmenter on every labelled sequence,
+//!   covering and TCPDBench F1 beside chance, mean ranks, a critical-difference diagram and
+//!   published scores beside ours.
 //! - [`gait`] — `[gait]` (Osafune et al.): walk analysis, the paper's Tables 2–3, the control
 //!   of a skeleton walk and the leave-one-subject-out evaluation.
 //!
@@ -18,6 +21,7 @@
 //! [`drawing`] holds the figure-building helpers they share. Everything here is polars- and
 //! plotters-free: figures are specs (`motionlab-figure`), rendered by `motionlab-report`.
 
+pub mod benchmark;
 pub mod drawing;
 pub mod features;
 pub mod gait;
@@ -29,4 +33,4 @@ pub mod segmentation;
 
 /// How many workflows this crate registers (checked by the registry test, `tests/registry.rs`,
 /// so a workflow that silently vanishes from the binary fails it).
-pub const WORKFLOW_COUNT: usize = 5;
+pub const WORKFLOW_COUNT: usize = 6;
