@@ -26,7 +26,7 @@ pub mod kernel_cpd;
 mod signal;
 pub mod window;
 
-pub use bocpd::{Bocpd, BocpdParams, BocpdRun};
+pub use bocpd::{Bocpd, BocpdChangePoints, BocpdModel, BocpdParams, BocpdRun};
 pub use signal::Normalize;
 pub use kernel_cpd::{CostModel, KernelCpd, KernelCpdParams, KernelCpdRun, Search, StopRule};
 pub use window::{Window, WindowParams, WindowRun, WindowStop};
