@@ -2,23 +2,29 @@
 """motionlab-changepoint against its peers: ruptures' breakpoints, a NumPy BOCPD, and speed.
 
 Equality (the default; CI runs it):
-  * kernel_cpd and window against ruptures 1.1.10 — Pelt (l2, rbf, linear), Binseg (pen and
-    n_bkps), KernelCPD PELT (linear kernel = l2, rbf) and Window (l2, rbf, linear) — on seeded
-    random series (one and three channels, mean and spread changes, regression series for the
-    linear cost; several min_size / jump) and on real TSSB series (data/tssb/datasets). Our
+  * kernel_cpd and window against ruptures 1.1.10 — Pelt (l2, rbf, linear, ar), Binseg (pen
+    and n_bkps), KernelCPD PELT (linear kernel = l2, rbf) and Window (l2, rbf, linear, ar) — on
+    seeded random series (one and three channels, mean and spread changes, regression series
+    for the linear cost, autoregressive series for ar; several min_size / jump) and on real TSSB
+    series (data/tssb/datasets), ar also in the TSSB scripts' configuration (min_size 5·w, pen
+    10; with min-max normalisation too). Our
     BIC-style penalty and ruptures' median-heuristic bandwidth are checked on the way (the
     penalty against its formula in NumPy, the bandwidth against ruptures' own). Any breakpoint
     difference fails the run.
   * bocpd's run-length posterior against a NumPy implementation of Adams & MacKay's recursion
     written here (independent of the Rust), to <= 1e-9, and the change points read from it.
+  * bocpd with model = "bocd_package" against the bocd 0.1.2 package itself (installed into the
+    venv without its plotting dependencies if missing): run-length posterior to <= 1e-9, most
+    probable run lengths and the run-length-drop change points identical.
 
 Speed (--speed): rbf PELT against ruptures' C KernelCPD on the same inputs (identical
 breakpoints required), rounds interleaved, and rbf PELT on n = 100,000 samples with the peak
-resident memory of our process.
+resident memory of our process. --ar-speed: the ar cost's Pelt, Binseg and Window against
+ruptures on TSSB series in the TSSB scripts' configuration (identical breakpoints required).
 
 Our side runs through `cargo run --release -p motionlab-changepoint --example changepoint_json`.
 
-Usage: bench/changepoint_vs_peers.py [--seeds 6] [--tssb-all] [--speed] [--rounds 3]
+Usage: bench/changepoint_vs_peers.py [--seeds 6] [--tssb-all] [--speed] [--ar-speed] [--rounds 3]
 """
 import argparse
 import json
@@ -72,6 +78,10 @@ def ruptures_run(seg, x, params, pen):
     cost = params.get("cost", "rbf" if seg == "kernel_cpd" else "l2")
     min_size = params.get("min_size", 2)
     kparams = {"gamma": params["gamma"]} if "gamma" in params else None
+    if "ar_order" in params:
+        kparams = {"order": params["ar_order"]}
+    if params.get("normalize") == "min_max":
+        x = (x - x.min()) / (x.max() - x.min())  # as the TSSB scripts write it
     n_bkps = params.get("n_bkps")
     if seg == "kernel_cpd":
         search = params.get("search", "kernel_pelt")
@@ -99,6 +109,9 @@ def bic_penalty(x, cost):
         return math.log(n) * x.var(axis=0).sum()
     if cost == "rbf":
         return math.log(n)
+    if cost == "ar":
+        c = rpt.costs.CostAR().fit(x)
+        return math.log(n) * 5 * c.error(0, n) / n
     y, X = x[:, :1], x[:, 1:]
     _, res, _, _ = np.linalg.lstsq(X, y, rcond=None)
     return math.log(n) * X.shape[1] * res.sum() / n
@@ -130,6 +143,18 @@ def regression_series(rng, n, n_changes):
         beta = rng.normal(0, 3, 3)
         y[a:b] = X[a:b] @ beta + rng.normal(0, 0.5, b - a)
     return np.column_stack([y, X])
+
+
+def ar_series(rng, n, n_changes):
+    """One channel whose AR(2) coefficients change at random points (for the ar cost)."""
+    cps = np.sort(rng.choice(np.arange(30, n - 30), n_changes, replace=False))
+    bounds = [0, *cps.tolist(), n]
+    x = np.zeros(n)
+    for a, b in zip(bounds, bounds[1:]):
+        phi1, phi2 = rng.uniform(-0.9, 0.9), rng.uniform(-0.4, 0.4)
+        for t in range(max(a, 2), b):
+            x[t] = phi1 * x[t - 1] + phi2 * x[t - 2] + rng.normal()
+    return x + rng.normal(0, 3)
 
 
 def tssb_series():
@@ -175,6 +200,40 @@ def equality_cases(seeds):
         cases.append((f"seed {seed} linear Binseg n_bkps", "kernel_cpd", xr, {"search": "binseg", "n_bkps": 2, **lin}))
         cases.append((f"seed {seed} linear Binseg bic", "kernel_cpd", xr, {"search": "binseg", **lin}))
         cases.append((f"seed {seed} linear Window bic", "window", xr, {"width": 40, **lin}))
+        # The autoregressive cost (one channel), ruptures' default order and another.
+        xa = ar_series(rng, 240 + 30 * (seed % 3), 2)
+        ar = {"cost": "ar", "min_size": max(min_size, 10), "jump": jump}
+        order = {} if seed % 2 == 0 else {"ar_order": 2 + seed % 3}
+        cases.append((f"seed {seed} ar Pelt bic", "kernel_cpd", xa, {"search": "pelt", **ar, **order}))
+        cases.append((f"seed {seed} ar Pelt pen 5", "kernel_cpd", xa, {"search": "pelt", "pen": 5.0, **ar, **order}))
+        cases.append((f"seed {seed} ar Binseg bic", "kernel_cpd", xa, {"search": "binseg", **ar, **order}))
+        cases.append((f"seed {seed} ar Binseg n_bkps", "kernel_cpd", xa, {"search": "binseg", "n_bkps": 2, **ar, **order}))
+        cases.append((f"seed {seed} ar Window bic", "window", xa, {"width": 40, **ar, **order}))
+        cases.append((f"seed {seed} ar Window min_max", "window", xa, {"width": 40, "pen": 0.05, "normalize": "min_max", **ar}))
+    return cases
+
+
+def tssb_windows():
+    with open(os.path.join(TSSB, "desc.txt")) as f:
+        return {line.split(",")[0]: int(line.split(",")[1]) for line in f}
+
+
+def tssb_ar_cases(series, searches=("Pelt", "Binseg", "Window"), normalized=True):
+    """The ar cost in the TSSB scripts' configuration: min_size 5·w, Window width 10·w, pen 10
+    on the series as given, and pen 0.2 on the min-max normalised series."""
+    w = tssb_windows()
+    cases = []
+    for name, x in series:
+        for norm, pen in ((None, 10.0), ("min_max", 0.2)) if normalized else ((None, 10.0),):
+            extra = {"normalize": norm} if norm else {}
+            tag = f"TSSB {name} (n {len(x)}) {{}} ar{' min_max' if norm else ''}"
+            base = {"cost": "ar", "min_size": 5 * w[name], "pen": pen, **extra}
+            if "Pelt" in searches:
+                cases.append((tag.format("Pelt"), "kernel_cpd", x, {"search": "pelt", "jump": 5, **base}))
+            if "Binseg" in searches:
+                cases.append((tag.format("Binseg"), "kernel_cpd", x, {"search": "binseg", "jump": 5, **base}))
+            if "Window" in searches:
+                cases.append((tag.format("Window"), "window", x, {"width": 10 * w[name], **base}))
     return cases
 
 
@@ -182,6 +241,9 @@ def tssb_cases(all_series):
     cases = []
     series = tssb_series()
     short = [s for s in series if len(s[1]) <= 1300]
+    # ruptures' Pelt with the ar cost solves one regression per (start, end) pair: seconds to
+    # minutes per series; CI takes the five shortest, --tssb-all every series.
+    cases += tssb_ar_cases(series if all_series else series[:5])
     for name, x in series if all_series else series[:: max(1, len(series) // 12)]:
         for cost in ("l2", "rbf"):
             params = {"search": "kernel_pelt", "cost": cost}
@@ -222,7 +284,7 @@ def check_equality(cases):
             failures.append(f"{label}: ours failed: {r['error']}")
             continue
         pen = r["pen"]
-        if "pen" not in params and "n_bkps" not in params:
+        if "pen" not in params and "n_bkps" not in params and params.get("ar_order", 4) == 4:
             want = bic_penalty(x, cost)
             worst_pen = max(worst_pen, abs(pen - want) / want)
         try:
@@ -255,10 +317,10 @@ def check_equality(cases):
 # BOCPD: Adams & MacKay's recursion in NumPy, Normal-Gamma model (Murphy 2007), channels
 # independent, missing samples skipped.
 
-def bocpd_reference(x, lam=100.0, mu0=0.0, kappa0=1.0, alpha0=1.0, beta0=1.0, standardize=True, truncate=0.0):
+def bocpd_reference(x, lam=100.0, mu0=0.0, kappa0=1.0, alpha0=1.0, beta0=1.0, normalize="z_score", truncate=0.0):
     x = np.array(x, dtype=float).reshape(len(x), -1)
     n, d = x.shape
-    if standardize:
+    if normalize == "z_score":
         for c in range(d):
             m = np.nanmean(x[:, c])
             s = np.nanstd(x[:, c], ddof=1) if np.sum(~np.isnan(x[:, c])) > 1 else 0.0
@@ -330,7 +392,7 @@ def check_bocpd():
         if seed == 1:
             params = {"lambda": 40.0, "prior_kappa": 0.5, "prior_alpha": 2.0, "prior_beta": 0.5}
         if seed == 2:
-            params = {"standardize": False, "prior_mean": 0.3}
+            params = {"normalize": "none", "prior_mean": 0.3}
         if seed == 3:
             params = {"truncate_below": 1e-6}
         cases.append((f"seed {seed} d{d} {params}", x, params))
@@ -350,7 +412,7 @@ def check_bocpd():
             kappa0=params.get("prior_kappa", 1.0),
             alpha0=params.get("prior_alpha", 1.0),
             beta0=params.get("prior_beta", 1.0),
-            standardize=params.get("standardize", True),
+            normalize=params.get("normalize", "z_score"),
             truncate=params.get("truncate_below", 0.0),
         )
         post = r["posterior"]
@@ -364,6 +426,62 @@ def check_bocpd():
         if bocpd_candidates(ref) != r["candidates"]:
             failures.append(f"bocpd {label}: change points {r['candidates']} vs the reference's {bocpd_candidates(ref)}")
     print(f"bocpd: {len(cases)} series, run-length posterior max |difference| {worst:.1e} (<= 1e-9 required), change points identical: {not any('change points' in f for f in failures)}")
+    return failures, len(cases)
+
+
+def import_bocd():
+    """The bocd 0.1.2 package (numpy and scipy are all it imports; its declared matplotlib and
+    pandas dependencies are left out)."""
+    try:
+        import bocd
+    except ImportError:
+        subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--no-deps", "bocd==0.1.2"], check=True)
+        import bocd
+    return bocd
+
+
+def check_bocd_package():
+    """bocpd's bocd_package model against the bocd package, as the TSSB scripts call it."""
+    import warnings
+    from importlib.metadata import version
+
+    bocd = import_bocd()
+    cases = []
+    rng = np.random.default_rng(31)
+    cases.append(("random, mean and spread changes", random_series(rng, 700, 1, 3)[:, 0]))
+    cases.append(("random AR, 2 changes", ar_series(rng, 900, 2)))
+    for name, x in tssb_series()[:3]:
+        cases.append((f"TSSB {name}", x))
+    params = {"model": "bocd_package", "normalize": "min_max", "lambda": 100.0, "change_points": "run_length_drop", "drop_threshold": 250.0}
+    results, _ = ours([job("bocpd", x, params, posterior=True) for _, x in cases])
+    failures = []
+    worst = 0.0
+    n_cps = 0
+    for (label, x), r in zip(cases, results):
+        if "error" in r:
+            failures.append(f"bocd package {label}: ours failed: {r['error']}")
+            continue
+        xs = (x - x.min()) / (x.max() - x.min())
+        bc = bocd.BayesianOnlineChangePointDetection(bocd.ConstantHazard(100), bocd.StudentT())
+        rt, diff = [], 0.0
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for t, v in enumerate(xs):
+                bc.update(v)
+                belief = bc.belief
+                rt.append(int(bc.rt[0]))
+                diff = max(diff, float(np.max(np.abs(np.array(r["posterior"][t]) - belief[: len(r["posterior"][t])]))))
+        worst = max(worst, diff)
+        theirs = np.where(np.diff(np.array(rt, dtype=float)) <= -250)[0].tolist()
+        n_cps += len(theirs)
+        if diff > 1e-9:
+            failures.append(f"bocd package {label}: run-length posterior differs by {diff:.2e}")
+        if rt != r["map_run_length"]:
+            failures.append(f"bocd package {label}: most probable run lengths differ")
+        if theirs != r["candidates"]:
+            failures.append(f"bocd package {label}: change points {r['candidates']} vs the package's {theirs}")
+    print(f"bocd {version('bocd')} package: {len(cases)} series, run-length posterior max |difference| {worst:.1e} (<= 1e-9 required), "
+          f"MAP run lengths and run-length-drop change points ({n_cps} in all) identical: {not any('differ' in f or 'change points' in f for f in failures)}")
     return failures, len(cases)
 
 
@@ -429,20 +547,51 @@ def speed(rounds):
           f"{100_000 ** 2 * 8 / 2 ** 30:.0f} GiB of float64 (plus the {100_000 * 99_999 / 2 * 8 / 2 ** 30:.0f} GiB condensed distances) — not run.")
 
 
+def ar_speed():
+    """The ar cost's searches against ruptures on TSSB series, the TSSB scripts' settings."""
+    picks = ["Coffee", "SonyAIBORobotSurface1", "UMD", "ECG200", "ToeSegmentation2", "Plane", "InsectWingbeatSound"]
+    series = [s for s in tssb_series() if s[0] in picks]
+    print("ar cost, TSSB scripts' settings (min_size 5·w, pen 10, Window width 10·w); CPU seconds, identical breakpoints required")
+    print(f"{'search':<8} {'series':<24} {'n':>6} {'ruptures s':>11} {'ours s':>9} {'ratio':>8}")
+    totals = {}
+    for search in ("Pelt", "Binseg", "Window"):
+        for label, seg, x, params in tssb_ar_cases(series, searches=(search,), normalized=False):
+            c0 = time.process_time()
+            theirs, _ = ruptures_run(seg, x, params, params["pen"])
+            cpu_theirs = time.process_time() - c0
+            r = ours([job(seg, x, params)])[0][0]
+            if r["breakpoints"] != theirs:
+                sys.exit(f"{label}: breakpoints differ: ruptures {theirs} ours {r['breakpoints']}")
+            cpu_ours = r["cpu_seconds"][0]
+            t = totals.setdefault(search, [0.0, 0.0])
+            t[0] += cpu_theirs
+            t[1] += cpu_ours
+            print(f"{search:<8} {label.split(' (')[0][5:]:<24} {len(x):>6} {cpu_theirs:>11.3f} {cpu_ours:>9.4f} {cpu_theirs / cpu_ours:>7.0f}×")
+    for search, (a, b) in totals.items():
+        print(f"{search:<8} {'all (sums)':<24} {'':>6} {a:>11.3f} {b:>9.4f} {a / b:>7.0f}×")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=6)
     ap.add_argument("--tssb-all", action="store_true", help="KernelCPD on all 75 TSSB series (else every sixth)")
     ap.add_argument("--speed", action="store_true")
+    ap.add_argument("--ar-speed", action="store_true", help="the ar cost against ruptures, TSSB configuration")
     ap.add_argument("--rounds", type=int, default=3)
     args = ap.parse_args()
     if args.speed:
         speed(args.rounds)
         return
+    if args.ar_speed:
+        ar_speed()
+        return
     t0 = time.time()
     failures, n_cases = check_equality(equality_cases(args.seeds) + tssb_cases(args.tssb_all))
     f2, n_bocpd = check_bocpd()
     failures += f2
+    f3, n_package = check_bocd_package()
+    failures += f3
+    n_bocpd += n_package
     failures += check_inlined_exp()
     print(f"{n_cases} ruptures cases and {n_bocpd} BOCPD series in {time.time() - t0:.0f} s")
     if failures:

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Trace};
 
-use crate::signal::{Missing, Signal};
+use crate::signal::{Missing, Normalize, Signal};
 
 /// Bayesian online change-point detection (R. P. Adams & D. J. C. MacKay, "Bayesian Online
 /// Changepoint Detection", arXiv:0710.3742, 2007): after each sample, the posterior of the
@@ -25,15 +25,27 @@ use crate::signal::{Missing, Signal};
 /// β ← β + κ(x − μ)²/(2(κ+1)). Channels are independent given the run length, each with this
 /// prior: their log predictives add. The prior and hazard are TCPDBench's bocpd settings (its
 /// wrapper of the R package ocp: hazard, prior mean, strength, shape and rate as listed below),
-/// which assume data on a unit scale: each channel is standardised first (`standardize`; zero
-/// mean, unit sample variance), as TCPDBench feeds its methods scaled data.
+/// which assume data on a unit scale: each channel is standardised first (`normalize =
+/// "z_score"`; zero mean, unit sample variance), as TCPDBench feeds its methods scaled data.
+///
+/// **The `bocd` Python package** (version 0.1.2, the implementation the TSSB benchmark's
+/// scripts call): `model = "bocd_package"` reproduces its update, which writes
+/// β ← κ + κ(x − μ)²/(2(κ+1)) — the prior strength κ where Murphy's update has the previous β,
+/// so a run's β no longer accumulates its squared deviations — with everything else as above.
+/// Its change points (`change_points = "run_length_drop"`) are the samples t after which the
+/// most probable run length falls by at least `drop_threshold` samples, `r*_{t+1} − r*_t ≤
+/// −drop_threshold` (the scripts' `np.where(np.diff(rt) <= -250)`; t, the last sample of the
+/// old run, is reported as they report it). The scripts' full setting: `model =
+/// "bocd_package"`, `normalize = "min_max"`, `lambda = 100`, the default prior (0, 1, 1, 1),
+/// `change_points = "run_length_drop"`, `drop_threshold = 250`.
 ///
 /// **Run-length convention (the paper's).** r_t = 0 means a change right after sample t: its
 /// likelihood is the predictive under the run that ended (the paper's changepoint
 /// probability), so P(r_t = 0) = H at every t; r_t = k ≥ 1 means the current segment is the
 /// last k samples, t−k+1 ..= t. The posterior after sample t covers r = 0 ..= t+1.
 ///
-/// **Change points: the most probable run lengths read backwards.** From the last sample t =
+/// **Change points (`change_points = "map_path"`): the most probable run lengths read
+/// backwards.** From the last sample t =
 /// n−1, the MAP run length r* (the smallest of equal maxima) says the current segment started
 /// at s = t + 1 − r*; s is a change point (unless 0), and the reading continues at t = s − 1.
 /// When r* = 0 the change is t + 1 and the reading continues at t − 1. This is one consistent
@@ -51,7 +63,7 @@ pub struct BocpdParams {
     /// Expected segment length λ in samples (the hazard is 1/λ, ≥ 1); TCPDBench's value.
     #[serde(default = "default_lambda")]
     pub lambda: f64,
-    /// Prior mean μ₀ of each channel, in standardised units when `standardize` is on.
+    /// Prior mean μ₀ of each channel, in normalised units when `normalize` rescales.
     #[serde(default)]
     pub prior_mean: f64,
     /// Prior strength κ₀ of the mean, in pseudo-samples (> 0).
@@ -63,10 +75,25 @@ pub struct BocpdParams {
     /// Gamma rate β₀ of the precision, in squared (standardised) signal units (> 0).
     #[serde(default = "one")]
     pub prior_beta: f64,
-    /// Standardise each channel (subtract its mean, divide by its sample standard deviation;
-    /// a constant channel is only centred) before the prior applies.
-    #[serde(default = "yes")]
-    pub standardize: bool,
+    /// Per-channel rescaling before the prior applies: `z_score` (subtract the mean, divide by
+    /// the sample standard deviation; a constant channel is only centred), `min_max` (into
+    /// [0, 1]) or `none`.
+    #[serde(default = "default_normalize")]
+    pub normalize: Normalize,
+    /// The conjugate update: `normal_gamma` (Murphy 2007, as above) or `bocd_package` (the
+    /// `bocd` 0.1.2 package's, whose β update uses κ in place of β).
+    #[serde(default)]
+    pub model: BocpdModel,
+    /// How change points are read from the run-length posterior: `map_path` (the most probable
+    /// run lengths read backwards) or `run_length_drop` (where the most probable run length
+    /// falls by at least `drop_threshold`).
+    #[serde(default)]
+    pub change_points: BocpdChangePoints,
+    /// The fall of the most probable run length that makes a change point, in samples (> 0;
+    /// `run_length_drop` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-default" = "250, the TSSB scripts' value"))]
+    pub drop_threshold: Option<f64>,
     /// Drop the run lengths beyond the last one whose posterior probability is at least this
     /// (and renormalise), in [0, 1); 0 keeps every run length (the exact posterior).
     #[serde(default)]
@@ -79,8 +106,30 @@ fn default_lambda() -> f64 {
 fn one() -> f64 {
     1.0
 }
-fn yes() -> bool {
-    true
+fn default_normalize() -> Normalize {
+    Normalize::ZScore
+}
+
+/// The conjugate update of `bocpd`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BocpdModel {
+    /// Murphy's Normal-Gamma update.
+    #[default]
+    NormalGamma,
+    /// The `bocd` 0.1.2 package's update (β ← κ + κ(x − μ)²/(2(κ+1))).
+    BocdPackage,
+}
+
+/// How `bocpd` reads change points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BocpdChangePoints {
+    /// The most probable run lengths read backwards from the last sample.
+    #[default]
+    MapPath,
+    /// Where the most probable run length falls by at least `drop_threshold`.
+    RunLengthDrop,
 }
 
 /// The validated `bocpd` stage.
@@ -91,7 +140,10 @@ pub struct Bocpd {
     pub prior_kappa: f64,
     pub prior_alpha: f64,
     pub prior_beta: f64,
-    pub standardize: bool,
+    pub normalize: Normalize,
+    pub model: BocpdModel,
+    /// The run-length fall that makes a change point (Some only for `run_length_drop`).
+    pub drop_threshold: Option<f64>,
     pub truncate_below: f64,
 }
 
@@ -107,13 +159,30 @@ impl ParamGuard for BocpdParams {
             range(field, v, v.is_finite() && v > 0.0, "a finite number > 0")?;
         }
         range("truncate_below", self.truncate_below, (0.0..1.0).contains(&self.truncate_below), "a probability in [0, 1)")?;
+        let drop_threshold = match (self.change_points, self.drop_threshold) {
+            (BocpdChangePoints::MapPath, Some(_)) => {
+                return Err(Error::new(
+                    ErrorKind::InvalidParameter,
+                    "drop_threshold belongs to change_points = \"run_length_drop\"; change_points \"map_path\" has none",
+                )
+                .with_field("drop_threshold"));
+            }
+            (BocpdChangePoints::MapPath, None) => None,
+            (BocpdChangePoints::RunLengthDrop, d) => {
+                let d = d.unwrap_or(250.0);
+                range("drop_threshold", d, d.is_finite() && d > 0.0, "a run-length fall > 0 samples")?;
+                Some(d)
+            }
+        };
         Ok(Bocpd {
             hazard: 1.0 / self.lambda,
             prior_mean: self.prior_mean,
             prior_kappa: self.prior_kappa,
             prior_alpha: self.prior_alpha,
             prior_beta: self.prior_beta,
-            standardize: self.standardize,
+            normalize: self.normalize,
+            model: self.model,
+            drop_threshold,
             truncate_below: self.truncate_below,
         })
     }
@@ -147,35 +216,13 @@ struct RunStats {
 }
 
 impl Bocpd {
-    /// The signal as the model sees it: standardised per channel when asked.
-    fn prepared(&self, signal: &Signal) -> Vec<f64> {
-        let mut x = signal.values.to_vec();
-        if !self.standardize {
-            return x;
-        }
-        let d = signal.n_channels;
-        for c in 0..d {
-            let finite: Vec<f64> = (0..signal.n_samples).map(|i| x[i * d + c]).filter(|v| !v.is_nan()).collect();
-            if finite.is_empty() {
-                continue;
-            }
-            let mean = finite.iter().sum::<f64>() / finite.len() as f64;
-            let var = if finite.len() > 1 { finite.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (finite.len() - 1) as f64 } else { 0.0 };
-            let sd = var.sqrt();
-            for i in 0..signal.n_samples {
-                let v = &mut x[i * d + c];
-                *v = if sd > 0.0 { (*v - mean) / sd } else { *v - mean };
-            }
-        }
-        x
-    }
-
     /// Runs the filter, calling `step(t, posterior)` after each sample with P(r_t = r | x_0..=t)
     /// for r = 0, 1, ….
     fn filter(&self, values: &[f64], n_channels: usize, mut step: impl FnMut(usize, &[f64])) -> Result<usize> {
         let signal = Signal::new(values, n_channels, "bocpd", Missing::Allow)?;
         let (n, d) = (signal.n_samples, signal.n_channels);
-        let x = self.prepared(&signal);
+        let x = self.normalize.apply(signal.values, d);
+        let bocd_package = self.model == BocpdModel::BocdPackage;
         // Per observed-sample count k (α = α₀ + k/2, κ = κ₀ + k, ν = 2α): log Γ(α+½) − log Γ(α),
         // the factor c with ν·scale² = β·c (c = ν(κ+1)/(ακ)), log(π·c), ν and κ.
         let (a0, k0) = (self.prior_alpha, self.prior_kappa);
@@ -251,7 +298,8 @@ impl Bocpd {
                         let m = stats.mu[i];
                         count.push(stats.count[i] + 1);
                         mu.push((kappa * m + v) / (kappa + 1.0));
-                        beta.push(stats.beta[i] + kappa * (v - m).powi(2) / (2.0 * (kappa + 1.0)));
+                        let spread = kappa * (v - m).powi(2) / (2.0 * (kappa + 1.0));
+                        beta.push(if bocd_package { kappa + spread } else { stats.beta[i] + spread });
                     }
                 }
             }
@@ -298,6 +346,16 @@ impl Bocpd {
             map_run_length.push(best);
             mean_run_length.push(p.iter().enumerate().map(|(r, &v)| r as f64 * v).sum());
         })?;
+        if let Some(threshold) = self.drop_threshold {
+            let candidates = map_run_length
+                .windows(2)
+                .enumerate()
+                .filter(|(_, w)| w[1] as f64 - w[0] as f64 <= -threshold)
+                .map(|(t, _)| t)
+                .filter(|&t| t > 0)
+                .collect();
+            return Ok(BocpdRun { candidates, map_run_length, mean_run_length });
+        }
         let mut candidates = Vec::new();
         let mut t = n as i64 - 1;
         while t >= 0 {
@@ -375,7 +433,7 @@ mod tests {
     fn predictive_is_the_student_t_of_the_normal_gamma() {
         // One sample under the prior: Student-t, ν = 2, μ = 0, scale² = β(κ+1)/(ακ) = 2, then
         // the posterior of the second sample's run lengths weighs it against the updated t.
-        let b = Bocpd { standardize: false, ..defaults() };
+        let b = Bocpd { normalize: Normalize::None, ..defaults() };
         let post = b.run_length_posterior(&[0.3, 2.0], 1).unwrap();
         let t_pdf = |x: f64, nu: f64, mu: f64, s2: f64| {
             (libm::lgamma((nu + 1.0) / 2.0) - libm::lgamma(nu / 2.0) - 0.5 * (nu * std::f64::consts::PI * s2).ln()
@@ -456,10 +514,54 @@ mod tests {
             ("prior_alpha = -1.0", "prior_alpha"),
             ("prior_beta = 0.0", "prior_beta"),
             ("truncate_below = 1.0", "truncate_below"),
+            ("drop_threshold = 250.0", "drop_threshold"),
+            ("change_points = \"run_length_drop\"\ndrop_threshold = 0.0", "drop_threshold"),
         ] {
             let p: BocpdParams = toml::from_str(text).unwrap();
             assert_eq!(p.check().unwrap_err().location().field.as_deref(), Some(field), "{text}");
         }
         assert!(toml::from_str::<BocpdParams>("hazard = 0.1").is_err());
+        assert!(toml::from_str::<BocpdParams>("standardize = true").is_err());
+        assert!(toml::from_str::<BocpdParams>("model = \"student\"").is_err());
+    }
+
+    #[test]
+    fn bocd_package_update_and_run_length_drops() {
+        let p: BocpdParams = toml::from_str("model = \"bocd_package\"\nnormalize = \"none\"\nchange_points = \"run_length_drop\"\ndrop_threshold = 50.0").unwrap();
+        let b = p.check().unwrap();
+        assert_eq!(b.drop_threshold, Some(50.0));
+        // After one sample x under the prior (μ 0, κ 1, α 1, β 1) the package's run 1 has
+        // μ = x/2, κ = 2, α = 1.5 and β = κ₀ + κ₀x²/4 = 1 + x²/4 — Murphy's β₀ + κ₀x²/4 too, as
+        // β₀ = κ₀ = 1; after a second sample y they part: β = 2 + 2(y − x/2)²/6 for the
+        // package, 1 + x²/4 + 2(y − x/2)²/6 for Murphy.
+        let (x, y, z) = (0.4, -1.0, 2.0);
+        let t_pdf = |v: f64, nu: f64, mu: f64, s2: f64| {
+            (libm::lgamma((nu + 1.0) / 2.0) - libm::lgamma(nu / 2.0) - 0.5 * (nu * std::f64::consts::PI * s2).ln()
+                - (nu + 1.0) / 2.0 * (1.0 + (v - mu).powi(2) / (nu * s2)).ln())
+            .exp()
+        };
+        let post = b.run_length_posterior(&[x, y, z], 1).unwrap();
+        // Third sample: run 2 has seen x and y.
+        let mu2 = (2.0 * (x / 2.0) + y) / 3.0;
+        let beta2 = 2.0 + 2.0 * (y - x / 2.0).powi(2) / 6.0;
+        let (kappa2, alpha2) = (3.0, 2.0);
+        let p2 = t_pdf(z, 2.0 * alpha2, mu2, beta2 * (kappa2 + 1.0) / (alpha2 * kappa2));
+        let beta1 = 1.0 + (y * y) / 4.0;
+        let p1 = t_pdf(z, 3.0, y / 2.0, beta1 * 3.0 / (1.5 * 2.0));
+        let p0 = t_pdf(z, 2.0, 0.0, 2.0);
+        let prev = &post[1];
+        let w = [prev[0] * p0, prev[1] * p1, prev[2] * p2];
+        let total: f64 = w.iter().sum();
+        for r in 0..3 {
+            assert!((post[2][r + 1] - 0.99 * w[r] / total).abs() < 1e-14, "{:?}", post[2]);
+        }
+        // A clear mean change: the MAP run length climbs past 50 and collapses at the change.
+        let mut rng = fastrand::Rng::with_seed(2);
+        let series: Vec<f64> = (0..300).map(|i| if i < 200 { 0.0 } else { 8.0 } + 0.3 * rng.f64()).collect();
+        let run = b.run(&series, 1).unwrap();
+        assert!(run.candidates.iter().all(|&c| (c as i64 - 200).abs() <= 3), "{:?}", run.candidates);
+        assert!(!run.candidates.is_empty());
+        let i = run.candidates[0];
+        assert!(run.map_run_length[i + 1] as f64 - run.map_run_length[i] as f64 <= -50.0);
     }
 }

@@ -1,9 +1,11 @@
 //! `kernel_cpd`: penalised and binary-segmentation change-point detection with ruptures'
 //! costs and searches (Truong, Oudre & Vayatis 2020), giving ruptures' breakpoints.
 //!
-//! Submodules: `cost` (l2, linear, rbf), `median` (the rbf bandwidth), one per search: `pelt`
-//! (ruptures `Pelt`), `binseg` (ruptures `Binseg`), `kernel_pelt` (ruptures' C `KernelCPD`).
+//! Submodules: `cost` (l2, linear, rbf), `ar` (the autoregressive cost), `median` (the rbf
+//! bandwidth), one per search: `pelt` (ruptures `Pelt`), `binseg` (ruptures `Binseg`),
+//! `kernel_pelt` (ruptures' C `KernelCPD`).
 
+pub(crate) mod ar;
 mod binseg;
 pub(crate) mod cost;
 pub(crate) mod glibc_exp;
@@ -17,11 +19,12 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Threshold, Trace};
 
-use crate::signal::{Missing, Signal, candidates_from_breakpoints};
-use binseg::{DirectGains, RbfGains, Stop, binseg};
+use crate::signal::{Missing, Normalize, Signal, candidates_from_breakpoints};
+use ar::{ArDesign, DEFAULT_AR_ORDER, ar_min_size};
+use binseg::{ArGains, DirectGains, RbfGains, Stop, binseg};
 use cost::{L2Cost, LinearCost, SegmentCost};
 use kernel_pelt::{CKernel, kernel_pelt};
-use pelt::{DirectEndCosts, RbfEndCosts, pelt};
+use pelt::{ArEndCosts, DirectEndCosts, RbfEndCosts, pelt};
 
 /// A segment cost of ruptures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
@@ -36,6 +39,10 @@ pub enum CostModel {
     /// Linear-regression change: the residual sum of squares of channel 0 regressed on the other
     /// channels, no intercept added (ruptures `CostLinear`); needs at least two channels.
     Linear,
+    /// Autoregressive change: the residual sum of squares of a least-squares fit of each sample
+    /// on the `ar_order` samples before it and an intercept (ruptures `CostAR`, its first
+    /// `ar_order` samples padded as ruptures does); one channel only.
+    Ar,
 }
 
 /// A search of ruptures.
@@ -66,8 +73,13 @@ pub enum Search {
 ///
 /// **Costs** (`cost`): `l2` (a change in the mean of any channel), `rbf` (a change in the
 /// distribution, through the kernel mean; the bandwidth `gamma` by ruptures' median heuristic
-/// unless given) and `linear` (a change in the regression of channel 0 on the others). `l2` and
-/// `rbf` use every channel together, as ruptures does.
+/// unless given), `linear` (a change in the regression of channel 0 on the others) and `ar` (a
+/// change in the autoregressive dynamics of one channel: ruptures' `CostAR`, whose
+/// least-squares fits are grown here one row at a time instead of solved from scratch per
+/// segment). `l2` and `rbf` use every channel together, as ruptures does.
+///
+/// **Normalisation** (`normalize`): `min_max` rescales each channel to [0, 1] first — how the
+/// TSSB benchmark's scripts feed a fixed penalty a comparable scale; `z_score` standardises.
 ///
 /// **Searches** (`search`): `pelt` and `binseg` are ruptures' `Pelt` and `Binseg`, step for
 /// step — candidates on the grid of multiples of `jump`, segments of at least `min_size`
@@ -84,7 +96,8 @@ pub enum Search {
 /// whole series — never tuned on any data: `l2`: `log(n) · Σ_channels var` (the cost of the
 /// whole series divided by n: each channel's mean is one parameter with its own variance);
 /// `rbf`: `log(n)` (the kernel's feature-space variance is at most k(x, x) = 1); `linear`:
-/// `log(n) · p · RSS/n` (p covariates, the residual variance of one fit to the whole series).
+/// `log(n) · p · RSS/n` (p covariates, the residual variance of one fit to the whole series);
+/// `ar`: `log(n) · (ar_order + 1) · RSS/n` (the same with the lags and the intercept).
 ///
 /// **Degenerate inputs.** Missing samples (NaN) are refused (one error naming the first; fill
 /// them first with `fill_gaps`). A constant series has no change: no candidates when stopping
@@ -105,7 +118,7 @@ pub struct KernelCpdParams {
     /// `KernelCPD` with its rbf kernel, the common untuned kernel baseline).
     #[serde(default = "default_search")]
     pub search: Search,
-    /// The segment cost: `l2`, `rbf` or `linear` (`kernel_pelt` takes `l2` or `rbf`).
+    /// The segment cost: `l2`, `rbf`, `linear` or `ar` (`kernel_pelt` takes `l2` or `rbf`).
     #[serde(default = "default_cost")]
     pub cost: CostModel,
     /// Penalty per change, in the cost's units (> 0). Give `pen` or `n_bkps`, not both.
@@ -115,8 +128,8 @@ pub struct KernelCpdParams {
     /// Number of change points to find (binary segmentation only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub n_bkps: Option<usize>,
-    /// Minimum segment length in samples (raised to the cost's own minimum: 2 for `linear`, 1
-    /// otherwise); ruptures' value.
+    /// Minimum segment length in samples (raised to the cost's own minimum: 2 for `linear`,
+    /// max(5, `ar_order` + 1) for `ar`, 1 otherwise); ruptures' value.
     #[serde(default = "default_min_size")]
     pub min_size: usize,
     /// Candidate breakpoints are the multiples of `jump` (samples); `kernel_pelt` takes only 1.
@@ -127,6 +140,13 @@ pub struct KernelCpdParams {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("x-default" = "ruptures' median heuristic: 1 / the median squared distance between two samples (1 if that is 0)"))]
     pub gamma: Option<f64>,
+    /// Autoregressive order of the `ar` cost, in samples (≥ 1; `ar` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-default" = "4, ruptures' CostAR order"))]
+    pub ar_order: Option<usize>,
+    /// Per-channel rescaling before the search: `none`, `min_max` or `z_score`.
+    #[serde(default)]
+    pub normalize: Normalize,
 }
 
 fn default_search() -> Search {
@@ -159,6 +179,9 @@ pub struct KernelCpd {
     pub min_size: usize,
     pub jump: usize,
     pub gamma: Option<f64>,
+    /// The `ar` cost's order (None for other costs).
+    pub ar_order: Option<usize>,
+    pub normalize: Normalize,
 }
 
 /// One run of `kernel_cpd`, with what it resolved from the data.
@@ -212,6 +235,9 @@ impl ParamGuard for KernelCpdParams {
                 "search kernel_pelt takes cost l2 (ruptures' linear kernel) or rbf; the linear-regression cost needs search pelt or binseg".into(),
             ));
         }
+        if self.search == Search::KernelPelt && self.cost == CostModel::Ar {
+            return Err(invalid("cost", "search kernel_pelt takes cost l2 (ruptures' linear kernel) or rbf; the autoregressive cost needs search pelt or binseg".into()));
+        }
         if let Some(g) = self.gamma {
             if self.cost != CostModel::Rbf {
                 return Err(invalid("gamma", format!("gamma is the rbf bandwidth; cost {} has none", cost_name(self.cost))));
@@ -220,7 +246,8 @@ impl ParamGuard for KernelCpdParams {
                 return Err(Error::new(ErrorKind::OutOfRange, format!("gamma is {g}, expected a finite bandwidth > 0")).with_field("gamma"));
             }
         }
-        Ok(KernelCpd { search: self.search, cost: self.cost, stop, min_size: self.min_size, jump, gamma: self.gamma })
+        let ar_order = check_ar_order(self.cost, self.ar_order)?;
+        Ok(KernelCpd { search: self.search, cost: self.cost, stop, min_size: self.min_size, jump, gamma: self.gamma, ar_order, normalize: self.normalize })
     }
 }
 
@@ -240,6 +267,31 @@ pub(crate) fn cost_name(c: CostModel) -> &'static str {
         CostModel::L2 => "l2",
         CostModel::Rbf => "rbf",
         CostModel::Linear => "linear",
+        CostModel::Ar => "ar",
+    }
+}
+
+/// `ar_order` only with cost `ar`, at least 1; the order used (None for other costs).
+pub(crate) fn check_ar_order(cost: CostModel, ar_order: Option<usize>) -> Result<Option<usize>> {
+    match (cost, ar_order) {
+        (CostModel::Ar, None) => Ok(Some(DEFAULT_AR_ORDER)),
+        (CostModel::Ar, Some(0)) => Err(Error::new(ErrorKind::OutOfRange, "ar_order is 0, expected at least 1 lag").with_field("ar_order")),
+        (CostModel::Ar, Some(p)) => Ok(Some(p)),
+        (_, None) => Ok(None),
+        (other, Some(_)) => Err(Error::new(
+            ErrorKind::InvalidParameter,
+            format!("ar_order is the order of the autoregressive cost; cost {} has none (use cost = \"ar\")", cost_name(other)),
+        )
+        .with_field("ar_order")),
+    }
+}
+
+/// The cost's own minimum segment length (ruptures' `cost.min_size`).
+pub(crate) fn cost_min_size(cost: CostModel, ar_order: Option<usize>) -> usize {
+    match cost {
+        CostModel::Linear => 2,
+        CostModel::Ar => ar_min_size(ar_order.unwrap_or(DEFAULT_AR_ORDER)),
+        CostModel::L2 | CostModel::Rbf => 1,
     }
 }
 
@@ -287,16 +339,27 @@ pub(crate) fn too_short(stage: &str, n: usize, n_bkps: usize, jump: usize, min_s
 }
 
 /// The BIC-style penalty of the parameter docs.
-pub(crate) fn bic_penalty(cost: CostModel, signal: &Signal, whole_cost: impl FnOnce() -> f64) -> f64 {
+pub(crate) fn bic_penalty(cost: CostModel, ar_order: Option<usize>, signal: &Signal, whole_cost: impl FnOnce() -> f64) -> f64 {
     let n = signal.n_samples as f64;
     match cost {
         CostModel::L2 => n.ln() * whole_cost() / n,
         CostModel::Rbf => n.ln(),
         CostModel::Linear => n.ln() * (signal.n_channels - 1) as f64 * whole_cost() / n,
+        CostModel::Ar => n.ln() * (ar_order.unwrap_or(DEFAULT_AR_ORDER) + 1) as f64 * whole_cost() / n,
     }
 }
 
 pub(crate) fn require_regression_channels(stage: &str, cost: CostModel, signal: &Signal) -> Result<()> {
+    if cost == CostModel::Ar && signal.n_channels != 1 {
+        return Err(Error::new(
+            ErrorKind::InvalidParameter,
+            format!(
+                "{stage}: cost ar fits an autoregression to one channel, and this signal has {} channels; select one channel first",
+                signal.n_channels
+            ),
+        )
+        .with_field("cost"));
+    }
     if cost == CostModel::Linear && signal.n_channels < 2 {
         return Err(Error::new(
             ErrorKind::InvalidParameter,
@@ -315,11 +378,12 @@ impl KernelCpd {
     /// ruptures' breakpoints with the penalty and bandwidth it resolved.
     pub fn run(&self, values: &[f64], n_channels: usize) -> Result<KernelCpdRun> {
         const STAGE: &str = "kernel_cpd";
-        let signal = Signal::new(values, n_channels, STAGE, Missing::Refuse)?;
+        Signal::new(values, n_channels, STAGE, Missing::Refuse)?;
+        let normalized = self.normalize.apply(values, n_channels);
+        let signal = Signal::new(&normalized, n_channels, STAGE, Missing::Refuse)?;
         require_regression_channels(STAGE, self.cost, &signal)?;
         let n = signal.n_samples;
-        let cost_min = if self.cost == CostModel::Linear { 2 } else { 1 };
-        let min_size = self.min_size.max(cost_min);
+        let min_size = self.min_size.max(cost_min_size(self.cost, self.ar_order));
         let n_bkps = match (self.search, self.stop) {
             (Search::KernelPelt, _) => 1,
             (_, StopRule::Count(k)) => k,
@@ -344,12 +408,14 @@ impl KernelCpd {
         }
         let gamma = (self.cost == CostModel::Rbf).then(|| self.gamma.unwrap_or_else(|| median::median_heuristic_gamma(&signal)));
         result.gamma = gamma;
+        let ar_order = self.ar_order.unwrap_or(DEFAULT_AR_ORDER);
         let pen = match self.stop {
             StopRule::Penalty(p) => Some(p),
             StopRule::Count(_) => None,
-            StopRule::Bic => Some(bic_penalty(self.cost, &signal, || match self.cost {
+            StopRule::Bic => Some(bic_penalty(self.cost, self.ar_order, &signal, || match self.cost {
                 CostModel::L2 => L2Cost::new(&signal).error(0, n),
                 CostModel::Linear => LinearCost::new(signal).error(0, n),
+                CostModel::Ar => ArDesign::new(signal.values, ar_order).fit(0, n).cost(),
                 CostModel::Rbf => 0.0,
             })),
         };
@@ -368,6 +434,7 @@ impl KernelCpd {
                     CostModel::L2 => pelt(n, pen, min_size, self.jump, &mut DirectEndCosts(&L2Cost::new(&signal))),
                     CostModel::Linear => pelt(n, pen, min_size, self.jump, &mut DirectEndCosts(&LinearCost::new(signal))),
                     CostModel::Rbf => pelt(n, pen, min_size, self.jump, &mut RbfEndCosts::new(signal, gamma.unwrap_or(1.0), self.jump)),
+                    CostModel::Ar => pelt(n, pen, min_size, self.jump, &mut ArEndCosts::new(&ArDesign::new(signal.values, ar_order), self.jump)),
                 };
             }
             Search::Binseg => {
@@ -380,6 +447,7 @@ impl KernelCpd {
                     CostModel::L2 => binseg(n, stop, min_size, self.jump, &DirectGains(&L2Cost::new(&signal))),
                     CostModel::Linear => binseg(n, stop, min_size, self.jump, &DirectGains(&LinearCost::new(signal))),
                     CostModel::Rbf => binseg(n, stop, min_size, self.jump, &RbfGains { signal, gamma: gamma.unwrap_or(1.0) }),
+                    CostModel::Ar => binseg(n, stop, min_size, self.jump, &ArGains(&ArDesign::new(signal.values, ar_order))),
                 };
                 let mut curve = vec![f64::NAN; n];
                 for (b, g) in found.first_gains {
@@ -439,7 +507,10 @@ mod tests {
     #[test]
     fn defaults_are_rupture_s_kernel_pelt_with_rbf_and_bic() {
         let k = params("").unwrap();
-        assert_eq!(k, KernelCpd { search: Search::KernelPelt, cost: CostModel::Rbf, stop: StopRule::Bic, min_size: 2, jump: 1, gamma: None });
+        assert_eq!(
+            k,
+            KernelCpd { search: Search::KernelPelt, cost: CostModel::Rbf, stop: StopRule::Bic, min_size: 2, jump: 1, gamma: None, ar_order: None, normalize: Normalize::None }
+        );
         assert_eq!(params("search = \"pelt\"").unwrap().jump, 5);
         let x = step_signal(300, &[100, 200], 1);
         let run = k.run(&x, 1).unwrap();

@@ -1,7 +1,7 @@
 //! # motionlab-changepoint
 //!
 //! Change-point segmenters on multichannel signals, one file each:
-//! - [`kernel_cpd`] — PELT and binary segmentation with the `l2`, `rbf` and `linear` costs, and
+//! - [`kernel_cpd`] — PELT and binary segmentation with the `l2`, `rbf`, `linear` and `ar` costs, and
 //!   ruptures' C `KernelCPD` PELT, giving exactly ruptures' breakpoints;
 //! - [`bocpd`] — Bayesian online change-point detection (Adams & MacKay 2007), Gaussian model
 //!   with unknown mean and variance, constant hazard;
@@ -26,6 +26,7 @@ pub mod kernel_cpd;
 mod signal;
 pub mod window;
 
-pub use bocpd::{Bocpd, BocpdParams, BocpdRun};
+pub use bocpd::{Bocpd, BocpdChangePoints, BocpdModel, BocpdParams, BocpdRun};
+pub use signal::Normalize;
 pub use kernel_cpd::{CostModel, KernelCpd, KernelCpdParams, KernelCpdRun, Search, StopRule};
 pub use window::{Window, WindowParams, WindowRun, WindowStop};

@@ -1,5 +1,8 @@
 //! The checked view of a sample-major multichannel signal shared by every segmenter here.
 
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
 use motionlab_core::{Error, ErrorKind, Result};
 
 /// `values` laid out sample-major (`n_samples × n_channels`), checked once.
@@ -82,6 +85,61 @@ impl<'a> Signal<'a> {
     }
 }
 
+/// A per-channel rescaling applied before a segmenter sees the signal.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Normalize {
+    /// The values as given.
+    #[default]
+    None,
+    /// `(x − min) / (max − min)` per channel, into [0, 1] — numpy's
+    /// `(ts - ts.min()) / (ts.max() - ts.min())`, operation for operation. A constant channel
+    /// becomes 0 (numpy would give NaN).
+    MinMax,
+    /// `(x − mean) / s` per channel, s the sample standard deviation (n − 1); a constant
+    /// channel is only centred.
+    ZScore,
+}
+
+impl Normalize {
+    /// `values` (sample-major, `n_channels` per sample; NaN skipped and kept) rescaled.
+    pub fn apply(self, values: &[f64], n_channels: usize) -> Vec<f64> {
+        let mut x = values.to_vec();
+        if self == Normalize::None || n_channels == 0 {
+            return x;
+        }
+        let n = values.len() / n_channels;
+        for c in 0..n_channels {
+            let finite = (0..n).map(|i| values[i * n_channels + c]).filter(|v| !v.is_nan());
+            let (shift, scale) = match self {
+                Normalize::None => (0.0, 1.0),
+                Normalize::MinMax => {
+                    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+                    if lo.is_infinite() {
+                        continue;
+                    }
+                    (lo, hi - lo)
+                }
+                Normalize::ZScore => {
+                    let v: Vec<f64> = finite.collect();
+                    if v.is_empty() {
+                        continue;
+                    }
+                    let mean = v.iter().sum::<f64>() / v.len() as f64;
+                    let var = if v.len() > 1 { v.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64 } else { 0.0 };
+                    (mean, var.sqrt())
+                }
+            };
+            for i in 0..n {
+                let v = &mut x[i * n_channels + c];
+                let centred = *v - shift;
+                *v = if scale > 0.0 { centred / scale } else if self == Normalize::MinMax && !centred.is_nan() { 0.0 } else { centred };
+            }
+        }
+        x
+    }
+}
+
 /// Change-point candidates from ruptures-style breakpoints (segment ends, the last being `n`):
 /// every breakpoint but `n`, which are the first samples of the second, third, … segments.
 pub(crate) fn candidates_from_breakpoints(breakpoints: &[usize], n_samples: usize) -> Vec<usize> {
@@ -109,6 +167,21 @@ mod tests {
         assert!(Signal::new(&[1.0, f64::NAN], 1, "x", Missing::Allow).is_ok());
         let e = Signal::new(&[1.0, f64::INFINITY], 1, "x", Missing::Allow).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::NonFinite);
+    }
+
+    #[test]
+    fn normalisations_by_hand() {
+        // Two channels: [1, 3, 5] and the constant [7, 7, 7].
+        let x = [1.0, 7.0, 3.0, 7.0, 5.0, 7.0];
+        assert_eq!(Normalize::MinMax.apply(&x, 2), [0.0, 0.0, 0.5, 0.0, 1.0, 0.0]);
+        assert_eq!(Normalize::ZScore.apply(&x, 2), [-1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+        assert_eq!(Normalize::None.apply(&x, 2), x);
+        // NaN stays NaN and does not enter min, max or mean.
+        let g = Normalize::MinMax.apply(&[2.0, f64::NAN, 4.0], 1);
+        assert!(g[0] == 0.0 && g[1].is_nan() && g[2] == 1.0);
+        // numpy's operation order: (x - min) / (max - min).
+        let v = [0.1, 0.7, 0.3];
+        assert_eq!(Normalize::MinMax.apply(&v, 1)[2], (0.3 - 0.1) / (0.7 - 0.1));
     }
 
     #[test]

@@ -10,9 +10,10 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Threshold, Trace};
 
+use crate::kernel_cpd::ar::{ArCost, ArDesign, DEFAULT_AR_ORDER, QrFit};
 use crate::kernel_cpd::cost::{L2Cost, LinearCost, RbfCost, SegmentCost, rbf_cost_from_block};
-use crate::kernel_cpd::{CostModel, admissible, bic_penalty, check_pen_or_n_bkps, median, require_regression_channels, too_short};
-use crate::signal::{Missing, Signal, candidates_from_breakpoints};
+use crate::kernel_cpd::{CostModel, admissible, bic_penalty, check_ar_order, check_pen_or_n_bkps, cost_min_size, median, require_regression_channels, too_short};
+use crate::signal::{Missing, Normalize, Signal, candidates_from_breakpoints};
 
 /// Change points at the peaks of a sliding-window discrepancy: at each sample k on the grid of
 /// multiples of `jump`, the gain of cutting the window of `width` samples centred on k in two,
@@ -31,7 +32,10 @@ use crate::signal::{Missing, Signal, candidates_from_breakpoints};
 ///   that does not.
 /// - Without `pen` or `n_bkps`, the penalty is the BIC-style one of `kernel_cpd` (see
 ///   `motionlab describe kernel_cpd`): `log(n)·Σ var` for `l2`, `log(n)` for `rbf`,
-///   `log(n)·p·RSS/n` for `linear`.
+///   `log(n)·p·RSS/n` for `linear`, `log(n)·(ar_order + 1)·RSS/n` for `ar`.
+/// - Cost `ar` (ruptures' `CostAR`, one channel) fits each half window once and the whole
+///   window by merging the two halves' least-squares factorisations.
+/// - `normalize = "min_max"` rescales each channel to [0, 1] first (`z_score` standardises).
 ///
 /// Candidates are ruptures' breakpoints without the final n. The trace `window_discrepancy`
 /// holds the score at each grid sample (NaN elsewhere). A series shorter than the width has no
@@ -45,7 +49,7 @@ pub struct WindowParams {
     /// Window length in samples (rounded down to even, at least 2); ruptures' value.
     #[serde(default = "default_width")]
     pub width: usize,
-    /// The segment cost: `l2`, `rbf` or `linear` (as in `kernel_cpd`).
+    /// The segment cost: `l2`, `rbf`, `linear` or `ar` (as in `kernel_cpd`).
     #[serde(default = "default_cost")]
     pub cost: CostModel,
     /// Penalty per change, in the cost's units (> 0). Give `pen` or `n_bkps`, not both.
@@ -66,6 +70,13 @@ pub struct WindowParams {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("x-default" = "ruptures' median heuristic: 1 / the median squared distance between two samples (1 if that is 0)"))]
     pub gamma: Option<f64>,
+    /// Autoregressive order of the `ar` cost, in samples (≥ 1; `ar` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-default" = "4, ruptures' CostAR order"))]
+    pub ar_order: Option<usize>,
+    /// Per-channel rescaling before scoring: `none`, `min_max` or `z_score`.
+    #[serde(default)]
+    pub normalize: Normalize,
 }
 
 fn default_width() -> usize {
@@ -99,6 +110,9 @@ pub struct Window {
     pub min_size: usize,
     pub jump: usize,
     pub gamma: Option<f64>,
+    /// The `ar` cost's order (None for other costs).
+    pub ar_order: Option<usize>,
+    pub normalize: Normalize,
 }
 
 impl ParamGuard for WindowParams {
@@ -110,7 +124,8 @@ impl ParamGuard for WindowParams {
             (None, None) => WindowStop::Bic,
         };
         let width = 2 * (self.width / 2);
-        let cost_min = if self.cost == CostModel::Linear { 2 } else { 1 };
+        let ar_order = check_ar_order(self.cost, self.ar_order)?;
+        let cost_min = cost_min_size(self.cost, ar_order);
         if width / 2 < cost_min {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
@@ -132,7 +147,7 @@ impl ParamGuard for WindowParams {
                 return Err(Error::new(ErrorKind::OutOfRange, format!("gamma is {g}, expected a finite bandwidth > 0")).with_field("gamma"));
             }
         }
-        Ok(Window { width, cost: self.cost, stop, min_size: self.min_size, jump: self.jump, gamma: self.gamma })
+        Ok(Window { width, cost: self.cost, stop, min_size: self.min_size, jump: self.jump, gamma: self.gamma, ar_order, normalize: self.normalize })
     }
 }
 
@@ -155,6 +170,22 @@ impl Memo<'_> {
         }
         total
     }
+}
+
+/// The `ar` discrepancy at each k of `inds`: each half window `k−h..k`, `k..k+h` is fitted once
+/// (they recur as the other half of a neighbouring k), the whole window by merging the two.
+fn ar_scores(design: &ArDesign, inds: &[usize], half: usize) -> Vec<f64> {
+    let mut halves: HashMap<usize, QrFit> = HashMap::new();
+    inds.iter()
+        .map(|&k| {
+            let left = match halves.remove(&(k - half)) {
+                Some(fit) => fit,
+                None => design.fit(k - half, k),
+            };
+            let right = halves.entry(k).or_insert_with(|| design.fit(k, k + half));
+            left.merge(right).cost() - (left.cost() + right.cost())
+        })
+        .collect()
 }
 
 /// Strict local maxima over ±order neighbours, indices wrapping (scipy `argrelmax`, `wrap`).
@@ -188,7 +219,9 @@ impl Window {
     /// Runs the segmenter on `values` (sample-major, `n_samples × n_channels`).
     pub fn run(&self, values: &[f64], n_channels: usize) -> Result<WindowRun> {
         const STAGE: &str = "window";
-        let signal = Signal::new(values, n_channels, STAGE, Missing::Refuse)?;
+        Signal::new(values, n_channels, STAGE, Missing::Refuse)?;
+        let normalized = self.normalize.apply(values, n_channels);
+        let signal = Signal::new(&normalized, n_channels, STAGE, Missing::Refuse)?;
         require_regression_channels(STAGE, self.cost, &signal)?;
         let n = signal.n_samples;
         let n_bkps = if let WindowStop::Count(k) = self.stop { k } else { 0 };
@@ -210,6 +243,7 @@ impl Window {
         let l2;
         let linear;
         let rbf;
+        let ar;
         let cost: &dyn SegmentCost = match self.cost {
             CostModel::L2 => {
                 l2 = L2Cost::new(&signal);
@@ -225,10 +259,18 @@ impl Window {
                 rbf = RbfCost { signal, gamma };
                 &rbf
             }
+            CostModel::Ar => {
+                ar = ArCost { design: ArDesign::new(signal.values, self.ar_order.unwrap_or(DEFAULT_AR_ORDER)) };
+                &ar
+            }
         };
         let half = self.width / 2;
         let inds: Vec<usize> = (0..n).step_by(self.jump).filter(|&k| k >= half && k < n.saturating_sub(half)).collect();
-        let score: Vec<f64> = inds.iter().map(|&k| self.score_at(cost, &signal, run.gamma, k, half)).collect();
+        let score: Vec<f64> = if self.cost == CostModel::Ar {
+            ar_scores(&ArDesign::new(signal.values, self.ar_order.unwrap_or(DEFAULT_AR_ORDER)), &inds, half)
+        } else {
+            inds.iter().map(|&k| self.score_at(cost, &signal, run.gamma, k, half)).collect()
+        };
         for (&k, &s) in inds.iter().zip(&score) {
             run.score[k] = s;
         }
@@ -236,7 +278,7 @@ impl Window {
         run.pen = match self.stop {
             WindowStop::Penalty(p) => Some(p),
             WindowStop::Count(_) => None,
-            WindowStop::Bic => Some(bic_penalty(self.cost, &signal, || memo.error(0, n))),
+            WindowStop::Bic => Some(bic_penalty(self.cost, self.ar_order, &signal, || memo.error(0, n))),
         };
         if score.is_empty() {
             return Ok(run);

@@ -15,6 +15,7 @@
 
 use std::collections::HashMap;
 
+use super::ar::{ArDesign, QrFit};
 use super::cost::{SegmentCost, rbf_cost_from_block, rbf_off_diagonal, squared_distance};
 use crate::signal::Signal;
 
@@ -80,6 +81,42 @@ impl SplitGains for RbfGains<'_> {
             .enumerate()
             .filter(|&(_, b)| b - start >= min_size && end - b >= min_size)
             .map(|(g, b)| (b, segment - rbf_cost_from_block(b - start, left[g]) - rbf_cost_from_block(end - b, right[g])))
+            .collect()
+    }
+}
+
+/// ruptures' `CostAR` gains: the fits of `start..b` grown from the left and of `b..end` grown
+/// from the right, read at every grid point.
+pub(crate) struct ArGains<'d>(pub &'d ArDesign);
+
+impl SplitGains for ArGains<'_> {
+    fn gains(&self, start: usize, end: usize, min_size: usize, jump: usize) -> Vec<(usize, f64)> {
+        let design = self.0;
+        let slots = (end - start).div_ceil(jump);
+        let mut left = vec![0.0; slots + 1];
+        let mut right = vec![0.0; slots + 1];
+        let mut fit = QrFit::new(design.columns);
+        for t in start..end {
+            if (t - start).is_multiple_of(jump) {
+                left[(t - start) / jump] = fit.cost();
+            }
+            let (x, y) = design.row(t);
+            fit.push(x, y);
+        }
+        let segment = fit.cost();
+        let mut fit = QrFit::new(design.columns);
+        for t in (start..end).rev() {
+            let (x, y) = design.row(t);
+            fit.push(x, y);
+            if (t - start).is_multiple_of(jump) {
+                right[(t - start) / jump] = fit.cost();
+            }
+        }
+        (start..end)
+            .step_by(jump)
+            .enumerate()
+            .filter(|&(_, b)| b - start >= min_size && end - b >= min_size)
+            .map(|(g, b)| (b, segment - left[g] - right[g]))
             .collect()
     }
 }
@@ -178,6 +215,25 @@ mod tests {
                 assert!((p.1 - q.1).abs() < 1e-11);
             }
         }
+    }
+
+    #[test]
+    fn ar_swept_gains_equal_direct_costs() {
+        let mut rng = fastrand::Rng::with_seed(8);
+        let x: Vec<f64> = (0..150).map(|i| (i as f64 * if i < 70 { 0.3 } else { 1.1 }).sin() + 0.2 * rng.f64()).collect();
+        let direct = crate::kernel_cpd::ar::ArCost { design: ArDesign::new(&x, 4) };
+        let design = ArDesign::new(&x, 4);
+        for (start, jump) in [(0, 5), (7, 1), (12, 4)] {
+            let a = ArGains(&design).gains(start, 150, 10, jump);
+            let b = DirectGains(&direct).gains(start, 150, 10, jump);
+            assert_eq!(a.len(), b.len());
+            for (p, q) in a.iter().zip(&b) {
+                assert_eq!(p.0, q.0);
+                assert!((p.1 - q.1).abs() <= 1e-9 * q.1.abs().max(1.0), "{p:?} vs {q:?}");
+            }
+        }
+        let found = binseg(150, Stop::Count(1), 10, 5, &ArGains(&design));
+        assert_eq!(found.breakpoints, vec![70, 150]);
     }
 
     #[test]

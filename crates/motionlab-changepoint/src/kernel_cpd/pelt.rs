@@ -11,8 +11,11 @@
 //!   does (a skipped start is always the last one appended, so the pairing never shifts).
 //!
 //! The rbf cost is computed from running Gram block sums per grid start (`RbfEndCosts`), in O(n)
-//! memory, where ruptures slices an n × n Gram matrix.
+//! memory, where ruptures slices an n × n Gram matrix; the autoregressive cost from one growing
+//! least-squares factorisation per live start (`ArEndCosts`), where ruptures solves each
+//! (start, end) pair from scratch.
 
+use super::ar::{ArDesign, QrFit};
 use super::cost::{SegmentCost, rbf_cost_from_block, rbf_off_diagonal, squared_distance};
 use crate::signal::Signal;
 
@@ -86,6 +89,54 @@ impl EndCosts for RbfEndCosts<'_> {
     }
 }
 
+/// ruptures' `CostAR` for PELT: every admissible start keeps the factorisation of its rows so
+/// far and takes in the rows up to each new end (O(order²) per row and live start); a start
+/// pruned from the admissible list is dropped with its factorisation.
+pub(crate) struct ArEndCosts<'d> {
+    design: &'d ArDesign,
+    jump: usize,
+    /// The factorisation of `start..` per grid start (`start / jump`), None once pruned.
+    fits: Vec<Option<QrFit>>,
+    /// The grid starts asked at the previous end.
+    live: Vec<usize>,
+    /// Per grid start, the last call that asked for it.
+    seen: Vec<u64>,
+    call: u64,
+}
+
+impl<'d> ArEndCosts<'d> {
+    pub fn new(design: &'d ArDesign, jump: usize) -> Self {
+        let grid = design.y.len() / jump + 1;
+        ArEndCosts { design, jump, fits: vec![None; grid], live: Vec::new(), seen: vec![0; grid], call: 0 }
+    }
+}
+
+impl EndCosts for ArEndCosts<'_> {
+    fn costs(&mut self, end: usize, starts: &[usize], out: &mut Vec<f64>) {
+        self.call += 1;
+        out.clear();
+        for &s in starts {
+            let g = s / self.jump;
+            self.seen[g] = self.call;
+            let fit = self.fits[g].get_or_insert_with(|| QrFit::new(self.design.columns));
+            for t in s + fit.rows()..end {
+                let (x, y) = self.design.row(t);
+                fit.push(x, y);
+            }
+            out.push(fit.cost());
+        }
+        // Pruning is final: a start not asked now is never asked again.
+        for &s in &self.live {
+            let g = s / self.jump;
+            if self.seen[g] != self.call {
+                self.fits[g] = None;
+            }
+        }
+        self.live.clear();
+        self.live.extend_from_slice(starts);
+    }
+}
+
 /// Breakpoints (segment ends, the last being `n_samples`) as ruptures' `Pelt.predict(pen)`.
 pub(crate) fn pelt(n_samples: usize, pen: f64, min_size: usize, jump: usize, costs: &mut dyn EndCosts) -> Vec<usize> {
     let n = n_samples;
@@ -137,6 +188,7 @@ pub(crate) fn breakpoints_from_path(previous: &[usize], n: usize) -> Vec<usize> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kernel_cpd::ar::ArCost;
     use crate::kernel_cpd::cost::{L2Cost, RbfCost};
     use crate::signal::{Missing, Signal};
 
@@ -201,6 +253,35 @@ mod tests {
             assert_eq!(a.len(), 2);
             assert!((a[0] as i64 - 40).abs() < jump as i64, "{a:?}");
         }
+    }
+
+    #[test]
+    fn ar_growing_fits_equal_fits_from_scratch() {
+        // An AR(1) whose coefficient flips sign at 120: PELT finds it, and the growing
+        // factorisations give the from-scratch costs.
+        let mut rng = fastrand::Rng::with_seed(21);
+        let mut x = vec![0.0];
+        for i in 1..240 {
+            let phi = if i < 120 { 0.9 } else { -0.9 };
+            let prev = x[i - 1];
+            x.push(phi * prev + rng.f64() - 0.5);
+        }
+        let design = ArDesign::new(&x, 4);
+        let direct = ArCost { design: ArDesign::new(&x, 4) };
+        let mut growing = ArEndCosts::new(&design, 5);
+        let mut out = Vec::new();
+        for end in (10..=240).step_by(5) {
+            let starts: Vec<usize> = (0..end - 5).step_by(5).filter(|s| s % 15 != 5 || end < 100).collect();
+            growing.costs(end, &starts, &mut out);
+            for (&s, &c) in starts.iter().zip(&out) {
+                let want = direct.error(s, end);
+                assert!((c - want).abs() <= 1e-9 * want.max(1e-12), "{s}..{end}: {c} vs {want}");
+            }
+        }
+        let a = pelt(240, 1.0, 20, 5, &mut ArEndCosts::new(&design, 5));
+        let b = pelt(240, 1.0, 20, 5, &mut DirectEndCosts(&direct));
+        assert_eq!(a, b);
+        assert_eq!(a, vec![120, 240]);
     }
 
     #[test]
