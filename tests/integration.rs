@@ -9,6 +9,7 @@
 mod cache;
 mod cli;
 mod data_manifest;
+mod docs_truth;
 mod gait;
 mod malformed;
 mod matching;
