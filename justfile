@@ -15,7 +15,9 @@ record:
     cargo run --release -p motionlab-cli -- reproduce --record
 
 # Benchmarks: Rust (divan) and the side-by-side scripts against the Python peers (scipy,
-# dtaidistance, tslearn), which also cross-check results. Numbers: crates/*/benches/README.md, bench/README.md.
+# dtaidistance, tslearn, ruptures, numpy), which also cross-check results. Numbers:
+# crates/*/benches/README.md, bench/README.md. (The cold-build measure, bench/cold_build.sh,
+# empties a target dir and is run on its own.)
 bench:
     cargo bench -p motionlab-io
     cargo bench -p motionlab-features
@@ -27,6 +29,10 @@ bench:
     bench/multistream_vs_peers.py
     bench/dtw_crosscheck.py
     bench/matching_vs_scipy.py
+    bench/retrieval_vs_peers.py
+    bench/butterworth_vs_scipy.py
+    bench/metrics_crosscheck.py
+    bench/osafune_check.py reports/osafune_fast/record
 
 # Fuzz every parser for the given number of seconds each (needs nightly-free cargo-fuzz setup, see fuzz/README.md).
 fuzz seconds="600":

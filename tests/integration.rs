@@ -12,6 +12,7 @@ mod cache;
 mod cli;
 mod consent;
 mod data_manifest;
+mod docs_truth;
 mod gait;
 mod input_limits;
 mod malformed;

@@ -1,5 +1,5 @@
 //! Matching found boundaries to ground truth: maximum one-to-one matching, precision, recall,
-//! F1 and the Hausdorff distance (Sonoda et al. §3; SPEC.md section 000 "Evaluation").
+//! F1 and the Hausdorff distance (Sonoda et al. §3).
 //!
 //! # The match rule
 //!

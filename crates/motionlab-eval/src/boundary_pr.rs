@@ -59,7 +59,7 @@ use crate::span::{Span, counted};
 ///   the held-out operating points of a sweep (`heldout_f1`), which get the same draws as this
 ///   table's row of the chosen combination.
 /// - `claim_fused_recall` (when there are ≥ 2 methods): does the last method — the fuser's
-///   output, which the engine appends after the segmenters — reach a higher pooled recall than
+///   output, which the segmentation workflow appends after the segmenters — reach a higher pooled recall than
 ///   every other method? (The paper's central claim.)
 ///
 /// Sequences without ground truth are skipped; it is an error when none has any.

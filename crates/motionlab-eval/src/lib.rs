@@ -1,7 +1,6 @@
 //! # motionlab-eval
 //!
-//! Evaluation of segmentations against ground truth (Sonoda et al. §3; SPEC.md section 000
-//! "Evaluation"):
+//! Evaluation of segmentations against ground truth (Sonoda et al. §3):
 //!
 //! - [`boundaries`]: the match rule (tolerance in frames or seconds, optional annotated windows,
 //!   optional pose rule), **maximum** one-to-one matching, precision / recall / F1 with the

@@ -26,7 +26,7 @@ pub mod workflow;
 
 pub use run_cache::{Origin, RunCache};
 pub use context::{build_stage, deserialize_section, At, BuiltDataset, Combo, Datasets, LoadedItem, Source};
-pub use workflow::{BuildContext, ComboOutput, ItemData, ItemOutput, Locator, Output, WorkItem, Workflow, WorkflowEntry, WorkflowPlugin};
+pub use workflow::{build_named_stages, BuildContext, ComboOutput, ItemData, ItemOutput, Locator, Output, WorkItem, Workflow, WorkflowEntry, WorkflowPlugin};
 
 // Re-exported for `register_workflow!`.
 pub use inventory;

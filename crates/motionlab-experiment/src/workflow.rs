@@ -27,7 +27,7 @@ use motionlab_core::{Error, ErrorKind, EvalInputType, Evaluator, Result, Table};
 use motionlab_figure::Figure;
 
 use crate::context::{build_stage, deserialize_section, Combo, Datasets, Source};
-use crate::spec::{ExperimentFile, FIXED_KEYS};
+use crate::spec::{ExperimentFile, StageSpec, FIXED_KEYS};
 use crate::toml_paths::KeyPath;
 
 /// One unit of work.
@@ -168,6 +168,33 @@ pub fn build_evaluators(source: &Source, combo: &Combo, produces: EvalInputType)
             Ok((s.display_name(), e))
         })
         .collect()
+}
+
+/// Builds a list of stages a section names (`[[segmentation.segmenter]]`, `extractors = [...]`),
+/// each under its display name (its `name`, else its type) and in order, with the stage errors
+/// located at `at[k]` as [`build_stage`] locates them. Two stages of one name are an error at
+/// the second one's `name` key (at its `type` when it has none), saying what the list holds
+/// (`what`, plural: "segmenters"). An empty list is the caller's to refuse or allow.
+pub fn build_named_stages<T: ?Sized>(
+    cx: &BuildContext<'_>,
+    specs: &[StageSpec],
+    at: &KeyPath,
+    what: &str,
+    builder: fn(&str, &toml::Value) -> Result<Box<T>>,
+) -> Result<Vec<(String, Box<T>)>> {
+    let mut stages: Vec<(String, Box<T>)> = Vec::with_capacity(specs.len());
+    for (k, spec) in specs.iter().enumerate() {
+        let name = spec.display_name();
+        if stages.iter().any(|(n, _)| *n == name) {
+            let key = if spec.params.contains_key("name") { "name" } else { "type" };
+            return Err(cx.locate(
+                Error::new(ErrorKind::DuplicateName, format!("two {what} are named {name:?}; give one a `name = \"…\"`")),
+                at.index(k).key(key),
+            ));
+        }
+        stages.push((name, build_stage(cx.source, cx.combo, spec, &at.index(k), builder)?));
+    }
+    Ok(stages)
 }
 
 /// One item per file of every dataset, ids from sequence names (made unique).
@@ -353,4 +380,72 @@ pub fn workflow_section(source: &Source, doc: &toml::Table) -> Result<&'static W
 pub fn build(entry: &WorkflowEntry, source: &Source, combo: &Combo, data: &Datasets) -> Result<Box<dyn Workflow>> {
     let root = KeyPath::parse(entry.name)?;
     (entry.build)(&BuildContext { source, combo, data, root })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::run_cache::RunCache;
+
+    const EXPERIMENT: &str = r#"[experiment]
+name = "named"
+
+[[dataset]]
+files = []
+loader = { type = "any" }
+
+[stats]
+extractors = [
+  { type = "speed" },
+  { type = "speed", name = "fast" },
+  { type = "curvature" },
+]
+"#;
+
+    /// A stage builder that accepts any type but `broken` (a stage of one `String`: its type).
+    fn build_text(kind: &str, _params: &toml::Value) -> Result<Box<String>> {
+        if kind == "broken" {
+            return Err(Error::new(ErrorKind::InvalidParameter, "a broken stage").with_field("level"));
+        }
+        Ok(Box::new(kind.to_string()))
+    }
+
+    /// The located error (or the names) of `build_named_stages` on `[stats] extractors` after
+    /// `edit` of the experiment's text.
+    fn built(edit: impl Fn(&str) -> String) -> std::result::Result<Vec<String>, String> {
+        let text = edit(EXPERIMENT);
+        let source = Source { path: "x/named.toml".into(), text: text.clone() };
+        let doc: toml::Table = toml::from_str(&text).unwrap();
+        let file: ExperimentFile = toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into().unwrap();
+        let combo = Combo { index: 0, sweep: None, focus: None, params: vec![], doc: doc.clone(), file };
+        let data = Datasets::new(vec![], vec![], vec![], Arc::new(RunCache::with_budget(0)));
+        let cx = BuildContext { source: &source, combo: &combo, data: &data, root: KeyPath::parse("stats").unwrap() };
+        let specs: Vec<StageSpec> = doc["stats"]["extractors"].clone().try_into().unwrap();
+        build_named_stages(&cx, &specs, &cx.root.key("extractors"), "extractors", build_text)
+            .map(|v| v.into_iter().map(|(name, stage)| format!("{name}={stage}")).collect())
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn named_stages_keep_their_order_and_names() {
+        assert_eq!(built(str::to_string).unwrap(), ["speed=speed", "fast=speed", "curvature=curvature"]);
+    }
+
+    #[test]
+    fn a_repeated_name_is_located_at_the_second_stages_key() {
+        // Two stages of one type, neither named: the second one's `type`, on its line.
+        let err = built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "speed" }"#)).unwrap_err();
+        assert!(err.starts_with("x/named.toml:12: stats.extractors[2].type: two extractors are named \"speed\""), "{err}");
+        // A `name` that repeats another stage's: its `name` key.
+        let err = built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "curvature", name = "fast" }"#)).unwrap_err();
+        assert!(err.starts_with("x/named.toml:12: stats.extractors[2].name: two extractors are named \"fast\""), "{err}");
+    }
+
+    #[test]
+    fn a_stage_error_is_located_at_its_element() {
+        let err = built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "broken" }"#)).unwrap_err();
+        assert!(err.starts_with("x/named.toml:12: stats.extractors[2].level: a broken stage"), "{err}");
+    }
 }

@@ -654,207 +654,257 @@ pub fn parse_amc(text: &str, origin: &Path, asf: &AsfSkeleton) -> Result<Skeleto
 /// `fast_path` is false — for the test that the two read every shipped take bit for bit alike.
 /// Also returns how many bone lines the fast path read.
 fn parse_amc_with(text: &str, origin: &Path, asf: &AsfSkeleton, fast_path: bool) -> Result<(SkeletonMotion, usize)> {
-    let text = strip_bom(text);
-    let skeleton = &asf.skeleton;
-    let n_channels = skeleton.n_channels();
-    let mut slots: Vec<Slot> = Vec::with_capacity(skeleton.joints.len());
-    let mut by_name: HashMap<&str, usize> = HashMap::with_capacity(skeleton.joints.len());
-    let mut at = 0;
-    for (j, joint) in skeleton.joints.iter().enumerate() {
-        slots.push(Slot { first: at, n: joint.channels.len() });
-        by_name.insert(joint.name.as_str(), j);
-        at += joint.channels.len();
-    }
-    // Each joint's name as the bone-line fast path matches it.
-    let line_words: Vec<Option<LineWord>> = skeleton.joints.iter().map(|j| LineWord::new(j.name.as_bytes())).collect();
-    let bytes = text.as_bytes();
+    let bytes = strip_bom(text).as_bytes();
+    let mut reader = AmcReader::new(asf, origin, bytes.len());
     let mut cursor = NumberLines::new(bytes, 0, 1, origin);
-    let mut radians = asf.angles_in_radians;
-    let mut values: Vec<f64> = Vec::with_capacity(n_channels * (bytes.len() / 600 + 1));
-    // Per joint: the frame index it was last seen in (usize::MAX = never).
-    let mut seen = vec![usize::MAX; skeleton.joints.len()];
-    let mut scale: Vec<f64> = Vec::new();
-    let mut n_frames = 0usize;
-    let mut frame_number = 0u64;
-    let mut frame_line = 0usize;
-    // The bone order of the previous frame, to skip the hash lookup on the usual repeat.
-    let mut order: Vec<usize> = Vec::with_capacity(skeleton.joints.len());
-    let mut order_pos = 0usize;
-    let mut first_order_done = false;
-    let mut fast_lines = 0usize;
-
-    let check_frame_complete = |seen: &[usize], n_frames: usize, frame_number: u64, frame_line: usize| -> Result<()> {
-        if n_frames == 0 {
-            return Ok(());
-        }
-        match skeleton.joints.iter().enumerate().find(|(j, jt)| !jt.channels.is_empty() && seen[*j] != n_frames - 1) {
-            None => Ok(()),
-            Some((_, jt)) => Err(Error::at_line(
-                ErrorKind::WrongValueCount,
-                origin,
-                frame_line,
-                format!("frame {frame_number} has no line for bone {:?}; expected every bone with dofs in every frame", jt.name),
-            )),
-        }
-    };
-
     while cursor.skip_empty_lines() {
         // The usual bone line — the bone the previous frame had at this place, then its
         // values — in one pass; anything else (and any error) goes the general way below.
-        if fast_path && first_order_done && order_pos < order.len() {
-            let frame = n_frames - 1;
-            let fast = FastBoneLines { order: &order, words: &line_words, slots: &slots, scale: &scale };
-            let read = fast.read(&mut cursor, order_pos, &mut values[frame * n_channels..(frame + 1) * n_channels], &mut seen, frame);
-            if read > 0 {
-                order_pos += read;
-                fast_lines += read;
-                continue;
-            }
+        if fast_path && reader.read_predicted_bone_lines(&mut cursor) {
+            continue;
         }
         let word = cursor.peek_word();
         let line = cursor.line();
         match word.first() {
-            Some(b'#') => {
-                cursor.skip_line();
-                continue;
-            }
-            Some(b':') => {
-                if n_frames > 0 {
-                    return Err(Error::at_line(
-                        ErrorKind::Syntax,
-                        origin,
-                        line,
-                        format!("{:?} after the first frame; expected a frame number or a bone line", String::from_utf8_lossy(word)),
-                    ));
-                }
-                if word.eq_ignore_ascii_case(b":DEGREES") {
-                    radians = false;
-                } else if word.eq_ignore_ascii_case(b":RADIANS") {
-                    radians = true;
-                }
-                cursor.skip_line();
-                continue;
-            }
-            Some(b) if b.is_ascii_digit() => {
-                let number = std::str::from_utf8(word).ok().and_then(|w| w.parse::<u64>().ok()).ok_or_else(|| {
-                    Error::at_line(
-                        ErrorKind::Syntax,
-                        origin,
-                        line,
-                        format!("{:?}; expected a frame number or a bone name", String::from_utf8_lossy(word)),
-                    )
-                })?;
-                check_frame_complete(&seen, n_frames, frame_number, frame_line)?;
-                if n_frames > 0 && number != frame_number + 1 {
-                    return Err(Error::at_line(
-                        ErrorKind::Syntax,
-                        origin,
-                        line,
-                        format!("frame number {number} follows frame {frame_number}; expected {}", frame_number + 1),
-                    ));
-                }
-                if n_frames == 0 {
-                    scale = skeleton
-                        .joints
-                        .iter()
-                        .flat_map(|j| j.channels.iter())
-                        .map(|c| match c {
-                            ChannelKind::Translation(_) => asf.mm_per_unit,
-                            ChannelKind::Rotation(_) => {
-                                if radians {
-                                    180.0 / std::f64::consts::PI
-                                } else {
-                                    1.0
-                                }
-                            }
-                        })
-                        .collect();
-                } else if !first_order_done {
-                    first_order_done = true;
-                }
-                frame_number = number;
-                frame_line = line;
-                n_frames += 1;
-                values.resize(n_frames * n_channels, 0.0);
-                order_pos = 0;
-                cursor.skip_word(word);
-                let rest = cursor.read_line(&mut [], &[], || format!("frame number line {number}"))?;
-                if rest.count != 0 {
-                    return Err(Error::at_line(ErrorKind::Syntax, origin, line, format!("frame number {number} is followed by values; expected it alone on its line")));
-                }
-                continue;
-            }
-            _ => {}
+            Some(b'#') => cursor.skip_line(),
+            Some(b':') => reader.keyword_line(&mut cursor, word, line)?,
+            Some(b) if b.is_ascii_digit() => reader.frame_number_line(&mut cursor, word, line)?,
+            _ => reader.bone_line(&mut cursor, word, line)?,
         }
-        if n_frames == 0 {
+    }
+    reader.finish(cursor.line())
+}
+
+/// An AMC read in progress: where each bone's values go in a frame, the values read so far and
+/// which bones the current frame has had.
+struct AmcReader<'a> {
+    asf: &'a AsfSkeleton,
+    origin: &'a Path,
+    n_channels: usize,
+    slots: Vec<Slot>,
+    by_name: HashMap<&'a str, usize>,
+    /// Each joint's name as the bone-line fast path matches it.
+    line_words: Vec<Option<LineWord>>,
+    radians: bool,
+    /// Frame-major channel values, scaled (mm, degrees).
+    values: Vec<f64>,
+    /// Per joint: the frame index it was last seen in (usize::MAX = never).
+    seen: Vec<usize>,
+    /// Per channel: the factor from the file's units to mm or degrees (set at the first frame).
+    scale: Vec<f64>,
+    n_frames: usize,
+    frame_number: u64,
+    frame_line: usize,
+    /// The bone order of the first frame, to skip the hash lookup on the usual repeat.
+    order: Vec<usize>,
+    /// The place in `order` of the current frame's next bone line.
+    order_pos: usize,
+    first_order_done: bool,
+    /// Bone lines read by the fast path.
+    fast_lines: usize,
+}
+
+impl<'a> AmcReader<'a> {
+    fn new(asf: &'a AsfSkeleton, origin: &'a Path, text_len: usize) -> Self {
+        let skeleton = &asf.skeleton;
+        let n_channels = skeleton.n_channels();
+        let mut slots: Vec<Slot> = Vec::with_capacity(skeleton.joints.len());
+        let mut by_name: HashMap<&str, usize> = HashMap::with_capacity(skeleton.joints.len());
+        let mut at = 0;
+        for (j, joint) in skeleton.joints.iter().enumerate() {
+            slots.push(Slot { first: at, n: joint.channels.len() });
+            by_name.insert(joint.name.as_str(), j);
+            at += joint.channels.len();
+        }
+        AmcReader {
+            asf,
+            origin,
+            n_channels,
+            slots,
+            by_name,
+            line_words: skeleton.joints.iter().map(|j| LineWord::new(j.name.as_bytes())).collect(),
+            radians: asf.angles_in_radians,
+            values: Vec::with_capacity(n_channels * (text_len / 600 + 1)),
+            seen: vec![usize::MAX; skeleton.joints.len()],
+            scale: Vec::new(),
+            n_frames: 0,
+            frame_number: 0,
+            frame_line: 0,
+            order: Vec::with_capacity(skeleton.joints.len()),
+            order_pos: 0,
+            first_order_done: false,
+            fast_lines: 0,
+        }
+    }
+
+    /// From the second frame on: the bone lines that follow the first frame's order, read by
+    /// [`FastBoneLines`]; whether it read any.
+    fn read_predicted_bone_lines(&mut self, cursor: &mut NumberLines<'_>) -> bool {
+        if !(self.first_order_done && self.order_pos < self.order.len()) {
+            return false;
+        }
+        let frame = self.n_frames - 1;
+        let n = self.n_channels;
+        let fast = FastBoneLines { order: &self.order, words: &self.line_words, slots: &self.slots, scale: &self.scale };
+        let read = fast.read(cursor, self.order_pos, &mut self.values[frame * n..(frame + 1) * n], &mut self.seen, frame);
+        self.order_pos += read;
+        self.fast_lines += read;
+        read > 0
+    }
+
+    /// `:DEGREES`, `:RADIANS` and other keyword lines, allowed before the first frame only.
+    fn keyword_line(&mut self, cursor: &mut NumberLines<'_>, word: &[u8], line: usize) -> Result<()> {
+        if self.n_frames > 0 {
             return Err(Error::at_line(
                 ErrorKind::Syntax,
-                origin,
+                self.origin,
+                line,
+                format!("{:?} after the first frame; expected a frame number or a bone line", String::from_utf8_lossy(word)),
+            ));
+        }
+        if word.eq_ignore_ascii_case(b":DEGREES") {
+            self.radians = false;
+        } else if word.eq_ignore_ascii_case(b":RADIANS") {
+            self.radians = true;
+        }
+        cursor.skip_line();
+        Ok(())
+    }
+
+    /// A frame number line: the previous frame checked complete, the next number checked, a
+    /// new frame of values started.
+    fn frame_number_line(&mut self, cursor: &mut NumberLines<'_>, word: &[u8], line: usize) -> Result<()> {
+        let number = std::str::from_utf8(word).ok().and_then(|w| w.parse::<u64>().ok()).ok_or_else(|| {
+            Error::at_line(ErrorKind::Syntax, self.origin, line, format!("{:?}; expected a frame number or a bone name", String::from_utf8_lossy(word)))
+        })?;
+        self.check_frame_complete()?;
+        if self.n_frames > 0 && number != self.frame_number + 1 {
+            return Err(Error::at_line(
+                ErrorKind::Syntax,
+                self.origin,
+                line,
+                format!("frame number {number} follows frame {}; expected {}", self.frame_number, self.frame_number + 1),
+            ));
+        }
+        if self.n_frames == 0 {
+            self.scale = self.channel_scale();
+        } else if !self.first_order_done {
+            self.first_order_done = true;
+        }
+        self.frame_number = number;
+        self.frame_line = line;
+        self.n_frames += 1;
+        self.values.resize(self.n_frames * self.n_channels, 0.0);
+        self.order_pos = 0;
+        cursor.skip_word(word);
+        let rest = cursor.read_line(&mut [], &[], || format!("frame number line {number}"))?;
+        if rest.count != 0 {
+            return Err(Error::at_line(ErrorKind::Syntax, self.origin, line, format!("frame number {number} is followed by values; expected it alone on its line")));
+        }
+        Ok(())
+    }
+
+    /// Per channel, the factor from the file's units: the ASF's length unit to mm for
+    /// translations, radians (when the file says so) to degrees for rotations.
+    fn channel_scale(&self) -> Vec<f64> {
+        let rotation = if self.radians { 180.0 / std::f64::consts::PI } else { 1.0 };
+        self.asf
+            .skeleton
+            .joints
+            .iter()
+            .flat_map(|j| j.channels.iter())
+            .map(|c| match c {
+                ChannelKind::Translation(_) => self.asf.mm_per_unit,
+                ChannelKind::Rotation(_) => rotation,
+            })
+            .collect()
+    }
+
+    /// A bone line the fast path did not read: its bone predicted from the first frame's
+    /// order, else looked up by name; its values into the current frame.
+    fn bone_line(&mut self, cursor: &mut NumberLines<'_>, word: &[u8], line: usize) -> Result<()> {
+        let skeleton = &self.asf.skeleton;
+        if self.n_frames == 0 {
+            return Err(Error::at_line(
+                ErrorKind::Syntax,
+                self.origin,
                 line,
                 format!("{:?} before the first frame number; expected a frame number", String::from_utf8_lossy(word)),
             ));
         }
-        // Bone line: predicted from the previous frame's order, else looked up.
-        let j = match order.get(order_pos) {
-            Some(&j) if first_order_done && skeleton.joints[j].name.as_bytes() == word => j,
-            _ => {
-                let name = std::str::from_utf8(word).unwrap_or("");
-                match by_name.get(name) {
-                    Some(&j) => j,
-                    None => {
-                        let close = closest_names(name, skeleton.joints.iter().map(|j| j.name.as_str()));
-                        let hint = if close.is_empty() { String::new() } else { format!("; closest: {}", close.join(", ")) };
-                        return Err(Error::at_line(
-                            ErrorKind::UnknownName,
-                            origin,
-                            line,
-                            format!("bone {name:?} is not in the skeleton {}{hint}", asf.origin.display()),
-                        )
-                        .with_field(name.to_string()));
-                    }
-                }
-            }
+        let j = match self.order.get(self.order_pos) {
+            Some(&j) if self.first_order_done && skeleton.joints[j].name.as_bytes() == word => j,
+            _ => self.bone_by_name(word, line)?,
         };
-        if !first_order_done {
-            order.push(j);
+        if !self.first_order_done {
+            self.order.push(j);
         }
-        order_pos += 1;
-        if seen[j] == n_frames - 1 {
+        self.order_pos += 1;
+        if self.seen[j] == self.n_frames - 1 {
             return Err(Error::at_line(
                 ErrorKind::DuplicateName,
-                origin,
+                self.origin,
                 line,
-                format!("bone {:?} appears twice in frame {frame_number}", skeleton.joints[j].name),
+                format!("bone {:?} appears twice in frame {}", skeleton.joints[j].name, self.frame_number),
             ));
         }
-        seen[j] = n_frames - 1;
+        self.seen[j] = self.n_frames - 1;
         cursor.skip_word(word);
-        let slot = slots[j];
-        let base = (n_frames - 1) * n_channels + slot.first;
-        let got = cursor.read_line(&mut values[base..base + slot.n], &scale[slot.first..slot.first + slot.n], || {
+        let slot = self.slots[j];
+        let base = (self.n_frames - 1) * self.n_channels + slot.first;
+        let got = cursor.read_line(&mut self.values[base..base + slot.n], &self.scale[slot.first..slot.first + slot.n], || {
             format!("bone {}", skeleton.joints[j].name)
         })?;
         if got.count != slot.n {
             let dofs: Vec<&str> = skeleton.joints[j].channels.iter().map(|c| c.short_name()).collect();
             return Err(Error::at_line(
                 ErrorKind::WrongValueCount,
-                origin,
+                self.origin,
                 line,
-                format!(
-                    "bone {:?}: found {} values, expected {} (dof {})",
-                    skeleton.joints[j].name,
-                    got.count,
-                    slot.n,
-                    dofs.join(" ")
-                ),
+                format!("bone {:?}: found {} values, expected {} (dof {})", skeleton.joints[j].name, got.count, slot.n, dofs.join(" ")),
             ));
         }
+        Ok(())
     }
-    check_frame_complete(&seen, n_frames, frame_number, frame_line)?;
-    if n_frames == 0 {
-        return Err(Error::at_line(ErrorKind::EmptySequence, origin, cursor.line(), "no frames; expected a frame number line then bone lines"));
+
+    /// The joint a bone line names, or an error naming the closest bones.
+    fn bone_by_name(&self, word: &[u8], line: usize) -> Result<usize> {
+        let name = std::str::from_utf8(word).unwrap_or("");
+        self.by_name.get(name).copied().ok_or_else(|| {
+            let close = closest_names(name, self.asf.skeleton.joints.iter().map(|j| j.name.as_str()));
+            let hint = if close.is_empty() { String::new() } else { format!("; closest: {}", close.join(", ")) };
+            Error::at_line(ErrorKind::UnknownName, self.origin, line, format!("bone {name:?} is not in the skeleton {}{hint}", self.asf.origin.display()))
+                .with_field(name.to_string())
+        })
     }
-    SkeletonMotion::new(skeleton.clone(), values).map(|m| (m, fast_lines)).map_err(|e| e.in_file(origin))
+
+    /// Every bone with dofs had a line in the current frame (if there is one).
+    fn check_frame_complete(&self) -> Result<()> {
+        if self.n_frames == 0 {
+            return Ok(());
+        }
+        let joints = &self.asf.skeleton.joints;
+        match joints.iter().enumerate().find(|(j, jt)| !jt.channels.is_empty() && self.seen[*j] != self.n_frames - 1) {
+            None => Ok(()),
+            Some((_, jt)) => Err(Error::at_line(
+                ErrorKind::WrongValueCount,
+                self.origin,
+                self.frame_line,
+                format!("frame {} has no line for bone {:?}; expected every bone with dofs in every frame", self.frame_number, jt.name),
+            )),
+        }
+    }
+
+    /// The channel values of every frame, once the text is read (`last_line` its last line),
+    /// and how many bone lines the fast path read.
+    fn finish(self, last_line: usize) -> Result<(SkeletonMotion, usize)> {
+        self.check_frame_complete()?;
+        if self.n_frames == 0 {
+            return Err(Error::at_line(ErrorKind::EmptySequence, self.origin, last_line, "no frames; expected a frame number line then bone lines"));
+        }
+        let origin = self.origin;
+        SkeletonMotion::new(self.asf.skeleton.clone(), self.values).map(|m| (m, self.fast_lines)).map_err(|e| e.in_file(origin))
+    }
 }
 
 /// Turns AMC channel values into a [`Motion`] by forward kinematics (Y up, mm); the name is

@@ -17,6 +17,7 @@
 //! error.
 
 
+use std::iter::Peekable;
 use std::path::Path;
 
 use schemars::JsonSchema;
@@ -130,11 +131,37 @@ fn fields(line: &str) -> impl Iterator<Item = &str> {
 /// Parses a Qualisys TSV text; `origin` names it in errors and in the motion.
 pub fn parse_qualisys_tsv(text: &str, origin: &Path, up_axis: Axis) -> Result<Motion> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let at = |line: usize, kind: ErrorKind, msg: String| Error::at_line(kind, origin, line, msg);
-    let mut header = Header::default();
     let mut lines = text.split('\n').enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l))).peekable();
+    let header = read_header(&mut lines, origin)?;
+    let first_data_line = lines.peek().map_or_else(|| text.split('\n').count(), |(n, _)| *n);
+    let (names, frequency) = header.markers_and_rate(first_data_line, origin)?;
+    let layout = ColumnLayout::of(&header, &names, origin)?;
+    let rows = read_rows(lines, &header, &layout, &names.value, first_data_line, text.len(), origin)?;
 
-    // ---- header ----
+    let rate = FrameRate::new(frequency.value).map_err(|e| e.in_file(origin).with_line(frequency.line))?;
+    let names: Vec<String> = names.value.iter().map(|s| s.to_string()).collect();
+    let mut motion = Motion::new(crate::read::stem(origin), rate, up_axis, PointKind::Marker, names, rows.positions)
+        .map_err(|e| e.in_file(origin))?
+        .with_source(origin, "qualisys_tsv");
+    motion.events = header
+        .events
+        .iter()
+        .map(|&(name, _frame_number, time, _line)| Event {
+            label: name.to_string(),
+            context: String::new(),
+            time: Seconds(time),
+            frame: rate.seconds_to_frames(Seconds(time)) + 1.0 - rows.first_frame_number,
+        })
+        .collect();
+    motion.events.sort_by(|a, b| a.time.0.total_cmp(&b.time.0));
+    Ok(motion)
+}
+
+/// The header lines (`KEY<TAB>value…`, blank lines, and the column-header row once the marker
+/// names are known), read up to the first line that is none of these: the first data row,
+/// left in `lines`.
+fn read_header<'t>(lines: &mut Peekable<impl Iterator<Item = (usize, &'t str)>>, origin: &Path) -> Result<Header<'t>> {
+    let mut header = Header::default();
     while let Some(&(line_no, line)) = lines.peek() {
         if line.trim().is_empty() {
             lines.next();
@@ -150,120 +177,166 @@ pub fn parse_qualisys_tsv(text: &str, origin: &Path, up_axis: Axis) -> Result<Mo
         if !is_key(key) {
             break;
         }
-        let value = f.next().unwrap_or("");
-        let parse_count = |what: &str| -> Result<usize> {
-            value.parse::<usize>().map_err(|_| at(line_no, ErrorKind::Syntax, format!("{what} is {value:?}; expected a whole number")))
-        };
+        header.key_line(key, f.next().unwrap_or(""), line, line_no, origin)?;
+        lines.next();
+    }
+    Ok(header)
+}
+
+impl<'t> Header<'t> {
+    /// One header line `key<TAB>value…` (`line`, number `line_no`).
+    fn key_line(&mut self, key: &str, value: &str, line: &'t str, line_no: usize, origin: &Path) -> Result<()> {
+        let at = |kind: ErrorKind, msg: String| Error::at_line(kind, origin, line_no, msg);
+        let parse_count = |what: &str| -> Result<usize> { value.parse::<usize>().map_err(|_| at(ErrorKind::Syntax, format!("{what} is {value:?}; expected a whole number"))) };
         let once = |seen: bool| -> Result<()> {
-            if seen { Err(at(line_no, ErrorKind::DuplicateName, format!("{key} is given twice; expected one {key} line"))) } else { Ok(()) }
+            if seen { Err(at(ErrorKind::DuplicateName, format!("{key} is given twice; expected one {key} line"))) } else { Ok(()) }
         };
         match key {
             "NO_OF_FRAMES" => {
-                once(header.frames.is_some())?;
-                header.frames = Some(Keyed { value: parse_count(key)?, line: line_no });
+                once(self.frames.is_some())?;
+                self.frames = Some(Keyed { value: parse_count(key)?, line: line_no });
             }
             "NO_OF_MARKERS" => {
-                once(header.markers.is_some())?;
-                header.markers = Some(Keyed { value: parse_count(key)?, line: line_no });
+                once(self.markers.is_some())?;
+                self.markers = Some(Keyed { value: parse_count(key)?, line: line_no });
             }
             "FREQUENCY" => {
-                once(header.frequency.is_some())?;
-                let hz = value.parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0).ok_or_else(|| {
-                    at(line_no, ErrorKind::OutOfRange, format!("FREQUENCY is {value:?}; expected a frame rate > 0 Hz"))
-                })?;
-                header.frequency = Some(Keyed { value: hz, line: line_no });
+                once(self.frequency.is_some())?;
+                let hz = value
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite() && *v > 0.0)
+                    .ok_or_else(|| at(ErrorKind::OutOfRange, format!("FREQUENCY is {value:?}; expected a frame rate > 0 Hz")))?;
+                self.frequency = Some(Keyed { value: hz, line: line_no });
             }
             "DATA_INCLUDED" if !value.eq_ignore_ascii_case("3D") => {
-                return Err(at(line_no, ErrorKind::OutOfRange, format!("DATA_INCLUDED is {value:?}; only 3D marker exports can be read")));
+                return Err(at(ErrorKind::OutOfRange, format!("DATA_INCLUDED is {value:?}; only 3D marker exports can be read")));
             }
             "MARKER_NAMES" => {
-                once(header.names.is_some())?;
+                once(self.names.is_some())?;
                 let names: Vec<&str> = fields(line).skip(1).collect();
                 // A map, not a scan of the names before each one: a corrupt line of 10⁵ names
                 // must not take 10¹⁰ comparisons.
                 let mut first_column: std::collections::HashMap<&str, usize> = std::collections::HashMap::with_capacity(names.len());
                 for (i, n) in names.iter().enumerate() {
                     if n.is_empty() {
-                        return Err(at(line_no, ErrorKind::Syntax, format!("marker name {} is empty; expected a name", i + 1)).with_field("MARKER_NAMES"));
+                        return Err(at(ErrorKind::Syntax, format!("marker name {} is empty; expected a name", i + 1)).with_field("MARKER_NAMES"));
                     }
                     if let Some(j) = first_column.insert(n, i) {
-                        return Err(at(line_no, ErrorKind::DuplicateName, format!("marker {n:?} is named twice (columns {} and {})", j + 2, i + 2))
-                            .with_field(n.to_string()));
+                        return Err(at(ErrorKind::DuplicateName, format!("marker {n:?} is named twice (columns {} and {})", j + 2, i + 2)).with_field(n.to_string()));
                     }
                 }
-                header.names = Some(Keyed { value: names, line: line_no });
+                self.names = Some(Keyed { value: names, line: line_no });
             }
             "EVENT" => {
                 let rest: Vec<&str> = fields(line).skip(1).collect();
                 let num = |s: Option<&&str>| s.and_then(|s| s.parse::<f64>().ok()).filter(|v| v.is_finite());
                 match (rest.first(), num(rest.get(1)), num(rest.get(2))) {
-                    (Some(name), Some(frame), Some(time)) => header.events.push((name, frame, time, line_no)),
-                    _ => return Err(at(line_no, ErrorKind::Syntax, "EVENT line needs a name, a frame number and a time in seconds".into())),
+                    (Some(name), Some(frame), Some(time)) => self.events.push((name, frame, time, line_no)),
+                    _ => return Err(at(ErrorKind::Syntax, "EVENT line needs a name, a frame number and a time in seconds".into())),
                 }
             }
             _ => {} // NO_OF_CAMERAS, TIME_STAMP, DESCRIPTION, FILE_VERSION, …: not needed.
         }
-        lines.next();
+        Ok(())
     }
 
-    let first_data_line = lines.peek().map_or_else(|| text.split('\n').count(), |(n, _)| *n);
-    let Some(names) = header.names else {
-        return Err(at(first_data_line, ErrorKind::MissingKey, "no MARKER_NAMES line before the data; expected the marker names".into())
-            .with_field("MARKER_NAMES"));
-    };
-    let Some(frequency) = header.frequency else {
-        return Err(at(first_data_line, ErrorKind::MissingKey, "no FREQUENCY line before the data; expected the frame rate".into())
-            .with_field("FREQUENCY"));
-    };
-    let m = names.value.len();
-    if m == 0 {
-        return Err(at(names.line, ErrorKind::EmptySequence, "MARKER_NAMES lists no marker".into()).with_field("MARKER_NAMES"));
-    }
-    if let Some(declared) = header.markers
-        && declared.value != m
-    {
-        return Err(at(
-            names.line,
-            ErrorKind::WrongValueCount,
-            format!("MARKER_NAMES lists {m} markers but NO_OF_MARKERS (line {}) says {}", declared.line, declared.value),
-        ));
-    }
-
-    // ---- columns ----
-    let (columns, frame_column): (Vec<Column>, Option<usize>) = match &header.columns {
-        None => ((0..3 * m).map(|k| Column::Coordinate { marker: k / 3, axis: k % 3 }).collect(), None),
-        Some((titles, line)) => {
-            let mut cols = vec![Column::Other; titles.len()];
-            let mut found = vec![[false; 3]; m];
-            for (c, title) in titles.iter().enumerate() {
-                let Some((marker, axis)) = title.rsplit_once(' ') else { continue };
-                let axis = match axis {
-                    "X" | "x" => 0,
-                    "Y" | "y" => 1,
-                    "Z" | "z" => 2,
-                    _ => continue,
-                };
-                if let Some(k) = names.value.iter().position(|n| *n == marker) {
-                    cols[c] = Column::Coordinate { marker: k, axis };
-                    found[k][axis] = true;
-                }
-            }
-            if let Some(k) = found.iter().position(|f| !f.iter().all(|x| *x)) {
-                return Err(at(*line, ErrorKind::MissingKey, format!("column-header row has no X, Y and Z columns for marker {:?}", names.value[k]))
-                    .with_field(names.value[k].to_string()));
-            }
-            let frame_col = titles.iter().position(|t| t.eq_ignore_ascii_case("frame"));
-            (cols, frame_col)
+    /// The marker names and the frame rate, which the data cannot be read without, checked
+    /// against `NO_OF_MARKERS`; `first_data_line` is where an error about a missing one points.
+    #[allow(clippy::type_complexity)]
+    fn markers_and_rate(&self, first_data_line: usize, origin: &Path) -> Result<(Keyed<Vec<&'t str>>, Keyed<f64>)> {
+        let at = |line: usize, kind: ErrorKind, msg: &str| Error::at_line(kind, origin, line, msg.to_string());
+        let Some(names) = self.names.clone() else {
+            return Err(at(first_data_line, ErrorKind::MissingKey, "no MARKER_NAMES line before the data; expected the marker names").with_field("MARKER_NAMES"));
+        };
+        let Some(frequency) = self.frequency else {
+            return Err(at(first_data_line, ErrorKind::MissingKey, "no FREQUENCY line before the data; expected the frame rate").with_field("FREQUENCY"));
+        };
+        let m = names.value.len();
+        if m == 0 {
+            return Err(at(names.line, ErrorKind::EmptySequence, "MARKER_NAMES lists no marker").with_field("MARKER_NAMES"));
         }
-    };
-    let expected = columns.len();
-    let extra = expected - 3 * m;
-    let expected_text = if extra == 0 { format!("3 × {m} markers = {expected}") } else { format!("3 × {m} markers + {extra} other columns = {expected}") };
+        if let Some(declared) = self.markers
+            && declared.value != m
+        {
+            let msg = format!("MARKER_NAMES lists {m} markers but NO_OF_MARKERS (line {}) says {}", declared.line, declared.value);
+            return Err(at(names.line, ErrorKind::WrongValueCount, &msg));
+        }
+        Ok((names, frequency))
+    }
+}
 
-    // ---- data ----
+/// What each column of a data row holds, and which column numbers the frames (if any).
+struct ColumnLayout {
+    columns: Vec<Column>,
+    frame_column: Option<usize>,
+    /// How many values a row has, as errors state it (`3 × 28 markers = 84`).
+    expected_text: String,
+}
+
+impl ColumnLayout {
+    /// X, Y, Z per marker in name order without a column-header row; else each marker's
+    /// columns found by their titles (`<marker> X|Y|Z`) and the others skipped.
+    fn of(header: &Header<'_>, names: &Keyed<Vec<&str>>, origin: &Path) -> Result<Self> {
+        let m = names.value.len();
+        let (columns, frame_column): (Vec<Column>, Option<usize>) = match &header.columns {
+            None => ((0..3 * m).map(|k| Column::Coordinate { marker: k / 3, axis: k % 3 }).collect(), None),
+            Some((titles, line)) => {
+                let mut cols = vec![Column::Other; titles.len()];
+                let mut found = vec![[false; 3]; m];
+                for (c, title) in titles.iter().enumerate() {
+                    let Some((marker, axis)) = title.rsplit_once(' ') else { continue };
+                    let axis = match axis {
+                        "X" | "x" => 0,
+                        "Y" | "y" => 1,
+                        "Z" | "z" => 2,
+                        _ => continue,
+                    };
+                    if let Some(k) = names.value.iter().position(|n| *n == marker) {
+                        cols[c] = Column::Coordinate { marker: k, axis };
+                        found[k][axis] = true;
+                    }
+                }
+                if let Some(k) = found.iter().position(|f| !f.iter().all(|x| *x)) {
+                    return Err(Error::at_line(ErrorKind::MissingKey, origin, *line, format!("column-header row has no X, Y and Z columns for marker {:?}", names.value[k]))
+                        .with_field(names.value[k].to_string()));
+                }
+                let frame_col = titles.iter().position(|t| t.eq_ignore_ascii_case("frame"));
+                (cols, frame_col)
+            }
+        };
+        let expected = columns.len();
+        let extra = expected - 3 * m;
+        let expected_text = if extra == 0 { format!("3 × {m} markers = {expected}") } else { format!("3 × {m} markers + {extra} other columns = {expected}") };
+        Ok(ColumnLayout { columns, frame_column, expected_text })
+    }
+}
+
+/// The data rows as read.
+struct Rows {
+    /// Frame-major, one sample per marker per row (NaN: missing).
+    positions: Vec<[f64; 3]>,
+    /// The first row's `Frame` column, else 1.
+    first_frame_number: f64,
+}
+
+/// Every data row from `lines` on (the header read), checked against `NO_OF_FRAMES` and the
+/// column layout; `text_len` bounds the allocation a corrupt `NO_OF_FRAMES` could ask for.
+fn read_rows<'t>(
+    lines: impl Iterator<Item = (usize, &'t str)>,
+    header: &Header<'_>,
+    layout: &ColumnLayout,
+    names: &[&str],
+    first_data_line: usize,
+    text_len: usize,
+    origin: &Path,
+) -> Result<Rows> {
+    let at = |line: usize, kind: ErrorKind, msg: String| Error::at_line(kind, origin, line, msg);
+    let m = names.len();
+    let expected = layout.columns.len();
     // Bounded by what the text can hold (each value takes ≥ 2 bytes), so a corrupt NO_OF_FRAMES
     // cannot request a huge allocation.
-    let capacity = header.frames.map_or(0, |f| f.value.min(text.len() / (2 * expected) + 1)) * m;
+    let capacity = header.frames.map_or(0, |f| f.value.min(text_len / (2 * expected) + 1)) * m;
     let mut positions: Vec<[f64; 3]> = Vec::with_capacity(capacity);
     let mut sample = vec![[f64::NAN; 3]; m];
     let mut n_rows = 0usize;
@@ -277,34 +350,30 @@ pub fn parse_qualisys_tsv(text: &str, origin: &Path, up_axis: Axis) -> Result<Mo
         if let Some(declared) = header.frames
             && n_rows == declared.value
         {
-            return Err(at(
-                line_no,
-                ErrorKind::WrongValueCount,
-                format!("row beyond the {} frames NO_OF_FRAMES (line {}) declares", declared.value, declared.line),
-            ));
+            return Err(at(line_no, ErrorKind::WrongValueCount, format!("row beyond the {} frames NO_OF_FRAMES (line {}) declares", declared.value, declared.line)));
         }
         // Counting tabs is a cheap first pass, so a row of the wrong length is reported as
         // such before any of its values is parsed.
         let row = line.trim_end_matches(['\t', ' ', '\r']);
         let found = row.bytes().filter(|b| *b == b'\t').count() + 1;
         if found != expected {
-            return Err(at(line_no, ErrorKind::WrongValueCount, format!("found {found} values, expected {expected_text}")));
+            return Err(at(line_no, ErrorKind::WrongValueCount, format!("found {found} values, expected {}", layout.expected_text)));
         }
-        for (c, (token, column)) in row.split('\t').map(|t| t.trim_matches(' ')).zip(&columns).enumerate() {
+        for (c, (token, column)) in row.split('\t').map(|t| t.trim_matches(' ')).zip(&layout.columns).enumerate() {
             match *column {
                 Column::Coordinate { marker, axis } => {
                     let v = fast_float2::parse::<f64, _>(token).map_err(|_| {
                         at(line_no, ErrorKind::Syntax, format!("expected a number or NaN, found {token:?} (column {})", c + 1))
-                            .with_field(format!("{} {}", names.value[marker], ["X", "Y", "Z"][axis]))
+                            .with_field(format!("{} {}", names[marker], ["X", "Y", "Z"][axis]))
                     })?;
                     if v.is_infinite() {
                         return Err(at(line_no, ErrorKind::NonFinite, format!("{token:?} in column {}; expected a number or NaN (missing)", c + 1))
-                            .with_field(format!("{} {}", names.value[marker], ["X", "Y", "Z"][axis])));
+                            .with_field(format!("{} {}", names[marker], ["X", "Y", "Z"][axis])));
                     }
                     sample[marker][axis] = v;
                 }
                 Column::Other => {
-                    if n_rows == 0 && Some(c) == frame_column {
+                    if n_rows == 0 && Some(c) == layout.frame_column {
                         first_frame_number = token.parse::<f64>().map_err(|_| {
                             at(line_no, ErrorKind::Syntax, format!("expected a frame number, found {token:?} (column {})", c + 1)).with_field("Frame")
                         })?;
@@ -327,24 +396,7 @@ pub fn parse_qualisys_tsv(text: &str, origin: &Path, up_axis: Axis) -> Result<Mo
     if n_rows == 0 {
         return Err(at(last_line, ErrorKind::EmptySequence, "no data rows after the header; expected one row per frame".into()));
     }
-
-    let rate = FrameRate::new(frequency.value).map_err(|e| e.in_file(origin).with_line(frequency.line))?;
-    let names: Vec<String> = names.value.iter().map(|s| s.to_string()).collect();
-    let mut motion = Motion::new(crate::read::stem(origin), rate, up_axis, PointKind::Marker, names, positions)
-        .map_err(|e| e.in_file(origin))?
-        .with_source(origin, "qualisys_tsv");
-    motion.events = header
-        .events
-        .iter()
-        .map(|&(name, _frame_number, time, _line)| Event {
-            label: name.to_string(),
-            context: String::new(),
-            time: Seconds(time),
-            frame: rate.seconds_to_frames(Seconds(time)) + 1.0 - first_frame_number,
-        })
-        .collect();
-    motion.events.sort_by(|a, b| a.time.0.total_cmp(&b.time.0));
-    Ok(motion)
+    Ok(Rows { positions, first_frame_number })
 }
 
 #[cfg(test)]

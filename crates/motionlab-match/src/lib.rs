@@ -1,6 +1,6 @@
 //! # motionlab-match
 //!
-//! Multistream matching after Yabe & Tanaka (see `../shared/papers/SPEC.md`, section 002):
+//! Multistream matching after Yabe & Tanaka (§3–§4 of their paper):
 //! a user's continuous take of repetitions is compared with a model basic motion, marker by
 //! marker, and every repetition is judged by its distance `H` and its synchronisation `R`.
 //!

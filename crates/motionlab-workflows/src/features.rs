@@ -8,7 +8,7 @@ use motionlab_core::{ColumnValues, FeatureCache, FeatureExtractor, LabelTrace, R
 use motionlab_figure::{Chart, Figure, Series};
 
 use motionlab_experiment::workflow::{sanitize, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
-use motionlab_experiment::build_stage;
+use motionlab_experiment::build_named_stages;
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::Datasets;
 
@@ -45,20 +45,14 @@ impl From<LabelTrace> for LabelTraceRecord {
 #[serde(deny_unknown_fields)]
 pub struct FeaturesSection {
     /// The feature extractors, in column order (`{ type = "<extractor>", … }`; `name = "…"`
-    /// labels one in tables and figures). Required.
+    /// labels one in tables and figures, and names must be unique). Required.
     pub extractors: Vec<StageSpec>,
 }
 
 impl WorkflowPlugin for FeaturesWorkflow {
     type Section = FeaturesSection;
     fn build(section: FeaturesSection, cx: &BuildContext<'_>) -> Result<Self> {
-        let root = cx.root.key("extractors");
-        let extractors = section
-            .extractors
-            .iter()
-            .enumerate()
-            .map(|(k, s)| Ok((s.display_name(), build_stage(cx.source, cx.combo, s, &root.index(k), registry::build_feature_extractor)?)))
-            .collect::<Result<Vec<_>>>()?;
+        let extractors = build_named_stages(cx, &section.extractors, &cx.root.key("extractors"), "extractors", registry::build_feature_extractor)?;
         Ok(FeaturesWorkflow { extractors })
     }
 }

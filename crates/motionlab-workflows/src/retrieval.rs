@@ -42,7 +42,7 @@ use crate::matching::{cut_offset, find_model};
 use motionlab_experiment::build_stage;
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::workflow::{BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin};
-use motionlab_experiment::Datasets;
+use motionlab_experiment::{Datasets, Locator};
 
 /// The `k` stretches of a corpus most similar, and the `k` most dissimilar, to one model motion
 /// (Yabe & Tanaka's two-stage multistream match, across every take).
@@ -128,6 +128,9 @@ pub struct RetrievalWorkflow {
     section: RetrievalSection,
     model: usize,
     synchroniser: Box<dyn Synchroniser>,
+    /// Locates configuration errors found only once the data is seen (a reference point a
+    /// take lacks).
+    locator: Locator,
 }
 
 impl WorkflowPlugin for RetrievalWorkflow {
@@ -159,7 +162,7 @@ impl WorkflowPlugin for RetrievalWorkflow {
         }
         let synchroniser =
             build_stage(cx.source, cx.combo, &section.synchroniser, &cx.root.key("synchroniser"), motionlab_match::build_synchroniser)?;
-        Ok(RetrievalWorkflow { section, model, synchroniser })
+        Ok(RetrievalWorkflow { section, model, synchroniser, locator: cx.locator() })
     }
 }
 
@@ -215,7 +218,7 @@ impl RetrievalWorkflow {
         let mut t = trajectories(motion, &names, role, "retrieval")?;
         if let Some(r) = &self.section.reference_point {
             let k = names.iter().position(|n| n == r).ok_or_else(|| {
-                Error::new(ErrorKind::UnknownName, format!("the {role} {:?} has no point {r:?}", motion.name)).with_field("retrieval.reference_point")
+                self.locator.locate(Error::new(ErrorKind::UnknownName, format!("the {role} {:?} has no point {r:?}", motion.name)), "retrieval.reference_point")
             })?;
             relative_to_point(&mut t, k)?;
         }

@@ -59,17 +59,19 @@ impl MatchingWorkflow {
     fn point_names(&self, model: &Motion, alignment: &Alignment) -> Result<Vec<String>> {
         let names = self.matcher_points.clone().unwrap_or_else(|| model.point_names().to_vec());
         if names.len() != alignment.point_distances.len() {
-            return Err(Error::new(
-                ErrorKind::Mismatch,
-                format!(
-                    "the matcher {:?} returned {} per-point distances for {} points ({}); expected one per point",
-                    self.section.matcher.kind,
-                    alignment.point_distances.len(),
-                    names.len(),
-                    names.join(", ")
+            return Err(self.locator.locate(
+                Error::new(
+                    ErrorKind::Mismatch,
+                    format!(
+                        "the matcher {:?} returned {} per-point distances for {} points ({}); expected one per point",
+                        self.section.matcher.kind,
+                        alignment.point_distances.len(),
+                        names.len(),
+                        names.join(", ")
+                    ),
                 ),
-            )
-            .with_field("matching.matcher"));
+                "matching.matcher",
+            ));
         }
         Ok(names)
     }

@@ -8,7 +8,7 @@ use motionlab_core::{registry, Error, ErrorKind, FeatureCache, Motion, Result, S
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
 use motionlab_experiment::workflow::{BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin};
-use motionlab_experiment::{build_stage, Datasets};
+use motionlab_experiment::{build_named_stages, build_stage, Datasets};
 use my_segmenters::segment_classifier::{build_segment_classifier, SegmentClassifier};
 
 /// Segments each sequence, then describes and labels every segment: one row per segment and
@@ -75,15 +75,7 @@ struct LabelRow {
 impl WorkflowPlugin for SegmentStatsWorkflow {
     type Section = SegmentStatsSection;
     fn build(section: SegmentStatsSection, cx: &BuildContext<'_>) -> Result<Self> {
-        let mut segmenters: Vec<(String, Box<dyn Segmenter>)> = Vec::new();
-        for (k, s) in section.segmenters.iter().enumerate() {
-            let at = cx.root.key("segmenter").index(k);
-            let name = s.display_name();
-            if segmenters.iter().any(|(n, _)| *n == name) {
-                return Err(cx.locate(Error::new(ErrorKind::DuplicateName, format!("two segmenters are named {name:?}; give one a `name = \"…\"`")), at));
-            }
-            segmenters.push((name, build_stage(cx.source, cx.combo, s, &at, registry::build_segmenter)?));
-        }
+        let segmenters = build_named_stages(cx, &section.segmenters, &cx.root.key("segmenter"), "segmenters", registry::build_segmenter)?;
         if segmenters.is_empty() {
             return Err(cx.locate(Error::new(ErrorKind::MissingKey, "at least one [[segment_stats.segmenter]] is required"), &cx.root));
         }
