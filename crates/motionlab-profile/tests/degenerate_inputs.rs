@@ -44,7 +44,7 @@ fn check_run(what: &str, input: &str, n_channels: usize, len: usize, run: impl F
             false
         }
         Ok(Ok(o)) => {
-            let n = if n_channels == 0 { 0 } else { len / n_channels };
+            let n = len.checked_div(n_channels).unwrap_or(0);
             assert!(o.candidates.windows(2).all(|w| w[0] < w[1]), "{what} on {input}: {:?}", o.candidates);
             assert!(o.candidates.iter().all(|&c| c > 0 && c < n), "{what} on {input}: {:?} for n = {n}", o.candidates);
             assert!(o.traces.iter().all(|t| t.values.len() == n), "{what} on {input}: a trace of another length than the series");
