@@ -13,7 +13,8 @@ Settings (`--variant raw`, the default):
 w being the series' window size in desc.txt. `--variant min_max` runs the ClaSP authors' later
 evaluation script instead: PELT, BinSeg and Window on the min-max normalised series with
 min_size = 5 % of n and pen 0.2; FLOSS with n_regimes = the true count + 1, keeping the regimes
-whose CAC is <= 0.45 (BOCD as above).
+whose CAC is <= 0.45 (BOCD as above). `--variant bocd_raw_series` and `--variant bocd_murphy`
+try two other readings of BOCD (the package on the series as given; Murphy's update).
 
 Each runs through motionlab's own segmenters (the example binaries of motionlab-changepoint
 and motionlab-profile, which bench/changepoint_vs_peers.py and bench/profile_vs_peers.py check
@@ -25,7 +26,7 @@ Prints per method: our mean Covering beside the published mean, how many series 
 0.01 of the published value, and the others with both values, the Covering of no change point
 and our change points; --table FILE writes every series (CSV). Results: bench/README.md.
 
-Usage: bench/tssb_published_settings.py [--variant raw|min_max] [--methods PELT,BinSeg,...] [--table out.csv]
+Usage: bench/tssb_published_settings.py [--variant raw|min_max|bocd_raw_series|bocd_murphy] [--methods PELT,BinSeg,...] [--table out.csv]
 """
 import argparse
 import csv
@@ -83,11 +84,12 @@ def changepoint_jobs(method, name, w, n, variant):
         return {"segmenter": "kernel_cpd", "params": {"search": search, "cost": "ar", "min_size": 5 * w, "jump": 5, "pen": 10.0}, "values_file": path}
     if method == "Window":
         return {"segmenter": "window", "params": {"cost": "ar", "width": 10 * w, "min_size": 5 * w, "pen": 10.0}, "values_file": path}
-    return {
-        "segmenter": "bocpd",
-        "params": {"model": "bocd_package", "normalize": "min_max", "lambda": 100.0, "change_points": "run_length_drop", "drop_threshold": 250.0},
-        "values_file": path,
-    }
+    params = {"model": "bocd_package", "normalize": "min_max", "lambda": 100.0, "change_points": "run_length_drop", "drop_threshold": 250.0}
+    if variant == "bocd_raw_series":
+        params["normalize"] = "none"
+    elif variant == "bocd_murphy":
+        params.update(model="normal_gamma", prior_mean=0.0, prior_kappa=1.0, prior_alpha=1.0, prior_beta=1.0)
+    return {"segmenter": "bocpd", "params": params, "values_file": path}
 
 
 def found_change_points(method, rows, lengths, variant):
@@ -120,9 +122,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--table", help="write every series' Covering (ours, published) to this CSV")
     ap.add_argument("--methods", default=",".join(METHODS))
-    ap.add_argument("--variant", choices=("raw", "min_max"), default="raw",
+    ap.add_argument("--variant", choices=("raw", "min_max", "bocd_raw_series", "bocd_murphy"), default="raw",
                     help="raw: the settings above; min_max: the later script's (series min-max normalised, pen 0.2, "
-                         "min_size 5 %% of n; FLOSS with n_regimes = true count + 1, then CAC <= 0.45)")
+                         "min_size 5 %% of n; FLOSS with n_regimes = true count + 1, then CAC <= 0.45); "
+                         "bocd_raw_series: BOCD as the package on the series not normalised; bocd_murphy: BOCD with "
+                         "Murphy's update (bocpd's default model) and the package's prior, min-max normalised")
     args = ap.parse_args()
     rows = series()
     pub = published()
