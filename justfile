@@ -25,6 +25,8 @@ bench:
     cargo bench -p motionlab-match
     cargo bench -p motionlab-eval
     cargo bench -p motionlab-gait
+    cargo bench -p motionlab-changepoint
+    cargo bench -p motionlab-profile
     bench/hull_vs_scipy.py
     bench/multistream_vs_peers.py
     bench/dtw_crosscheck.py
@@ -33,6 +35,12 @@ bench:
     bench/butterworth_vs_scipy.py
     bench/metrics_crosscheck.py
     bench/osafune_check.py reports/osafune_fast/record
+    bench/conformance_crosscheck.py check
+    bench/changepoint_vs_peers.py
+    bench/changepoint_vs_peers.py --speed
+    bench/profile_vs_peers.py --all --min-agree 10
+    bench/tssb_published_settings.py
+    bench/tssb_differences.py
 
 # Fuzz every parser for the given number of seconds each (needs nightly-free cargo-fuzz setup, see fuzz/README.md).
 fuzz seconds="600":

@@ -58,7 +58,7 @@ TSSB = os.path.join(ROOT, "data", "tssb", "datasets")
 # Short to medium series spread over the benchmark's kinds of data: the CI subset.
 CI_SERIES = ["Adiac", "ArrowHead", "Beef", "BeetleFly", "Car", "Chinatown", "Coffee", "DistalPhalanxTW",
              "ECG200", "GunPoint", "Ham", "Herring", "ItalyPowerDemand", "Lightning2", "OliveOil",
-             "SonyAIBORobotSurface2", "ToeSegmentation2", "Wafer"]
+             "SonyAIBORobotSurface2", "ToeSegmentation2", "TwoLeadECG"]
 
 
 def load_tssb():

@@ -37,7 +37,10 @@ use crate::signal::{Missing, Normalize, Signal};
 /// −drop_threshold` (the scripts' `np.where(np.diff(rt) <= -250)`; t, the last sample of the
 /// old run, is reported as they report it). The scripts' full setting: `model =
 /// "bocd_package"`, `normalize = "min_max"`, `lambda = 100`, the default prior (0, 1, 1, 1),
-/// `change_points = "run_length_drop"`, `drop_threshold = 250`.
+/// `change_points = "run_length_drop"`, `drop_threshold = 250`. On a constant series, which
+/// that update gives no evidence of a long run, the most probable run length climbs to 196
+/// and falls to 11 at sample 195, as in the package: no change point at the threshold 250,
+/// one at sample 195 with a threshold of 185 or less.
 ///
 /// **Run-length convention (the paper's).** r_t = 0 means a change right after sample t: its
 /// likelihood is the predictive under the run that ended (the paper's changepoint
@@ -523,6 +526,23 @@ mod tests {
         assert!(toml::from_str::<BocpdParams>("hazard = 0.1").is_err());
         assert!(toml::from_str::<BocpdParams>("standardize = true").is_err());
         assert!(toml::from_str::<BocpdParams>("model = \"student\"").is_err());
+        // The bocd package's settings (the TSSB scripts'): a constant series, min-max
+        // normalised to zeros, has no change; NaN samples are skipped as unobserved.
+        let p: BocpdParams = toml::from_str("model = \"bocd_package\"\nnormalize = \"min_max\"\nchange_points = \"run_length_drop\"").unwrap();
+        let pkg = p.check().unwrap();
+        assert!(pkg.run(&[3.0; 2000], 1).unwrap().candidates.is_empty());
+        assert!(pkg.run(&[3.0], 1).unwrap().candidates.is_empty());
+        let mut gap = vec![3.0; 300];
+        gap[100..140].fill(f64::NAN);
+        assert!(pkg.run(&gap, 1).unwrap().candidates.is_empty());
+        // The package's own result on zeros, which its update gives no evidence of the run: the
+        // most probable run length climbs to 196 and falls to 11 (the bocd 0.1.2 package gives
+        // the same drop at sample 195), so a threshold under 185 reports it.
+        let p: BocpdParams = toml::from_str("model = \"bocd_package\"\nnormalize = \"min_max\"\nchange_points = \"run_length_drop\"\ndrop_threshold = 20.0").unwrap();
+        let run = p.check().unwrap().run(&[3.0; 300], 1).unwrap();
+        assert_eq!((run.candidates, run.map_run_length[195], run.map_run_length[196]), (vec![195], 196, 11));
+        assert!(b.run(&gap, 1).unwrap().candidates.is_empty());
+        assert!(b.run(&[f64::NAN; 50], 1).unwrap().candidates.is_empty());
     }
 
     #[test]

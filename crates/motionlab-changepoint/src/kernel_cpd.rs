@@ -597,6 +597,28 @@ mod tests {
     }
 
     #[test]
+    fn degenerate_series_with_the_ar_cost_and_normalisation() {
+        for search in ["pelt", "binseg"] {
+            let k = params(&format!("search = \"{search}\"\ncost = \"ar\"\npen = 10.0\njump = 1")).unwrap();
+            // Shorter than the cost's own minimum (5 samples for order 4): one error naming min_size.
+            let e = k.segment_values(&step_signal(4, &[], 1), 1).unwrap_err();
+            assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::EmptySequence, Some("min_size")), "{search}");
+            assert!(k.segment_values(&step_signal(5, &[], 1), 1).unwrap().candidates.is_empty());
+            assert!(k.segment_values(&[2.0; 100], 1).unwrap().candidates.is_empty(), "{search}: constant");
+            let mut gap = step_signal(100, &[50], 1);
+            gap[70] = f64::NAN;
+            assert_eq!(k.segment_values(&gap, 1).unwrap_err().kind(), ErrorKind::MissingData);
+            assert_eq!(k.segment_values(&step_signal(100, &[50], 1), 2).unwrap_err().location().field.as_deref(), Some("cost"));
+        }
+        // min-max normalisation maps a constant channel to zeros (numpy would give NaN): no change.
+        for norm in ["min_max", "z_score"] {
+            let k = params(&format!("search = \"pelt\"\nnormalize = \"{norm}\"")).unwrap();
+            assert!(k.segment_values(&[7.0; 100], 1).unwrap().candidates.is_empty(), "{norm}");
+        }
+        assert!(params("cost = \"l2\"\nar_order = 2").is_err());
+    }
+
+    #[test]
     fn multichannel_change_in_one_channel_is_found() {
         let mut rng = fastrand::Rng::with_seed(8);
         let x: Vec<f64> = (0..200).flat_map(|i| [rng.f64(), if i < 120 { 0.0 } else { 2.0 } + rng.f64(), rng.f64()]).collect();

@@ -240,6 +240,14 @@ impl Window {
             }
             return Ok(run);
         }
+        if self.cost == CostModel::Ar && n <= self.ar_order.unwrap_or(DEFAULT_AR_ORDER) {
+            // No autoregression row fits in the series (it is shorter than the width too): no
+            // score and no change, the documented result for a series shorter than the width.
+            if let WindowStop::Penalty(p) = self.stop {
+                run.pen = Some(p);
+            }
+            return Ok(run);
+        }
         let l2;
         let linear;
         let rbf;
@@ -413,5 +421,26 @@ mod tests {
         }
         let e = params("n_bkps = 30\nmin_size = 10").unwrap().segment_values(&steps(300, &[100]), 1).unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("n_bkps"));
+    }
+
+    #[test]
+    fn degenerate_inputs_with_the_ar_cost_and_normalisation() {
+        // Fewer samples than the autoregression order, and shorter than the width: no score, no
+        // candidates, the penalty kept.
+        let ar = params("width = 20\ncost = \"ar\"\npen = 10.0").unwrap();
+        for n in [2, 4, 5, 19] {
+            let out = ar.segment_values(&steps(n, &[]), 1).unwrap();
+            assert!(out.candidates.is_empty() && out.traces[0].values.iter().all(|v| v.is_nan()), "n = {n}");
+            assert_eq!(out.thresholds[0].value, 10.0);
+        }
+        assert_eq!(ar.segment_values(&steps(200, &[100]), 1).unwrap().candidates, vec![100]);
+        assert!(ar.segment_values(&[2.0; 200], 1).unwrap().candidates.is_empty());
+        let mut gap = steps(200, &[100]);
+        gap[150] = f64::NAN;
+        assert_eq!(ar.segment_values(&gap, 1).unwrap_err().kind(), ErrorKind::MissingData);
+        assert_eq!(ar.segment_values(&steps(200, &[100]), 2).unwrap_err().location().field.as_deref(), Some("cost"));
+        // min-max normalisation of a constant series leaves zeros: no change.
+        let w = params("width = 10\nnormalize = \"min_max\"").unwrap();
+        assert!(w.segment_values(&[7.0; 100], 1).unwrap().candidates.is_empty());
     }
 }

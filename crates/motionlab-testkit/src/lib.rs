@@ -1,6 +1,8 @@
 //! Synthetic motions with known answers — for unit tests only. Every experiment in
 //! `experiments/` runs on real data.
 
+pub mod degenerate;
+
 use std::path::PathBuf;
 
 use motionlab_core::{Axis, FrameRate, Motion, Point3, PointKind};
