@@ -512,7 +512,7 @@ fn experiment_defects_name_kind_key_path_and_line() {
         ("toml_sweep_too_large.toml", ErrorKind::OutOfRange, 13, Some("sweep"), "the sweep has 200000 combinations; expected at most 10000"),
         ("toml_fill_gaps_negative.toml", ErrorKind::OutOfRange, 7, Some("dataset[0].preprocess[0].max_gap"), "-3"),
         ("unknown_key.toml", ErrorKind::UnknownKey, 7, Some("dataset[0].frame_rate"), "unknown field `frame_rate`"),
-        ("unknown_section.toml", ErrorKind::UnknownKey, 9, Some("segmentaton"), "unknown section `segmentaton`: expected a workflow section ([features], [gait], [matching], [retrieval], [segmentation]) or one of experiment, dataset, preprocess, evaluate, sweep, published; did you mean `segmentation`?"),
+        ("unknown_section.toml", ErrorKind::UnknownKey, 9, Some("segmentaton"), "unknown section `segmentaton`: expected a workflow section ([benchmark], [features], [gait], [matching], [retrieval], [segmentation]) or one of experiment, dataset, preprocess, evaluate, sweep, published; did you mean `segmentation`?"),
         ("unknown_param.toml", ErrorKind::UnknownKey, 9, Some("features.extractors[0].per_markers"), "unknown field `per_markers`"),
         ("unknown_plugin.toml", ErrorKind::UnknownPlugin, 10, Some("segmentation.segmenter[0].type"), "fastest_marker_sped"),
         ("wrong_type.toml", ErrorKind::WrongType, 11, Some("segmentation.segmenter[0].v_low"), "expected `mm_per_s` or `fraction_of_p90`"),
