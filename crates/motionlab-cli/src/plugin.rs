@@ -63,11 +63,12 @@ impl PluginKind {
         }
     }
 
+    /// What it is, with its article (`an evaluator`).
     fn label(self) -> &'static str {
         match self {
-            PluginKind::Segmenter => "segmenter",
-            PluginKind::Extractor => "feature extractor",
-            PluginKind::Evaluator => "evaluator",
+            PluginKind::Segmenter => "a segmenter",
+            PluginKind::Extractor => "a feature extractor",
+            PluginKind::Evaluator => "an evaluator",
         }
     }
 }
@@ -93,7 +94,7 @@ pub fn run(command: PluginCommand) -> Result<()> {
                 None => checkout_root(&cwd)?.join("crates").join(kind.home_crate()),
             };
             let s = new_plugin(&name, kind, &crate_dir)?;
-            println!("wrote {} (a {}: params, ParamGuard, the stage, a known-answer test)", s.file.display(), kind.label());
+            println!("wrote {} ({}: params, ParamGuard, the stage, a known-answer test)", s.file.display(), kind.label());
             println!("added `pub mod {name};` to {}", s.lib.display());
             if let Some((before, after)) = s.plugin_count {
                 println!("PLUGIN_COUNT {before} → {after}");
