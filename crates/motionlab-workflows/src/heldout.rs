@@ -455,7 +455,7 @@ mod tests {
         let mut curves = Vec::new();
         let mut tables = Vec::new();
         for (i, seqs) in combos.iter().enumerate() {
-            let e = pr.evaluate_with_analysis(EvalInput::segmentation(&seqs)).unwrap();
+            let e = pr.evaluate_with_analysis(EvalInput::segmentation(seqs)).unwrap();
             add_points(&mut curves, i, "grid", Some("speed"), &format!("c={i}"), e.analysis::<BoundaryAnalysis>().unwrap());
             tables.push(e.tables);
         }
