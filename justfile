@@ -15,7 +15,7 @@ record:
     cargo run --release -p motionlab-cli -- reproduce --record
 
 # Benchmarks: Rust (divan) and the side-by-side scripts against the Python peers (scipy,
-# dtaidistance, tslearn, ruptures, numpy), which also cross-check results. Numbers:
+# dtaidistance, tslearn, ruptures, claspy, stumpy, ezc3d, numpy), which also cross-check results. Numbers:
 # crates/*/benches/README.md, bench/README.md. (The cold-build measure, bench/cold_build.sh,
 # empties a target dir and is run on its own.)
 bench:
@@ -35,12 +35,17 @@ bench:
     bench/butterworth_vs_scipy.py
     bench/metrics_crosscheck.py
     bench/osafune_check.py reports/osafune_fast/record
-    bench/conformance_crosscheck.py check
-    bench/changepoint_vs_peers.py
     bench/changepoint_vs_peers.py --speed
     bench/profile_vs_peers.py --all --min-agree 10
-    bench/tssb_published_settings.py
-    bench/tssb_differences.py
+    python3 bench/conformance_crosscheck.py check
+    python3 bench/tssb_published_settings.py
+    python3 bench/tssb_differences.py
+
+# Rewrite the generated crate graph and crate table of docs/ARCHITECTURE.md from
+# crates/*/Cargo.toml, then run every docs check (after adding a crate: also give it a row in
+# README's crate table).
+bless-docs:
+    MOTIONLAB_BLESS_DOCS=1 cargo test -p motionlab-cli --test integration docs_truth::
 
 # Fuzz every parser for the given number of seconds each (needs nightly-free cargo-fuzz setup, see fuzz/README.md).
 fuzz seconds="600":

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""The `butterworth` preprocessor against scipy.signal.butter + filtfilt on real motions
-(issue 16): every filtered sample must agree within 1e-9 relative (to the run's largest value).
+"""The `butterworth` preprocessor against scipy.signal.butter + filtfilt on real motions:
+every filtered sample must agree within 1e-9 relative (to the run's largest value).
 
 motionlab's side: `cargo run -p motionlab-features --example butterworth_dump` (raw and
 filtered samples of real files, null where missing). scipy's side, per point and coordinate:

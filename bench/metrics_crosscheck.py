@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Cross-check of motionlab's boundary metrics against independent implementations on random
-cases (issue 16): every difference must be <= 1e-12.
+cases: every difference must be <= 1e-12.
 
 - Max-matching precision / recall / F1 (motionlab_eval::boundaries): against a maximum
   bipartite matching written here (Kuhn's augmenting paths) on the same time rule |a - r| <= tol.

@@ -1,4 +1,4 @@
-//! The run cache (issue 20): tables are byte-identical with and without the on-disk cache;
+//! The run cache: tables are byte-identical with and without the on-disk cache;
 //! a warm run reads every load, segmenter output and evaluation from disk; changing one
 //! segmenter parameter recomputes only that segmenter, the fuser and the evaluation; damaged
 //! entries (a flipped byte, a truncation, two entries swapped) are recomputed, never trusted;

@@ -99,6 +99,13 @@ fn bad_experiments_fail_validation_with_one_located_line() {
         "features.extractors[0].per_marker",
         "invalid type: integer `7`, expected a boolean",
     );
+    // A misspelt figure name is refused before anything runs (it would otherwise draw nothing).
+    assert_one_line_error(
+        &["validate", "experiments/sonoda_sweep.toml", "segmentation.figures=[\"timeline\", \"root_paths\"]"],
+        "sonoda_sweep.toml",
+        "segmentation.figures",
+        "unknown variant `root_paths`, expected one of `traces`, `root_path`, `timeline`, `timeline_poses`, `stick_strip`",
+    );
 }
 
 #[test]

@@ -355,7 +355,7 @@ fn crates(root: &Path) -> Vec<CrateInfo> {
 }
 
 /// Every crate `name` depends on, directly or not.
-fn closure<'a>(name: &str, by_name: &BTreeMap<&str, &'a CrateInfo>) -> BTreeSet<String> {
+fn closure(name: &str, by_name: &BTreeMap<&str, &CrateInfo>) -> BTreeSet<String> {
     let mut seen = BTreeSet::new();
     let mut stack = vec![name.to_string()];
     while let Some(n) = stack.pop() {

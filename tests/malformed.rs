@@ -1,4 +1,4 @@
-//! The malformed-input corpus (issue 6): `tests/fixtures/malformed/`, generated from the real
+//! The malformed-input corpus: `tests/fixtures/malformed/`, generated from the real
 //! files in `data/` by `make.py` beside them (plus a few hand-written older cases).
 //!
 //! Every defect asserts the exact [`ErrorKind`] and that the error names the file and the line

@@ -1,4 +1,4 @@
-//! The `[matching]` workflow end to end (issue 4): the two Yabe & Tanaka experiments run from
+//! The `[matching]` workflow end to end: the two Yabe & Tanaka experiments run from
 //! the binary and write their tables, figures and the (a)/(b)/(c) verdict; a sharded run merges
 //! to the plain run's tables; a bad `[matching]` key fails validation with one located line.
 

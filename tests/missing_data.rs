@@ -1,4 +1,4 @@
-//! Missing data in every stage (issue 6): each feature, segmenter, fuser, point detector,
+//! Missing data in every stage: each feature, segmenter, fuser, point detector,
 //! matcher, preprocessor and gait stage on the real gaps of `mct/walk1` (27 missing samples:
 //! Head_FR over 11 frames, Shoulder_R over 16) and on gap-injected copies of real sequences
 //! (`mct/dance1` with Hip_FL removed over 0.5 s and over 3 s; Schreiber & Moissenet 2014001

@@ -1,4 +1,4 @@
-//! Bringing one's own annotated mocap (issue 15): the users' annotation readers give exactly
+//! Bringing one's own annotated mocap: the users' annotation readers give exactly
 //! the results of the datasets' own readers on the same run, C3D files with different Vicon
 //! subject prefixes load into one experiment by plain marker names, and `motionlab new`
 //! scaffolds an experiment that validates and runs.

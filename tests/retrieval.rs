@@ -1,4 +1,4 @@
-//! The `[retrieval]` workflow end to end (issue 19): the experiment of record finds the model's
+//! The `[retrieval]` workflow end to end: the experiment of record finds the model's
 //! own stretch first, its pruned search lists exactly what matching every window lists, and an
 //! empty corpus glob or a bad key is one clear error.
 

@@ -1,4 +1,4 @@
-//! Safe outputs (issue 6): an interrupted run (`kill -9`) never leaves a run directory that looks
+//! Safe outputs: an interrupted run (`kill -9`) never leaves a run directory that looks
 //! complete, and concurrent runs of one experiment get distinct, complete directories.
 
 use std::path::{Path, PathBuf};

@@ -1,4 +1,4 @@
-//! Sharded runs (issue 8): `--shard i/n` into one run directory, then `merge`, gives exactly the
+//! Sharded runs: `--shard i/n` into one run directory, then `merge`, gives exactly the
 //! tables of a plain run; a missing shard and a shard of another configuration are refused.
 
 use std::path::{Path, PathBuf};

@@ -1,4 +1,4 @@
-//! Viewer pages on real data (issue 18): a five-minute 120 fps take stays under 10 MB.
+//! Viewer pages on real data: a five-minute 120 fps take stays under 10 MB.
 //!
 //! The four CMU takes in `data/` (86_01, 13_29, 13_30, 13_31: 38 joint points at 120 Hz) laid
 //! end to end, then again time-reversed, then mirrored, make 36 000 frames — the issue's 5-minute take, with

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Browser test of the HTML reports (issue 7), in headless Debian Chromium via chromedriver.
+"""Browser test of the HTML reports, in headless Debian Chromium via chromedriver.
 
 Opens reports/index.html and one run's index.html, and fails when
   - an image does not load (not complete, or zero natural width),

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Browser test of a viewer page (issue 18), in headless Debian Chromium via chromedriver.
+"""Browser test of a viewer page, in headless Debian Chromium via chromedriver.
 
 Opens VIEWER (a run's viewers/<sequence>.html) from the file system and fails when
   - the browser console reports an error, or the page shows its error box,

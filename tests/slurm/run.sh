@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One-node Slurm cluster on localhost (issue 8): installs Debian's slurm-wlm and munge when
+# One-node Slurm cluster on localhost: installs Debian's slurm-wlm and munge when
 # missing, starts munged, slurmctld and slurmd with a throw-away configuration, submits the job
 # array that `motionlab slurm` generates for a 4-shard sweep plus its afterok merge job, waits,
 # and checks the merged tables equal a plain local run. Every daemon it starts is stopped on

@@ -41,6 +41,7 @@ pub mod describe;
 mod export;
 mod inspect;
 mod new;
+mod plugin;
 mod progress;
 mod slurm;
 
@@ -205,6 +206,11 @@ enum Command {
         /// Folder to write into (default `<run_dir>/export/`).
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Start a new plugin: `motionlab plugin new NAME --kind segmenter|extractor|evaluator`.
+    Plugin {
+        #[command(subcommand)]
+        command: plugin::PluginCommand,
     },
 }
 
@@ -432,6 +438,10 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             for path in export::export(&run_dir, format, out.as_deref())? {
                 println!("wrote {}", path.display());
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Plugin { command } => {
+            plugin::run(command)?;
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -171,8 +171,8 @@ fn expand_sweep(source: &Source, doc: &toml::Table, file: &ExperimentFile) -> Re
         for assignment in cartesian(grid) {
             let mut d = base.clone();
             for (k, v) in &assignment {
-                // A malformed grid key (`"dataset[0.files"`) is located at the sweep (found by
-                // fuzzing: it used to be reported without file or line).
+                // A malformed grid key (`"dataset[0.files"`) is located at the sweep: the key
+                // path itself has no place in the file to point at.
                 let p = KeyPath::parse(k).map_err(|e| {
                     let sweep_path = KeyPath::parse("sweep").unwrap_or_default();
                     source.locate(e, &sweep_path, doc)

@@ -12,7 +12,7 @@
 //! (reloaded — from the disk cache when on — if asked for again). The engine orders a run's
 //! items by input file, so each file is live for one stretch of the run; the peak is about the
 //! budget plus one input per worker thread (the ones in use are held by their items). A budget
-//! of 0 keeps nothing: every request loads (today's behaviour before this cache, for measuring).
+//! of 0 keeps nothing: every request loads (what a run costs without this cache, for measuring).
 //!
 //! ## Across runs
 //! With a [`motionlab_cache::Cache`] set ([`RunCache::set_disk`]), a loaded input is also

@@ -1,5 +1,5 @@
 //! Real-data tests of the text formats: BVH (`data/cmu131`), ASF/AMC (`data/cmu86`,
-//! `data/mocap6`), the BVH writer, the ground-truth readers, and the error cases of issue 2.
+//! `data/mocap6`), the BVH writer, the ground-truth readers, and their error cases (each names its file and line).
 //!
 //! Each shipped motion is loaded once per test binary (forward kinematics of a 4600-frame AMC
 //! takes seconds in an unoptimised build).

@@ -1,4 +1,4 @@
-//! The two-stage multistream DP at the size of the issue: 31 markers (a CMU skeleton's joints),
+//! The two-stage multistream DP at the size of the Yabe experiments: 31 markers (a CMU skeleton's joints),
 //! model 120 frames against a 600-frame window. Results and commands: `benches/README.md`.
 //!
 //! `cargo bench -p motionlab-match --bench multistream`

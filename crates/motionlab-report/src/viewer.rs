@@ -324,7 +324,7 @@ mod tests {
 
     #[test]
     fn a_five_minute_take_at_120_fps_stays_under_ten_megabytes() {
-        // 36 000 frames × 31 points, as the issue sizes it.
+        // 36 000 frames × 31 points, the size a viewer page must stay small at.
         let page = render_page(&spec(36_000, 31), None).unwrap();
         eprintln!("36 000 frames × 31 points: {} bytes", page.len());
         assert!(page.len() < 10_000_000, "{} bytes", page.len());

@@ -95,15 +95,7 @@ pub fn track_fastest_marker(speeds: &MarkerSpeeds, v_high: f64, v_low: f64) -> T
 /// against 0.18 for as many random frames (p ≈ 0.08, not above chance at α = 0.05). Table 1's
 /// values, which the paper-reproduction experiments pin: `v_low` 0.15, no smoothing.
 ///
-/// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
-/// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):
-/// leave-one-sequence-out over the seven labelled takes (CMU 86_01, 86_09; mocap6 13_29–13_31,
-/// 14_14, 14_20). Objective: pooled F1 (summed counts) of `boundary_pr` at a 0.5 s tolerance
-/// (sonoda_table1's, suited to these action-level labels). Rule: the grid combination with the
-/// best objective on the training takes, ties to the last in grid order. The default is that
-/// rule applied to all seven takes; the same rule applied in each fold to the other six and
-/// scored on the held-out take estimates how well it does on unseen takes (the held-out
-/// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
+#[doc = include_str!("sonoda_protocol.md")]
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[schemars(extend("x-defaults-tuned-on" = crate::SONODA_DEFAULTS_TUNED_ON))]

@@ -39,15 +39,7 @@ pub fn volume_change_candidates(d: &[f64], t: f64) -> Vec<usize> {
 /// same. Held out: pooled F1 0.12 against 0.17 for as many random frames — below chance on
 /// these labels. Table 1's value, which the paper-reproduction experiments pin: 1.0.
 ///
-/// Protocol (the same for every Sonoda stage; `experiments/sonoda_defaults.toml`, one command:
-/// `motionlab reproduce --only sonoda_defaults`, tables `heldout_f1` and `heldout_choices`):
-/// leave-one-sequence-out over the seven labelled takes (CMU 86_01, 86_09; mocap6 13_29–13_31,
-/// 14_14, 14_20). Objective: pooled F1 (summed counts) of `boundary_pr` at a 0.5 s tolerance
-/// (sonoda_table1's, suited to these action-level labels). Rule: the grid combination with the
-/// best objective on the training takes, ties to the last in grid order. The default is that
-/// rule applied to all seven takes; the same rule applied in each fold to the other six and
-/// scored on the held-out take estimates how well it does on unseen takes (the held-out
-/// numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
+#[doc = include_str!("sonoda_protocol.md")]
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[schemars(extend("x-defaults-tuned-on" = crate::SONODA_DEFAULTS_TUNED_ON))]

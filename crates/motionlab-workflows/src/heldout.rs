@@ -173,7 +173,9 @@ fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: O
 pub type Fold = (Vec<String>, Vec<String>);
 
 /// The folds of a selection rule over `sequences` (in table order): (test, train) pairs, plus
-/// the `selection` column's text. `Oracle` gives none.
+/// the `selection` column's text. `Oracle` gives none. A selection that does not fit the
+/// sequences is an error whose field is relative to the `selection` key (`train`), for the
+/// workflow to locate.
 pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec<Fold>)> {
     match selection {
         Selection::Oracle => Ok((ORACLE.into(), Vec::new())),
@@ -182,8 +184,7 @@ pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec
                 return Err(Error::new(
                     ErrorKind::InvalidParameter,
                     format!("leave_one_sequence_out needs at least 2 evaluated sequences, found {}", sequences.len()),
-                )
-                .with_field("segmentation.selection"));
+                ));
             }
             let folds = sequences.iter().map(|s| (vec![s.clone()], sequences.iter().filter(|o| *o != s).cloned().collect())).collect();
             Ok(("held-out (leave-one-sequence-out)".into(), folds))
@@ -194,7 +195,7 @@ pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec
                     ErrorKind::UnknownName,
                     format!("{unknown:?} is not an evaluated sequence; expected some of {}", sequences.join(", ")),
                 )
-                .with_field("segmentation.selection.train"));
+                .with_field("train"));
             }
             let test: Vec<String> = sequences.iter().filter(|s| !train.contains(s)).cloned().collect();
             if train.is_empty() || test.is_empty() {
@@ -202,7 +203,7 @@ pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec
                     ErrorKind::InvalidParameter,
                     format!("must name at least one sequence and leave at least one of {} to test on", sequences.join(", ")),
                 )
-                .with_field("segmentation.selection.train"));
+                .with_field("train"));
             }
             Ok((format!("held-out (chosen on {})", train.join(", ")), vec![(test, train.clone())]))
         }
@@ -292,7 +293,7 @@ fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, us
 }
 
 /// The `heldout_f1` and `heldout_choices` tables (none under `Oracle`), methods in `methods`
-/// order.
+/// order; errors as [`folds`] gives them.
 pub fn heldout_tables(combos: &[ComboOutput<'_>], methods: &[String], selection: &Selection) -> Result<Vec<Table>> {
     if *selection == Selection::Oracle {
         return Ok(Vec::new());
@@ -317,6 +318,15 @@ pub fn heldout_tables(combos: &[ComboOutput<'_>], methods: &[String], selection:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn leave_one_out_needs_two_sequences() {
+        let seqs = vec!["a".to_string(), "b".to_string()];
+        let e = folds(&Selection::LeaveOneSequenceOut, &seqs[..1]).unwrap_err();
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, None), "{e}");
+        let (_, two) = folds(&Selection::LeaveOneSequenceOut, &seqs).unwrap();
+        assert_eq!(two, vec![(vec!["a".to_string()], vec!["b".to_string()]), (vec!["b".to_string()], vec!["a".to_string()])]);
+    }
 
     fn c(n_truth: usize, n_found: usize, n_matched: usize) -> Counts {
         Counts { n_truth, n_found, n_matched, n_matched_by_pose: 0 }
@@ -390,9 +400,11 @@ mod tests {
     fn bad_splits_are_one_clear_error() {
         let e = heldout(&[curve()], &Selection::Train(vec!["C".into()])).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
-        assert!(e.to_string().contains("\"C\"") && e.to_string().contains("selection.train"), "{e}");
+        // Its field is relative to the `selection` key: the workflow locates it there.
+        assert!(e.to_string().contains("\"C\""), "{e}");
+        assert_eq!(e.location().field.as_deref(), Some("train"));
         let e = heldout(&[curve()], &Selection::Train(vec!["A".into(), "B".into()])).unwrap_err();
-        assert_eq!(e.kind(), ErrorKind::InvalidParameter);
+        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, Some("train")));
     }
 
     #[test]
@@ -443,7 +455,7 @@ mod tests {
         let mut curves = Vec::new();
         let mut tables = Vec::new();
         for (i, seqs) in combos.iter().enumerate() {
-            let e = pr.evaluate_with_analysis(EvalInput::segmentation(&seqs)).unwrap();
+            let e = pr.evaluate_with_analysis(EvalInput::segmentation(seqs)).unwrap();
             add_points(&mut curves, i, "grid", Some("speed"), &format!("c={i}"), e.analysis::<BoundaryAnalysis>().unwrap());
             tables.push(e.tables);
         }

@@ -25,7 +25,7 @@ use crate::drawing::{axis_name, bones_for, frames_to_seconds, main_floor_axis, s
 use motionlab_experiment::workflow::{build_evaluators, sanitize, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::segmenters::{build_segmenters, NamedSegmenter};
-use motionlab_experiment::{build_stage, Datasets};
+use motionlab_experiment::{build_stage, Datasets, Locator};
 
 /// Segmenters → an optional fuser → evaluators, per sequence (Sonoda et al.): every method's
 /// candidate frames (`candidates`), the evaluators' tables (`[[evaluate]]`, segmentation
@@ -62,7 +62,7 @@ pub struct SegmentationSection {
     /// `timeline_poses` (the timeline with the pose at each fused boundary underneath) and
     /// `stick_strip`.
     #[serde(default = "default_seg_figures")]
-    pub figures: Vec<String>,
+    pub figures: Vec<SegmentationFigure>,
     /// How a sweep chooses each method's operating point (used only across a `[[sweep]]`):
     /// `"oracle"` (only `best_f1`, chosen on the evaluation data itself),
     /// `"leave_one_sequence_out"` (also `heldout_f1` and `heldout_choices`: for each sequence,
@@ -78,8 +78,27 @@ fn default_root() -> String {
     "root".into()
 }
 
-fn default_seg_figures() -> Vec<String> {
-    ["traces", "root_path", "timeline", "timeline_poses", "stick_strip"].iter().map(|s| s.to_string()).collect()
+/// A figure `[segmentation]` draws per sequence (`figures = ["traces", …]`); a name that is
+/// none of these is an error when the experiment is validated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SegmentationFigure {
+    /// Each method's traces with its thresholds and candidate bars, and a close-up around one
+    /// candidate (the paper's Fig. 3).
+    Traces,
+    /// The root's path on the floor with the fused candidates' frame numbers.
+    RootPath,
+    /// Every method's candidates and the ground truth on one time axis.
+    Timeline,
+    /// The timeline with the pose at each fused boundary underneath.
+    TimelinePoses,
+    /// Poses along one segment between two fused candidates, as a strip of stick figures.
+    StickStrip,
+}
+
+fn default_seg_figures() -> Vec<SegmentationFigure> {
+    use SegmentationFigure::*;
+    vec![Traces, RootPath, Timeline, TimelinePoses, StickStrip]
 }
 
 pub struct SegmentationWorkflow {
@@ -99,6 +118,8 @@ pub struct SegmentationWorkflow {
     /// The base combination of a sweep (the only one without a sweep): it alone writes the
     /// boundaries `motionlab export` reads, as it alone draws the viewer pages.
     base_combination: bool,
+    /// Locates the held-out selection's errors, which only a sweep's summary can find.
+    locator: Locator,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -134,7 +155,7 @@ impl WorkflowPlugin for SegmentationWorkflow {
         let (source, combo, root) = (cx.source, cx.combo, cx.root.clone());
         let segmenters = build_segmenters(cx, &section.segmenters, &root.key("segmenter"))?;
         if segmenters.is_empty() {
-            return Err(source.locate(Error::new(ErrorKind::MissingKey, "at least one [[segmentation.segmenter]] is required"), &root, &combo.doc));
+            return Err(cx.locate(Error::new(ErrorKind::MissingKey, "at least one [[segmentation.segmenter]] is required"), root.clone()));
         }
         let fuse = match &section.fuse {
             None => (0..segmenters.len()).collect(),
@@ -142,10 +163,9 @@ impl WorkflowPlugin for SegmentationWorkflow {
                 .iter()
                 .map(|n| {
                     segmenters.iter().position(|s| s.name == *n).ok_or_else(|| {
-                        source.locate(
+                        cx.locate(
                             Error::new(ErrorKind::UnknownName, format!("fuse names {n:?}, which is not a segmenter of this experiment")),
                             root.key("fuse"),
-                            &combo.doc,
                         )
                     })
                 })
@@ -178,7 +198,8 @@ impl WorkflowPlugin for SegmentationWorkflow {
         }
         let choices = MethodChoices { methods };
         let base_combination = combo.index == 0;
-        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, evaluator_params, experiment, choices, base_combination })
+        let locator = cx.locator();
+        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, evaluator_params, experiment, choices, base_combination, locator })
     }
 }
 
@@ -297,7 +318,8 @@ impl Workflow for SegmentationWorkflow {
             return Ok(Output::default());
         }
         let mut out = pr_curves(combos, &self.method_names())?;
-        out.tables.extend(heldout_tables(combos, &self.method_names(), &self.section.selection)?);
+        let heldout = heldout_tables(combos, &self.method_names(), &self.section.selection);
+        out.tables.extend(heldout.map_err(|e| self.locator.locate(e, "segmentation.selection"))?);
         Ok(out)
     }
 }
@@ -401,9 +423,9 @@ impl SegmentationWorkflow {
     ) -> Result<Vec<Figure>> {
         let rate = motion.frame_rate().hz();
         let time = time_axis(motion);
-        let wants = |f: &str| self.section.figures.iter().any(|x| x == f);
+        let wants = |f: SegmentationFigure| self.section.figures.contains(&f);
         let mut figs = Vec::new();
-        if wants("traces") {
+        if wants(SegmentationFigure::Traces) {
             for (method, out) in outputs {
                 if out.traces.is_empty() {
                     continue;
@@ -436,7 +458,7 @@ impl SegmentationWorkflow {
         }
         let root = motion.point_index(&self.section.root).ok();
         let fused = methods.last().map(|m| m.candidates.clone()).unwrap_or_default();
-        if wants("root_path")
+        if wants(SegmentationFigure::RootPath)
             && let Some(k) = root
         {
             let path: Vec<[f64; 2]> = motion.trajectory(k).map(|p| motion.horizontal(p)).collect();
@@ -461,7 +483,7 @@ impl SegmentationWorkflow {
                 },
             ));
         }
-        if wants("timeline") || wants("timeline_poses") {
+        if wants(SegmentationFigure::Timeline) || wants(SegmentationFigure::TimelinePoses) {
             let mut rows = Vec::new();
             if let Some(t) = truth {
                 rows.push(BarRow {
@@ -479,7 +501,7 @@ impl SegmentationWorkflow {
                 ..Default::default()
             };
             // Poses need points: a channel file has the timeline alone.
-            if wants("timeline_poses") && motion.n_points() > 0 {
+            if wants(SegmentationFigure::TimelinePoses) && motion.n_points() > 0 {
                 let axis = main_floor_axis(motion, root, 0, motion.n_frames().saturating_sub(1));
                 let row = stick_row_at(motion, &fused, axis);
                 let fuser = methods.last().map(|m| m.method.clone()).unwrap_or_default();
@@ -493,11 +515,11 @@ impl SegmentationWorkflow {
                     }),
                 });
             }
-            if wants("timeline") {
+            if wants(SegmentationFigure::Timeline) {
                 figs.push(Figure::chart(format!("{id}_timeline"), timeline));
             }
         }
-        if wants("stick_strip")
+        if wants(SegmentationFigure::StickStrip)
             && motion.n_points() > 0
             && let Some((a, b)) = pick_segment(&fused, truth, motion.n_frames(), rate)
         {

@@ -7,9 +7,9 @@
 //! (a) returns every event time as 0.0 — it takes row 0 of the 2 × N `EVENT:TIMES` array,
 //! the minutes — so no stride time can be computed; (b) loads a file cut off inside its data
 //! section without an error; (c) panics on some corrupt headers (on 4 of 500 random
-//! single-byte corruptions of `walk1.c3d`'s header and parameters). Issue 6 asks for every
-//! parser to be fuzzed for panics and for an exact error kind and byte offset for every
-//! malformed case, which needs control of every read, so the whole reader is here: [`raw`]
+//! single-byte corruptions of `walk1.c3d`'s header and parameters). Every parser here is
+//! fuzzed for panics and gives an exact error kind and byte offset for every malformed case,
+//! which needs control of every read, so the whole reader is here: [`raw`]
 //! (header, parameter section, the Intel/DEC/MIPS number formats, data layout) and this file
 //! (markers, units, labels, events). c3dio stays a dev-dependency, as the independent reader
 //! of the cross-check and in a test that pins (a)–(c).
