@@ -39,9 +39,9 @@ use motionlab_engine::{RunOptions, RunSummary};
 
 pub mod describe;
 mod export;
-mod inspect;
+pub mod inspect;
 mod new;
-mod progress;
+pub mod progress;
 mod slurm;
 
 #[derive(Parser)]
