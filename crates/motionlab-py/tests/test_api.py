@@ -39,9 +39,10 @@ def test_covering_and_tcpd_f1_known_answers():
     # TCPDBench adds 0 to both sets: X = {0}, T = {0, 50}: P = 1, R = 1/2, F = 2/3.
     f = ml.tcpd_f1([50], [], margin_frames=5)
     assert (f.precision, f.recall) == (1.0, 0.5) and f.f1 == pytest.approx(2 / 3)
-    # Two annotators: recall averaged over them.
+    # Two annotators, recall averaged over them (0 added to every set): {0, 50} is recalled
+    # fully by {0, 52}, {0, 80} half: R = (1 + 1/2) / 2.
     f = ml.tcpd_f1([[50], [80]], [52], margin_frames=5)
-    assert f.recall == pytest.approx(0.5)
+    assert f.recall == pytest.approx(0.75)
 
 
 def test_segmentation_round_trips():
