@@ -26,9 +26,7 @@ pure-Python readers run once a round).
 import argparse
 import gzip
 import os
-import statistics
 import sys
-import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -46,7 +44,7 @@ try:
 except ImportError:
     sys.exit("motionlab is not installed in bench/.venv: bench/.venv/bin/pip install ./crates/motionlab-py")
 
-from multistream_vs_peers import dtai_two_stage, make_data, run_ours  # noqa: E402
+from multistream_vs_peers import dtai_two_stage, make_data, run_ours, timed  # noqa: E402
 
 AMC = os.path.join(ROOT, "data/cmu86/86_01.amc.gz")
 ASF = os.path.join(ROOT, "data/cmu86/86.asf")
@@ -160,11 +158,7 @@ def pure_python_amc(asf, amc):
 
 
 def best(fn, repeats):
-    times, result = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - t0)
+    times, result = timed(fn, repeats)
     return min(times), result
 
 
@@ -199,6 +193,9 @@ def main():
         return np.ascontiguousarray(pts[:3].transpose(2, 1, 0))
 
     def pyc3d_c3d():
+        import warnings
+
+        warnings.filterwarnings("ignore", message="No analog data found")  # walk1 has none
         with open(args.c3d, "rb") as f:
             r = pyc3d.Reader(f)
             return np.array([p[:, :3] for _, p, _ in r.read_frames()])
