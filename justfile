@@ -32,6 +32,7 @@ bench:
     bench/retrieval_vs_peers.py
     bench/butterworth_vs_scipy.py
     bench/metrics_crosscheck.py
+    bench/python_binding_vs_peers.py
     bench/osafune_check.py reports/osafune_fast/record
 
 # Fuzz every parser for the given number of seconds each (needs nightly-free cargo-fuzz setup, see fuzz/README.md).

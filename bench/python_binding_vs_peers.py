@@ -17,9 +17,9 @@ one run; prints the ratios that bench/README.md quotes.
    lose the Rust speed (per-cell time within 1.2x). The data and dtaidistance's implementation
    are bench/multistream_vs_peers.py's.
 
-Runs under bench/.venv (bench/setup_venv.sh) with the package installed into it:
-    bench/setup_venv.sh && bench/.venv/bin/pip install ./crates/motionlab-py
-    bench/.venv/bin/python bench/python_binding_vs_peers.py [--rounds 3] [--repeats 3]
+Runs under bench/.venv (bench/setup_venv.sh), installing the package into it on first use
+(`pip install ./crates/motionlab-py`, a release build; reinstall it after changing the crate):
+    bench/python_binding_vs_peers.py [--rounds 3] [--repeats 3] [--c3d FILE]
 Implementations are interleaved round by round; the best time of each is reported (the
 pure-Python readers run once a round).
 """
@@ -41,8 +41,11 @@ import numpy as np  # noqa: E402
 
 try:
     import motionlab as ml  # noqa: E402
-except ImportError:
-    sys.exit("motionlab is not installed in bench/.venv: bench/.venv/bin/pip install ./crates/motionlab-py")
+except ImportError:  # first use: build the wheel (release) into bench/.venv
+    import subprocess
+
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", os.path.join(ROOT, "crates/motionlab-py")], check=True)
+    import motionlab as ml  # noqa: E402
 
 from multistream_vs_peers import dtai_two_stage, make_data, run_ours, timed  # noqa: E402
 
