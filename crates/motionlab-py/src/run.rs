@@ -17,6 +17,8 @@ use crate::detached;
 /// (table and figure files relative to the run directory). Progress bars on stderr when it is
 /// a terminal and `quiet` is false, as the CLI's. An experiment that names a program runs only
 /// with `allow_external` or a trust record (`motionlab trust`), as `motionlab run`.
+// One Python keyword argument per `motionlab run` option: the signature is the Python API.
+#[allow(clippy::too_many_arguments)]
 #[pyfunction]
 #[pyo3(signature = (experiment, overrides=Vec::new(), reports=PathBuf::from("reports"), threads=None, quiet=false, no_cache=false, allow_external=false))]
 fn run<'py>(
