@@ -34,6 +34,7 @@ bench:
     bench/retrieval_vs_peers.py
     bench/butterworth_vs_scipy.py
     bench/metrics_crosscheck.py
+    bench/python_binding_vs_peers.py
     bench/osafune_check.py reports/osafune_fast/record
     bench/changepoint_vs_peers.py --speed
     bench/profile_vs_peers.py --all --min-agree 10

@@ -45,7 +45,7 @@ struct EventRow {
 }
 
 /// The loader registered for a file's extension, at its default parameters.
-pub(crate) fn loader_for(path: &Path) -> Result<(&'static str, Box<dyn Loader>)> {
+pub fn loader_for(path: &Path) -> Result<(&'static str, Box<dyn Loader>)> {
     let ext = motionlab_core::paths::format_extension(path).unwrap_or_default();
     let mut known = Vec::new();
     for p in registry::plugins().into_iter().filter(|p| p.kind == StageKind::Loader) {

@@ -39,10 +39,10 @@ use motionlab_engine::{RunOptions, RunSummary};
 
 pub mod describe;
 mod export;
-mod inspect;
+pub mod inspect;
 mod new;
 mod plugin;
-mod progress;
+pub mod progress;
 mod slurm;
 
 #[derive(Parser)]

@@ -1,0 +1,76 @@
+"""One function per registered plugin, grouped by kind (``motionlab.segmenters.clasp(m, …)``),
+each with the plugin's documentation — the text ``motionlab describe NAME`` prints, from the
+params struct's doc comments — as its docstring and its parameters as keyword arguments.
+
+Built from the registry at import, so they are always the plugins of this build;
+``_typed.pyi`` (written by ``python -m motionlab._stubgen``, checked current by the tests)
+gives type checkers the same functions."""
+
+from __future__ import annotations
+
+import inspect
+import keyword
+from types import SimpleNamespace
+
+from . import _motionlab as _native
+
+# kind -> (namespace, positional arguments, the generic function's name)
+KINDS = {
+    "loader": ("loaders", ["path"], "load"),
+    "ground_truth": ("ground_truth_readers", ["path", "motion"], "read_truth"),
+    "preprocessor": ("preprocessors", ["motion"], "preprocess"),
+    "feature_extractor": ("feature_extractors", ["motion"], "features"),
+    "segmenter": ("segmenters", ["motion"], "segment"),
+    "fuser": ("fusers", ["motion", "candidates"], "fuse"),
+    "point_detector": ("point_detectors", ["motion"], "detect_points"),
+    "matcher": ("matchers", ["model", "target"], "align"),
+    "synchroniser": ("synchronisers", ["alignment", "model_frames"], "synchronise"),
+    "gait_cycle_detector": ("gait_cycle_detectors", ["motion"], "gait_cycles"),
+    "waveform_analyzer": ("waveform_analyzers", ["curves", "cycles"], "waveform_parameters"),
+    "walk_synthesizer": ("walk_synthesizers", ["walk", "cycles", "changes"], "synthesize_walk"),
+    "evaluator": ("evaluators", ["results"], "evaluate"),
+}
+
+
+def _function(plugin, positional, generic):
+    import motionlab
+
+    name = plugin["name"]
+    call = getattr(motionlab, generic)
+    keys = [p["name"] for p in plugin["params"] if not keyword.iskeyword(p["name"])]
+
+    if generic == "load":
+        def f(*args, **params):
+            bound = sig.bind(*args, **params)
+            a = dict(bound.arguments)
+            return call(a.pop("path"), name, **a)
+    else:
+        def f(*args, **params):
+            bound = sig.bind(*args, **params)
+            a = dict(bound.arguments)
+            pos = [a.pop(p) for p in positional]
+            return call(name, *pos, **a)
+
+    sig = inspect.Signature(
+        [inspect.Parameter(p, inspect.Parameter.POSITIONAL_OR_KEYWORD) for p in positional]
+        + [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=None) for k in keys]
+        + ([inspect.Parameter("pandas", inspect.Parameter.KEYWORD_ONLY, default=False)] if generic == "evaluate" else [])
+    )
+    f.__name__ = f.__qualname__ = name
+    f.__signature__ = sig
+    f.__doc__ = _native.describe(name)
+    return f
+
+
+def namespaces():
+    """``{namespace: SimpleNamespace of functions}`` for every kind with a plugin."""
+    out = {ns: SimpleNamespace() for ns, _, _ in KINDS.values()}
+    for plugin in _native.plugins():
+        if plugin["kind"] not in KINDS:
+            continue  # a kind declared by a crate this package does not know how to call
+        ns, positional, generic = KINDS[plugin["kind"]]
+        setattr(out[ns], plugin["name"], _function(plugin, positional, generic))
+    return out
+
+
+globals().update(namespaces())
