@@ -911,7 +911,10 @@ class segmenters:
         −drop_threshold` (the scripts' `np.where(np.diff(rt) <= -250)`; t, the last sample of the
         old run, is reported as they report it). The scripts' full setting: `model =
         "bocd_package"`, `normalize = "min_max"`, `lambda = 100`, the default prior (0, 1, 1, 1),
-        `change_points = "run_length_drop"`, `drop_threshold = 250`.
+        `change_points = "run_length_drop"`, `drop_threshold = 250`. On a constant series, which
+        that update gives no evidence of a long run, the most probable run length climbs to 196
+        and falls to 11 at sample 195, as in the package: no change point at the threshold 250,
+        one at sample 195 with a threshold of 185 or less.
 
         **Run-length convention (the paper's).** r_t = 0 means a change right after sample t: its
         likelihood is the predictive under the run that ended (the paper's changepoint
@@ -1064,7 +1067,7 @@ class segmenters:
         best objective on the training takes, ties to the last in grid order. The default is that
         rule applied to all seven takes; the same rule applied in each fold to the other six and
         scored on the held-out take estimates how well it does on unseen takes (the held-out
-        numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
+        numbers above; never used to choose).
 
         Parameters:
           root : string  (default "root")
@@ -1183,7 +1186,7 @@ class segmenters:
         best objective on the training takes, ties to the last in grid order. The default is that
         rule applied to all seven takes; the same rule applied in each fold to the other six and
         scored on the held-out take estimates how well it does on unseen takes (the held-out
-        numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
+        numbers above; never used to choose).
 
         Parameters:
           v_high : { mm_per_s = float } | { fraction_of_p90 = float }  (default { fraction_of_p90 = 0.5 })
@@ -1293,7 +1296,7 @@ class segmenters:
         best objective on the training takes, ties to the last in grid order. The default is that
         rule applied to all seven takes; the same rule applied in each fold to the other six and
         scored on the held-out take estimates how well it does on unseen takes (the held-out
-        numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
+        numbers above; never used to choose).
 
         Parameters:
           t : { mm3_per_s = float } | { fraction_of_p90 = float }  (default { fraction_of_p90 = 0.5 })
@@ -1463,7 +1466,7 @@ class segmenters:
         best objective on the training takes, ties to the last in grid order. The default is that
         rule applied to all seven takes; the same rule applied in each fold to the other six and
         scored on the held-out take estimates how well it does on unseen takes (the held-out
-        numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
+        numbers above; never used to choose).
 
         Parameters:
           v_low : { mm_per_s = float } | { fraction_of_p90 = float }  (default { fraction_of_p90 = 0.3 })
@@ -1577,7 +1580,7 @@ class fusers:
         best objective on the training takes, ties to the last in grid order. The default is that
         rule applied to all seven takes; the same rule applied in each fold to the other six and
         scored on the held-out take estimates how well it does on unseen takes (the held-out
-        numbers above; never used to choose). The paper-reproduction experiments pin the earlier values.
+        numbers above; never used to choose).
 
         Parameters:
           root : string  (default "root")
