@@ -27,8 +27,8 @@ pub enum PluginCommand {
         /// What it is.
         #[arg(long)]
         kind: PluginKind,
-        /// The crate to add it to (a folder with Cargo.toml and src/lib.rs, such as a copy of
-        /// examples/plugin-template/my-segmenters). Default: motionlab's crate for the kind
+        /// The crate to add it to (a folder with Cargo.toml and src/lib.rs, such as a copy of the
+        /// plugin template's segmenter crate, examples/plugin-template/README.md). Default: motionlab's crate for the kind
         /// (motionlab-segment, motionlab-features, motionlab-eval) in the checkout around the
         /// current directory.
         #[arg(long = "crate", value_name = "DIR")]
@@ -195,7 +195,7 @@ fn check_dependencies(manifest: &Path) -> Result<()> {
     if !missing.is_empty() {
         return Err(Error::new(
             ErrorKind::MissingKey,
-            format!("the plugin needs {} (see examples/plugin-template/my-segmenters/Cargo.toml)", missing.join(", ")),
+            format!("the plugin needs {} (the plugin template's segmenter crate has them: examples/plugin-template/README.md)", missing.join(", ")),
         )
         .with_location(Location::file(manifest)));
     }
