@@ -240,3 +240,38 @@ fn new_scaffolds_a_valid_benchmark_over_a_folder_of_channel_files() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("pass --truth"));
 }
+
+/// A Parquet channel file (pyarrow's, of TSSB's ArrowHead) is a channel file like any other
+/// through the binary: `new` scaffolds a benchmark over a folder holding it, and the run finds
+/// the change points the series' text file gives. A CLI that does not link `motionlab-parquet`
+/// fails here with "needs the crate motionlab-parquet".
+#[test]
+fn a_parquet_channel_file_benchmarks_like_its_text_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = motionlab_testkit::repo_root();
+    let (pq, txt) = (tmp.path().join("parquet"), tmp.path().join("text"));
+    for (dir, file, src) in [(&pq, "ArrowHead.parquet", "crates/motionlab-parquet/tests/fixtures/ArrowHead.parquet"), (&txt, "ArrowHead.txt", "data/tssb/datasets/ArrowHead.txt")] {
+        std::fs::create_dir_all(dir).unwrap();
+        std::fs::copy(root.join(src), dir.join(file)).unwrap();
+        std::fs::write(dir.join("desc.txt"), "ArrowHead,10,753\n").unwrap();
+    }
+    let out = pq.join("exp/arrowhead.toml");
+    let said = ok(motionlab().args(["new", pq.to_str().unwrap(), "--truth", pq.join("desc.txt").to_str().unwrap(), "-o", out.to_str().unwrap()]));
+    assert!(said.contains("(valid)"), "{said}");
+    assert!(std::fs::read_to_string(&out).unwrap().contains("\"../ArrowHead.parquet\""));
+    let candidates = |dir: &Path, file: &str| {
+        let exp = dir.join("bench.toml");
+        let text = SECTION
+            .replace("[A-Z].txt", file)
+            .replace("toy_benchmark", "arrowhead")
+            .replace("pen = 100.0", "n_bkps = 1")
+            .replace("    { type = \"window\", name = \"none\", width = 1000 },\n", "");
+        std::fs::write(&exp, text).unwrap();
+        let run = run(&exp, &dir.join("reports"));
+        let cov = table(&run, "benchmark_covering");
+        (cell(&cov, "ArrowHead", "step", "covering").to_string(), cell(&cov, "ArrowHead", "step", "n_found").to_string())
+    };
+    let from_parquet = candidates(&pq, "ArrowHead.parquet");
+    assert_eq!(from_parquet, candidates(&txt, "ArrowHead.txt"));
+    assert_eq!(from_parquet.1, "1");
+}

@@ -29,6 +29,7 @@ use motionlab_features as _;
 use motionlab_gait as _;
 use motionlab_io as _;
 use motionlab_match as _;
+use motionlab_parquet as _;
 use motionlab_profile as _;
 use motionlab_segment as _;
 use motionlab_workflows as _;

@@ -1,7 +1,13 @@
 //! The channel-file loader plugin `channels`: multichannel signals that are not marker
 //! positions — a TSSB series (one value per line), the columns of a CSV or whitespace-separated
-//! text, a NumPy `.npy` array — loaded as a motion with [`Channels`] and no points, for the
-//! segmenters that read channels.
+//! text, a NumPy `.npy` array, a Parquet table — loaded as a motion with [`Channels`] and no
+//! points, for the segmenters that read channels.
+//!
+//! Parquet is read by the crate `motionlab-parquet`, which registers a [`ColumnFormat`] for it:
+//! a Parquet reader means polars (or a second Arrow stack), and this crate — which every
+//! algorithm crate's tests and the fuzz targets build — stays free of it. The `channels` loader
+//! is one loader for every channel format all the same; in a program that does not link
+//! `motionlab-parquet` a `.parquet` file is a clear error saying so.
 //!
 //! Written by hand rather than with the `csv` crate alone: the same loader reads one-value
 //! lines, whitespace columns and CSV with or without a header, finds the rate in a time column,
@@ -27,6 +33,9 @@ use motionlab_core::{Channels, DataKind, Error, ErrorKind, FrameRate, Loader, Mo
 ///   lines are skipped. `NaN`, `nan`, `NA` and an empty field are missing samples.
 /// - **NumPy** (`.npy`): a little-endian float64, float32, int32 or int64 array of shape
 ///   `(samples,)` or `(samples, channels)`, C or Fortran order.
+/// - **Parquet** (`.parquet`): one channel per column, the column names as the header;
+///   integer and floating-point columns (nulls are missing samples); a column of any other
+///   type is an error naming it. Errors about samples name the row (1-based) in place of a line.
 ///
 /// Channel names: the header's, else `names`, else `value` for a single column and `ch0`,
 /// `ch1`, … for several. The rate: `rate_hz` when given; otherwise the `time_column` (seconds,
@@ -35,7 +44,7 @@ use motionlab_core::{Channels, DataKind, Error, ErrorKind, FrameRate, Loader, Mo
 /// empty).
 ///
 /// Missing samples are kept as NaN; each segmenter says how it treats them. Errors name the
-/// file and line (text) or the header field (`.npy`): a row with another number of values
+/// file and line (text, Parquet's row) or the header field (`.npy`): a row with another number of values
 /// than the header, a value that is not a number, an empty file, an unsupported dtype.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -93,29 +102,59 @@ impl ParamGuard for ChannelFileParams {
 
 impl Loader for ChannelFileLoader {
     fn extensions(&self) -> &'static [&'static str] {
-        &["txt", "csv", "dat", "npy"]
+        &["txt", "csv", "dat", "npy", "parquet"]
     }
     fn gives(&self) -> DataKind {
         DataKind::Channels
     }
     fn load(&self, path: &Path) -> Result<Motion> {
-        let table = if crate::read::format_extension(path).as_deref() == Some("npy") {
-            parse_npy(&crate::read::read_bytes(path)?, path)?
-        } else {
-            parse_text_columns(&crate::read::read_text(path)?, path)?
+        let extension = crate::read::format_extension(path);
+        let table = match extension.as_deref() {
+            Some("npy") => parse_npy(&crate::read::read_bytes(path)?, path)?,
+            Some(ext) if ext == "parquet" || registered_format(ext).is_some() => {
+                let format = registered_format(ext).ok_or_else(|| {
+                    Error::new(
+                        ErrorKind::UnknownPlugin,
+                        "reading Parquet needs the crate motionlab-parquet, which this program does not link (the motionlab CLI and the Python package do)",
+                    )
+                    .in_file(path)
+                })?;
+                let limit = motionlab_core::limits::max_input_bytes()?;
+                (format.parse)(&crate::read::read_bytes_within(path, limit)?, path, limit)?
+            }
+            _ => parse_text_columns(&crate::read::read_text(path)?, path)?,
         };
         self.motion(table, path)
     }
 }
 
+/// A channel-file format read by another crate (Parquet by `motionlab-parquet`), registered
+/// with `motionlab_core::inventory::submit!` and chosen by the file's extension.
+pub struct ColumnFormat {
+    /// The file extension it reads, lowercase, without the dot (`parquet`).
+    pub extension: &'static str,
+    /// Parses the file's bytes (already read within the input limit) into columns; `limit` is
+    /// that input limit in bytes, for a format whose content decompresses further. Errors name
+    /// `origin`.
+    pub parse: fn(bytes: &[u8], origin: &Path, limit: u64) -> Result<ColumnTable>,
+}
+
+motionlab_core::inventory::collect!(ColumnFormat);
+
+/// The registered format reading files with this extension, if a linked crate registers one.
+pub fn registered_format(extension: &str) -> Option<&'static ColumnFormat> {
+    motionlab_core::inventory::iter::<ColumnFormat>.into_iter().find(|f| f.extension == extension)
+}
+
 motionlab_core::register_plugin!(Loader, ChannelFileParams, "channels");
 
 /// Columns as read: names when the file has a header, sample-major values, and for text the
-/// line of each sample (for errors about the time column).
+/// line of each sample (Parquet: its row, 1-based), for errors about the time column.
 #[derive(Debug)]
 pub struct ColumnTable {
     pub header: Option<Vec<String>>,
     pub n_columns: usize,
+    /// Sample-major: `values[sample * n_columns + column]`; NaN is a missing sample.
     pub values: Vec<f64>,
     pub lines: Vec<usize>,
 }

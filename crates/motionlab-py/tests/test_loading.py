@@ -115,3 +115,11 @@ def test_motion_from_numpy_round_trips():
     assert m.missing_count == 1 and m.missing[3, 2]
     with pytest.raises(ml.MotionlabError, match="appears twice"):
         ml.Motion(pos, 100.0, ["a", "a", "c", "d"])
+
+
+def test_a_parquet_channel_file_loads_the_values_of_its_text_file():
+    # pyarrow wrote the fixture from NumPy's parse of the same series (tests/fixtures/make.py).
+    text = ml.load(ROOT / "data/tssb/datasets/ArrowHead.txt", "channels", rate_hz=1.0)
+    parquet = ml.load(ROOT / "crates/motionlab-parquet/tests/fixtures/ArrowHead.parquet", "channels", rate_hz=1.0)
+    assert parquet.channel_names == ["value"]
+    assert np.array_equal(parquet.channels.view(np.uint64), text.channels.view(np.uint64))

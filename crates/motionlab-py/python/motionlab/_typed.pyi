@@ -200,6 +200,9 @@ class loaders:
           lines are skipped. `NaN`, `nan`, `NA` and an empty field are missing samples.
         - **NumPy** (`.npy`): a little-endian float64, float32, int32 or int64 array of shape
           `(samples,)` or `(samples, channels)`, C or Fortran order.
+        - **Parquet** (`.parquet`): one channel per column, the column names as the header;
+          integer and floating-point columns (nulls are missing samples); a column of any other
+          type is an error naming it. Errors about samples name the row (1-based) in place of a line.
 
         Channel names: the header's, else `names`, else `value` for a single column and `ch0`,
         `ch1`, … for several. The rate: `rate_hz` when given; otherwise the `time_column` (seconds,
@@ -208,7 +211,7 @@ class loaders:
         empty).
 
         Missing samples are kept as NaN; each segmenter says how it treats them. Errors name the
-        file and line (text) or the header field (`.npy`): a row with another number of values
+        file and line (text, Parquet's row) or the header field (`.npy`): a row with another number of values
         than the header, a value that is not a number, an empty file, an unsupported dtype.
 
         Parameters:
