@@ -120,7 +120,7 @@ impl Loader for ChannelFileLoader {
                     .in_file(path)
                 })?;
                 let limit = motionlab_core::limits::max_input_bytes()?;
-                (format.parse)(&crate::read::read_bytes_within(path, limit)?, path, limit)?
+                (format.parse)(crate::read::read_bytes_within(path, limit)?, path, limit)?
             }
             _ => parse_text_columns(&crate::read::read_text(path)?, path)?,
         };
@@ -136,7 +136,7 @@ pub struct ColumnFormat {
     /// Parses the file's bytes (already read within the input limit) into columns; `limit` is
     /// that input limit in bytes, for a format whose content decompresses further. Errors name
     /// `origin`.
-    pub parse: fn(bytes: &[u8], origin: &Path, limit: u64) -> Result<ColumnTable>,
+    pub parse: fn(bytes: Vec<u8>, origin: &Path, limit: u64) -> Result<ColumnTable>,
 }
 
 motionlab_core::inventory::collect!(ColumnFormat);

@@ -31,6 +31,11 @@ use std::path::Path;
 use motionlab_core::{Error, ErrorKind, Result};
 use motionlab_io::channel_file::{ColumnFormat, ColumnTable};
 use polars::prelude::{DataType, ParquetReader, PolarsError, SerReader};
+use polars_buffer::Buffer;
+use polars_parquet::parquet::error::ParquetError;
+use polars_parquet::parquet::metadata::FileMetadata;
+use polars_parquet::parquet::page::CompressedPage;
+use polars_parquet::parquet::read::get_page_iterator;
 
 /// How many plugins this crate registers: none — it adds a format to the `channels` loader.
 pub const PLUGIN_COUNT: usize = 0;
@@ -45,21 +50,20 @@ motionlab_core::inventory::submit! {
 /// polars' reader panics on some corrupt files (a page header or dictionary that lies): the
 /// panic is caught here and reported as the file's error, so a malformed file is an error and
 /// never a crash (`corrupt_files_are_errors_never_panics`).
-pub fn parse_parquet(bytes: &[u8], origin: &Path, limit: u64) -> Result<ColumnTable> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read_columns(bytes, origin, limit))).unwrap_or_else(|panic| {
+pub fn parse_parquet(bytes: Vec<u8>, origin: &Path, limit: u64) -> Result<ColumnTable> {
+    // One shared buffer: polars' reader and the page-header check below read it without a copy.
+    let bytes = Buffer::from(bytes);
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read_columns(&bytes, origin, limit))).unwrap_or_else(|panic| {
         let reason = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_default();
         Err(Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: the reader failed on its content ({reason})")).in_file(origin))
     })
 }
 
-/// Every page header against the footer's counts (see the crate docs).
-fn check_page_headers(bytes: &[u8], origin: &Path, limit: u64) -> Result<()> {
-    use polars_parquet::parquet::page::CompressedPage;
-    use polars_parquet::parquet::read::{get_page_iterator, read_metadata};
-    let unreadable = |e: polars_parquet::parquet::error::ParquetError| Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {e}")).in_file(origin);
+/// Every page header against the footer's counts (see the crate docs); `metadata` is the
+/// footer polars' reader has already read.
+fn check_page_headers(metadata: &FileMetadata, bytes: &Buffer<u8>, origin: &Path, limit: u64) -> Result<()> {
+    let unreadable = |e: ParquetError| Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {e}")).in_file(origin);
     let lies = |what: String| Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {what}")).in_file(origin);
-    let metadata = read_metadata(&mut Cursor::new(bytes)).map_err(unreadable)?;
-    let buffer = polars_buffer::Buffer::from(bytes.to_vec());
     let max_page = usize::try_from(limit).unwrap_or(usize::MAX);
     for (g, group) in metadata.row_groups.iter().enumerate() {
         for chunk in group.parquet_columns() {
@@ -67,12 +71,13 @@ fn check_page_headers(bytes: &[u8], origin: &Path, limit: u64) -> Result<()> {
             let values = usize::try_from(chunk.num_values()).ok().filter(|&n| n <= group.num_rows()).ok_or_else(|| {
                 lies(format!("column {name:?} of row group {g} says it holds {} values in {} rows", chunk.num_values(), group.num_rows()))
             })?;
-            for page in get_page_iterator(chunk, Cursor::new(buffer.clone()), Vec::new(), max_page).map_err(unreadable)? {
+            for page in get_page_iterator(chunk, Cursor::new(bytes.clone()), Vec::new(), max_page).map_err(unreadable)? {
                 if let CompressedPage::Data(page) = page.map_err(unreadable)? {
                     if page.num_values() > values || page.uncompressed_size() > max_page {
+                        // `num_values` is the header's i32 cast to usize: shown as the header has it.
                         let msg = format!(
                             "a page of column {name:?} says it holds {} values ({} bytes uncompressed) in a column chunk of {values} values",
-                            page.num_values() as i64 as i32,
+                            page.num_values() as i64,
                             page.uncompressed_size()
                         );
                         return Err(lies(msg));
@@ -84,9 +89,9 @@ fn check_page_headers(bytes: &[u8], origin: &Path, limit: u64) -> Result<()> {
     Ok(())
 }
 
-fn read_columns(bytes: &[u8], origin: &Path, limit: u64) -> Result<ColumnTable> {
+fn read_columns(bytes: &Buffer<u8>, origin: &Path, limit: u64) -> Result<ColumnTable> {
     let polars_error = |e: PolarsError| Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {e}")).in_file(origin);
-    let mut reader = ParquetReader::new(Cursor::new(bytes));
+    let mut reader = ParquetReader::new(Cursor::new(bytes.clone()));
     let n_rows = reader.num_rows().map_err(polars_error)?;
     let n_columns = reader.schema().map_err(polars_error)?.len();
     let decoded = (n_rows as u128) * (n_columns as u128) * 8;
@@ -100,7 +105,8 @@ fn read_columns(bytes: &[u8], origin: &Path, limit: u64) -> Result<ColumnTable> 
     if n_rows == 0 {
         return Err(Error::new(ErrorKind::EmptySequence, "a header and no samples (0 rows)").in_file(origin));
     }
-    check_page_headers(bytes, origin, limit)?;
+    let metadata = reader.get_metadata().map_err(polars_error)?.clone();
+    check_page_headers(&metadata, bytes, origin, limit)?;
     let frame = reader.finish().map_err(polars_error)?;
     let mut header = Vec::with_capacity(n_columns);
     let mut values = vec![0.0; n_rows * n_columns];
@@ -187,16 +193,16 @@ mod tests {
     fn the_decoded_table_is_bounded_by_the_input_limit() {
         let path = fixture("mixed.parquet");
         let bytes = std::fs::read(&path).unwrap();
-        let e = parse_parquet(&bytes, &path, 100).unwrap_err();
+        let e = parse_parquet(bytes.clone(), &path, 100).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::TooLarge);
         assert!(e.to_string().contains("5 rows × 4 columns (160 bytes of float64)"), "{e}");
-        assert!(parse_parquet(&bytes, &path, 160).is_ok());
+        assert!(parse_parquet(bytes, &path, 160).is_ok());
     }
 
     #[test]
     fn not_parquet_is_a_clear_error() {
         let path = Path::new("/x/a.parquet");
-        let e = parse_parquet(b"PAR1 but nothing else", path, 1 << 20).unwrap_err().to_string();
+        let e = parse_parquet(b"PAR1 but nothing else".to_vec(), path, 1 << 20).unwrap_err().to_string();
         assert!(e.contains("/x/a.parquet") && e.contains("not a readable Parquet file"), "{e}");
     }
 
@@ -229,7 +235,7 @@ mod tests {
             } else {
                 mutated(&mut b, trial);
             }
-            let outcome = std::panic::catch_unwind(|| parse_parquet(&b, &path, 1 << 30));
+            let outcome = std::panic::catch_unwind(|| parse_parquet(b, &path, 1 << 30));
             let result = outcome.unwrap_or_else(|_| panic!("trial {trial}: the parser panicked"));
             if let Err(e) = result {
                 assert!(e.to_string().contains("mixed.parquet"), "{e}");
