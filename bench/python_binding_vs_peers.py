@@ -248,14 +248,14 @@ def main():
         base = t["86_01 motionlab"] if k.startswith("86_01") else t["c3d motionlab"]
         print(f"  {k:20s} {v * 1e3:9.1f} ms   {v / base:6.1f}x motionlab's time")
     rel = abs(dH - ms.H) / ms.H
-    print(f"\ntwo-stage multistream DP, {L} points, model {n}, window {mw}: [a, b] = [{a}, {b}], H = {ms.H:.6f} mm")
+    print(f"\ntwo-stage multistream DP, {L} points, model {n}, window {mw}, {cells:,} cells: [a, b] = [{a}, {b}], H = {ms.H:.6f} mm")
     print(f"  dtaidistance [a, b] = [{da}, {db}], H relative difference {rel:.1e}")
     d = {k: min(v) for k, v in dp_times.items()}
     for k, v in d.items():
         print(f"  {k:14s} {v * 1e3:8.2f} ms  {v / cells * 1e9:6.3f} ns/cell  {v / d['rust']:5.2f}x the Rust example's time")
     ratio = d["binding"] / d["rust"]
     ok = (da, db) == (a, b) and rel < 1e-9 and amc_diff < 1e-6
-    print(f"\nbinding / Rust per cell: {ratio:.2f} ({'within' if ratio <= 1.2 else 'NOT within'} 1.2x)")
+    print(f"\nbinding / Rust per cell: {ratio:.2f} ({'within' if ratio <= 1.2 else 'NOT within'} 1.2x); dtaidistance / binding: {d['dtaidistance'] / d['binding']:.1f}")
     if not ok:
         sys.exit("MISMATCH: the implementations disagree (see above)")
 

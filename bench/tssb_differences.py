@@ -9,13 +9,15 @@ series of METHOD with its numbers. Standard library only.
 
     python3 bench/tssb_differences.py [reports/tssb_benchmark/record/tables/benchmark_covering.csv] [--list PELT]
 """
+import argparse
 import csv
-import sys
 
-args = [a for a in sys.argv[1:] if not a.startswith("--")]
-path = args[0] if args else "reports/tssb_benchmark/record/tables/benchmark_covering.csv"
-listed = sys.argv[sys.argv.index("--list") + 1] if "--list" in sys.argv else None
-rows = [r for r in csv.DictReader(open(path)) if r["sequence"] != "mean"]
+parser = argparse.ArgumentParser(description="Where tssb_benchmark's covering differs from TSSB's published one.")
+parser.add_argument("path", nargs="?", default="reports/tssb_benchmark/record/tables/benchmark_covering.csv")
+parser.add_argument("--list", metavar="METHOD", help="print each differing series of METHOD")
+args = parser.parse_args()
+listed = args.list
+rows = [r for r in csv.DictReader(open(args.path)) if r["sequence"] != "mean"]
 methods = list(dict.fromkeys(r["method"] for r in rows))
 
 
