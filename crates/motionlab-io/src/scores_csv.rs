@@ -45,9 +45,12 @@ pub fn parse_scores_csv(text: &str, path: &Path) -> Result<PublishedScores> {
             None => loc,
         }
     };
-    let mut reader = csv::ReaderBuilder::new().comment(Some(b'#')).flexible(true).from_reader(text.as_bytes());
+    // Comment lines blanked rather than skipped by the reader, so its positions give the file's lines.
+    let text = crate::text::blank_comment_lines(text);
+    let line_of = |p: Option<&csv::Position>| crate::text::csv_record_line(&text, p) as u64;
+    let mut reader = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_bytes());
     let header = reader.headers().map_err(|e| Error::new(ErrorKind::Syntax, format!("cannot read the header: {e}")).with_location(Location::file(path)))?.clone();
-    let header_line = reader.position().line().max(1);
+    let header_line = line_of(header.position());
     if header.len() < 2 {
         return Err(Error::new(ErrorKind::Syntax, format!("the header has {} column(s); expected the series name, then one column per method", header.len()))
             .with_location(at(header_line, None)));
@@ -64,10 +67,9 @@ pub fn parse_scores_csv(text: &str, path: &Path) -> Result<PublishedScores> {
     let mut series: Vec<(String, Vec<f64>)> = Vec::new();
     for record in reader.records() {
         let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            Error::new(ErrorKind::Syntax, format!("cannot read the row: {e}")).with_location(at(line, None))
+            Error::new(ErrorKind::Syntax, format!("cannot read the row: {e}")).with_location(at(line_of(e.position()), None))
         })?;
-        let line = record.position().map_or(0, |p| p.line());
+        let line = line_of(record.position());
         if record.iter().all(|c| c.trim().is_empty()) {
             continue;
         }
@@ -137,6 +139,16 @@ mod tests {
         assert_eq!(parse("dataset,A\nx,1\nx,2\n").unwrap_err().location().line, Some(3));
         assert_eq!(parse("dataset\nx\n").unwrap_err().kind(), ErrorKind::Syntax);
         assert_eq!(parse("dataset,A\n").unwrap_err().kind(), ErrorKind::EmptySequence);
+    }
+
+    /// Lines are the file's: a header error names the header's line, and comment or blank
+    /// lines before a row are counted.
+    #[test]
+    fn lines_count_comments_and_blank_lines() {
+        assert_eq!(parse("dataset,A,A\nx,1,2\n").unwrap_err().location().line, Some(1));
+        assert_eq!(parse("# sheet\n\ndataset\nx\n").unwrap_err().location().line, Some(3));
+        assert_eq!(parse("dataset,A\n# note\n\nx,abc\n").unwrap_err().location().line, Some(4));
+        assert_eq!(parse("dataset,A\nx,1\n# note\nx,2\n").unwrap_err().location().line, Some(4));
     }
 
     #[test]

@@ -21,6 +21,25 @@ pub(crate) fn strip_bom(text: &str) -> &str {
     text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
+/// The text with every comment line (first non-blank character `#`) emptied but kept, so that
+/// a CSV reader's line numbers stay the file's (the csv crate's own comment skipping leaves
+/// the skipped lines out of its positions).
+pub(crate) fn blank_comment_lines(text: &str) -> String {
+    text.split_inclusive('\n').map(|l| if l.trim_start().starts_with('#') { if l.ends_with('\n') { "\n" } else { "" } } else { l }).collect()
+}
+
+/// The 1-based line of `text` where the CSV record at `position` starts: a record's position
+/// is where the reader resumed, before the blank (and blanked comment) lines it skips, so
+/// those are stepped over first.
+pub(crate) fn csv_record_line(text: &str, position: Option<&csv::Position>) -> usize {
+    let bytes = text.as_bytes();
+    let mut byte = position.map_or(0, |p| p.byte() as usize).min(bytes.len());
+    while byte < bytes.len() && (bytes[byte] == b'\n' || bytes[byte] == b'\r') {
+        byte += 1;
+    }
+    bytes[..byte].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
 #[inline(always)]
 pub(crate) fn is_blank(b: u8) -> bool {
     b == b' ' || b == b'\t' || b == b'\r'

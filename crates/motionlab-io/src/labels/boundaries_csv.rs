@@ -76,10 +76,7 @@ const OTHER_COLUMNS: [&str; 3] = ["sequence", "label", "annotator"];
 pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations> {
     // Comment lines blanked (not removed) so line numbers stay those of the file: the csv
     // crate's own positions skip comment lines.
-    let text: String = crate::text::strip_bom(text)
-        .split_inclusive('\n')
-        .map(|l| if l.trim_start().starts_with('#') { if l.ends_with('\n') { "\n" } else { "" } } else { l })
-        .collect();
+    let text = crate::text::blank_comment_lines(crate::text::strip_bom(text));
     let text = text.as_str();
     let header_line = text.lines().find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#')).unwrap_or("");
     let delimiter = if header_line.contains(',') {
@@ -97,16 +94,7 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
         .delimiter(delimiter)
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
-    // Lines from byte offsets: a record's position is where the reader resumed, before the
-    // blank (and blanked comment) lines it skips, so those are stepped over first.
-    let line_at = |p: Option<&csv::Position>| {
-        let bytes = text.as_bytes();
-        let mut byte = p.map_or(0, |p| p.byte() as usize).min(bytes.len());
-        while byte < bytes.len() && (bytes[byte] == b'\n' || bytes[byte] == b'\r') {
-            byte += 1;
-        }
-        bytes[..byte].iter().filter(|&&b| b == b'\n').count() + 1
-    };
+    let line_at = |p: Option<&csv::Position>| crate::text::csv_record_line(text, p);
     let csv_error = |e: csv::Error| {
         let line = line_at(e.position());
         Error::at_line(ErrorKind::Syntax, origin, line, format!("not readable as CSV: {e}"))
