@@ -5,7 +5,7 @@
 //! started only when the user has allowed its exact command line. The engine asks for that
 //! consent before a run (`--allow-external`, or a trust record written by `motionlab trust`)
 //! and then [`allow`]s the run's command lines here; a plugin that starts a program asks
-//! [`check`] first, so a command line nobody allowed is refused even if it reached a plugin by
+//! [`is_allowed`] first (and refuses with its own located error), so a command line nobody allowed is refused even if it reached a plugin by
 //! a path the engine did not list. Nothing is allowed until someone allows it.
 //!
 //! A plugin that runs a program says so in its params schema with the [`RUNS_PROGRAM_KEY`]
@@ -15,8 +15,6 @@
 
 use std::collections::BTreeSet;
 use std::sync::RwLock;
-
-use crate::{Error, ErrorKind, Result};
 
 /// The schema key (on a params struct) naming the parameter that holds the program and its
 /// arguments, as an array of strings (`"command"`).
@@ -53,20 +51,6 @@ pub fn is_allowed(command: &[String]) -> bool {
     p.any || p.allowed.contains(command)
 }
 
-/// `Ok` when `command` may be started, else the error a plugin returns instead of starting it.
-pub fn check(command: &[String]) -> Result<()> {
-    if is_allowed(command) {
-        return Ok(());
-    }
-    Err(Error::new(
-        ErrorKind::NotAllowed,
-        format!(
-            "refused to start `{}`: it was not allowed (motionlab starts a program named by an experiment only after --allow-external or `motionlab trust EXPERIMENT`)",
-            command_line(command)
-        ),
-    ))
-}
-
 /// A command line as a user would read it, and safe to print: an argument is quoted when it
 /// is empty or holds white space, quotes, backslashes or any character a terminal would not
 /// show as itself (control characters, escape sequences, bidirectional overrides), which are
@@ -100,9 +84,9 @@ mod tests {
     #[test]
     fn only_allowed_command_lines_pass() {
         let cmd = v(&["programs-test-only", "x"]);
-        assert_eq!(check(&cmd).unwrap_err().kind(), ErrorKind::NotAllowed);
+        assert!(!is_allowed(&cmd));
         allow([cmd.as_slice()]);
-        assert!(check(&cmd).is_ok());
+        assert!(is_allowed(&cmd));
         // One more argument is another command line.
         assert!(!is_allowed(&v(&["programs-test-only", "x", "y"])));
     }
