@@ -154,12 +154,13 @@ impl Consent {
 
 /// Checks that every program `plan` would start is allowed, and allows them in this process
 /// ([`programs::allow`]); otherwise one error listing every command line and how to allow
-/// them, and nothing is started.
-pub fn require(plan: &Plan, policy: &ExternalPolicy) -> Result<Consent> {
+/// them, and nothing is started. Returns the command lines with the consent that allowed them
+/// (a run's provenance records both).
+pub fn require(plan: &Plan, policy: &ExternalPolicy) -> Result<(Vec<ExternalCommand>, Consent)> {
     let commands = external_commands(plan);
     let consent = check(&plan.source.path, &commands, policy)?;
     programs::allow(commands.iter().map(|c| c.command.as_slice()));
-    Ok(consent)
+    Ok((commands, consent))
 }
 
 /// [`require`] without allowing anything: whether `commands`, the programs of the experiment

@@ -187,6 +187,7 @@ fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value>
 /// When a run started, and why it may start the programs its experiment names.
 struct Started {
     at: (SystemTime, Instant),
+    external_commands: Vec<ExternalCommand>,
     consent: Consent,
 }
 
@@ -227,7 +228,8 @@ fn item_files(items_dir: &Path, c: usize, item: &WorkItem) -> (PathBuf, PathBuf)
 /// Runs a validated plan.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     // Consent before anything is written or started.
-    let started = Started { at: (SystemTime::now(), Instant::now()), consent: consent::require(plan, &opts.external)? };
+    let (external_commands, consent) = consent::require(plan, &opts.external)?;
+    let started = Started { at: (SystemTime::now(), Instant::now()), external_commands, consent };
     let config = config_text(plan);
     let config_hash = sha256_bytes(config.as_bytes());
     let rundir = match (&opts.shard, &opts.run_dir) {
@@ -432,7 +434,7 @@ fn write_provenance(
         inputs,
         outputs,
         cache,
-        external_commands: consent::external_commands(plan),
+        external_commands: started.external_commands.clone(),
         external_consent: (started.consent != Consent::NotNeeded).then(|| started.consent.describe()),
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
@@ -470,7 +472,8 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
     let manifest: RunManifest = read_json(&manifest_path)?;
     let plan = plan(&manifest.experiment_file, &manifest.overrides)?;
     // `finish` may run stages again (an evaluation reloads inputs): the same consent as a run.
-    let started = Started { at, consent: consent::require(&plan, &opts.external)? };
+    let (external_commands, consent) = consent::require(&plan, &opts.external)?;
+    let started = Started { at, external_commands, consent };
     let config = config_text(&plan);
     let hash = sha256_bytes(config.as_bytes());
     if hash != manifest.config_sha256 {
