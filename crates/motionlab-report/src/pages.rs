@@ -286,7 +286,7 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
     let mut entries = Vec::new();
     for f in files {
         // Bounded like any experiment file: the folder may hold one from someone else.
-        let Some(text) = motionlab_core::limits::read_experiment_file(&f).ok().and_then(|b| String::from_utf8(b).ok()) else { continue };
+        let Ok(motionlab_experiment::Source { text, .. }) = motionlab_experiment::Source::read(&f) else { continue };
         // Only the fixed part of the schema: the workflow section is the workflow's own.
         let Ok(doc) = toml::from_str::<toml::Table>(&text) else { continue };
         let Ok(file) = toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into::<ExperimentFile>() else { continue };
