@@ -25,12 +25,6 @@ pub struct PyMotion {
     pub inner: Arc<Motion>,
 }
 
-impl PyMotion {
-    pub fn new_py(py: Python<'_>, motion: Motion) -> PyResult<Py<PyMotion>> {
-        Py::new(py, PyMotion { inner: Arc::new(motion) })
-    }
-}
-
 fn axis(s: &str) -> PyResult<Axis> {
     match s.to_ascii_lowercase().as_str() {
         "x" => Ok(Axis::X),

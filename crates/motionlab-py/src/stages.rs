@@ -8,7 +8,7 @@ use std::sync::Arc;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use motionlab_core::registry::{self, StageKind};
+use motionlab_core::registry;
 use motionlab_core::{Boundary, ErrorKind, FeatureCache, FrameRate, MethodCandidates, Result, Segmentation};
 use motionlab_features::{build_gait_cycle_detector, build_waveform_analyzer, AngleCurves, GaitCycle};
 use motionlab_gait::{build_walk_synthesizer, WalkChanges};
@@ -131,9 +131,8 @@ fn plugins<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         })
         .collect::<PyResult<Vec<_>>>()?;
     for p in registry::custom_plugins() {
-        let schema = (p.schema)();
         let label = registry::declared_kind(p.kind).map_or(p.kind, |d| d.label);
-        rows.push(record(p.name, p.kind, label, p.crate_name, p.params_type, registry::schema_doc(&schema, p.params_type), registry::schema_params(&schema))?);
+        rows.push(record(p.name, p.kind, label, p.crate_name, p.params_type, p.doc(), p.params())?);
     }
     PyList::new(py, rows)
 }
@@ -153,39 +152,6 @@ fn workflows<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         })
         .collect::<PyResult<Vec<_>>>()?;
     PyList::new(py, rows)
-}
-
-/// Checks a stage's name and parameters without running it (what `validate` does for it).
-#[pyfunction]
-#[pyo3(signature = (kind, name, params=None))]
-fn check(py: Python<'_>, kind: &str, name: String, params: Option<&Bound<'_, PyDict>>) -> PyResult<()> {
-    let p = self::params(params)?;
-    let core_kind = StageKind::ALL.into_iter().find(|k| format!("{k:?}").eq_ignore_ascii_case(&kind.replace('_', "")) || k.label() == kind);
-    let custom_kind = registry::custom_kinds().into_iter().find(|k| *k == kind || registry::declared_kind(k).is_some_and(|d| d.label == kind));
-    if core_kind.is_none() && custom_kind.is_none() {
-        return Err(error(ErrorKind::UnknownName, format!("no stage kind {kind:?}")));
-    }
-    detached(py, move || {
-        let built = if let Some(kind) = core_kind {
-            match registry::find_kind(&name, kind)?.build {
-                registry::Build::Loader(f) => f(&p).map(drop),
-                registry::Build::GroundTruth(f) => f(&p).map(drop),
-                registry::Build::Preprocessor(f) => f(&p).map(drop),
-                registry::Build::FeatureExtractor(f) => f(&p).map(drop),
-                registry::Build::Segmenter(f) => f(&p).map(drop),
-                registry::Build::Fuser(f) => f(&p).map(drop),
-                registry::Build::Evaluator(f) => f(&p).map(drop),
-            }
-        } else {
-            let kind = custom_kind.unwrap_or_default();
-            match registry::find_custom(&name).filter(|e| e.kind == kind) {
-                Some(entry) => (entry.build)(&p).map(drop),
-                // Not one of this kind: build_custom's error names what is registered.
-                None => registry::build_custom::<dyn std::any::Any>(kind, &name, &p).map(drop),
-            }
-        };
-        built.map_err(|e| if e.kind() == ErrorKind::UnknownPlugin { e } else { e.under_field(name.clone()) })
-    })
 }
 
 /// The preprocessor `name` applied to a motion (a new motion).
@@ -353,7 +319,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(describe, m)?,
         wrap_pyfunction!(plugins, m)?,
         wrap_pyfunction!(workflows, m)?,
-        wrap_pyfunction!(check, m)?,
         wrap_pyfunction!(preprocess, m)?,
         wrap_pyfunction!(features, m)?,
         wrap_pyfunction!(segment, m)?,
