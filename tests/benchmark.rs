@@ -3,8 +3,11 @@
 //! ours and in the ranks; sharded runs merge into the same tables; malformed sections are one
 //! clear error at validation.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use crate::own_annotations::read_table;
 
 fn motionlab() -> Command {
     crate::motionlab_command()
@@ -53,14 +56,11 @@ fn write_experiment(dir: &Path, extra: &str) -> PathBuf {
 }
 
 /// A table's CSV as rows of (header → cell).
-fn table(run: &Path, name: &str) -> Vec<std::collections::HashMap<String, String>> {
-    let text = std::fs::read_to_string(run.join("tables").join(format!("{name}.csv"))).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(str::to_string).collect();
-    lines.map(|l| header.iter().cloned().zip(l.split(',').map(str::to_string)).collect()).collect()
+fn table(run: &Path, name: &str) -> Vec<BTreeMap<String, String>> {
+    read_table(&run.join("tables").join(format!("{name}.csv")))
 }
 
-fn cell<'a>(rows: &'a [std::collections::HashMap<String, String>], sequence: &str, method: &str, column: &str) -> &'a str {
+fn cell<'a>(rows: &'a [BTreeMap<String, String>], sequence: &str, method: &str, column: &str) -> &'a str {
     let row = rows.iter().find(|r| r.get("sequence").map(String::as_str) == Some(sequence) && r["method"] == method).unwrap_or_else(|| panic!("no row {sequence}/{method}"));
     &row[column]
 }

@@ -2,8 +2,7 @@
 //! `Ok` with candidates inside `(0, n)` (sorted, unique) or one error — never a panic.
 
 use motionlab_changepoint::{BocpdParams, KernelCpdParams, WindowParams};
-use motionlab_core::registry::ParamGuard;
-use motionlab_testkit::degenerate::{Series, degenerate_series, sweep_segmenter};
+use motionlab_testkit::degenerate::{Series, checked, degenerate_series, sweep_segmenter};
 
 fn series() -> Vec<Series> {
     let mut v = degenerate_series(&[1, 2, 3, 4, 5, 7, 10, 15, 30, 100]);
@@ -11,11 +10,6 @@ fn series() -> Vec<Series> {
     let clear = (0..600).map(|i| (((i * 7919) % 101) as f64 / 101.0 - 0.5) * if i < 300 { 1.0 } else { 3.0 } + if i < 300 { 0.0 } else { 6.0 });
     v.push(("clear change".into(), clear.collect(), 1));
     v
-}
-
-fn build<P: serde::de::DeserializeOwned + ParamGuard>(text: &str) -> P::Checked {
-    let params: P = toml::from_str(text).unwrap_or_else(|e| panic!("{text}: {e}"));
-    params.check().unwrap_or_else(|e| panic!("{text}: {e}"))
 }
 
 const KERNEL_CPD: &[&str] = &[
@@ -58,15 +52,15 @@ const BOCPD: &[&str] = &[
 
 #[test]
 fn kernel_cpd_never_panics_on_degenerate_series() {
-    sweep_segmenter("kernel_cpd", KERNEL_CPD, &series(), build::<KernelCpdParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("kernel_cpd", KERNEL_CPD, &series(), checked::<KernelCpdParams>, |s, v, d| s.segment_values(v, d));
 }
 
 #[test]
 fn window_never_panics_on_degenerate_series() {
-    sweep_segmenter("window", WINDOW, &series(), build::<WindowParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("window", WINDOW, &series(), checked::<WindowParams>, |s, v, d| s.segment_values(v, d));
 }
 
 #[test]
 fn bocpd_never_panics_on_degenerate_series() {
-    sweep_segmenter("bocpd", BOCPD, &series(), build::<BocpdParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("bocpd", BOCPD, &series(), checked::<BocpdParams>, |s, v, d| s.segment_values(v, d));
 }

@@ -1,9 +1,8 @@
 //! `clasp` and `floss`, in a range of settings, on degenerate series: each run gives `Ok` with
 //! candidates inside `(0, n)` (sorted, unique) or one error — never a panic.
 
-use motionlab_core::registry::ParamGuard;
 use motionlab_profile::{ClaspParams, FlossParams};
-use motionlab_testkit::degenerate::{Series, check_segmenter_run, degenerate_series, sweep_segmenter};
+use motionlab_testkit::degenerate::{Series, check_segmenter_run, checked, degenerate_series, sweep_segmenter};
 
 fn series() -> Vec<Series> {
     let mut v = degenerate_series(&[1, 2, 3, 5, 8, 20, 61, 200]);
@@ -16,23 +15,18 @@ fn series() -> Vec<Series> {
     v
 }
 
-fn build<P: serde::de::DeserializeOwned + ParamGuard>(text: &str) -> P::Checked {
-    let params: P = toml::from_str(text).unwrap_or_else(|e| panic!("{text}: {e}"));
-    params.check().unwrap_or_else(|e| panic!("{text}: {e}"))
-}
-
 #[test]
 fn clasp_never_panics_on_degenerate_series() {
     let settings = ["", "window = 3", "window = 10\nn_segments = 3", "window = 5\nvalidation = \"score_threshold\"\nscore = \"f1\"", "n_estimators = 1\nk_neighbours = 1\nexcl_radius = 2"];
-    sweep_segmenter("clasp", &settings, &series(), build::<ClaspParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("clasp", &settings, &series(), checked::<ClaspParams>, |s, v, d| s.segment_values(v, d));
 }
 
 #[test]
 fn floss_never_panics_on_degenerate_series() {
     let settings = ["n_regimes = 2", "window = 3\nn_regimes = 4", "window = 10\ncac_threshold = 0.45\nexcl_factor = 5", "cac_threshold = 1.0\nexcl_factor = 1"];
-    sweep_segmenter("floss", &settings, &series(), build::<FlossParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("floss", &settings, &series(), checked::<FlossParams>, |s, v, d| s.segment_values(v, d));
     // n_regimes = 1 asks for no change point, on every series.
-    let one = build::<FlossParams>("window = 4\nn_regimes = 1");
+    let one = checked::<FlossParams>("window = 4\nn_regimes = 1");
     for s in series() {
         assert!(!check_segmenter_run("floss [n_regimes = 1]", &s, || one.segment_values(&s.1, s.2)), "{}", s.0);
     }

@@ -60,6 +60,13 @@ pub fn check_segmenter_run(what: &str, series: &Series, run: impl FnOnce() -> Re
     }
 }
 
+/// A plugin's checked stage from its parameters as TOML text (a sweep's `build`); panics,
+/// naming the text, when they do not parse or check.
+pub fn checked<P: motionlab_core::registry::ParamGuard>(text: &str) -> P::Checked {
+    let params: P = motionlab_core::toml::from_str(text).unwrap_or_else(|e| panic!("{text}: {e}"));
+    params.check().unwrap_or_else(|e| panic!("{text}: {e}"))
+}
+
 /// Every setting (built by `build` from its text) on every series; at least one series must
 /// give change points under each setting, so that a sweep cannot pass by refusing everything.
 pub fn sweep_segmenter<S>(stage: &str, settings: &[&str], series: &[Series], build: impl Fn(&str) -> S, segment: impl Fn(&S, &[f64], usize) -> Result<SegmenterOutput>) {
