@@ -154,8 +154,10 @@ fn odd_names_stay_inside_the_run_directory_and_are_escaped_on_every_page() {
         let html = std::fs::read_to_string(viewer).unwrap();
         assert!(html.contains("\\u003cscript\\u003ewindow.__motionlab_injected=1\\u003c/script\\u003e"), "{}: the method's lane is missing", viewer.display());
     }
-    // SVG figures stay well-formed XML whatever the names hold.
-    for svg in written.iter().filter(|p| p.extension().is_some_and(|e| e == "svg")) {
+    // SVG figures hold no character XML forbids and no payload unescaped, whatever the names hold.
+    let svgs: Vec<_> = written.iter().filter(|p| p.extension().is_some_and(|e| e == "svg")).collect();
+    assert!(!svgs.is_empty(), "the run wrote no SVG figure to check");
+    for svg in svgs {
         let text = std::fs::read_to_string(root.join(svg)).unwrap();
         assert!(!text.chars().any(|c| c < ' ' && !"\t\n\r".contains(c)), "{}: a control character in XML", svg.display());
         assert!(!text.contains("<script>window"), "{}", svg.display());

@@ -62,6 +62,11 @@ def main():
         return 1
     run = runs[-1]
     viewers = sorted((run / "viewers").glob("*.html"))
+    # One viewer per sequence of the odd-names run (tests/odd_names.rs asserts the same count):
+    # a run that wrote fewer would leave payloads unchecked.
+    if len(viewers) != 8:
+        print(f"FAIL: {len(viewers)} viewers under {run / 'viewers'}; expected 8", file=sys.stderr)
+        return 1
     results = []
     d = driver(console_log=True)
     try:
