@@ -13,7 +13,9 @@ const EXP: &str = "tests/cache/sweep.toml";
 
 fn motionlab(cache: &Path) -> Command {
     let mut c = crate::motionlab_command();
-    c.current_dir(motionlab_testkit::repo_root()).env("MOTIONLAB_CACHE_DIR", cache).env_remove("MOTIONLAB_CACHE_TEST_PAUSE_MS");
+    c.current_dir(motionlab_testkit::repo_root())
+        .env("MOTIONLAB_CACHE_DIR", cache)
+        .env_remove("MOTIONLAB_CACHE_TEST_PAUSE_MS");
     c
 }
 
@@ -26,7 +28,9 @@ fn ok(c: &mut Command) -> String {
 /// Runs the sweep (with `extra` arguments) on one thread — so that which combination computes
 /// a shared output first is fixed — and returns its run directory.
 fn run(cache: &Path, reports: &Path, extra: &[&str]) -> PathBuf {
-    let out = ok(motionlab(cache).args(["run", EXP, "--quiet", "--threads", "1", "--reports", reports.to_str().unwrap()]).args(extra));
+    let out = ok(motionlab(cache)
+        .args(["run", EXP, "--quiet", "--threads", "1", "--reports", reports.to_str().unwrap()])
+        .args(extra));
     PathBuf::from(out.split(": ").next().unwrap())
 }
 
@@ -35,10 +39,16 @@ fn tables(run: &Path) -> Vec<(String, Vec<u8>)> {
     let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(run.join("tables"))
         .unwrap()
         .map(|e| e.unwrap().path())
-        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+        .map(|p| {
+            (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap())
+        })
         .collect();
     v.sort();
-    assert!(v.iter().any(|(n, _)| n == "boundary_pr.csv" || n.starts_with("boundary")), "tables: {:?}", v.iter().map(|t| &t.0).collect::<Vec<_>>());
+    assert!(
+        v.iter().any(|(n, _)| n == "boundary_pr.csv" || n.starts_with("boundary")),
+        "tables: {:?}",
+        v.iter().map(|t| &t.0).collect::<Vec<_>>()
+    );
     v
 }
 
@@ -47,7 +57,8 @@ type OriginRow = (u64, String, Vec<(String, String)>);
 
 /// `(combination, input) → {stage: origin}` from the run's provenance.
 fn origins(run: &Path) -> Vec<OriginRow> {
-    let p: Value = serde_json::from_slice(&std::fs::read(run.join("provenance.json")).unwrap()).unwrap();
+    let p: Value =
+        serde_json::from_slice(&std::fs::read(run.join("provenance.json")).unwrap()).unwrap();
     p["cache"]["stages"]
         .as_array()
         .unwrap()
@@ -61,14 +72,23 @@ fn origins(run: &Path) -> Vec<OriginRow> {
                 .map(|(k, v)| (k.clone(), v.as_str().unwrap().to_string()))
                 .collect();
             stages.sort();
-            (row["combination"].as_u64().unwrap(), row["input"].as_str().unwrap().to_string(), stages)
+            (
+                row["combination"].as_u64().unwrap(),
+                row["input"].as_str().unwrap().to_string(),
+                stages,
+            )
         })
         .collect()
 }
 
 /// The origin of `stage` in every combination.
 fn stage_origins(run: &Path, stage: &str) -> Vec<String> {
-    origins(run).into_iter().map(|(_, _, s)| s.into_iter().find(|(k, _)| k == stage).map(|(_, v)| v).unwrap_or_default()).collect()
+    origins(run)
+        .into_iter()
+        .map(|(_, _, s)| {
+            s.into_iter().find(|(k, _)| k == stage).map(|(_, v)| v).unwrap_or_default()
+        })
+        .collect()
 }
 
 fn entries(cache: &Path, kind: &str) -> Vec<PathBuf> {
@@ -92,7 +112,8 @@ fn cached_runs_equal_uncached_ones_and_a_changed_parameter_recomputes_only_its_s
     let plain = run(&cache, &reports, &["--no-cache"]);
     assert!(!cache.exists(), "--no-cache writes nothing");
     // Load once per run: three combinations, one take, one load.
-    let prov: Value = serde_json::from_slice(&std::fs::read(plain.join("provenance.json")).unwrap()).unwrap();
+    let prov: Value =
+        serde_json::from_slice(&std::fs::read(plain.join("provenance.json")).unwrap()).unwrap();
     assert_eq!(prov["cache"]["loads_from_files"], 1);
     assert_eq!(stage_origins(&plain, "load"), ["computed", "memory", "memory"]);
 
@@ -117,12 +138,21 @@ fn cached_runs_equal_uncached_ones_and_a_changed_parameter_recomputes_only_its_s
     // evaluation (its input, the fused candidates, changed) are recomputed.
     let changed = run(&cache, &reports, &["segmentation.segmenter[direction].lag={seconds=2.0}"]);
     for (c, input, stages) in origins(&changed) {
-        let computed: Vec<&str> = stages.iter().filter(|(_, o)| o == "computed").map(|(s, _)| s.as_str()).collect();
+        let computed: Vec<&str> =
+            stages.iter().filter(|(_, o)| o == "computed").map(|(s, _)| s.as_str()).collect();
         // The new direction output is computed once (combination 0) and shared from disk.
-        let expected: &[&str] = if c == 0 { &["evaluate boundary_pr", "fuser fused", "segmenter direction"] } else { &["evaluate boundary_pr", "fuser fused"] };
+        let expected: &[&str] = if c == 0 {
+            &["evaluate boundary_pr", "fuser fused", "segmenter direction"]
+        } else {
+            &["evaluate boundary_pr", "fuser fused"]
+        };
         assert_eq!(computed, expected, "{input} combination {c}: {stages:?}");
     }
-    let again = run(&cache, &reports, &["--no-cache", "segmentation.segmenter[direction].lag={seconds=2.0}"]);
+    let again = run(
+        &cache,
+        &reports,
+        &["--no-cache", "segmentation.segmenter[direction].lag={seconds=2.0}"],
+    );
     assert_eq!(tables(&changed), tables(&again));
     assert_ne!(tables(&changed), tables(&plain), "the parameter matters");
 
@@ -155,11 +185,26 @@ fn damaged_entries_are_recomputed_never_trusted() {
     let after = run(&cache, &reports, &[]);
     assert_eq!(tables(&reference), tables(&after), "damaged entries must not change a table");
     assert_eq!(stage_origins(&after, "load"), ["computed", "memory", "memory"]);
-    let computed = origins(&after).iter().flat_map(|(_, _, s)| s.iter().filter(|(k, o)| k.starts_with("segmenter") && o == "computed").cloned().collect::<Vec<_>>()).count();
-    assert_eq!(computed, 3, "the three damaged segmenter outputs are recomputed, the intact one read");
+    let computed = origins(&after)
+        .iter()
+        .flat_map(|(_, _, s)| {
+            s.iter()
+                .filter(|(k, o)| k.starts_with("segmenter") && o == "computed")
+                .cloned()
+                .collect::<Vec<_>>()
+        })
+        .count();
+    assert_eq!(
+        computed, 3,
+        "the three damaged segmenter outputs are recomputed, the intact one read"
+    );
     // Rewritten whole: a third run reads everything from disk again.
     let third = run(&cache, &reports, &[]);
-    assert!(origins(&third).iter().all(|(_, _, s)| s.iter().all(|(k, o)| k.starts_with("fuser") || o != "computed")));
+    assert!(
+        origins(&third)
+            .iter()
+            .all(|(_, _, s)| s.iter().all(|(k, o)| k.starts_with("fuser") || o != "computed"))
+    );
 }
 
 #[test]
@@ -167,7 +212,13 @@ fn two_concurrent_processes_share_one_cache() {
     let tmp = tempfile::tempdir().unwrap();
     let (cache, reports) = (tmp.path().join("cache"), tmp.path().join("reports"));
     let reference = run(&cache, &reports, &["--no-cache"]);
-    let spawn = || motionlab(&cache).args(["run", EXP, "--quiet", "--threads", "2", "--reports", reports.to_str().unwrap()]).stdout(std::process::Stdio::piped()).spawn().unwrap();
+    let spawn = || {
+        motionlab(&cache)
+            .args(["run", EXP, "--quiet", "--threads", "2", "--reports", reports.to_str().unwrap()])
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
     let (a, b) = (spawn(), spawn());
     for child in [a, b] {
         let out = child.wait_with_output().unwrap();
@@ -193,7 +244,10 @@ fn a_process_killed_mid_write_leaves_no_trusted_entry() {
         .unwrap();
     let started = std::time::Instant::now();
     let temporary = || -> usize {
-        walk(&cache).iter().filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with(".tmp-"))).count()
+        walk(&cache)
+            .iter()
+            .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with(".tmp-")))
+            .count()
     };
     while temporary() == 0 {
         assert!(started.elapsed().as_secs() < 120, "no cache write started");
@@ -202,7 +256,10 @@ fn a_process_killed_mid_write_leaves_no_trusted_entry() {
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
     assert_eq!(temporary(), 1);
-    assert!(walk(&cache).iter().all(|p| p.extension().is_none_or(|e| e != "bin")), "no entry is in place");
+    assert!(
+        walk(&cache).iter().all(|p| p.extension().is_none_or(|e| e != "bin")),
+        "no entry is in place"
+    );
     let info = ok(motionlab(&cache).args(["cache", "info"]));
     assert!(info.contains("total: 0 entries") && info.contains("1 temporary file"), "{info}");
     // The next run ignores the leftover and computes everything.

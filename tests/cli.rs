@@ -53,13 +53,22 @@ fn list_and_describe_print_workflows_from_their_section_docs() {
     let text = String::from_utf8_lossy(&out.stdout);
     // The section struct's doc comment, and its keys with their own docs and defaults.
     assert!(text.contains("[gait] (workflow, from motionlab-workflows)"), "{text}");
-    assert!(text.contains("Osafune") && text.contains("normal_condition") && text.contains("default \"condition\""), "{text}");
+    assert!(
+        text.contains("Osafune")
+            && text.contains("normal_condition")
+            && text.contains("default \"condition\""),
+        "{text}"
+    );
 }
 
 /// Runs motionlab with `args` from the repository root; returns (exit code, stdout, stderr).
 fn run_in_repo(args: &[&str]) -> (i32, String, String) {
     let out = motionlab().args(args).current_dir(repo()).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 /// Bad input gives one line naming the file and the line/field, a non-zero exit, and no panic.
@@ -77,21 +86,71 @@ fn assert_one_line_error(args: &[&str], file: &str, place: &str, expect: &str) {
 #[test]
 fn malformed_motion_files_fail_with_one_located_line() {
     let m = "tests/fixtures/malformed/";
-    assert_one_line_error(&["inspect", &format!("{m}truncated.bvh")], "truncated.bvh", ":198:", "Frames: 994");
-    assert_one_line_error(&["inspect", &format!("{m}wrong_value_count.bvh")], "wrong_value_count.bvh", ":191:", "found 95 values, expected 96");
-    assert_one_line_error(&["inspect", &format!("{m}cut_in_hierarchy.bvh")], "cut_in_hierarchy.bvh", ":41:", "RightHip");
-    assert_one_line_error(&["inspect", &format!("{m}86_unknown_bone.amc")], "86_unknown_bone.amc", ":60:", "\"lfemurx\"");
-    assert_one_line_error(&["inspect", &format!("{m}short_row.tsv")], "short_row.tsv", ":13:", "expected 3 × 28 markers = 84");
-    assert_one_line_error(&["inspect", &format!("{m}corrupt_header.c3d")], "corrupt_header.c3d", "(byte 1)", "expected 0x50");
+    assert_one_line_error(
+        &["inspect", &format!("{m}truncated.bvh")],
+        "truncated.bvh",
+        ":198:",
+        "Frames: 994",
+    );
+    assert_one_line_error(
+        &["inspect", &format!("{m}wrong_value_count.bvh")],
+        "wrong_value_count.bvh",
+        ":191:",
+        "found 95 values, expected 96",
+    );
+    assert_one_line_error(
+        &["inspect", &format!("{m}cut_in_hierarchy.bvh")],
+        "cut_in_hierarchy.bvh",
+        ":41:",
+        "RightHip",
+    );
+    assert_one_line_error(
+        &["inspect", &format!("{m}86_unknown_bone.amc")],
+        "86_unknown_bone.amc",
+        ":60:",
+        "\"lfemurx\"",
+    );
+    assert_one_line_error(
+        &["inspect", &format!("{m}short_row.tsv")],
+        "short_row.tsv",
+        ":13:",
+        "expected 3 × 28 markers = 84",
+    );
+    assert_one_line_error(
+        &["inspect", &format!("{m}corrupt_header.c3d")],
+        "corrupt_header.c3d",
+        "(byte 1)",
+        "expected 0x50",
+    );
 }
 
 #[test]
 fn bad_experiments_fail_validation_with_one_located_line() {
     let m = "tests/fixtures/malformed/";
-    assert_one_line_error(&["validate", &format!("{m}unknown_key.toml")], "unknown_key.toml", ":7: dataset[0].frame_rate", "unknown field `frame_rate`");
-    assert_one_line_error(&["validate", &format!("{m}unknown_plugin.toml")], "unknown_plugin.toml", ":10: segmentation.segmenter[0].type", "no segmenter named \"fastest_marker_sped\"");
-    assert_one_line_error(&["validate", &format!("{m}wrong_type.toml")], "wrong_type.toml", ":11: segmentation.segmenter[0].v_low", "expected `mm_per_s` or `fraction_of_p90`");
-    assert_one_line_error(&["validate", &format!("{m}unknown_param.toml")], "unknown_param.toml", ":9: features.extractors[0].per_markers", "unknown field `per_markers`");
+    assert_one_line_error(
+        &["validate", &format!("{m}unknown_key.toml")],
+        "unknown_key.toml",
+        ":7: dataset[0].frame_rate",
+        "unknown field `frame_rate`",
+    );
+    assert_one_line_error(
+        &["validate", &format!("{m}unknown_plugin.toml")],
+        "unknown_plugin.toml",
+        ":10: segmentation.segmenter[0].type",
+        "no segmenter named \"fastest_marker_sped\"",
+    );
+    assert_one_line_error(
+        &["validate", &format!("{m}wrong_type.toml")],
+        "wrong_type.toml",
+        ":11: segmentation.segmenter[0].v_low",
+        "expected `mm_per_s` or `fraction_of_p90`",
+    );
+    assert_one_line_error(
+        &["validate", &format!("{m}unknown_param.toml")],
+        "unknown_param.toml",
+        ":9: features.extractors[0].per_markers",
+        "unknown field `per_markers`",
+    );
     // A parameter of the wrong type given as an override names the override.
     assert_one_line_error(
         &["validate", "experiments/quickstart.toml", "features.extractors[0].per_marker=7"],
@@ -101,7 +160,11 @@ fn bad_experiments_fail_validation_with_one_located_line() {
     );
     // A misspelt figure name is refused before anything runs (it would otherwise draw nothing).
     assert_one_line_error(
-        &["validate", "experiments/sonoda_sweep.toml", "segmentation.figures=[\"timeline\", \"root_paths\"]"],
+        &[
+            "validate",
+            "experiments/sonoda_sweep.toml",
+            "segmentation.figures=[\"timeline\", \"root_paths\"]",
+        ],
         "sonoda_sweep.toml",
         "segmentation.figures",
         "unknown variant `root_paths`, expected one of `traces`, `root_path`, `timeline`, `timeline_poses`, `stick_strip`",
@@ -112,9 +175,11 @@ fn bad_experiments_fail_validation_with_one_located_line() {
 fn quickstart_writes_a_table_and_figure_into_a_fresh_run_directory_each_time() {
     let reports = tempfile::tempdir().unwrap();
     let r = reports.path().to_str().unwrap();
-    let (code, out, err) = run_in_repo(&["run", "experiments/quickstart.toml", "--reports", r, "--quiet"]);
+    let (code, out, err) =
+        run_in_repo(&["run", "experiments/quickstart.toml", "--reports", r, "--quiet"]);
     assert_eq!(code, 0, "{err}");
-    let (code2, out2, _) = run_in_repo(&["run", "experiments/quickstart.toml", "--reports", r, "--quiet"]);
+    let (code2, out2, _) =
+        run_in_repo(&["run", "experiments/quickstart.toml", "--reports", r, "--quiet"]);
     assert_eq!(code2, 0);
     assert_ne!(out, out2, "two runs, two directories");
     let runs: Vec<PathBuf> = std::fs::read_dir(reports.path().join("quickstart"))
@@ -129,20 +194,32 @@ fn quickstart_writes_a_table_and_figure_into_a_fresh_run_directory_each_time() {
         let mut lines = csv.lines();
         assert_eq!(lines.next(), Some("frame,time_s,V_mm_per_s,fastest_marker"));
         assert_eq!(lines.count(), 1500, "one row per frame of dance1");
-        assert!(run.join("figures/dance1_marker_speed.png").is_file() && run.join("figures/dance1_marker_speed.svg").is_file());
-        assert!(run.join("provenance.json").is_file() && run.join("config.toml").is_file() && run.join("index.html").is_file());
+        assert!(
+            run.join("figures/dance1_marker_speed.png").is_file()
+                && run.join("figures/dance1_marker_speed.svg").is_file()
+        );
+        assert!(
+            run.join("provenance.json").is_file()
+                && run.join("config.toml").is_file()
+                && run.join("index.html").is_file()
+        );
     }
     assert!(runs.iter().any(|r| r.ends_with(latest.trim())));
 }
 
 #[test]
 fn inspect_describes_real_files() {
-    let (code, out, err) = run_in_repo(&["inspect", "data/mct/walk1.c3d.gz", "data/cmu131/131_01.bvh.gz"]);
+    let (code, out, err) =
+        run_in_repo(&["inspect", "data/mct/walk1.c3d.gz", "data/cmu131/131_01.bvh.gz"]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("missing   27 samples"), "{out}");
     assert!(out.contains("frames    994 at 120 Hz"), "{out}");
     // One bad file among good ones: the good ones are still described, the exit is non-zero.
-    let (code, out, err) = run_in_repo(&["inspect", "data/mct/walk1.tsv.gz", "tests/fixtures/malformed/short_row.tsv"]);
+    let (code, out, err) = run_in_repo(&[
+        "inspect",
+        "data/mct/walk1.tsv.gz",
+        "tests/fixtures/malformed/short_row.tsv",
+    ]);
     assert_eq!(code, 1);
     assert!(out.contains("walk1.tsv.gz") && err.contains("short_row.tsv:13"), "{out}\n{err}");
 }

@@ -32,12 +32,14 @@ impl Probe {
     }
     /// The command that touches `marker` and returns no candidates.
     fn command(&self, marker: &str) -> Vec<String> {
-        let touch = format!("touch {} && echo '{{\"candidates\": []}}'", self.path(marker).display());
+        let touch =
+            format!("touch {} && echo '{{\"candidates\": []}}'", self.path(marker).display());
         vec!["sh".into(), "-c".into(), touch]
     }
     /// Writes `name` (an experiment running the probe that touches `marker`; `extra` appended).
     fn experiment(&self, name: &str, marker: &str, extra: &str) -> PathBuf {
-        let command = toml::Value::Array(self.command(marker).into_iter().map(toml::Value::String).collect());
+        let command =
+            toml::Value::Array(self.command(marker).into_iter().map(toml::Value::String).collect());
         let text = format!(
             "[experiment]\nname = \"consent_probe\"\n\n[[dataset]]\nfiles = [{data:?}]\nloader = {{ type = \"asf_amc\" }}\n\n\
              [segmentation]\nfigures = []\n\n[[segmentation.segmenter]]\ntype = \"external\"\nname = \"probe\"\ncommand = {command}\n{extra}",
@@ -72,9 +74,17 @@ fn assert_refused(out: &Output, experiment: &Path, commands: &[&[String]], what:
     assert_eq!(err.trim_end().lines().count(), 1, "{what}: one line expected: {err}");
     assert!(err.starts_with(&format!("error: {}: names ", experiment.display())), "{what}: {err}");
     for c in commands {
-        assert!(err.contains(&format!("`{}`", motionlab_core::programs::command_line(c))), "{what}: {err}");
+        assert!(
+            err.contains(&format!("`{}`", motionlab_core::programs::command_line(c))),
+            "{what}: {err}"
+        );
     }
-    assert!(err.contains("Nothing was started") && err.contains("--allow-external") && err.contains("motionlab trust"), "{what}: {err}");
+    assert!(
+        err.contains("Nothing was started")
+            && err.contains("--allow-external")
+            && err.contains("motionlab trust"),
+        "{what}: {err}"
+    );
 }
 
 #[test]
@@ -98,16 +108,43 @@ fn an_external_command_is_never_started_without_consent() {
     let folder = p.path("experiments");
     std::fs::create_dir_all(&folder).unwrap();
     let in_folder = p.experiment("experiments/probe.toml", "marker", "");
-    assert_refused(&p.motionlab(&["reproduce", "--experiments", folder.to_str().unwrap(), "--reports", r, "--quiet"]), &in_folder, &[&cmd], "reproduce");
+    assert_refused(
+        &p.motionlab(&[
+            "reproduce",
+            "--experiments",
+            folder.to_str().unwrap(),
+            "--reports",
+            r,
+            "--quiet",
+        ]),
+        &in_folder,
+        &[&cmd],
+        "reproduce",
+    );
     assert!(!p.ran("marker") && !reports.exists(), "reproduce started something");
     // merge: the shards ran with consent; the merge without it is refused.
     let run_dir = p.path("sharded");
-    let shard = p.motionlab(&["run", e, "--quiet", "--no-cache", "--allow-external", "--shard", "0/1", "--run-dir", run_dir.to_str().unwrap()]);
+    let shard = p.motionlab(&[
+        "run",
+        e,
+        "--quiet",
+        "--no-cache",
+        "--allow-external",
+        "--shard",
+        "0/1",
+        "--run-dir",
+        run_dir.to_str().unwrap(),
+    ]);
     assert!(shard.status.success(), "{}", text(&shard.stderr));
     assert!(p.ran("marker"));
     p.forget("marker");
     let canonical = std::fs::canonicalize(&exp).unwrap();
-    assert_refused(&p.motionlab(&["merge", run_dir.to_str().unwrap(), "--quiet"]), &canonical, &[&cmd], "merge");
+    assert_refused(
+        &p.motionlab(&["merge", run_dir.to_str().unwrap(), "--quiet"]),
+        &canonical,
+        &[&cmd],
+        "merge",
+    );
     assert!(!run_dir.join("index.html").exists(), "merge without consent finished the run");
     let merged = p.motionlab(&["merge", run_dir.to_str().unwrap(), "--quiet", "--allow-external"]);
     assert!(merged.status.success(), "{}", text(&merged.stderr));
@@ -127,7 +164,8 @@ fn allow_external_and_trust_each_let_it_run_and_a_changed_command_is_not_trusted
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(p.ran("marker"), "--allow-external did not run the program");
     let run = latest_run(&reports);
-    let provenance: serde_json::Value = serde_json::from_slice(&std::fs::read(run.join("provenance.json")).unwrap()).unwrap();
+    let provenance: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(run.join("provenance.json")).unwrap()).unwrap();
     assert_eq!(provenance["external_consent"], "allowed by --allow-external");
     assert_eq!(provenance["external_commands"][0]["at"], "segmentation.segmenter[0]");
     let page = std::fs::read_to_string(run.join("index.html")).unwrap();
@@ -144,7 +182,11 @@ fn allow_external_and_trust_each_let_it_run_and_a_changed_command_is_not_trusted
     let out = p.motionlab(&["validate", e]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let listed = text(&out.stdout);
-    assert!(listed.contains("external programs (allowed by the trust record") && listed.contains(&format!("segmentation.segmenter[0] (external): {cmd_line}")), "{listed}");
+    assert!(
+        listed.contains("external programs (allowed by the trust record")
+            && listed.contains(&format!("segmentation.segmenter[0] (external): {cmd_line}")),
+        "{listed}"
+    );
     assert!(!p.ran("marker"), "validate ran the program");
     let out = p.motionlab(&["run", e, "--quiet", "--no-cache", "--reports", r]);
     assert!(out.status.success(), "{}", text(&out.stderr));
@@ -153,8 +195,16 @@ fn allow_external_and_trust_each_let_it_run_and_a_changed_command_is_not_trusted
 
     // An override that changes the command line is not covered by the record.
     let other = p.command("other_marker");
-    let over = format!("segmentation.segmenter[0].command={}", toml::Value::Array(other.iter().cloned().map(toml::Value::String).collect()));
-    assert_refused(&p.motionlab(&["run", e, &over, "--quiet", "--no-cache", "--reports", r]), &exp, &[&other], "override");
+    let over = format!(
+        "segmentation.segmenter[0].command={}",
+        toml::Value::Array(other.iter().cloned().map(toml::Value::String).collect())
+    );
+    assert_refused(
+        &p.motionlab(&["run", e, &over, "--quiet", "--no-cache", "--reports", r]),
+        &exp,
+        &[&other],
+        "override",
+    );
     assert!(!p.ran("other_marker"));
 
     // A sweep grid over the command: both command lines are listed, and a trust record made
@@ -162,9 +212,14 @@ fn allow_external_and_trust_each_let_it_run_and_a_changed_command_is_not_trusted
     let swept = p.experiment(
         "exp.toml",
         "marker",
-        &format!("\n[[sweep]]\ngrid = {{ \"segmentation.segmenter[probe].command\" = [{}, {}] }}\n", toml_array(&p.command("marker")), toml_array(&other)),
+        &format!(
+            "\n[[sweep]]\ngrid = {{ \"segmentation.segmenter[probe].command\" = [{}, {}] }}\n",
+            toml_array(&p.command("marker")),
+            toml_array(&other)
+        ),
     );
-    let out = p.motionlab(&["run", swept.to_str().unwrap(), "--quiet", "--no-cache", "--reports", r]);
+    let out =
+        p.motionlab(&["run", swept.to_str().unwrap(), "--quiet", "--no-cache", "--reports", r]);
     assert_refused(&out, &exp, &[&p.command("marker"), &other], "sweep");
     assert!(text(&out.stderr).contains("have changed since"), "{}", text(&out.stderr));
     assert!(!p.ran("marker") && !p.ran("other_marker"));
@@ -172,16 +227,28 @@ fn allow_external_and_trust_each_let_it_run_and_a_changed_command_is_not_trusted
     assert!(out.status.success(), "{}", text(&out.stderr));
     let out = p.motionlab(&["run", e, "--quiet", "--no-cache", "--reports", r]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(p.ran("marker") && p.ran("other_marker"), "the trusted sweep did not run both programs");
+    assert!(
+        p.ran("marker") && p.ran("other_marker"),
+        "the trusted sweep did not run both programs"
+    );
     p.forget("marker");
     p.forget("other_marker");
 
     // Editing the file's command revokes the trust; revoking removes the record.
     p.experiment("exp.toml", "edited_marker", "");
-    assert_refused(&p.motionlab(&["run", e, "--quiet", "--no-cache", "--reports", r]), &exp, &[&p.command("edited_marker")], "edited");
+    assert_refused(
+        &p.motionlab(&["run", e, "--quiet", "--no-cache", "--reports", r]),
+        &exp,
+        &[&p.command("edited_marker")],
+        "edited",
+    );
     assert!(!p.ran("edited_marker"));
     let out = p.motionlab(&["trust", "--revoke", e]);
-    assert!(out.status.success() && text(&out.stdout).contains("trust record removed"), "{}", text(&out.stdout));
+    assert!(
+        out.status.success() && text(&out.stdout).contains("trust record removed"),
+        "{}",
+        text(&out.stdout)
+    );
     assert_eq!(std::fs::read_dir(p.config().join("trust")).unwrap().count(), 0);
 }
 
@@ -191,7 +258,12 @@ fn toml_array(args: &[String]) -> String {
 
 /// As minijinja writes text into HTML.
 fn escape_html(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&#x27;").replace('/', "&#x2f;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('\'', "&#x27;")
+        .replace('/', "&#x2f;")
 }
 
 fn latest_run(reports: &Path) -> PathBuf {

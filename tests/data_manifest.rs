@@ -22,14 +22,18 @@ fn every_manifest_file_is_shipped_with_its_original_sha256() {
         let (name, bytes, sha) = (cells[1], cells[2], cells[3].trim_matches('`'));
         if name == "schreiber2019/SOURCE.txt" {
             let content = std::fs::read(data.join(name)).unwrap();
-            assert_eq!(sha256_bytes(&content), "98a07e1533d5e167dde88dd8274ad47f8dbd232649fefdd18e02e2d5cce9efe9");
+            assert_eq!(
+                sha256_bytes(&content),
+                "98a07e1533d5e167dde88dd8274ad47f8dbd232649fefdd18e02e2d5cce9efe9"
+            );
             checked += 1;
             continue;
         }
         let plain = data.join(name);
         let gz = data.join(format!("{name}.gz"));
         let path = if plain.is_file() { plain } else { gz };
-        let content = motionlab_io::read::read_bytes(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let content =
+            motionlab_io::read::read_bytes(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(content.len().to_string(), bytes, "{name}: size");
         assert_eq!(sha256_bytes(&content), sha, "{name}: sha256 differs from MANIFEST.md");
         checked += 1;
@@ -42,8 +46,22 @@ fn every_manifest_file_is_shipped_with_its_original_sha256() {
 /// digests are those files'.
 #[test]
 fn the_sonoda_defaults_name_their_tuning_takes_by_the_shipped_bytes() {
-    let takes = ["cmu86/86_01", "cmu86/86_09", "mocap6/amc/13_29", "mocap6/amc/13_30", "mocap6/amc/13_31", "mocap6/amc/14_14", "mocap6/amc/14_20"];
-    let shipped: Vec<String> =
-        takes.iter().map(|t| sha256_bytes(&std::fs::read(motionlab_testkit::data_path(&format!("{t}.amc.gz"))).unwrap())).collect();
+    let takes = [
+        "cmu86/86_01",
+        "cmu86/86_09",
+        "mocap6/amc/13_29",
+        "mocap6/amc/13_30",
+        "mocap6/amc/13_31",
+        "mocap6/amc/14_14",
+        "mocap6/amc/14_20",
+    ];
+    let shipped: Vec<String> = takes
+        .iter()
+        .map(|t| {
+            sha256_bytes(
+                &std::fs::read(motionlab_testkit::data_path(&format!("{t}.amc.gz"))).unwrap(),
+            )
+        })
+        .collect();
     assert_eq!(shipped, motionlab_segment::SONODA_DEFAULTS_TUNED_ON.map(str::to_string));
 }

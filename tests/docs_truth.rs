@@ -91,7 +91,8 @@ fn named_paths(text: &str, top: &BTreeSet<String>) -> Vec<(usize, String)> {
 /// one the reader writes — `foo.rs`, `my_dance.toml`: stem `foo` or starting with `my_` — is
 /// none.
 fn repository_path(word: &str, top: &BTreeSet<String>) -> Option<String> {
-    let w = word.trim_matches(|c: char| matches!(c, '"' | '\'' | ',' | ';' | '(' | ')' | '[' | ']'));
+    let w =
+        word.trim_matches(|c: char| matches!(c, '"' | '\'' | ',' | ';' | '(' | ')' | '[' | ']'));
     let w = w.trim_end_matches('.');
     let w = match w.rsplit_once(':') {
         Some((path, line)) if !line.is_empty() && line.bytes().all(|b| b.is_ascii_digit()) => path,
@@ -100,7 +101,8 @@ fn repository_path(word: &str, top: &BTreeSet<String>) -> Option<String> {
     let first = w.split('/').next()?;
     let stem = w.rsplit('/').next().unwrap_or(w).split('.').next().unwrap_or("");
     let example = stem == "foo" || stem.starts_with("my_");
-    (top.contains(first) && (w.contains('/') || w == first) && !example).then(|| w.trim_end_matches('/').to_string())
+    (top.contains(first) && (w.contains('/') || w == first) && !example)
+        .then(|| w.trim_end_matches('/').to_string())
 }
 
 /// Whether `path` (relative to `root`, possibly with `*`, `<name>` or `{a,b}`) matches
@@ -121,7 +123,10 @@ fn exists(root: &Path, path: &str) -> bool {
 /// `a.{x,y}` → `a.x`, `a.y` (one brace group; a path without one is its own alternative).
 fn alternatives(pattern: &str) -> Vec<String> {
     match (pattern.find('{'), pattern.find('}')) {
-        (Some(a), Some(b)) if a < b => pattern[a + 1..b].split(',').map(|alt| format!("{}{alt}{}", &pattern[..a], &pattern[b + 1..])).collect(),
+        (Some(a), Some(b)) if a < b => pattern[a + 1..b]
+            .split(',')
+            .map(|alt| format!("{}{alt}{}", &pattern[..a], &pattern[b + 1..]))
+            .collect(),
         _ => vec![pattern.to_string()],
     }
 }
@@ -140,7 +145,10 @@ fn every_path_the_docs_name_exists() {
         let text = read(&doc);
         checked += named_paths(&text, &top_level(&root)).len();
         for (line, path) in missing_paths(&root, &text) {
-            missing.push(format!("{}:{line}: {path}", doc.strip_prefix(&root).unwrap_or(&doc).display()));
+            missing.push(format!(
+                "{}:{line}: {path}",
+                doc.strip_prefix(&root).unwrap_or(&doc).display()
+            ));
         }
     }
     assert!(checked > 100, "only {checked} paths found in the docs: is the extraction broken?");
@@ -164,10 +172,20 @@ fn the_checker_reports_a_named_path_that_is_gone() {
         ]
     );
     // Globs and placeholders match existing files; a glob that matches nothing is missing.
-    assert!(exists(&root, "crates/*/benches") && exists(&root, "reports/<experiment>/record") && exists(&root, "README.{md,txt}"));
+    assert!(
+        exists(&root, "crates/*/benches")
+            && exists(&root, "reports/<experiment>/record")
+            && exists(&root, "README.{md,txt}")
+    );
     assert!(!exists(&root, "crates/*/no_such_folder"));
     // A file the reader is to write is an example, not a claim.
-    assert!(missing_paths(&root, "Add `tests/foo.rs`, or `motionlab new … -o experiments/my_dance.toml`.").is_empty());
+    assert!(
+        missing_paths(
+            &root,
+            "Add `tests/foo.rs`, or `motionlab new … -o experiments/my_dance.toml`."
+        )
+        .is_empty()
+    );
 }
 
 /// Files in `tests/fixtures/malformed/` other than the script that makes them.
@@ -194,7 +212,8 @@ fn test_modules(root: &Path) -> Vec<String> {
         .expect("tests/ reads")
         .filter_map(|e| {
             let p = e.ok()?.path();
-            (p.extension()? == "rs" && p.file_stem()? != "integration").then(|| p.file_stem().unwrap().to_string_lossy().into_owned())
+            (p.extension()? == "rs" && p.file_stem()? != "integration")
+                .then(|| p.file_stem().unwrap().to_string_lossy().into_owned())
         })
         .collect();
     v.sort();
@@ -219,10 +238,26 @@ fn wrong_counts(text: &str, counts: &[(&str, Regex, usize)]) -> Vec<(usize, Stri
 
 fn quoted_counts(root: &Path) -> Vec<(&'static str, Regex, usize)> {
     vec![
-        ("inputs in tests/fixtures/malformed/", Regex::new(r"(\d[\d,]*) [^.`]*`tests/fixtures/malformed/`").unwrap(), malformed_inputs(root)),
-        ("plugins (PLUGIN_COUNT)", Regex::new(r"\b(\d[\d,]*) (?:built-in )?plugins\b").unwrap(), declared_count(root, "PLUGIN_COUNT")),
-        ("workflows (WORKFLOW_COUNT)", Regex::new(r"\b(\d[\d,]*) (?:built-in )?workflows\b").unwrap(), declared_count(root, "WORKFLOW_COUNT")),
-        ("test modules (tests/*.rs)", Regex::new(r"\b(\d[\d,]*) test modules\b").unwrap(), test_modules(root).len()),
+        (
+            "inputs in tests/fixtures/malformed/",
+            Regex::new(r"(\d[\d,]*) [^.`]*`tests/fixtures/malformed/`").unwrap(),
+            malformed_inputs(root),
+        ),
+        (
+            "plugins (PLUGIN_COUNT)",
+            Regex::new(r"\b(\d[\d,]*) (?:built-in )?plugins\b").unwrap(),
+            declared_count(root, "PLUGIN_COUNT"),
+        ),
+        (
+            "workflows (WORKFLOW_COUNT)",
+            Regex::new(r"\b(\d[\d,]*) (?:built-in )?workflows\b").unwrap(),
+            declared_count(root, "WORKFLOW_COUNT"),
+        ),
+        (
+            "test modules (tests/*.rs)",
+            Regex::new(r"\b(\d[\d,]*) test modules\b").unwrap(),
+            test_modules(root).len(),
+        ),
     ]
 }
 
@@ -233,16 +268,26 @@ fn the_counts_the_docs_quote_match_the_tree() {
     let mut wrong = Vec::new();
     for doc in documents(&root) {
         for (line, what, quoted, actual) in wrong_counts(&read(&doc), &counts) {
-            wrong.push(format!("{}:{line}: {quoted} {what}, the tree has {actual}", doc.strip_prefix(&root).unwrap_or(&doc).display()));
+            wrong.push(format!(
+                "{}:{line}: {quoted} {what}, the tree has {actual}",
+                doc.strip_prefix(&root).unwrap_or(&doc).display()
+            ));
         }
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
     // The malformed count is quoted somewhere, so this test is not vacuous.
     let readme = read(&root.join("README.md"));
-    assert!(counts[0].1.is_match(&readme), "README should quote how many inputs tests/fixtures/malformed/ holds");
+    assert!(
+        counts[0].1.is_match(&readme),
+        "README should quote how many inputs tests/fixtures/malformed/ holds"
+    );
     // And a wrong quote is caught.
     let n = malformed_inputs(&root);
-    let stale = format!("This is tested: {} inputs in `tests/fixtures/malformed/`, and {} plugins.", n + 1, declared_count(&root, "PLUGIN_COUNT"));
+    let stale = format!(
+        "This is tested: {} inputs in `tests/fixtures/malformed/`, and {} plugins.",
+        n + 1,
+        declared_count(&root, "PLUGIN_COUNT")
+    );
     assert_eq!(wrong_counts(&stale, &counts), [(1, counts[0].0.to_string(), n + 1, n)]);
 }
 
@@ -250,15 +295,29 @@ fn the_counts_the_docs_quote_match_the_tree() {
 fn every_test_module_is_in_the_integration_binary() {
     let root = root();
     let integration = read(&root.join("tests/integration.rs"));
-    let missing: Vec<String> = test_modules(&root).into_iter().filter(|m| !integration.lines().any(|l| l.trim() == format!("mod {m};"))).collect();
-    assert!(missing.is_empty(), "tests/*.rs files without a `mod` line in tests/integration.rs (they never compile): {missing:?}");
+    let missing: Vec<String> = test_modules(&root)
+        .into_iter()
+        .filter(|m| !integration.lines().any(|l| l.trim() == format!("mod {m};")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "tests/*.rs files without a `mod` line in tests/integration.rs (they never compile): {missing:?}"
+    );
 }
 
 #[test]
 fn just_bench_runs_every_benchmark() {
     let root = root();
     let justfile = read(&root.join("justfile"));
-    let recipe: String = justfile.split("\nbench:").nth(1).expect("justfile has a bench recipe").lines().skip(1).take_while(|l| l.starts_with(' ') || l.starts_with('\t')).collect::<Vec<_>>().join("\n");
+    let recipe: String = justfile
+        .split("\nbench:")
+        .nth(1)
+        .expect("justfile has a bench recipe")
+        .lines()
+        .skip(1)
+        .take_while(|l| l.starts_with(' ') || l.starts_with('\t'))
+        .collect::<Vec<_>>()
+        .join("\n");
     let mut missing = Vec::new();
     for dir in crate_dirs(&root) {
         if dir.join("benches").is_dir() {
@@ -272,11 +331,17 @@ fn just_bench_runs_every_benchmark() {
         let p = e.expect("bench/ entry").path();
         let file = p.file_name().unwrap().to_string_lossy().into_owned();
         // bench_env.py is the scripts' shared helper, not a benchmark.
-        if p.extension().is_some_and(|x| x == "py") && file != "bench_env.py" && !recipe.contains(&format!("bench/{file}")) {
+        if p.extension().is_some_and(|x| x == "py")
+            && file != "bench_env.py"
+            && !recipe.contains(&format!("bench/{file}"))
+        {
             missing.push(format!("bench/{file}"));
         }
     }
-    assert!(missing.is_empty(), "README says `just bench` runs every benchmark; the justfile's bench recipe lacks: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "README says `just bench` runs every benchmark; the justfile's bench recipe lacks: {missing:?}"
+    );
 }
 
 #[test]
@@ -286,7 +351,15 @@ fn the_templates_dev_and_test_profiles_are_the_workspaces() {
     let profiles = |path: &str| -> Vec<(String, toml::Value)> {
         let m: toml::Table = read(&root.join(path)).parse().unwrap();
         let p = m.get("profile").and_then(|p| p.as_table()).cloned().unwrap_or_default();
-        ["dev", "test"].iter().map(|k| (k.to_string(), p.get(*k).cloned().unwrap_or(toml::Value::Table(toml::Table::new())))).collect()
+        ["dev", "test"]
+            .iter()
+            .map(|k| {
+                (
+                    k.to_string(),
+                    p.get(*k).cloned().unwrap_or(toml::Value::Table(toml::Table::new())),
+                )
+            })
+            .collect()
     };
     assert_eq!(profiles("examples/plugin-template/Cargo.toml"), profiles("Cargo.toml"));
 }
@@ -336,7 +409,11 @@ fn crates(root: &Path) -> Vec<CrateInfo> {
     dirs.iter()
         .map(|d| {
             let m = manifest(d);
-            let deps: Vec<String> = m.get("dependencies").and_then(|t| t.as_table()).map(|t| t.keys().cloned().collect()).unwrap_or_default();
+            let deps: Vec<String> = m
+                .get("dependencies")
+                .and_then(|t| t.as_table())
+                .map(|t| t.keys().cloned().collect())
+                .unwrap_or_default();
             let lib = std::fs::read_to_string(d.join("src/lib.rs")).unwrap_or_default();
             let registers = match (plugins.captures(&lib), workflows.captures(&lib)) {
                 (Some(c), _) => Some(format!("plugins: {}", &c[1])),
@@ -345,9 +422,17 @@ fn crates(root: &Path) -> Vec<CrateInfo> {
             };
             CrateInfo {
                 name: m["package"]["name"].as_str().unwrap().to_string(),
-                description: m["package"].get("description").and_then(|v| v.as_str()).unwrap_or("").to_string(),
+                description: m["package"]
+                    .get("description")
+                    .and_then(|v| v.as_str())
+                    .unwrap_or("")
+                    .to_string(),
                 internal: deps.iter().filter(|d| names.contains(*d)).cloned().collect(),
-                front_end: deps.iter().filter(|d| ["polars", "plotters", "clap"].contains(&d.as_str())).cloned().collect(),
+                front_end: deps
+                    .iter()
+                    .filter(|d| ["polars", "plotters", "clap"].contains(&d.as_str()))
+                    .cloned()
+                    .collect(),
                 registers,
             }
         })
@@ -391,21 +476,45 @@ fn crate_graph(root: &Path) -> String {
     }
     out.push_str("```\n\n");
     out.push_str("| crate | what it is (its `description`) | depends on (directly) | registers | polars / plotters / clap |\n|---|---|---|---|---|\n");
-    let quoted = |names: &BTreeSet<String>| names.iter().map(|d| format!("`{d}`")).collect::<Vec<_>>().join(", ");
+    let quoted = |names: &BTreeSet<String>| {
+        names.iter().map(|d| format!("`{d}`")).collect::<Vec<_>>().join(", ")
+    };
     for c in &all {
         let direct = if c.internal.is_empty() { "—".to_string() } else { quoted(&c.internal) };
         // The front-end crates it depends on itself, then those it gets through another crate.
         let own = c.front_end.iter().cloned().collect::<Vec<_>>().join(", ");
-        let via: BTreeSet<String> = closure(&c.name, &by_name).into_iter().filter(|d| !by_name[d.as_str()].front_end.is_empty()).collect();
-        let through: BTreeSet<String> = via.iter().flat_map(|d| by_name[d.as_str()].front_end.iter().cloned()).filter(|f| !c.front_end.contains(f)).collect();
-        let through = if through.is_empty() { String::new() } else { format!("{} through {}", through.into_iter().collect::<Vec<_>>().join(", "), quoted(&via)) };
+        let via: BTreeSet<String> = closure(&c.name, &by_name)
+            .into_iter()
+            .filter(|d| !by_name[d.as_str()].front_end.is_empty())
+            .collect();
+        let through: BTreeSet<String> = via
+            .iter()
+            .flat_map(|d| by_name[d.as_str()].front_end.iter().cloned())
+            .filter(|f| !c.front_end.contains(f))
+            .collect();
+        let through = if through.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "{} through {}",
+                through.into_iter().collect::<Vec<_>>().join(", "),
+                quoted(&via)
+            )
+        };
         let front = match (own.is_empty(), through.is_empty()) {
             (true, true) => "no".to_string(),
             (false, true) => own,
             (true, false) => through,
             (false, false) => format!("{own}; {through}"),
         };
-        out.push_str(&format!("| `{}` | {} | {} | {} | {} |\n", c.name, c.description.replace('|', "\\|"), direct, c.registers.as_deref().unwrap_or("—"), front));
+        out.push_str(&format!(
+            "| `{}` | {} | {} | {} | {} |\n",
+            c.name,
+            c.description.replace('|', "\\|"),
+            direct,
+            c.registers.as_deref().unwrap_or("—"),
+            front
+        ));
     }
     out.push('\n');
     out.push_str(GRAPH_END);
@@ -418,7 +527,9 @@ fn the_architecture_pages_crate_graph_is_the_cargo_manifests() {
     let path = root.join("docs/ARCHITECTURE.md");
     let page = read(&path);
     let (Some(a), Some(b)) = (page.find(GRAPH_BEGIN), page.find(GRAPH_END)) else {
-        panic!("docs/ARCHITECTURE.md lacks the generated crate graph between {GRAPH_BEGIN:?} and {GRAPH_END:?}");
+        panic!(
+            "docs/ARCHITECTURE.md lacks the generated crate graph between {GRAPH_BEGIN:?} and {GRAPH_END:?}"
+        );
     };
     let written = &page[a..b + GRAPH_END.len()];
     let generated = crate_graph(&root);
@@ -448,5 +559,8 @@ fn readme_lists_every_crate_once() {
     assert_eq!(sorted, tree, "README's crate table should have one row per crate under crates/");
     // One table: CONTRIBUTING points to it instead of keeping a second.
     let contributing = read(&root.join("CONTRIBUTING.md"));
-    assert!(!row.is_match(&contributing), "CONTRIBUTING.md has a crate table of its own; README's is the one");
+    assert!(
+        !row.is_match(&contributing),
+        "CONTRIBUTING.md has a crate table of its own; README's is the one"
+    );
 }

@@ -30,7 +30,10 @@ fn run_measured(mut cmd: Command) -> (Option<i32>, String, u64, usize) {
     let status = loop {
         // Before try_wait reaps it: a zombie's status has no VmHWM line any more.
         let hwm = std::fs::read_to_string(&status_file).ok().and_then(|s| {
-            s.lines().find_map(|l| l.strip_prefix("VmHWM:").and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok()))
+            s.lines().find_map(|l| {
+                l.strip_prefix("VmHWM:")
+                    .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+            })
         });
         if let Some(kb) = hwm {
             peak_kb = peak_kb.max(kb);
@@ -67,7 +70,10 @@ fn a_2_gb_gzip_bomb_is_refused_within_300_mb_of_memory() {
     assert!(gz_bytes < 10_000_000, "the bomb is {gz_bytes} bytes of gzip");
     let exp = dir.path().join("bomb.toml");
     std::fs::write(&exp, "[experiment]\nname = \"bomb\"\n\n[[dataset]]\nfiles = [\"bomb.tsv.gz\"]\nloader = { type = \"qualisys_tsv\" }\n\n[features]\nextractors = [{ type = \"marker_speed\" }]\n").unwrap();
-    for args in [vec!["run", exp.to_str().unwrap(), "--quiet", "--no-cache", "--reports"], vec!["inspect", bomb.to_str().unwrap()]] {
+    for args in [
+        vec!["run", exp.to_str().unwrap(), "--quiet", "--no-cache", "--reports"],
+        vec!["inspect", bomb.to_str().unwrap()],
+    ] {
         let mut cmd = crate::motionlab_command();
         cmd.args(&args).current_dir(dir.path()).env_remove("MOTIONLAB_MAX_INPUT_MB");
         if args[0] == "run" {
@@ -83,7 +89,13 @@ fn a_2_gb_gzip_bomb_is_refused_within_300_mb_of_memory() {
         );
         assert!(samples >= 3, "{}: too few memory samples ({samples}) to mean anything", args[0]);
         assert_eq!(code, Some(1), "{}: {err}", args[0]);
-        assert!(err.contains("bomb.tsv.gz") && err.contains("more than the input limit of 1024 MiB (set MOTIONLAB_MAX_INPUT_MB"), "{}: {err}", args[0]);
+        assert!(
+            err.contains("bomb.tsv.gz")
+                && err
+                    .contains("more than the input limit of 1024 MiB (set MOTIONLAB_MAX_INPUT_MB"),
+            "{}: {err}",
+            args[0]
+        );
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
         assert!(peak < 300_000_000, "{}: peak resident memory {peak} bytes", args[0]);
     }
@@ -99,7 +111,8 @@ fn annotation_and_experiment_files_are_bounded_and_the_limit_is_configurable() {
         csv.push_str("# a comment line that pads the file beyond the limit\n");
     }
     std::fs::write(dir.path().join("dance1.csv"), &csv).unwrap();
-    std::fs::copy(repo_root().join("data/mct/dance1.tsv.gz"), dir.path().join("dance1.tsv.gz")).unwrap();
+    std::fs::copy(repo_root().join("data/mct/dance1.tsv.gz"), dir.path().join("dance1.tsv.gz"))
+        .unwrap();
     let exp = dir.path().join("truth.toml");
     std::fs::write(
         &exp,
@@ -119,20 +132,32 @@ fn annotation_and_experiment_files_are_bounded_and_the_limit_is_configurable() {
     };
     let (code, err) = run("2");
     assert_eq!(code, Some(1), "{err}");
-    assert!(err.contains("dance1.csv: ") && err.contains(": holds 2200044 bytes, more than the input limit of 2 MiB"), "{err}");
+    assert!(
+        err.contains("dance1.csv: ")
+            && err.contains(": holds 2200044 bytes, more than the input limit of 2 MiB"),
+        "{err}"
+    );
     let (code, err) = run("3");
     assert_eq!(code, Some(0), "{err}");
     let (code, err) = run("lots");
     assert_eq!(code, Some(1), "{err}");
-    assert!(err.contains("MOTIONLAB_MAX_INPUT_MB=\"lots\": expected a positive whole number of MiB"), "{err}");
+    assert!(
+        err.contains("MOTIONLAB_MAX_INPUT_MB=\"lots\": expected a positive whole number of MiB"),
+        "{err}"
+    );
     // An experiment file of 17 MB is refused before it is parsed.
     let huge = dir.path().join("huge.toml");
     let mut text = String::from("[experiment]\nname = \"huge\"\ndescription = \"");
     text.push_str(&"x".repeat(17 << 20));
     text.push_str("\"\n");
     std::fs::write(&huge, text).unwrap();
-    let out = crate::motionlab_command().args(["validate", huge.to_str().unwrap()]).output().unwrap();
+    let out =
+        crate::motionlab_command().args(["validate", huge.to_str().unwrap()]).output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("huge.toml: holds 17825") && err.contains("more than the 16 MiB an experiment file may hold"), "{err}");
+    assert!(
+        err.contains("huge.toml: holds 17825")
+            && err.contains("more than the 16 MiB an experiment file may hold"),
+        "{err}"
+    );
 }

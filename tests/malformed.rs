@@ -56,7 +56,13 @@ enum At<'a> {
 }
 
 /// Asserts kind, file and place of an error, in its location and in its message.
-fn assert_error<T>(result: Result<T>, file: &str, kind: ErrorKind, at: At<'_>, says: &str) -> Error {
+fn assert_error<T>(
+    result: Result<T>,
+    file: &str,
+    kind: ErrorKind,
+    at: At<'_>,
+    says: &str,
+) -> Error {
     let e = match result {
         Ok(_) => panic!("{file}: loaded, expected a {kind:?} error"),
         Err(e) => e,
@@ -65,7 +71,11 @@ fn assert_error<T>(result: Result<T>, file: &str, kind: ErrorKind, at: At<'_>, s
     assert_eq!(e.kind(), kind, "{file}: {text}");
     assert!(!text.contains('\n'), "{file}: multi-line message {text:?}");
     let loc = e.location();
-    assert_eq!(loc.file.as_deref().and_then(Path::file_name).and_then(|f| f.to_str()), Some(file), "{text}");
+    assert_eq!(
+        loc.file.as_deref().and_then(Path::file_name).and_then(|f| f.to_str()),
+        Some(file),
+        "{text}"
+    );
     assert!(text.contains(file), "message does not name {file}: {text}");
     let (line, byte, field) = match at {
         At::Line(l) => (Some(l), None, None),
@@ -100,7 +110,12 @@ fn assert_same_positions(a: &Motion, b: &Motion, tol: f64, what: &str) {
             continue;
         }
         for c in 0..3 {
-            assert!((p[c] - q[c]).abs() <= tol, "{what}: sample {k} axis {c}: {} vs {}", p[c], q[c]);
+            assert!(
+                (p[c] - q[c]).abs() <= tol,
+                "{what}: sample {k} axis {c}: {} vs {}",
+                p[c],
+                q[c]
+            );
         }
     }
 }
@@ -113,16 +128,36 @@ fn assert_same_positions(a: &Motion, b: &Motion, tol: f64, what: &str) {
 fn bvh_defects_name_kind_and_line() {
     let cases: &[(&str, ErrorKind, usize, &str)] = &[
         ("bvh_empty.bvh", ErrorKind::Truncated, 1, "empty file"),
-        ("bvh_header_only.bvh", ErrorKind::Truncated, 188, "file ends after 0 frame lines; MOTION declares Frames: 8"),
+        (
+            "bvh_header_only.bvh",
+            ErrorKind::Truncated,
+            188,
+            "file ends after 0 frame lines; MOTION declares Frames: 8",
+        ),
         ("bvh_zero_frames.bvh", ErrorKind::EmptySequence, 186, "Frames: 0"),
         ("bvh_nan.bvh", ErrorKind::NonFinite, 190, "frame 3: value 5 is \"nan\""),
         ("bvh_inf.bvh", ErrorKind::NonFinite, 189, "frame 2: value 1 is \"inf\""),
         ("bvh_neg_inf.bvh", ErrorKind::NonFinite, 195, "frame 8: value 96 is \"-inf\""),
         ("bvh_frame_time_zero.bvh", ErrorKind::OutOfRange, 187, "Frame Time is 0"),
-        ("bvh_duplicate_joint.bvh", ErrorKind::DuplicateName, 39, "joint \"LeftHip\" is already declared at line 10"),
-        ("bvh_duplicate_channel.bvh", ErrorKind::DuplicateName, 9, "channel Zrotation is listed twice"),
+        (
+            "bvh_duplicate_joint.bvh",
+            ErrorKind::DuplicateName,
+            39,
+            "joint \"LeftHip\" is already declared at line 10",
+        ),
+        (
+            "bvh_duplicate_channel.bvh",
+            ErrorKind::DuplicateName,
+            9,
+            "channel Zrotation is listed twice",
+        ),
         ("bvh_non_utf8.bvh", ErrorKind::Syntax, 191, "invalid UTF-8"),
-        ("bvh_long_line.bvh", ErrorKind::WrongValueCount, 192, "frame 5: found 30096 values, expected 96"),
+        (
+            "bvh_long_line.bvh",
+            ErrorKind::WrongValueCount,
+            192,
+            "frame 5: found 30096 values, expected 96",
+        ),
         // Older hand-written cases (also run through the CLI in tests/cli.rs).
         ("truncated.bvh", ErrorKind::Truncated, 198, "Frames: 994"),
         ("wrong_value_count.bvh", ErrorKind::WrongValueCount, 191, "found 95 values, expected 96"),
@@ -180,13 +215,24 @@ fn parse_asf_fixture(name: &str) -> Result<motionlab_io::asf_amc::AsfSkeleton> {
 /// 1-based line of the `n`-th (1-based) line of `file` that contains `needle`.
 fn line_containing(file: &str, needle: &str, n: usize) -> usize {
     let text = std::fs::read_to_string(fixture(file)).unwrap();
-    text.lines().enumerate().filter(|(_, l)| l.contains(needle)).nth(n - 1).map(|(i, _)| i + 1).unwrap()
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| l.contains(needle))
+        .nth(n - 1)
+        .map(|(i, _)| i + 1)
+        .unwrap()
 }
 
 #[test]
 fn asf_defects_name_kind_and_line() {
     let dup_line = line_containing("asf_duplicate_bone.asf", "name rfemur", 2);
-    assert_error(parse_asf_fixture("asf_duplicate_bone.asf"), "asf_duplicate_bone.asf", ErrorKind::DuplicateName, At::Line(dup_line), "rfemur");
+    assert_error(
+        parse_asf_fixture("asf_duplicate_bone.asf"),
+        "asf_duplicate_bone.asf",
+        ErrorKind::DuplicateName,
+        At::Line(dup_line),
+        "rfemur",
+    );
     let len_line = line_containing("asf_negative_length.asf", "length -0.45", 1);
     assert_error(
         parse_asf_fixture("asf_negative_length.asf"),
@@ -195,7 +241,13 @@ fn asf_defects_name_kind_and_line() {
         At::Line(len_line),
         ":units length is -0.45; expected > 0",
     );
-    assert_error(parse_asf_fixture("asf_empty.asf"), "asf_empty.asf", ErrorKind::Syntax, At::Line(1), "no :root section");
+    assert_error(
+        parse_asf_fixture("asf_empty.asf"),
+        "asf_empty.asf",
+        ErrorKind::Syntax,
+        At::Line(1),
+        "no :root section",
+    );
     // The fixtures' 86.asf is the shipped one with LF line ends: the same skeleton.
     let lf = parse_asf_fixture("86.asf").unwrap();
     let crlf = motionlab_io::asf_amc::parse_asf(
@@ -248,7 +300,13 @@ const C3D_FRAME_BYTES: u64 = 28 * 16;
 
 #[test]
 fn c3d_defects_name_kind_byte_offset_and_parameter() {
-    assert_error(load("c3d", "c3d_empty.c3d"), "c3d_empty.c3d", ErrorKind::Truncated, At::Byte(0), "file is 0 bytes");
+    assert_error(
+        load("c3d", "c3d_empty.c3d"),
+        "c3d_empty.c3d",
+        ErrorKind::Truncated,
+        At::Byte(0),
+        "file is 0 bytes",
+    );
     assert_error(
         load("c3d", "c3d_header_only.c3d"),
         "c3d_header_only.c3d",
@@ -256,7 +314,13 @@ fn c3d_defects_name_kind_byte_offset_and_parameter() {
         At::ByteField(0, "header.parameter_block"),
         "parameter block pointer is 2, but the file is 512 bytes and ends after its header block",
     );
-    assert_error(load("c3d", "c3d_zero_frames.c3d"), "c3d_zero_frames.c3d", ErrorKind::EmptySequence, At::Field("TRIAL:ACTUAL_END_FIELD"), "no frames");
+    assert_error(
+        load("c3d", "c3d_zero_frames.c3d"),
+        "c3d_zero_frames.c3d",
+        ErrorKind::EmptySequence,
+        At::Field("TRIAL:ACTUAL_END_FIELD"),
+        "no frames",
+    );
     assert_error(
         load("c3d", "c3d_truncated.c3d"),
         "c3d_truncated.c3d",
@@ -265,8 +329,20 @@ fn c3d_defects_name_kind_byte_offset_and_parameter() {
         "inside frame 10 of 10",
     );
     // The integer file with its scale factor made negative reads as floats: twice the bytes.
-    assert_error(load("c3d", "c3d_negative_scale.c3d"), "c3d_negative_scale.c3d", ErrorKind::Truncated, At::Byte(C3D_DATA_START + 5 * C3D_FRAME_BYTES), "frames");
-    assert_error(load("c3d", "c3d_zero_scale.c3d"), "c3d_zero_scale.c3d", ErrorKind::OutOfRange, At::Field("POINT:SCALE"), "point scale factor is 0");
+    assert_error(
+        load("c3d", "c3d_negative_scale.c3d"),
+        "c3d_negative_scale.c3d",
+        ErrorKind::Truncated,
+        At::Byte(C3D_DATA_START + 5 * C3D_FRAME_BYTES),
+        "frames",
+    );
+    assert_error(
+        load("c3d", "c3d_zero_scale.c3d"),
+        "c3d_zero_scale.c3d",
+        ErrorKind::OutOfRange,
+        At::Field("POINT:SCALE"),
+        "point scale factor is 0",
+    );
     // A repeated label is read (renamed, below) unless the reading is strict.
     assert_error(
         load_with("c3d", "strict = true", "c3d_duplicate_label.c3d"),
@@ -299,7 +375,13 @@ fn c3d_defects_name_kind_byte_offset_and_parameter() {
         At::ByteField(C3D_DATA_START + 3 * C3D_FRAME_BYTES + 2 * 16 + 4, "Head_BL"),
         "frame 4 marker \"Head_BL\": Y is inf",
     );
-    assert_error(load("c3d", "corrupt_header.c3d"), "corrupt_header.c3d", ErrorKind::Syntax, At::Byte(1), "expected 0x50");
+    assert_error(
+        load("c3d", "corrupt_header.c3d"),
+        "corrupt_header.c3d",
+        ErrorKind::Syntax,
+        At::Byte(1),
+        "expected 0x50",
+    );
 }
 
 #[test]
@@ -331,14 +413,22 @@ fn c3d_repairs_read_the_real_positions_and_say_so() {
     let dup = load_ok("c3d", "c3d_duplicate_label.c3d");
     assert_eq!(&dup.point_names()[..3], ["Head_FL", "Head_FL#2", "Head_BL"]);
     assert_eq!(dup.positions(), float.positions());
-    assert_eq!(dup.load_notes.repairs, [r#"duplicate point labels made unique: "Head_FL" (points 1, 2) → Head_FL, Head_FL#2"#]);
+    assert_eq!(
+        dup.load_notes.repairs,
+        [r#"duplicate point labels made unique: "Head_FL" (points 1, 2) → Head_FL, Head_FL#2"#]
+    );
     // Four analog words the header does not count: read with the parameters' stride, every
     // frame is the float file's (read with the header's, frame 2 would start in frame 1's
     // analog words).
     let stride = load_ok("c3d", "c3d_parameters_account_fits.c3d");
     assert_eq!(stride.positions(), float.positions());
     assert_eq!(stride.load_notes.repairs.len(), 1);
-    assert!(stride.load_notes.repairs[0].ends_with("the parameters' account fits the file (7712 bytes) and is used"), "{:?}", stride.load_notes);
+    assert!(
+        stride.load_notes.repairs[0]
+            .ends_with("the parameters' account fits the file (7712 bytes) and is used"),
+        "{:?}",
+        stride.load_notes
+    );
 }
 
 #[test]
@@ -349,7 +439,9 @@ fn c3d_missing_marker_nan_coordinate_and_events_outside_the_frames() {
     let m = load_ok("c3d", "c3d_marker_missing_every_frame.c3d");
     let spine = m.point_index("Spine").unwrap();
     assert_eq!(m.missing_count(), 10);
-    assert!((0..10).all(|f| m.is_missing(f, spine) && m.position(f, spine).iter().all(|c| c.is_nan())));
+    assert!(
+        (0..10).all(|f| m.is_missing(f, spine) && m.position(f, spine).iter().all(|c| c.is_nan()))
+    );
     // A NaN coordinate with a valid residual: that one sample is missing, nothing else changes.
     let n = load_ok("c3d", "c3d_nan.c3d");
     assert_eq!(n.missing_count(), 1);
@@ -366,7 +458,11 @@ fn c3d_missing_marker_nan_coordinate_and_events_outside_the_frames() {
         assert_eq!((&c.label, c.time, c.frame), (&f.label, f.time, f.frame));
     }
     let outside = cut.events.iter().filter(|e| e.frame >= 10.0).count();
-    assert!(outside >= 4 && outside < cut.events.len(), "{outside} of {} events after the cut", cut.events.len());
+    assert!(
+        outside >= 4 && outside < cut.events.len(),
+        "{outside} of {} events after the cut",
+        cut.events.len()
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -381,9 +477,21 @@ fn tsv_defects_name_kind_line_and_column() {
         ("tsv_zero_frames.tsv", ErrorKind::EmptySequence, 11, None, "no data rows"),
         ("tsv_inf.tsv", ErrorKind::NonFinite, 14, Some("Head_FR Y"), "\"inf\""),
         ("tsv_neg_inf.tsv", ErrorKind::NonFinite, 20, Some("BigToe_R Z"), "\"-Infinity\""),
-        ("tsv_duplicate_marker.tsv", ErrorKind::DuplicateName, 10, Some("Spine"), "named twice (columns 8 and 9)"),
+        (
+            "tsv_duplicate_marker.tsv",
+            ErrorKind::DuplicateName,
+            10,
+            Some("Spine"),
+            "named twice (columns 8 and 9)",
+        ),
         ("tsv_non_utf8.tsv", ErrorKind::Syntax, 15, None, "invalid UTF-8"),
-        ("tsv_long_line.tsv", ErrorKind::WrongValueCount, 17, None, "found 30084 values, expected 3 × 28 markers = 84"),
+        (
+            "tsv_long_line.tsv",
+            ErrorKind::WrongValueCount,
+            17,
+            None,
+            "found 30084 values, expected 3 × 28 markers = 84",
+        ),
         ("short_row.tsv", ErrorKind::WrongValueCount, 13, None, "expected 3 × 28 markers = 84"),
     ];
     for (file, kind, line, field, says) in cases {
@@ -428,7 +536,9 @@ fn tsv_quirks_load_as_documented() {
 // ---------------------------------------------------------------------------------------------
 
 fn read_labels(reader: &str, file: &str, motion: &Motion) -> Result<motionlab_core::Segmentation> {
-    registry::build_ground_truth(reader, &toml::Value::Table(toml::Table::new())).unwrap().read(&fixture(file), motion)
+    registry::build_ground_truth(reader, &toml::Value::Table(toml::Table::new()))
+        .unwrap()
+        .read(&fixture(file), motion)
 }
 
 fn motion_named(name: &str, n_frames: usize) -> Motion {
@@ -440,12 +550,42 @@ fn motion_named(name: &str, n_frames: usize) -> Motion {
 #[test]
 fn label_defects_name_kind_and_line() {
     let m86 = motion_named("86_01", 4579);
-    assert_error(read_labels("cmu86_labels", "cmu86_beyond_motion.txt", &m86), "cmu86_beyond_motion.txt", ErrorKind::OutOfRange, At::Line(8), "labelled up to frame 99999");
-    assert_error(read_labels("cmu86_labels", "cmu86_zero_frame.txt", &m86), "cmu86_zero_frame.txt", ErrorKind::Syntax, At::Line(3), "expected a frame number ≥ 1");
-    assert_error(read_labels("cmu86_labels", "cmu86_duplicate_trial.txt", &m86), "cmu86_duplicate_trial.txt", ErrorKind::DuplicateName, At::Line(10), "trial 86 01 is listed twice");
+    assert_error(
+        read_labels("cmu86_labels", "cmu86_beyond_motion.txt", &m86),
+        "cmu86_beyond_motion.txt",
+        ErrorKind::OutOfRange,
+        At::Line(8),
+        "labelled up to frame 99999",
+    );
+    assert_error(
+        read_labels("cmu86_labels", "cmu86_zero_frame.txt", &m86),
+        "cmu86_zero_frame.txt",
+        ErrorKind::Syntax,
+        At::Line(3),
+        "expected a frame number ≥ 1",
+    );
+    assert_error(
+        read_labels("cmu86_labels", "cmu86_duplicate_trial.txt", &m86),
+        "cmu86_duplicate_trial.txt",
+        ErrorKind::DuplicateName,
+        At::Line(10),
+        "trial 86 01 is listed twice",
+    );
     let m13 = motion_named("13_29", 3000);
-    assert_error(read_labels("mocap6_labels", "mocap6_label_13.txt", &m13), "mocap6_label_13.txt", ErrorKind::OutOfRange, At::Line(1), "label 5 is \"13\"");
-    assert_error(read_labels("mocap6_labels", "mocap6_label_text.txt", &m13), "mocap6_label_text.txt", ErrorKind::Syntax, At::Line(1), "label 4 is \"jog\"");
+    assert_error(
+        read_labels("mocap6_labels", "mocap6_label_13.txt", &m13),
+        "mocap6_label_13.txt",
+        ErrorKind::OutOfRange,
+        At::Line(1),
+        "label 5 is \"13\"",
+    );
+    assert_error(
+        read_labels("mocap6_labels", "mocap6_label_text.txt", &m13),
+        "mocap6_label_text.txt",
+        ErrorKind::Syntax,
+        At::Line(1),
+        "label 4 is \"jog\"",
+    );
 }
 
 /// The users' annotation readers (`boundaries_csv`, `elan_eaf`) on fixtures made from 86_01's
@@ -456,13 +596,48 @@ fn annotation_defects_name_kind_line_and_column() {
     let mut m86 = motion_named("86_01", 4579);
     m86.source = Some(motionlab_testkit::data_path("cmu86/86_01.amc.gz"));
     let csv: &[(&str, ErrorKind, At<'_>, &str)] = &[
-        ("csv_no_rows_for_sequence.csv", ErrorKind::EmptySequence, At::LineField(2, "sequence"), "no row for sequence \"86_01\""),
-        ("csv_unknown_sequence.csv", ErrorKind::UnknownName, At::LineField(6, "sequence"), "sequence \"86_99\" names no loaded sequence"),
-        ("csv_non_numeric.csv", ErrorKind::Syntax, At::LineField(5, "end_frame"), "\"1979f\" is not a number"),
-        ("csv_start_after_end.csv", ErrorKind::OutOfRange, At::LineField(4, "end_frame"), "ends at 549, before its start 1149"),
-        ("csv_mixed_formats.csv", ErrorKind::InvalidParameter, At::LineField(2, "start_frame"), "mixed formats: columns frame, start_frame, end_frame"),
-        ("csv_missing_end_column.csv", ErrorKind::MissingKey, At::LineField(2, "end_frame"), "\"start_frame\" needs \"end_frame\""),
-        ("csv_past_end.csv", ErrorKind::OutOfRange, At::LineField(9, "end_frame"), "9579 is motion frame 9579, outside the motion's frames 0..=4579"),
+        (
+            "csv_no_rows_for_sequence.csv",
+            ErrorKind::EmptySequence,
+            At::LineField(2, "sequence"),
+            "no row for sequence \"86_01\"",
+        ),
+        (
+            "csv_unknown_sequence.csv",
+            ErrorKind::UnknownName,
+            At::LineField(6, "sequence"),
+            "sequence \"86_99\" names no loaded sequence",
+        ),
+        (
+            "csv_non_numeric.csv",
+            ErrorKind::Syntax,
+            At::LineField(5, "end_frame"),
+            "\"1979f\" is not a number",
+        ),
+        (
+            "csv_start_after_end.csv",
+            ErrorKind::OutOfRange,
+            At::LineField(4, "end_frame"),
+            "ends at 549, before its start 1149",
+        ),
+        (
+            "csv_mixed_formats.csv",
+            ErrorKind::InvalidParameter,
+            At::LineField(2, "start_frame"),
+            "mixed formats: columns frame, start_frame, end_frame",
+        ),
+        (
+            "csv_missing_end_column.csv",
+            ErrorKind::MissingKey,
+            At::LineField(2, "end_frame"),
+            "\"start_frame\" needs \"end_frame\"",
+        ),
+        (
+            "csv_past_end.csv",
+            ErrorKind::OutOfRange,
+            At::LineField(9, "end_frame"),
+            "9579 is motion frame 9579, outside the motion's frames 0..=4579",
+        ),
     ];
     for (file, kind, at, says) in csv {
         let at = match at {
@@ -472,11 +647,41 @@ fn annotation_defects_name_kind_line_and_column() {
         assert_error(read_labels("boundaries_csv", file, &m86), file, *kind, at, says);
     }
     let eaf: &[(&str, ErrorKind, usize, Option<&str>, &str)] = &[
-        ("eaf_unaligned_slot.eaf", ErrorKind::MissingData, 27, Some("TIME_SLOT_REF2"), "time slot \"ts4\" (line 9) has no TIME_VALUE"),
-        ("eaf_undeclared_slot.eaf", ErrorKind::UnknownName, 32, Some("TIME_SLOT_REF2"), "time slot \"ts50\" is not declared"),
-        ("eaf_end_before_start.eaf", ErrorKind::OutOfRange, 22, Some("TIME_SLOT_REF2"), "ends at 4000, before its start 4575"),
-        ("eaf_time_text.eaf", ErrorKind::Syntax, 10, Some("TIME_VALUE"), "\"20.8s\" is not a number"),
-        ("eaf_truncated.eaf", ErrorKind::Syntax, 50, None, "the root node was opened but never closed"),
+        (
+            "eaf_unaligned_slot.eaf",
+            ErrorKind::MissingData,
+            27,
+            Some("TIME_SLOT_REF2"),
+            "time slot \"ts4\" (line 9) has no TIME_VALUE",
+        ),
+        (
+            "eaf_undeclared_slot.eaf",
+            ErrorKind::UnknownName,
+            32,
+            Some("TIME_SLOT_REF2"),
+            "time slot \"ts50\" is not declared",
+        ),
+        (
+            "eaf_end_before_start.eaf",
+            ErrorKind::OutOfRange,
+            22,
+            Some("TIME_SLOT_REF2"),
+            "ends at 4000, before its start 4575",
+        ),
+        (
+            "eaf_time_text.eaf",
+            ErrorKind::Syntax,
+            10,
+            Some("TIME_VALUE"),
+            "\"20.8s\" is not a number",
+        ),
+        (
+            "eaf_truncated.eaf",
+            ErrorKind::Syntax,
+            50,
+            None,
+            "the root node was opened but never closed",
+        ),
     ];
     for (file, kind, line, field, says) in eaf {
         let at = match field {
@@ -489,9 +694,14 @@ fn annotation_defects_name_kind_line_and_column() {
     let dir = motionlab_testkit::repo_root().join("tests/fixtures/annotations");
     let empty = toml::Value::Table(toml::Table::new());
     let with = |params: &str| -> toml::Value { toml::from_str(params).unwrap() };
-    let from_csv = registry::build_ground_truth("boundaries_csv", &with("check_sequences = false")).unwrap()
-        .read(&dir.join("cmu86_mocap6_segments.csv"), &m86).unwrap();
-    let from_eaf = registry::build_ground_truth("elan_eaf", &empty).unwrap().read(&dir.join("86_01.eaf"), &m86).unwrap();
+    let from_csv = registry::build_ground_truth("boundaries_csv", &with("check_sequences = false"))
+        .unwrap()
+        .read(&dir.join("cmu86_mocap6_segments.csv"), &m86)
+        .unwrap();
+    let from_eaf = registry::build_ground_truth("elan_eaf", &empty)
+        .unwrap()
+        .read(&dir.join("86_01.eaf"), &m86)
+        .unwrap();
     assert_eq!(from_csv.frames(), vec![549, 1149, 1979, 2499, 3199, 4064]);
     assert_eq!(from_eaf.frames(), from_csv.frames());
 }
@@ -504,25 +714,97 @@ fn annotation_defects_name_kind_line_and_column() {
 fn experiment_defects_name_kind_key_path_and_line() {
     let cases: &[(&str, ErrorKind, usize, Option<&str>, &str)] = &[
         ("toml_syntax_error.toml", ErrorKind::Syntax, 4, None, "unclosed array table"),
-        ("toml_wrong_type_tolerance.toml", ErrorKind::WrongType, 15, Some("evaluate[0].tolerance"), "expected `frames` or `seconds`"),
-        ("toml_negative_tolerance.toml", ErrorKind::OutOfRange, 15, Some("evaluate[0].tolerance"), "must be a finite time span >= 0, found -0.5 s"),
-        ("toml_lag_zero.toml", ErrorKind::OutOfRange, 12, Some("segmentation.segmenter[0].lag"), "must be a finite time span > 0, found 0 frames"),
-        ("toml_missing_files.toml", ErrorKind::MissingKey, 4, Some("dataset[0]"), "missing field `files`"),
+        (
+            "toml_wrong_type_tolerance.toml",
+            ErrorKind::WrongType,
+            15,
+            Some("evaluate[0].tolerance"),
+            "expected `frames` or `seconds`",
+        ),
+        (
+            "toml_negative_tolerance.toml",
+            ErrorKind::OutOfRange,
+            15,
+            Some("evaluate[0].tolerance"),
+            "must be a finite time span >= 0, found -0.5 s",
+        ),
+        (
+            "toml_lag_zero.toml",
+            ErrorKind::OutOfRange,
+            12,
+            Some("segmentation.segmenter[0].lag"),
+            "must be a finite time span > 0, found 0 frames",
+        ),
+        (
+            "toml_missing_files.toml",
+            ErrorKind::MissingKey,
+            4,
+            Some("dataset[0]"),
+            "missing field `files`",
+        ),
         ("toml_bad_name.toml", ErrorKind::OutOfRange, 2, Some("experiment.name"), "\"two words\""),
-        ("toml_sweep_too_large.toml", ErrorKind::OutOfRange, 13, Some("sweep"), "the sweep has 200000 combinations; expected at most 10000"),
-        ("toml_fill_gaps_negative.toml", ErrorKind::OutOfRange, 7, Some("dataset[0].preprocess[0].max_gap"), "-3"),
-        ("unknown_key.toml", ErrorKind::UnknownKey, 7, Some("dataset[0].frame_rate"), "unknown field `frame_rate`"),
-        ("unknown_section.toml", ErrorKind::UnknownKey, 9, Some("segmentaton"), "unknown section `segmentaton`: expected a workflow section ([benchmark], [features], [gait], [matching], [retrieval], [segmentation]) or one of experiment, dataset, preprocess, evaluate, sweep, published; did you mean `segmentation`?"),
-        ("unknown_param.toml", ErrorKind::UnknownKey, 9, Some("features.extractors[0].per_markers"), "unknown field `per_markers`"),
-        ("unknown_plugin.toml", ErrorKind::UnknownPlugin, 10, Some("segmentation.segmenter[0].type"), "fastest_marker_sped"),
-        ("wrong_type.toml", ErrorKind::WrongType, 11, Some("segmentation.segmenter[0].v_low"), "expected `mm_per_s` or `fraction_of_p90`"),
+        (
+            "toml_sweep_too_large.toml",
+            ErrorKind::OutOfRange,
+            13,
+            Some("sweep"),
+            "the sweep has 200000 combinations; expected at most 10000",
+        ),
+        (
+            "toml_fill_gaps_negative.toml",
+            ErrorKind::OutOfRange,
+            7,
+            Some("dataset[0].preprocess[0].max_gap"),
+            "-3",
+        ),
+        (
+            "unknown_key.toml",
+            ErrorKind::UnknownKey,
+            7,
+            Some("dataset[0].frame_rate"),
+            "unknown field `frame_rate`",
+        ),
+        (
+            "unknown_section.toml",
+            ErrorKind::UnknownKey,
+            9,
+            Some("segmentaton"),
+            "unknown section `segmentaton`: expected a workflow section ([benchmark], [features], [gait], [matching], [retrieval], [segmentation]) or one of experiment, dataset, preprocess, evaluate, sweep, published; did you mean `segmentation`?",
+        ),
+        (
+            "unknown_param.toml",
+            ErrorKind::UnknownKey,
+            9,
+            Some("features.extractors[0].per_markers"),
+            "unknown field `per_markers`",
+        ),
+        (
+            "unknown_plugin.toml",
+            ErrorKind::UnknownPlugin,
+            10,
+            Some("segmentation.segmenter[0].type"),
+            "fastest_marker_sped",
+        ),
+        (
+            "wrong_type.toml",
+            ErrorKind::WrongType,
+            11,
+            Some("segmentation.segmenter[0].v_low"),
+            "expected `mm_per_s` or `fraction_of_p90`",
+        ),
     ];
     for (file, kind, line, field, says) in cases {
         let at = match field {
             Some(f) => At::LineField(*line, f),
             None => At::Line(*line),
         };
-        assert_error(motionlab_engine::plan(&fixture(file), &[]).map(|_| ()), file, *kind, at, says);
+        assert_error(
+            motionlab_engine::plan(&fixture(file), &[]).map(|_| ()),
+            file,
+            *kind,
+            at,
+            says,
+        );
     }
 }
 
@@ -538,11 +820,20 @@ fn fuzz_fixture(name: &str) -> PathBuf {
 fn fuzz_finding_a_malformed_sweep_key_is_located_at_the_sweep() {
     // experiment_toml: a grid key that is no key path (`"et["`) was reported without file or line.
     let file = "experiment_sweep_bad_key.toml";
-    assert_error(motionlab_engine::plan(&fuzz_fixture(file), &[]).map(|_| ()), file, ErrorKind::Syntax, At::LineField(9, "sweep"), "bad key path \"et[\": unclosed [");
+    assert_error(
+        motionlab_engine::plan(&fuzz_fixture(file), &[]).map(|_| ()),
+        file,
+        ErrorKind::Syntax,
+        At::LineField(9, "sweep"),
+        "bad key path \"et[\": unclosed [",
+    );
     // The same class through overrides: a bad override names the experiment file (it is not
     // written in the file, so there is no line) and, when it cannot be set, its key path.
     let quickstart = motionlab_testkit::repo_root().join("experiments/quickstart.toml");
-    for (o, kind, field) in [("et[=1", ErrorKind::Syntax, None), ("experiment.name[0]=1", ErrorKind::UnknownKey, Some("experiment.name[0]"))] {
+    for (o, kind, field) in [
+        ("et[=1", ErrorKind::Syntax, None),
+        ("experiment.name[0]=1", ErrorKind::UnknownKey, Some("experiment.name[0]")),
+    ] {
         let e = motionlab_engine::plan(&quickstart, &[o.to_string()]).map(|_| ()).unwrap_err();
         assert_eq!(e.kind(), kind, "{o}: {e}");
         assert_eq!(e.location().file.as_deref(), Some(quickstart.as_path()), "{o}: {e}");
@@ -562,7 +853,8 @@ fn the_corpus_has_at_least_thirty_cases_and_make_py_lists_them_all() {
     assert!(fixtures.len() >= 30, "{} fixtures", fixtures.len());
     // Every fixture is named in this file, so none sits there untested.
     let this = include_str!("malformed.rs");
-    let untested: Vec<&String> = fixtures.iter().filter(|f| *f != "86.asf" && !this.contains(&format!("\"{f}\""))).collect();
+    let untested: Vec<&String> =
+        fixtures.iter().filter(|f| *f != "86.asf" && !this.contains(&format!("\"{f}\""))).collect();
     assert!(untested.is_empty(), "fixtures no test names: {untested:?}");
     let fuzz_dir = motionlab_testkit::repo_root().join("tests/fixtures/fuzz");
     for e in std::fs::read_dir(&fuzz_dir).unwrap() {

@@ -19,7 +19,13 @@ fn ok(c: &mut Command) -> String {
 
 /// Runs an experiment into `reports`; returns the run directory.
 fn run(experiment: &str, reports: &Path) -> PathBuf {
-    let out = ok(motionlab().args(["run", experiment, "--quiet", "--reports", reports.to_str().unwrap()]));
+    let out = ok(motionlab().args([
+        "run",
+        experiment,
+        "--quiet",
+        "--reports",
+        reports.to_str().unwrap(),
+    ]));
     PathBuf::from(out.split(": ").next().unwrap())
 }
 
@@ -46,7 +52,10 @@ fn split_csv(line: &str) -> Vec<String> {
 }
 
 fn col(header: &[String], name: &str) -> usize {
-    header.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name:?} in {header:?}"))
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name:?} in {header:?}"))
 }
 
 #[test]
@@ -58,7 +67,8 @@ fn the_timing_experiment_writes_its_tables_figures_and_verdict() {
     assert_eq!(rows.len(), 12, "{rows:?}");
     let (sweep, group) = (col(&h, "sweep"), col(&h, "group"));
     for s in ["model_same_take", "model_other_take"] {
-        let groups: Vec<&str> = rows.iter().filter(|r| r[sweep] == s).map(|r| r[group].as_str()).collect();
+        let groups: Vec<&str> =
+            rows.iter().filter(|r| r[sweep] == s).map(|r| r[group].as_str()).collect();
         assert_eq!(groups, ["a", "a", "b", "b", "c", "c"], "{s}");
     }
     let (h, rows) = csv(&run, "judgement");
@@ -75,14 +85,19 @@ fn the_timing_experiment_writes_its_tables_figures_and_verdict() {
     assert_eq!(starts, ["0", "270", "0", "270", "2960", "500"]);
     for r in &rows[..4] {
         let len = r[b].parse::<i64>().unwrap() - r[a].parse::<i64>().unwrap() + 1;
-        assert!((110..=150).contains(&len), "{} matched over {len} frames", r[col(&h, "repetition")]);
+        assert!(
+            (110..=150).contains(&len),
+            "{} matched over {len} frames",
+            r[col(&h, "repetition")]
+        );
     }
     // The workflow's own H', R' and score (timing_ranks) equal the judgement evaluator's,
     // computed independently in motionlab-match.
     let (hr, ranks) = csv(&run, "timing_ranks");
     for c in ["H_norm", "R_norm", "score"] {
         for (x, y) in ranks.iter().zip(&rows_judgement(&run)) {
-            let (p, q): (f64, f64) = (x[col(&hr, c)].parse().unwrap(), y.1[col(&y.0, c)].parse().unwrap());
+            let (p, q): (f64, f64) =
+                (x[col(&hr, c)].parse().unwrap(), y.1[col(&y.0, c)].parse().unwrap());
             assert!((p - q).abs() <= 1e-12 * p.abs().max(1.0), "{c}: {p} vs {q}");
         }
     }
@@ -92,8 +107,11 @@ fn the_timing_experiment_writes_its_tables_figures_and_verdict() {
     let (check, held) = (col(&h, "check"), col(&h, "held"));
     // With the model from the same take (the paper's setting) every check holds on this data:
     // a 0.1 s late arm raises R over its original, and the score ranks an (a) first.
-    let same: Vec<(&str, &str)> =
-        rows.iter().filter(|r| r[sweep] == "model_same_take").map(|r| (r[check].as_str(), r[held].as_str())).collect();
+    let same: Vec<(&str, &str)> = rows
+        .iter()
+        .filter(|r| r[sweep] == "model_same_take")
+        .map(|r| (r[check].as_str(), r[held].as_str()))
+        .collect();
     assert_eq!(same.len(), 6);
     assert!(same.iter().all(|(_, h)| *h == "true"), "{same:?}");
     assert!(rows.iter().all(|r| r[held] == "true" || r[held] == "false"));
@@ -113,12 +131,22 @@ fn the_timing_experiment_writes_its_tables_figures_and_verdict() {
     for (r, k) in reps[..6].iter().zip(&ranks[..6]) {
         let label = &r[col(&h, "repetition")];
         let title = format!("jumping jacks (a)(b)(c) — {label} — matching");
-        let (name, page) = pages.iter().find(|p| p.1["title"] == title).unwrap_or_else(|| panic!("no viewer titled {title:?}"));
+        let (name, page) = pages
+            .iter()
+            .find(|p| p.1["title"] == title)
+            .unwrap_or_else(|| panic!("no viewer titled {title:?}"));
         assert!(name.starts_with("jumping_jacks_a_b_c_"), "{name}");
         let lane = motionlab_testkit::viewer_lane(page, "matched [a, b]");
         let iv = &lane["intervals"][0];
-        let frame = |c: &str| r[col(&h, c)].parse::<u64>().unwrap() - r[col(&h, "window_start_frame")].parse::<u64>().unwrap();
-        assert_eq!((iv[0].as_u64().unwrap(), iv[1].as_u64().unwrap()), (frame("a_frame"), frame("b_frame")), "{label}");
+        let frame = |c: &str| {
+            r[col(&h, c)].parse::<u64>().unwrap()
+                - r[col(&h, "window_start_frame")].parse::<u64>().unwrap()
+        };
+        assert_eq!(
+            (iv[0].as_u64().unwrap(), iv[1].as_u64().unwrap()),
+            (frame("a_frame"), frame("b_frame")),
+            "{label}"
+        );
         let rank = format!("rank {} of 6", k[col(&hr, "rank_score")]);
         assert!(iv[2].as_str().unwrap().contains(&rank), "{label}: {} lacks {rank}", iv[2]);
     }
@@ -145,8 +173,12 @@ fn per_part_tables_name_the_points_the_matcher_compared_in_its_order() {
     ]));
     let run = PathBuf::from(out.split(": ").next().unwrap());
     let (h, rows) = csv(&run, "tendency_parts");
-    let parts: Vec<(&str, &str)> = rows.iter().map(|r| (r[col(&h, "take")].as_str(), r[col(&h, "point")].as_str())).collect();
-    assert_eq!(parts, [("13_29", "rfoot"), ("13_29", "lhand"), ("13_31", "rfoot"), ("13_31", "lhand")]);
+    let parts: Vec<(&str, &str)> =
+        rows.iter().map(|r| (r[col(&h, "take")].as_str(), r[col(&h, "point")].as_str())).collect();
+    assert_eq!(
+        parts,
+        [("13_29", "rfoot"), ("13_29", "lhand"), ("13_31", "rfoot"), ("13_31", "lhand")]
+    );
 }
 
 #[test]
@@ -156,11 +188,21 @@ fn a_sharded_exercises_run_merges_to_the_plain_run() {
     let plain = run(exp, &tmp.path().join("reports"));
     let sharded = tmp.path().join("sharded");
     for i in [1, 0] {
-        ok(motionlab().args(["run", exp, "--quiet", "--shard", &format!("{i}/2"), "--run-dir", sharded.to_str().unwrap()]));
+        ok(motionlab().args([
+            "run",
+            exp,
+            "--quiet",
+            "--shard",
+            &format!("{i}/2"),
+            "--run-dir",
+            sharded.to_str().unwrap(),
+        ]));
     }
     ok(motionlab().args(["merge", "--quiet", sharded.to_str().unwrap()]));
     for t in ["repetitions", "judgement", "tendency_parts", "tendency_sections"] {
-        let read = |run: &Path| std::fs::read_to_string(run.join("tables").join(format!("{t}.csv"))).unwrap();
+        let read = |run: &Path| {
+            std::fs::read_to_string(run.join("tables").join(format!("{t}.csv"))).unwrap()
+        };
         assert_eq!(read(&plain), read(&sharded), "{t}");
     }
     // The continuous takes: 3 jacks in 13_29, 2 in 13_31, each from two velocity peaks.
@@ -176,40 +218,86 @@ fn a_sharded_exercises_run_merges_to_the_plain_run() {
     let pages = motionlab_testkit::viewer_pages(&plain);
     let names: Vec<&str> = pages.iter().map(|p| p.0.as_str()).collect();
     assert_eq!(names, ["13_29.html", "13_31.html", "model.html"]);
-    assert_eq!(pages, motionlab_testkit::viewer_pages(&sharded), "merged viewers must equal the plain run's");
+    assert_eq!(
+        pages,
+        motionlab_testkit::viewer_pages(&sharded),
+        "merged viewers must equal the plain run's"
+    );
     for (page, cut) in [(&pages[0].1, 0), (&pages[1].1, 2749)] {
         let take = page["title"].as_str().unwrap().split(' ').next().unwrap().to_string();
         let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[col(&h, "take")] == take).collect();
-        let stretches = motionlab_testkit::viewer_lane(page, "matched [a, b]")["intervals"].as_array().unwrap().clone();
+        let stretches = motionlab_testkit::viewer_lane(page, "matched [a, b]")["intervals"]
+            .as_array()
+            .unwrap()
+            .clone();
         assert_eq!(stretches.len(), mine.len(), "{take}");
         for (iv, r) in stretches.iter().zip(&mine) {
             let frame = |c: &str| r[col(&h, c)].parse::<u64>().unwrap() - cut;
-            assert_eq!((iv[0].as_u64().unwrap(), iv[1].as_u64().unwrap()), (frame("a_frame"), frame("b_frame")), "{take}");
+            assert_eq!(
+                (iv[0].as_u64().unwrap(), iv[1].as_u64().unwrap()),
+                (frame("a_frame"), frame("b_frame")),
+                "{take}"
+            );
             let h_mm: f64 = r[col(&h, "H_mm")].parse().unwrap();
             let label = iv[2].as_str().unwrap();
-            assert!(label.starts_with(&r[col(&h, "repetition")]) && label.contains(&format!("H {} mm", motionlab_core::table::fmt_num(h_mm))), "{label} vs H {h_mm}");
+            assert!(
+                label.starts_with(&r[col(&h, "repetition")])
+                    && label.contains(&format!("H {} mm", motionlab_core::table::fmt_num(h_mm))),
+                "{label} vs H {h_mm}"
+            );
         }
-        let peaks = motionlab_testkit::viewer_lane(page, "velocity peaks")["marks"].as_array().unwrap().len();
+        let peaks = motionlab_testkit::viewer_lane(page, "velocity peaks")["marks"]
+            .as_array()
+            .unwrap()
+            .len();
         assert_eq!(peaks, 2 * mine.len(), "{take}");
         let velocity = motionlab_testkit::viewer_lane(page, "velocity function");
-        assert_eq!(velocity["thresholds"].as_array().unwrap().len(), 1, "the detector's threshold is drawn");
+        assert_eq!(
+            velocity["thresholds"].as_array().unwrap().len(),
+            1,
+            "the detector's threshold is drawn"
+        );
     }
 }
 
 #[test]
 fn a_bad_matching_key_fails_validation_with_one_located_line() {
-    let out = motionlab().args(["validate", "experiments/yabe_timing.toml", "matching.model=(a) jack 2"]).output().unwrap();
+    let out = motionlab()
+        .args(["validate", "experiments/yabe_timing.toml", "matching.model=(a) jack 2"])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     let err = err.trim();
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("yabe_timing.toml") && err.contains("matching.model") && err.contains("no dataset named \"(a) jack 2\""), "{err}");
-    let out = motionlab().args(["validate", "experiments/yabe_exercises.toml", "matching.peaks_per_repetition=0"]).output().unwrap();
+    assert!(
+        err.contains("yabe_timing.toml")
+            && err.contains("matching.model")
+            && err.contains("no dataset named \"(a) jack 2\""),
+        "{err}"
+    );
+    let out = motionlab()
+        .args(["validate", "experiments/yabe_exercises.toml", "matching.peaks_per_repetition=0"])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("matching.peaks_per_repetition") && err.contains("at least one"), "{err}");
     // A figure name is checked when the file is validated (a typo would otherwise draw nothing).
-    let out = motionlab().args(["validate", "experiments/yabe_exercises.toml", r#"matching.figures=["velocity", "pathz"]"#]).output().unwrap();
+    let out = motionlab()
+        .args([
+            "validate",
+            "experiments/yabe_exercises.toml",
+            r#"matching.figures=["velocity", "pathz"]"#,
+        ])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("matching.figures[1]") && err.contains("unknown variant `pathz`, expected one of `velocity`, `paths`, `scatter`"), "{err}");
+    assert!(
+        err.contains("matching.figures[1]")
+            && err.contains(
+                "unknown variant `pathz`, expected one of `velocity`, `paths`, `scatter`"
+            ),
+        "{err}"
+    );
 }

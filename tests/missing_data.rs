@@ -9,7 +9,10 @@
 //! Stages are built through the plugin registry with TOML parameters, as an experiment does.
 
 use motionlab_core::registry;
-use motionlab_core::{EvalInput, ErrorKind, FeatureCache, FeatureSet, MethodCandidates, Motion, Result, SegmenterOutput};
+use motionlab_core::{
+    ErrorKind, EvalInput, FeatureCache, FeatureSet, MethodCandidates, Motion, Result,
+    SegmenterOutput,
+};
 use motionlab_features::{AngleCurves, GaitCycle};
 use motionlab_gait::{GaitStudy, GaitTrial, WalkChanges};
 
@@ -29,7 +32,10 @@ fn params(text: &str) -> toml::Value {
 }
 
 fn load(loader: &str, relative: &str) -> Motion {
-    registry::build_loader(loader, &params("")).unwrap().load(&motionlab_testkit::data_path(relative)).unwrap()
+    registry::build_loader(loader, &params(""))
+        .unwrap()
+        .load(&motionlab_testkit::data_path(relative))
+        .unwrap()
 }
 
 fn walk1() -> Motion {
@@ -72,8 +78,12 @@ fn preprocess(name: &str, p: &str, m: Motion) -> Result<Motion> {
 /// dance1 variants get a `root` marker: the centroid of the four hip markers, missing wherever
 /// any of them is (`add_centroid`'s default), so root-based stages see the Hip_FL gap.
 fn with_root(m: Motion) -> Motion {
-    preprocess("add_centroid", r#"name = "root"
-markers = ["Hip_FL", "Hip_FR", "Hip_BL", "Hip_BR"]"#, m)
+    preprocess(
+        "add_centroid",
+        r#"name = "root"
+markers = ["Hip_FL", "Hip_FR", "Hip_BL", "Hip_BR"]"#,
+        m,
+    )
     .unwrap()
 }
 
@@ -104,7 +114,10 @@ fn assert_refused<T>(r: Result<T>, marker: &str, first_frame: usize, stage: &str
     let text = e.to_string();
     assert_eq!(e.kind(), ErrorKind::MissingData, "{stage}: {text}");
     assert_eq!(e.location().field.as_deref(), Some(marker), "{stage}: {text}");
-    assert!(text.contains(&format!("{marker:?}")) && text.contains(&format!("frame {first_frame}")), "{stage}: {text}");
+    assert!(
+        text.contains(&format!("{marker:?}")) && text.contains(&format!("frame {first_frame}")),
+        "{stage}: {text}"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -115,10 +128,15 @@ fn assert_refused<T>(r: Result<T>, marker: &str, first_frame: usize, stage: &str
 fn every_plugin_says_how_it_treats_missing_samples() {
     let undocumented: Vec<&str> = registry::plugins()
         .iter()
-        .filter(|p| !(p.doc().contains("issing samples") || p.doc().contains("issing marker samples")))
+        .filter(|p| {
+            !(p.doc().contains("issing samples") || p.doc().contains("issing marker samples"))
+        })
         .map(|p| p.name)
         .collect();
-    assert!(undocumented.is_empty(), "plugins whose doc does not say how missing samples are treated: {undocumented:?}");
+    assert!(
+        undocumented.is_empty(),
+        "plugins whose doc does not say how missing samples are treated: {undocumented:?}"
+    );
     assert!(registry::plugins().len() >= 30, "{} plugins", registry::plugins().len());
 }
 
@@ -143,8 +161,12 @@ fn fill_gaps_fills_up_to_max_gap_on_the_straight_line_and_leaves_longer_gaps() {
     let w = walk1();
     // Linear, max 16 frames: both real gaps filled, each sample on the line between the
     // samples around its gap (independent computation).
-    let filled = preprocess("fill_gaps", r#"method = "linear"
-max_gap = { frames = 16 }"#, w.clone())
+    let filled = preprocess(
+        "fill_gaps",
+        r#"method = "linear"
+max_gap = { frames = 16 }"#,
+        w.clone(),
+    )
     .unwrap();
     assert_eq!(filled.missing_count(), 0);
     for (marker, a, b) in [("Head_FR", 198, 210), ("Shoulder_R", 303, 320)] {
@@ -161,7 +183,10 @@ max_gap = { frames = 16 }"#, w.clone())
     // Default max_gap 0.2 s = 12 frames at 60 Hz: the 11-frame gap is filled, the 16-frame one stays.
     let default = preprocess("fill_gaps", "", w.clone()).unwrap();
     assert_eq!(default.missing_count(), 16);
-    assert_eq!(missing_frames(&default, w.point_index("Shoulder_R").unwrap()), (304..320).collect::<Vec<_>>());
+    assert_eq!(
+        missing_frames(&default, w.point_index("Shoulder_R").unwrap()),
+        (304..320).collect::<Vec<_>>()
+    );
     // dance1: a 0.5 s gap is filled with max_gap 0.5 s (cubic, close to the removed truth);
     // a 3 s gap is left missing, every frame of it.
     let d = dance1();
@@ -171,11 +196,18 @@ max_gap = { frames = 16 }"#, w.clone())
         if len == 30 {
             assert_eq!(out.missing_count(), 0);
             let rms = ((GAP_START..GAP_START + len)
-                .map(|f| (0..3).map(|c| (out.position(f, k)[c] - d.position(f, k)[c]).powi(2)).sum::<f64>())
+                .map(|f| {
+                    (0..3)
+                        .map(|c| (out.position(f, k)[c] - d.position(f, k)[c]).powi(2))
+                        .sum::<f64>()
+                })
                 .sum::<f64>()
                 / len as f64)
                 .sqrt();
-            assert!(rms < 60.0, "cubic fill of a 0.5 s Hip_FL gap is {rms:.1} mm RMS from the removed data");
+            assert!(
+                rms < 60.0,
+                "cubic fill of a 0.5 s Hip_FL gap is {rms:.1} mm RMS from the removed data"
+            );
         } else {
             assert_eq!(missing_frames(&out, k), (GAP_START..GAP_START + len).collect::<Vec<_>>());
         }
@@ -192,9 +224,11 @@ markers = ["Head_FL", "Head_FR", "Head_BL", "Head_BR"]"#;
     let c = any.point_index("head").unwrap();
     assert_eq!(missing_frames(&any, c), (199..210).collect::<Vec<_>>());
     // "all": the mean of the three valid markers there (independent computation).
-    let all = preprocess("add_centroid", &format!("{head}\nmissing_if = \"all\""), w.clone()).unwrap();
+    let all =
+        preprocess("add_centroid", &format!("{head}\nmissing_if = \"all\""), w.clone()).unwrap();
     assert!(missing_frames(&all, c).is_empty());
-    let ks: Vec<usize> = ["Head_FL", "Head_BL", "Head_BR"].iter().map(|n| w.point_index(n).unwrap()).collect();
+    let ks: Vec<usize> =
+        ["Head_FL", "Head_BL", "Head_BR"].iter().map(|n| w.point_index(n).unwrap()).collect();
     for f in 199..210 {
         for axis in 0..3 {
             let mean = ks.iter().map(|&k| w.position(f, k)[axis]).sum::<f64>() / 3.0;
@@ -202,8 +236,12 @@ markers = ["Head_FL", "Head_FR", "Head_BL", "Head_BR"]"#;
         }
     }
     // delay_points: Head_FR's gap moves 5 frames later with it.
-    let delayed = preprocess("delay_points", r#"points = ["Head_FR"]
-delay = { frames = 5 }"#, w.clone())
+    let delayed = preprocess(
+        "delay_points",
+        r#"points = ["Head_FR"]
+delay = { frames = 5 }"#,
+        w.clone(),
+    )
     .unwrap();
     let k = w.point_index("Head_FR").unwrap();
     assert_eq!(missing_frames(&delayed, k), (204..215).collect::<Vec<_>>());
@@ -211,7 +249,10 @@ delay = { frames = 5 }"#, w.clone())
     // initial_pose_normalisation: the same 27 samples missing, the others p − p₀.
     let norm = preprocess("initial_pose_normalisation", "", w.clone()).unwrap();
     assert_eq!(norm.missing_mask(), w.missing_mask());
-    assert_eq!(norm.position(250, k), [0, 1, 2].map(|c| w.position(250, k)[c] - w.position(0, k)[c]));
+    assert_eq!(
+        norm.position(250, k),
+        [0, 1, 2].map(|c| w.position(250, k)[c] - w.position(0, k)[c])
+    );
     for (gapped, _) in dance1_gaps() {
         let norm = preprocess("initial_pose_normalisation", "", gapped.clone()).unwrap();
         assert_eq!(norm.missing_mask(), gapped.missing_mask());
@@ -228,7 +269,10 @@ fn butterworth_and_distinct_points_keep_missing_samples_missing() {
     let k = w.point_index("Head_FR").unwrap();
     assert_ne!(filtered.position(150, k), w.position(150, k), "present samples are filtered");
     for (gapped, _) in dance1_gaps() {
-        assert_eq!(preprocess("butterworth", "", gapped.clone()).unwrap().missing_mask(), gapped.missing_mask());
+        assert_eq!(
+            preprocess("butterworth", "", gapped.clone()).unwrap().missing_mask(),
+            gapped.missing_mask()
+        );
     }
     // distinct_points: no two markers of walk1 share a place, and a gap never merges points.
     let distinct = preprocess("distinct_points", "", w.clone()).unwrap();
@@ -252,7 +296,13 @@ fn marker_speed_skips_missing_markers() {
     for i in [150, 199, 205, 209, 310] {
         let fastest = (0..w.n_points())
             .filter(|&k| !w.is_missing(i, k) && !w.is_missing(i + 1, k))
-            .map(|k| (0..3).map(|c| (w.position(i + 1, k)[c] - w.position(i, k)[c]).powi(2)).sum::<f64>().sqrt() * 60.0)
+            .map(|k| {
+                (0..3)
+                    .map(|c| (w.position(i + 1, k)[c] - w.position(i, k)[c]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+                    * 60.0
+            })
             .fold(f64::NEG_INFINITY, f64::max);
         assert!((v[i] - fastest).abs() < 1e-9, "frame {i}: {} vs {fastest}", v[i]);
     }
@@ -333,7 +383,12 @@ fn isb_joint_angles_are_nan_only_where_their_markers_are_missing() {
                 if uses_fle && gap.contains(&i) {
                     assert!(t.values[i].is_nan(), "{label}: {} frame {i}", t.name);
                 } else {
-                    assert_eq!(t.values[i].to_bits(), t0.values[i].to_bits(), "{label}: {} frame {i}", t.name);
+                    assert_eq!(
+                        t.values[i].to_bits(),
+                        t0.values[i].to_bits(),
+                        "{label}: {} frame {i}",
+                        t.name
+                    );
                 }
             }
         }
@@ -347,11 +402,17 @@ fn isb_joint_angles_are_nan_only_where_their_markers_are_missing() {
 fn skeleton_joint_angles_need_a_skeleton_and_ignore_position_gaps() {
     let e = features("skeleton_joint_angles", "", &walk1()).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::MissingData, "{e}");
-    assert!(e.to_string().contains("has no skeleton") && e.to_string().contains("walk1.tsv.gz"), "{e}");
+    assert!(
+        e.to_string().contains("has no skeleton") && e.to_string().contains("walk1.tsv.gz"),
+        "{e}"
+    );
     // A gap in the joint positions of an AMC motion does not touch its channels.
     let amc = load("asf_amc", "cmu86/86_01.amc.gz").slice_frames(0, 600).unwrap();
     let gapped = with_gap(&amc, "lfemur", 100, 60);
-    assert_eq!(features("skeleton_joint_angles", "", &gapped).unwrap(), features("skeleton_joint_angles", "", &amc).unwrap());
+    assert_eq!(
+        features("skeleton_joint_angles", "", &gapped).unwrap(),
+        features("skeleton_joint_angles", "", &amc).unwrap()
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -360,7 +421,11 @@ fn skeleton_joint_angles_need_a_skeleton_and_ignore_position_gaps() {
 
 /// Candidates are inside the motion, sorted, unique, and never at a frame where `trace` is NaN.
 fn assert_candidates_defined(out: &SegmenterOutput, trace_name: &str, n_frames: usize, what: &str) {
-    assert!(out.candidates.windows(2).all(|w| w[0] < w[1]) && out.candidates.iter().all(|&c| c < n_frames), "{what}");
+    assert!(
+        out.candidates.windows(2).all(|w| w[0] < w[1])
+            && out.candidates.iter().all(|&c| c < n_frames),
+        "{what}"
+    );
     let t = trace(&out.traces, trace_name);
     for &c in &out.candidates {
         assert!(t[c].is_finite(), "{what}: candidate {c} where {trace_name} is undefined");
@@ -378,7 +443,10 @@ fn speed_segmenters_skip_missing_markers() {
         for (gapped, len) in dance1_gaps() {
             let out = segment(name, p, &gapped).unwrap();
             let v = trace(&out.traces, "V_mm_per_s");
-            assert!(v[..v.len() - 1].iter().all(|x| x.is_finite()), "{name} on dance1 with a {len}-frame gap");
+            assert!(
+                v[..v.len() - 1].iter().all(|x| x.is_finite()),
+                "{name} on dance1 with a {len}-frame gap"
+            );
             assert_candidates_defined(&out, "V_mm_per_s", gapped.n_frames(), name);
         }
     }
@@ -395,7 +463,12 @@ fn direction_change_finds_no_candidate_in_a_root_gap() {
         let blind = GAP_START - 16..GAP_START + len + 16;
         assert!(out.candidates.iter().all(|c| !blind.contains(c)), "{len}: {:?}", out.candidates);
         // Far from the gap the candidates are those of the complete recording.
-        let far = |v: &[usize]| v.iter().copied().filter(|c| *c + 40 < GAP_START || *c > GAP_START + len + 40).collect::<Vec<_>>();
+        let far = |v: &[usize]| {
+            v.iter()
+                .copied()
+                .filter(|c| *c + 40 < GAP_START || *c > GAP_START + len + 40)
+                .collect::<Vec<_>>()
+        };
         assert_eq!(far(&out.candidates), far(&complete.candidates), "{len}-frame gap");
     }
 }
@@ -411,7 +484,9 @@ fn hull_and_pca_segmenters_run_on_gaps() {
     for (gapped, len) in dance1_gaps() {
         let out = segment("hull_volume_change", "", &gapped).unwrap();
         assert_candidates_defined(&out, "D_mm3_per_frame", gapped.n_frames(), "hull_volume_change");
-        assert!(!out.candidates.contains(&GAP_START) && !out.candidates.contains(&(GAP_START + len)));
+        assert!(
+            !out.candidates.contains(&GAP_START) && !out.candidates.contains(&(GAP_START + len))
+        );
     }
     // PCA: frames with a missing sample are left out of the moments; the trace stays defined
     // (error scaled by frames spanned / frames used), so a rise is still found in the walk.
@@ -436,12 +511,17 @@ fn union_merge_bridges_a_root_gap_with_a_straight_line() {
         // is under 100 mm — computed here from the positions.
         let (a, b) = (GAP_START - 2, GAP_START + len + 1);
         let r = m.point_index("root").unwrap();
-        let dist = |p: [f64; 3], q: [f64; 3]| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+        let dist =
+            |p: [f64; 3], q: [f64; 3]| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
         let path = dist(m.position(a, r), m.position(a + 1, r))
             + dist(m.position(a + 1, r), m.position(b - 1, r))
             + dist(m.position(b - 1, r), m.position(b, r));
         let out = fuser.fuse(&m, &[MethodCandidates { method: "x", frames: &[a, b] }]).unwrap();
-        assert_eq!(out.len(), if path < 100.0 { 1 } else { 2 }, "{len}: path {path:.1} mm, fused {out:?}");
+        assert_eq!(
+            out.len(),
+            if path < 100.0 { 1 } else { 2 },
+            "{len}: path {path:.1} mm, fused {out:?}"
+        );
         // Candidates far from the gap fuse as on the complete recording.
         let far = [100, 130, 1400];
         let c0 = fuser.fuse(&d, &[MethodCandidates { method: "x", frames: &far }]).unwrap();
@@ -454,12 +534,15 @@ fn union_merge_bridges_a_root_gap_with_a_straight_line() {
 // ---------------------------------------------------------------------------------------------
 
 fn fill(m: Motion, max_frames: usize) -> Motion {
-    preprocess("fill_gaps", &format!("max_gap = {{ frames = {max_frames} }}\nedges = \"hold\""), m).unwrap()
+    preprocess("fill_gaps", &format!("max_gap = {{ frames = {max_frames} }}\nedges = \"hold\""), m)
+        .unwrap()
 }
 
 #[test]
 fn velocity_peaks_refuses_a_gap_in_its_marker_and_works_after_fill_gaps() {
-    let detector = |marker: &str| motionlab_match::build_point_detector("velocity_peaks", &params(&format!("marker = \"{marker}\"\ncount = 3\nbefore = {{ seconds = 0.3 }}\nafter = {{ seconds = 0.3 }}"))).unwrap();
+    let detector = |marker: &str| {
+        motionlab_match::build_point_detector("velocity_peaks", &params(&format!("marker = \"{marker}\"\ncount = 3\nbefore = {{ seconds = 0.3 }}\nafter = {{ seconds = 0.3 }}"))).unwrap()
+    };
     let w = walk1();
     assert_refused(detector("Head_FR").detect(&w), "Head_FR", 199, "velocity_peaks");
     // Other markers are not read: a complete marker of walk1 works.
@@ -475,7 +558,8 @@ fn velocity_peaks_refuses_a_gap_in_its_marker_and_works_after_fill_gaps() {
 fn matchers_refuse_gaps_and_work_after_fill_gaps_then_synchronise() {
     let w = walk1();
     let model = w.slice_frames(20, 80).unwrap(); // complete
-    let subsequence = motionlab_match::build_matcher("subsequence_dp", &params("marker = \"Head_FR\"")).unwrap();
+    let subsequence =
+        motionlab_match::build_matcher("subsequence_dp", &params("marker = \"Head_FR\"")).unwrap();
     let multistream = motionlab_match::build_matcher("multistream_two_stage", &params("")).unwrap();
     assert_refused(subsequence.align(&model, &w), "Head_FR", 199, "subsequence_dp");
     assert_refused(multistream.align(&model, &w), "Head_FR", 199, "multistream_two_stage");
@@ -489,11 +573,19 @@ fn matchers_refuse_gaps_and_work_after_fill_gaps_then_synchronise() {
     let a = multistream.align(&model, &filled).unwrap();
     assert_eq!((a.start, a.end), (20, 79));
     assert!(a.total_distance.abs() < 1e-6, "H = {}", a.total_distance);
-    let sync = motionlab_match::build_synchroniser("synchronisation", &params("")).unwrap().synchronise(&a, model.n_frames()).unwrap();
+    let sync = motionlab_match::build_synchroniser("synchronisation", &params(""))
+        .unwrap()
+        .synchronise(&a, model.n_frames())
+        .unwrap();
     assert!(sync.total.is_finite() && sync.total.abs() < 1e-9, "R = {}", sync.total);
     for (gapped, len) in dance1_gaps() {
         let m = gapped.slice_frames(100, 160).unwrap();
-        assert_refused(multistream.align(&m, &gapped), "Hip_FL", GAP_START, "multistream_two_stage");
+        assert_refused(
+            multistream.align(&m, &gapped),
+            "Hip_FL",
+            GAP_START,
+            "multistream_two_stage",
+        );
         let a = multistream.align(&m, &fill(gapped, len)).unwrap();
         assert_eq!((a.start, a.end), (100, 159), "{len}");
     }
@@ -520,12 +612,18 @@ fn gait_cycles_from_events_ignore_marker_gaps_and_heel_height_skips_them() {
     let heel = cycles("heel_height", "", &s).unwrap();
     for (len, start) in [(50, 40), (s.n_frames(), 0)] {
         let g = with_gap(&s, "L_FCC", start, len);
-        assert_eq!(cycles("c3d_events", "", &g).unwrap(), from_events, "events are not marker samples");
+        assert_eq!(
+            cycles("c3d_events", "", &g).unwrap(),
+            from_events,
+            "events are not marker samples"
+        );
         // heel_height: the right foot is untouched; the left loses at most the cycles around
         // the gap and never gains one.
         match cycles("heel_height", "", &g) {
             Ok(found) => {
-                let right = |c: &[GaitCycle]| c.iter().filter(|x| x.side == "Right").cloned().collect::<Vec<_>>();
+                let right = |c: &[GaitCycle]| {
+                    c.iter().filter(|x| x.side == "Right").cloned().collect::<Vec<_>>()
+                };
                 assert_eq!(right(&found), right(&heel), "{len}");
                 assert!(found.iter().all(|c| heel.contains(c)), "{len}: {found:?} vs {heel:?}");
             }
@@ -535,7 +633,8 @@ fn gait_cycles_from_events_ignore_marker_gaps_and_heel_height_skips_them() {
     // walk1 (no events) with its real gaps elsewhere: heel_height on the ankle markers works.
     let w = walk1();
     assert!(cycles("c3d_events", "", &w).is_err());
-    let found = cycles("heel_height", "left_heel = \"Ankle_L\"\nright_heel = \"Ankle_R\"", &w).unwrap();
+    let found =
+        cycles("heel_height", "left_heel = \"Ankle_L\"\nright_heel = \"Ankle_R\"", &w).unwrap();
     assert!(found.len() >= 2, "{found:?}");
 }
 
@@ -543,7 +642,8 @@ fn gait_cycles_from_events_ignore_marker_gaps_and_heel_height_skips_them() {
 fn waveform_parameters_leave_out_cycles_with_gaps_per_channel() {
     let s = schreiber();
     let cyc = cycles("c3d_events", "", &s).unwrap();
-    let analyzer = motionlab_features::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
+    let analyzer =
+        motionlab_features::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
     let complete = analyzer.parameters(&angle_curves(&s), &cyc).unwrap();
     // L_FLE missing through the whole trial: left hip, knee, ankle have no complete cycle → NaN;
     // the other channels are exactly as without the gap.
@@ -577,7 +677,8 @@ fn walk_synthesis_keeps_nan_and_refuses_to_change_an_undefined_channel() {
     let cyc = cycles("c3d_events", "", &s).unwrap();
     let g = with_gap(&s, "L_FLE", 0, s.n_frames());
     let curves = angle_curves(&g);
-    let synth = motionlab_gait::build_walk_synthesizer("feature_channel_control", &params("")).unwrap();
+    let synth =
+        motionlab_gait::build_walk_synthesizer("feature_channel_control", &params("")).unwrap();
     // Changing a complete channel works; the NaN channels stay NaN throughout.
     let mut changes = WalkChanges::default();
     changes.dc_percent.insert("ankle_r.flexion".into(), 10.0);
@@ -595,7 +696,8 @@ fn walk_synthesis_keeps_nan_and_refuses_to_change_an_undefined_channel() {
 
 #[test]
 fn change_rates_exclude_a_channel_with_no_complete_cycle_flagged_missing() {
-    let analyzer = motionlab_features::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
+    let analyzer =
+        motionlab_features::build_waveform_analyzer("waveform_parameters", &params("")).unwrap();
     let trial = |file: &str, gap: bool| {
         let m = load("c3d", file);
         let m = if gap { with_gap(&m, "L_FLE", 0, m.n_frames()) } else { m };
@@ -605,11 +707,22 @@ fn change_rates_exclude_a_channel_with_no_complete_cycle_flagged_missing() {
     let study = GaitStudy {
         normal_condition: "C4".into(),
         trials: vec![
-            GaitTrial { subject: "2014001".into(), condition: "C4".into(), parameters: trial("schreiber2019/2014001/dynamic/2014001_C4_05.c3d.gz", false) },
-            GaitTrial { subject: "2014001".into(), condition: "C5".into(), parameters: trial("schreiber2019/2014001/dynamic/2014001_C5_01.c3d.gz", true) },
+            GaitTrial {
+                subject: "2014001".into(),
+                condition: "C4".into(),
+                parameters: trial("schreiber2019/2014001/dynamic/2014001_C4_05.c3d.gz", false),
+            },
+            GaitTrial {
+                subject: "2014001".into(),
+                condition: "C5".into(),
+                parameters: trial("schreiber2019/2014001/dynamic/2014001_C5_01.c3d.gz", true),
+            },
         ],
     };
-    let tables = registry::build_evaluator("change_rates", &params("min_subjects = 1")).unwrap().evaluate(EvalInput::new(&study)).unwrap();
+    let tables = registry::build_evaluator("change_rates", &params("min_subjects = 1"))
+        .unwrap()
+        .evaluate(EvalInput::new(&study))
+        .unwrap();
     let rates = tables.iter().find(|t| t.name == "change_rates").unwrap();
     let col = |name: &str| rates.column(name).unwrap_or_else(|| panic!("no column {name}"));
     let (channel, reason) = (col("channel"), col("reason"));

@@ -67,12 +67,18 @@ fn write_corpus(root: &Path) -> PathBuf {
     // Two annotators with odd names; the first one is evaluated. Frames at 60 Hz.
     let mut csv = String::from("sequence\tframe\tannotator\n");
     for stem in odd_stems() {
-        for (frame, annotator) in [(300, IMG), (700, IMG), (300, "../../annotator 日本"), (1100, "../../annotator 日本")] {
+        for (frame, annotator) in
+            [(300, IMG), (700, IMG), (300, "../../annotator 日本"), (1100, "../../annotator 日本")]
+        {
             csv.push_str(&format!("{stem}\t{frame}\t{annotator}\n"));
         }
     }
     std::fs::write(root.join("data/truth.csv"), csv).unwrap();
-    std::fs::write(root.join("data2/truth.csv"), format!("frame\tannotator\n300\t{SCRIPT}\n900\t{SCRIPT}\n")).unwrap();
+    std::fs::write(
+        root.join("data2/truth.csv"),
+        format!("frame\tannotator\n300\t{SCRIPT}\n900\t{SCRIPT}\n"),
+    )
+    .unwrap();
     let methods = [
         SCRIPT.to_string(),
         "../../../../../../../../tmp/motionlab-escape-method".into(),
@@ -95,7 +101,8 @@ fn write_corpus(root: &Path) -> PathBuf {
          [[evaluate]]\ntype = \"boundary_pr\"\ntolerance = {{ seconds = 0.5 }}\n",
         annotator = toml_str(IMG),
         desc = toml_str(&format!("{SCRIPT} & {IMG}")),
-        dataset_name = toml_str(&format!("../../../../../../../../tmp/motionlab-escape-dataset {SCRIPT}")),
+        dataset_name =
+            toml_str(&format!("../../../../../../../../tmp/motionlab-escape-dataset {SCRIPT}")),
     );
     let path = root.join("odd_names.toml");
     std::fs::write(&path, text).unwrap();
@@ -114,7 +121,11 @@ fn odd_names_stay_inside_the_run_directory_and_are_escaped_on_every_page() {
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let index = crate::motionlab_command().current_dir(root).args(["index", "--experiments", ".", "--reports", "reports"]).output().unwrap();
+    let index = crate::motionlab_command()
+        .current_dir(root)
+        .args(["index", "--experiments", ".", "--reports", "reports"])
+        .output()
+        .unwrap();
     assert!(index.status.success(), "{}", String::from_utf8_lossy(&index.stderr));
 
     // Nothing outside the run directory (its `latest` pointer and the index beside it).
@@ -122,8 +133,14 @@ fn odd_names_stay_inside_the_run_directory_and_are_escaped_on_every_page() {
     let run_id = std::fs::read_to_string(exp_dir.join("latest")).unwrap().trim().to_string();
     let run_prefix = Path::new("reports/odd_names").join(&run_id);
     let written: Vec<PathBuf> = files_under(root).difference(&before).cloned().collect();
-    let outside: Vec<&PathBuf> =
-        written.iter().filter(|p| !p.starts_with(&run_prefix) && *p != Path::new("reports/odd_names/latest") && *p != Path::new("reports/index.html")).collect();
+    let outside: Vec<&PathBuf> = written
+        .iter()
+        .filter(|p| {
+            !p.starts_with(&run_prefix)
+                && *p != Path::new("reports/odd_names/latest")
+                && *p != Path::new("reports/index.html")
+        })
+        .collect();
     assert!(outside.is_empty(), "written outside the run directory: {outside:?}");
     for escape in std::fs::read_dir("/tmp").unwrap() {
         let name = escape.unwrap().file_name().to_string_lossy().into_owned();
@@ -133,15 +150,26 @@ fn odd_names_stay_inside_the_run_directory_and_are_escaped_on_every_page() {
     for p in &written {
         for c in p.components() {
             let c = c.as_os_str().to_string_lossy();
-            assert!(c.chars().all(|ch| ch.is_ascii_alphanumeric() || "_-.~".contains(ch)), "file name {c:?} in {}", p.display());
+            assert!(
+                c.chars().all(|ch| ch.is_ascii_alphanumeric() || "_-.~".contains(ch)),
+                "file name {c:?} in {}",
+                p.display()
+            );
         }
     }
     let run = root.join(&run_prefix);
-    let viewers: Vec<PathBuf> = written.iter().filter(|p| p.starts_with(run_prefix.join("viewers"))).map(|p| root.join(p)).collect();
+    let viewers: Vec<PathBuf> = written
+        .iter()
+        .filter(|p| p.starts_with(run_prefix.join("viewers")))
+        .map(|p| root.join(p))
+        .collect();
     assert_eq!(viewers.len(), odd_stems().len() + 2, "one viewer per sequence: {viewers:?}");
 
     // Every page shows the payloads as text, never as markup.
-    let pages: Vec<PathBuf> = [run.join("index.html"), root.join("reports/index.html")].into_iter().chain(viewers.iter().cloned()).collect();
+    let pages: Vec<PathBuf> = [run.join("index.html"), root.join("reports/index.html")]
+        .into_iter()
+        .chain(viewers.iter().cloned())
+        .collect();
     for page in &pages {
         let html = std::fs::read_to_string(page).unwrap();
         for raw in ["<script>window.__motionlab_injected", "<img src=x", "<svg onload", "\"><svg"] {
@@ -149,17 +177,29 @@ fn odd_names_stay_inside_the_run_directory_and_are_escaped_on_every_page() {
         }
     }
     let run_page = std::fs::read_to_string(run.join("index.html")).unwrap();
-    assert!(run_page.contains("&lt;script&gt;window.__motionlab_injected=1&lt;&#x2f;script&gt;"), "the method name is not on the run page, escaped");
+    assert!(
+        run_page.contains("&lt;script&gt;window.__motionlab_injected=1&lt;&#x2f;script&gt;"),
+        "the method name is not on the run page, escaped"
+    );
     for viewer in &viewers {
         let html = std::fs::read_to_string(viewer).unwrap();
-        assert!(html.contains("\\u003cscript\\u003ewindow.__motionlab_injected=1\\u003c/script\\u003e"), "{}: the method's lane is missing", viewer.display());
+        assert!(
+            html.contains("\\u003cscript\\u003ewindow.__motionlab_injected=1\\u003c/script\\u003e"),
+            "{}: the method's lane is missing",
+            viewer.display()
+        );
     }
     // SVG figures hold no character XML forbids and no payload unescaped, whatever the names hold.
-    let svgs: Vec<_> = written.iter().filter(|p| p.extension().is_some_and(|e| e == "svg")).collect();
+    let svgs: Vec<_> =
+        written.iter().filter(|p| p.extension().is_some_and(|e| e == "svg")).collect();
     assert!(!svgs.is_empty(), "the run wrote no SVG figure to check");
     for svg in svgs {
         let text = std::fs::read_to_string(root.join(svg)).unwrap();
-        assert!(!text.chars().any(|c| c < ' ' && !"\t\n\r".contains(c)), "{}: a control character in XML", svg.display());
+        assert!(
+            !text.chars().any(|c| c < ' ' && !"\t\n\r".contains(c)),
+            "{}: a control character in XML",
+            svg.display()
+        );
         assert!(!text.contains("<script>window"), "{}", svg.display());
     }
 
@@ -178,7 +218,9 @@ fn odd_names_stay_inside_the_run_directory_and_are_escaped_on_every_page() {
 fn odd_experiment_names_are_refused_before_anything_is_written() {
     let tmp = tempfile::tempdir().unwrap();
     let take = repo_root().join("data/mct/dance1.tsv.gz");
-    for name in ["..", "a/b", "../../escape", "a b", SCRIPT, &"e".repeat(300), "nul\u{0}", "日本", ""] {
+    for name in
+        ["..", "a/b", "../../escape", "a b", SCRIPT, &"e".repeat(300), "nul\u{0}", "日本", ""]
+    {
         let exp = tmp.path().join("odd.toml");
         std::fs::write(
             &exp,
@@ -189,10 +231,18 @@ fn odd_experiment_names_are_refused_before_anything_is_written() {
             ),
         )
         .unwrap();
-        let out = crate::motionlab_command().current_dir(tmp.path()).args(["run", "odd.toml", "--quiet", "--reports", "reports"]).output().unwrap();
+        let out = crate::motionlab_command()
+            .current_dir(tmp.path())
+            .args(["run", "odd.toml", "--quiet", "--reports", "reports"])
+            .output()
+            .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{name:?}: {err}");
-        assert!(err.contains("odd.toml:2: experiment.name: experiment name") && err.contains("must be 1 to 100 letters, digits, _ or -"), "{name:?}: {err}");
+        assert!(
+            err.contains("odd.toml:2: experiment.name: experiment name")
+                && err.contains("must be 1 to 100 letters, digits, _ or -"),
+            "{name:?}: {err}"
+        );
         assert!(!tmp.path().join("reports").exists(), "{name:?}: wrote reports/");
     }
 }

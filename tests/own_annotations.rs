@@ -28,7 +28,11 @@ pub(crate) fn motionlab_ok(args: &[&str]) -> String {
 
 /// The single run directory under `reports/<experiment>/`.
 pub(crate) fn run_dir(reports: &Path, experiment: &str) -> PathBuf {
-    let runs: Vec<PathBuf> = std::fs::read_dir(reports.join(experiment)).unwrap().map(|e| e.unwrap().path()).filter(|p| p.is_dir()).collect();
+    let runs: Vec<PathBuf> = std::fs::read_dir(reports.join(experiment))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir())
+        .collect();
     assert_eq!(runs.len(), 1, "{runs:?}");
     runs[0].clone()
 }
@@ -49,27 +53,57 @@ pub(crate) fn read_table(path: &Path) -> Vec<BTreeMap<String, String>> {
 fn csv_and_elan_truth_give_the_precision_recall_of_the_datasets_own_readers() {
     let reports = tempfile::tempdir().unwrap();
     let r = reports.path().to_str().unwrap();
-    motionlab_ok(&["run", "tests/fixtures/annotations/own_truth_equality.toml", "--reports", r, "--quiet"]);
-    let rows = read_table(&run_dir(reports.path(), "own_truth_equality").join("tables/table1_precision_recall.csv"));
+    motionlab_ok(&[
+        "run",
+        "tests/fixtures/annotations/own_truth_equality.toml",
+        "--reports",
+        r,
+        "--quiet",
+    ]);
+    let rows = read_table(
+        &run_dir(reports.path(), "own_truth_equality").join("tables/table1_precision_recall.csv"),
+    );
     // Speed and hull run at their defaults, which were tuned on 86_01 and 13_29 among others
     // (`sonoda_defaults`): every row, pooled too, says it is scored on its tuning data.
     for r in rows.iter().filter(|r| r["method"] == "speed" || r["method"] == "hull") {
-        let expected = if r["sequence"] == "pooled" { "every one of these sequences" } else { "this sequence" };
-        assert_eq!(r["parameters_chosen"], format!("plugin defaults tuned on {expected} (oracle)"), "{r:?}");
+        let expected = if r["sequence"] == "pooled" {
+            "every one of these sequences"
+        } else {
+            "this sequence"
+        };
+        assert_eq!(
+            r["parameters_chosen"],
+            format!("plugin defaults tuned on {expected} (oracle)"),
+            "{r:?}"
+        );
     }
     let pick = |seq: &str, method: &str| -> Vec<String> {
-        let row = rows.iter().find(|r| r["sequence"] == seq && r["method"] == method).unwrap_or_else(|| panic!("{seq}/{method}"));
-        ["n_truth", "n_found", "n_matched", "precision", "recall", "f1"].iter().map(|c| row[*c].clone()).collect()
+        let row = rows
+            .iter()
+            .find(|r| r["sequence"] == seq && r["method"] == method)
+            .unwrap_or_else(|| panic!("{seq}/{method}"));
+        ["n_truth", "n_found", "n_matched", "precision", "recall", "f1"]
+            .iter()
+            .map(|c| row[*c].clone())
+            .collect()
     };
     let mut checked = 0;
     for method in ["speed", "direction", "hull", "fused"] {
         let reference = pick("86_01", method);
         assert_eq!(reference[0], "6", "86_01 has 6 labelled boundaries");
-        assert_eq!(pick("86_01_csv", method), reference, "{method}: boundaries_csv vs cmu86_labels");
+        assert_eq!(
+            pick("86_01_csv", method),
+            reference,
+            "{method}: boundaries_csv vs cmu86_labels"
+        );
         assert_eq!(pick("86_01_eaf", method), reference, "{method}: elan_eaf vs cmu86_labels");
         let reference = pick("13_29", method);
         assert_eq!(reference[0], "5", "13_29 has 5 labelled boundaries");
-        assert_eq!(pick("13_29_csv", method), reference, "{method}: boundaries_csv vs mocap6_labels");
+        assert_eq!(
+            pick("13_29_csv", method),
+            reference,
+            "{method}: boundaries_csv vs mocap6_labels"
+        );
         println!("86_01 {method}: {:?}; 13_29 {method}: {:?}", pick("86_01", method), reference);
         checked += 1;
     }
@@ -94,7 +128,10 @@ fn subject_prefixes_are_stripped_so_one_experiment_uses_plain_marker_names() {
             assert_eq!(m.frame(f), original.frame(f), "{file} frame {f}");
         }
         let kept = c3d("strip_subject_prefix = false", &dir.join(file)).unwrap();
-        assert!(kept.point_names()[0].ends_with(":Head_FL") && kept.point_names()[0].len() > "Head_FL".len());
+        assert!(
+            kept.point_names()[0].ends_with(":Head_FL")
+                && kept.point_names()[0].len() > "Head_FL".len()
+        );
         // An unknown marker still lists the closest (plain) names.
         let e = m.point_index("Hip_F").map(|_| ()).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
@@ -111,7 +148,14 @@ fn subject_prefixes_are_stripped_so_one_experiment_uses_plain_marker_names() {
     }
     // Without stripping, the plain names are unknown: one error naming the marker.
     let out = crate::motionlab_command()
-        .args(["run", "tests/fixtures/prefixes/plain_names.toml", "--reports", r, "--quiet", "dataset[0].loader.strip_subject_prefix=false"])
+        .args([
+            "run",
+            "tests/fixtures/prefixes/plain_names.toml",
+            "--reports",
+            r,
+            "--quiet",
+            "dataset[0].loader.strip_subject_prefix=false",
+        ])
         .current_dir(repo())
         .output()
         .unwrap();
@@ -127,7 +171,14 @@ fn motionlab_new_scaffolds_an_experiment_that_validates_and_runs() {
     let out = tempfile::tempdir().unwrap();
     let toml_path = out.path().join("exp/mct.toml");
     let t = toml_path.to_str().unwrap();
-    let said = motionlab_ok(&["new", "data/mct/", "--truth", "tests/fixtures/annotations/mct_dances.csv", "-o", t]);
+    let said = motionlab_ok(&[
+        "new",
+        "data/mct/",
+        "--truth",
+        "tests/fixtures/annotations/mct_dances.csv",
+        "-o",
+        t,
+    ]);
     assert!(said.contains("(valid)"), "{said}");
     let text = std::fs::read_to_string(&toml_path).unwrap();
     for expected in [
@@ -151,25 +202,48 @@ fn motionlab_new_scaffolds_an_experiment_that_validates_and_runs() {
     motionlab_ok(&["validate", t]);
     let reports = out.path().join("reports");
     motionlab_ok(&["run", t, "--reports", reports.to_str().unwrap(), "--quiet"]);
-    let rows = read_table(&run_dir(&reports, "mct_segmentation").join("tables/table1_precision_recall.csv"));
-    let sequences: Vec<&str> = rows.iter().filter(|r| r["method"] == "fused").map(|r| r["sequence"].as_str()).collect();
+    let rows = read_table(
+        &run_dir(&reports, "mct_segmentation").join("tables/table1_precision_recall.csv"),
+    );
+    let sequences: Vec<&str> =
+        rows.iter().filter(|r| r["method"] == "fused").map(|r| r["sequence"].as_str()).collect();
     assert_eq!(sequences, vec!["dance1", "dance2", "pooled"]);
     // The MoCap Toolbox dances are not among the takes the Sonoda defaults were tuned on.
-    let speed: Vec<&str> = rows.iter().filter(|r| r["method"] == "speed").map(|r| r["parameters_chosen"].as_str()).collect();
+    let speed: Vec<&str> = rows
+        .iter()
+        .filter(|r| r["method"] == "speed")
+        .map(|r| r["parameters_chosen"].as_str())
+        .collect();
     assert_eq!(speed, vec!["plugin defaults tuned on other data (held-out)"; 3]);
     // The viewer's band around each truth is the tolerance that judged it: the 0.5 s the
     // scaffold writes is 30 frames at dance1's 60 Hz.
-    assert_eq!(truth_band_frames(&run_dir(&reports, "mct_segmentation"), "dance1.html"), Some(30.0));
+    assert_eq!(
+        truth_band_frames(&run_dir(&reports, "mct_segmentation"), "dance1.html"),
+        Some(30.0)
+    );
 
     // With boundary_pr's tolerance left to its default (1/12 s: 5 frames at 60 Hz), the band
     // follows it too; it used to be drawn only when the TOML named a `tolerance`.
     let defaulted = out.path().join("exp/mct_default_tolerance.toml");
-    std::fs::write(&defaulted, text.replace("tolerance = { seconds = 0.5 }", "").replace("name = \"mct_segmentation\"", "name = \"mct_default\""))
-        .unwrap();
-    motionlab_ok(&["run", defaulted.to_str().unwrap(), "--reports", reports.to_str().unwrap(), "--quiet"]);
+    std::fs::write(
+        &defaulted,
+        text.replace("tolerance = { seconds = 0.5 }", "")
+            .replace("name = \"mct_segmentation\"", "name = \"mct_default\""),
+    )
+    .unwrap();
+    motionlab_ok(&[
+        "run",
+        defaulted.to_str().unwrap(),
+        "--reports",
+        reports.to_str().unwrap(),
+        "--quiet",
+    ]);
     let run = run_dir(&reports, "mct_default");
     let rows = read_table(&run.join("tables/table1_precision_recall.csv"));
-    assert!(rows.iter().filter(|r| r["sequence"] == "dance1").all(|r| r["tolerance_frames"] == "5.0"), "{rows:?}");
+    assert!(
+        rows.iter().filter(|r| r["sequence"] == "dance1").all(|r| r["tolerance_frames"] == "5.0"),
+        "{rows:?}"
+    );
     assert_eq!(truth_band_frames(&run, "dance1.html"), Some(5.0));
 }
 

@@ -22,7 +22,8 @@ const PLUGIN_CRATES: &[(&str, usize)] = &[
 ];
 
 /// The workflow crates the CLI names, with the number of workflows each registers.
-const WORKFLOW_CRATES: &[(&str, usize)] = &[("motionlab-workflows", motionlab_workflows::WORKFLOW_COUNT)];
+const WORKFLOW_CRATES: &[(&str, usize)] =
+    &[("motionlab-workflows", motionlab_workflows::WORKFLOW_COUNT)];
 
 #[test]
 fn every_plugin_crate_registers_the_plugins_it_counts() {
@@ -35,10 +36,18 @@ fn every_plugin_crate_registers_the_plugins_it_counts() {
         .collect();
     for (krate, count) in PLUGIN_CRATES {
         let names: Vec<&str> = all.iter().filter(|p| p.1 == *krate).map(|p| p.0).collect();
-        assert_eq!(names.len(), *count, "{krate} says it registers {count} plugins; the binary holds {}: {names:?} (crate not linked, or a plugin's `mod` line missing?)", names.len());
+        assert_eq!(
+            names.len(),
+            *count,
+            "{krate} says it registers {count} plugins; the binary holds {}: {names:?} (crate not linked, or a plugin's `mod` line missing?)",
+            names.len()
+        );
     }
     for (name, krate) in &all {
-        assert!(PLUGIN_CRATES.iter().any(|(k, _)| k == krate), "plugin {name:?} comes from {krate}, which the CLI does not name");
+        assert!(
+            PLUGIN_CRATES.iter().any(|(k, _)| k == krate),
+            "plugin {name:?} comes from {krate}, which the CLI does not name"
+        );
     }
 }
 
@@ -47,18 +56,51 @@ fn every_plugin_crate_registers_the_plugins_it_counts() {
 #[test]
 fn declared_kinds_are_listed_and_built_like_cores() {
     let declared: Vec<&str> = registry::declared_kinds().iter().map(|k| k.name).collect();
-    assert_eq!(declared, ["point_detector", "matcher", "synchroniser", "gait_cycle_detector", "waveform_analyzer", "walk_synthesizer"]);
+    assert_eq!(
+        declared,
+        [
+            "point_detector",
+            "matcher",
+            "synchroniser",
+            "gait_cycle_detector",
+            "waveform_analyzer",
+            "walk_synthesizer"
+        ]
+    );
     let list = motionlab_cli::describe::list();
-    let order: Vec<usize> = ["fusers:", "point detectors:", "matchers:", "synchronisers:", "gait-cycle detectors:", "waveform analyzers:", "walk synthesizers:", "evaluators:"]
-        .iter()
-        .map(|h| list.lines().position(|l| l == *h).unwrap_or_else(|| panic!("{h} not in `motionlab list`:\n{list}")))
-        .collect();
+    let order: Vec<usize> = [
+        "fusers:",
+        "point detectors:",
+        "matchers:",
+        "synchronisers:",
+        "gait-cycle detectors:",
+        "waveform analyzers:",
+        "walk synthesizers:",
+        "evaluators:",
+    ]
+    .iter()
+    .map(|h| {
+        list.lines()
+            .position(|l| l == *h)
+            .unwrap_or_else(|| panic!("{h} not in `motionlab list`:\n{list}"))
+    })
+    .collect();
     assert!(order.windows(2).all(|w| w[0] < w[1]), "kinds out of order: {order:?}");
     assert!(!list.contains("(custom kind)"), "no undeclared custom kind in the workspace");
-    assert!(motionlab_match::build_matcher("multistream_two_stage", &registry::default_params()).is_ok());
-    let e = motionlab_match::build_matcher("velocity_peaks", &registry::default_params()).err().unwrap();
-    assert_eq!(e.to_string(), "\"velocity_peaks\" is a point detector, but a matcher is expected here");
-    let e = motionlab_match::build_matcher("multistream_two_stag", &registry::default_params()).err().unwrap();
+    assert!(
+        motionlab_match::build_matcher("multistream_two_stage", &registry::default_params())
+            .is_ok()
+    );
+    let e = motionlab_match::build_matcher("velocity_peaks", &registry::default_params())
+        .err()
+        .unwrap();
+    assert_eq!(
+        e.to_string(),
+        "\"velocity_peaks\" is a point detector, but a matcher is expected here"
+    );
+    let e = motionlab_match::build_matcher("multistream_two_stag", &registry::default_params())
+        .err()
+        .unwrap();
     assert!(e.to_string().starts_with("no matcher named \"multistream_two_stag\" is registered; did you mean \"multistream_two_stage\""), "{e}");
     let d = motionlab_cli::describe::describe("heel_height").unwrap();
     assert!(d.starts_with("heel_height (gait-cycle detector, from motionlab-features)"), "{d}");
@@ -68,11 +110,21 @@ fn declared_kinds_are_listed_and_built_like_cores() {
 fn every_workflow_crate_registers_the_workflows_it_counts() {
     let all = workflows();
     for (krate, count) in WORKFLOW_CRATES {
-        let names: Vec<&str> = all.iter().filter(|w| w.crate_name == *krate).map(|w| w.name).collect();
-        assert_eq!(names.len(), *count, "{krate} says it registers {count} workflows; the binary holds {names:?}");
+        let names: Vec<&str> =
+            all.iter().filter(|w| w.crate_name == *krate).map(|w| w.name).collect();
+        assert_eq!(
+            names.len(),
+            *count,
+            "{krate} says it registers {count} workflows; the binary holds {names:?}"
+        );
     }
     for w in &all {
-        assert!(WORKFLOW_CRATES.iter().any(|(k, _)| *k == w.crate_name), "workflow {:?} comes from {}, which the CLI does not name", w.name, w.crate_name);
+        assert!(
+            WORKFLOW_CRATES.iter().any(|(k, _)| *k == w.crate_name),
+            "workflow {:?} comes from {}, which the CLI does not name",
+            w.name,
+            w.crate_name
+        );
     }
 }
 
@@ -86,12 +138,26 @@ fn every_registered_plugin_is_documented() {
 fn every_workflow_is_documented_and_its_section_names_are_unique() {
     let all = workflows();
     for w in &all {
-        assert!(w.doc().len() >= 20, "workflow {:?} has no doc comment on {}", w.name, w.section_type);
+        assert!(
+            w.doc().len() >= 20,
+            "workflow {:?} has no doc comment on {}",
+            w.name,
+            w.section_type
+        );
         for p in w.params() {
             assert!(!p.description.is_empty(), "[{}] {}: no doc comment", w.name, p.name);
         }
-        assert_eq!(all.iter().filter(|o| o.name == w.name).count(), 1, "two workflows own [{}]", w.name);
-        assert!(registry::plugins().iter().all(|p| p.name != w.name), "[{}] is also a plugin name", w.name);
+        assert_eq!(
+            all.iter().filter(|o| o.name == w.name).count(),
+            1,
+            "two workflows own [{}]",
+            w.name
+        );
+        assert!(
+            registry::plugins().iter().all(|p| p.name != w.name),
+            "[{}] is also a plugin name",
+            w.name
+        );
     }
 }
 
@@ -128,7 +194,9 @@ fn documented_strings(value: &serde_json::Value, at: &str, out: &mut Vec<(String
         serde_json::Value::Object(m) => {
             for (k, v) in m {
                 match (k.as_str(), v) {
-                    ("title" | "description", serde_json::Value::String(s)) => out.push((at.to_string(), s.clone())),
+                    ("title" | "description", serde_json::Value::String(s)) => {
+                        out.push((at.to_string(), s.clone()))
+                    }
                     _ => documented_strings(v, &format!("{at}/{k}"), out),
                 }
             }
@@ -167,7 +235,8 @@ fn no_doc_comment_states_a_default_in_prose() {
         for (at, text) in texts {
             for m in rule.find_iter(&text) {
                 let start = text[..m.start()].char_indices().rev().nth(40).map_or(0, |(i, _)| i);
-                let end = text[m.end()..].char_indices().nth(40).map_or(text.len(), |(i, _)| m.end() + i);
+                let end =
+                    text[m.end()..].char_indices().nth(40).map_or(text.len(), |(i, _)| m.end() + i);
                 problems.push(format!("{who} {at}: …{}…", text[start..end].replace('\n', " ")));
             }
         }
@@ -177,7 +246,11 @@ fn no_doc_comment_states_a_default_in_prose() {
             }
         }
     }
-    assert!(problems.is_empty(), "defaults stated in prose (delete them: `describe` prints the serde default):\n{}", problems.join("\n"));
+    assert!(
+        problems.is_empty(),
+        "defaults stated in prose (delete them: `describe` prints the serde default):\n{}",
+        problems.join("\n")
+    );
 }
 
 /// The rule catches the ways a default has been written in prose, and lets prose about a

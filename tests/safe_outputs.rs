@@ -16,14 +16,18 @@ fn visible_runs(exp_dir: &Path) -> Vec<PathBuf> {
     std::fs::read_dir(exp_dir)
         .map(|r| {
             r.map(|e| e.unwrap().path())
-                .filter(|p| p.is_dir() && !p.file_name().unwrap().to_string_lossy().starts_with('.'))
+                .filter(|p| {
+                    p.is_dir() && !p.file_name().unwrap().to_string_lossy().starts_with('.')
+                })
                 .collect()
         })
         .unwrap_or_default()
 }
 
 fn is_complete(run: &Path) -> bool {
-    run.join("provenance.json").is_file() && run.join("index.html").is_file() && run.join("tables").is_dir()
+    run.join("provenance.json").is_file()
+        && run.join("index.html").is_file()
+        && run.join("tables").is_dir()
 }
 
 #[test]
@@ -34,7 +38,15 @@ fn kill_9_mid_run_leaves_no_directory_that_looks_complete() {
     let delays = [150u64, 400, 800, 1500];
     for (k, ms) in delays.iter().enumerate() {
         let mut child = motionlab()
-            .args(["run", "tests/slurm/sweep.toml", "--quiet", "--threads", "1", "--reports", reports.to_str().unwrap()])
+            .args([
+                "run",
+                "tests/slurm/sweep.toml",
+                "--quiet",
+                "--threads",
+                "1",
+                "--reports",
+                reports.to_str().unwrap(),
+            ])
             .args(["segmentation.segmenter[0].smoothing={ frames = 3 }"])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
@@ -45,7 +57,11 @@ fn kill_9_mid_run_leaves_no_directory_that_looks_complete() {
         child.wait().unwrap();
         let exp = reports.join("shard_sweep");
         for run in visible_runs(&exp) {
-            assert!(is_complete(&run), "after kill -9 at {ms} ms (attempt {k}), {} looks like a run but is incomplete", run.display());
+            assert!(
+                is_complete(&run),
+                "after kill -9 at {ms} ms (attempt {k}), {} looks like a run but is incomplete",
+                run.display()
+            );
         }
         if let Ok(latest) = std::fs::read_to_string(exp.join("latest")) {
             assert!(is_complete(&exp.join(latest.trim())), "latest names an incomplete run");
@@ -67,7 +83,15 @@ fn concurrent_runs_get_distinct_complete_directories() {
     let children: Vec<_> = (0..4)
         .map(|_| {
             motionlab()
-                .args(["run", "experiments/quickstart.toml", "--quiet", "--threads", "1", "--reports", reports.to_str().unwrap()])
+                .args([
+                    "run",
+                    "experiments/quickstart.toml",
+                    "--quiet",
+                    "--threads",
+                    "1",
+                    "--reports",
+                    reports.to_str().unwrap(),
+                ])
                 .stdout(Stdio::piped())
                 .spawn()
                 .unwrap()

@@ -23,7 +23,12 @@ fn tables(run: &Path) -> Vec<(String, String)> {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "csv" || e == "md"))
-        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
+        .map(|p| {
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read_to_string(&p).unwrap(),
+            )
+        })
         .collect();
     v.sort();
     v
@@ -32,7 +37,13 @@ fn tables(run: &Path) -> Vec<(String, String)> {
 fn run_shard(dir: &Path, i: usize, n: usize, extra: &[&str]) {
     let shard = format!("{i}/{n}");
     let mut c = motionlab();
-    c.args(["run", EXP]).args(extra).args(["--quiet", "--shard", &shard, "--run-dir", dir.to_str().unwrap()]);
+    c.args(["run", EXP]).args(extra).args([
+        "--quiet",
+        "--shard",
+        &shard,
+        "--run-dir",
+        dir.to_str().unwrap(),
+    ]);
     ok(&mut c);
 }
 
@@ -55,7 +66,9 @@ fn three_shards_then_merge_equal_a_plain_run() {
         let mut v: Vec<_> = std::fs::read_dir(run.join("viewers"))
             .unwrap()
             .map(|e| e.unwrap().path())
-            .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+            .map(|p| {
+                (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap())
+            })
             .collect();
         v.sort();
         v
@@ -66,7 +79,10 @@ fn three_shards_then_merge_equal_a_plain_run() {
     let page = std::fs::read_to_string(plain.join("index.html")).unwrap().replace("&#x2f;", "/");
     assert!(page.contains("href=\"viewers/dance1.html\""), "the run page links its viewers");
     // Shards never wrote the same item twice: 6 items, each once.
-    let items = std::fs::read_dir(sharded.join("items")).unwrap().filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "msgpack")).count();
+    let items = std::fs::read_dir(sharded.join("items"))
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "msgpack"))
+        .count();
     assert_eq!(items, 6);
 }
 

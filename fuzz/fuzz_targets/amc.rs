@@ -11,7 +11,8 @@ use motionlab_core::FrameRate;
 use motionlab_io::asf_amc::{AsfSkeleton, amc_motion, parse_amc, parse_asf};
 
 static ASF: LazyLock<AsfSkeleton> = LazyLock::new(|| {
-    parse_asf(include_str!("../../data/cmu86/86.asf"), Path::new("86.asf")).expect("the shipped 86.asf parses")
+    parse_asf(include_str!("../../data/cmu86/86.asf"), Path::new("86.asf"))
+        .expect("the shipped 86.asf parses")
 });
 
 fuzz_target!(|data: &[u8]| {
@@ -20,7 +21,8 @@ fuzz_target!(|data: &[u8]| {
     match parse_amc(text, origin, &ASF) {
         Ok(channels) => {
             let rate = FrameRate::new(120.0).expect("120 Hz is a valid rate");
-            let motion = amc_motion(channels, origin, rate).expect("forward kinematics of parsed AMC");
+            let motion =
+                amc_motion(channels, origin, rate).expect("forward kinematics of parsed AMC");
             assert!(motion.n_frames() >= 1);
         }
         Err(e) => common::assert_names_file(&e, "fuzz.amc"),

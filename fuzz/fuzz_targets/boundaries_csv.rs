@@ -26,11 +26,16 @@ fuzz_target!(|data: &[u8]| {
         CsvUnit::Seconds => v * 120.0,
     };
     let n_frames = usize::from(data.last().copied().unwrap_or(0)) * 37 + 1;
-    let sequences: Vec<String> = if csv.has_sequence { csv.sequences().into_iter().map(String::from).collect() } else { vec![String::new()] };
+    let sequences: Vec<String> = if csv.has_sequence {
+        csv.sequences().into_iter().map(String::from).collect()
+    } else {
+        vec![String::new()]
+    };
     for sequence in &sequences {
         for track in csv.tracks(sequence) {
             assert!(!track.items.is_empty(), "a track without rows");
-            match track_segmentation(&track, to_frame, EndRule::LastEndOnly, origin, rate, n_frames) {
+            match track_segmentation(&track, to_frame, EndRule::LastEndOnly, origin, rate, n_frames)
+            {
                 // Boundaries are strictly increasing and strictly inside the motion (the first
                 // and last frames are the recording's edges, never boundaries).
                 Ok(s) => {

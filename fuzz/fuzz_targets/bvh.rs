@@ -18,15 +18,21 @@ fuzz_target!(|data: &[u8]| {
     if let Err(e) = parse_bvh(text, origin, &BvhOptions::default()) {
         common::assert_names_file(&e, "fuzz.bvh");
     }
-    let explicit = BvhOptions { length_unit: Some(LengthUnit::Centimetre), up_axis: Axis::Y, position_channels: PositionChannels::Add };
+    let explicit = BvhOptions {
+        length_unit: Some(LengthUnit::Centimetre),
+        up_axis: Axis::Y,
+        position_channels: PositionChannels::Add,
+    };
     match parse_bvh_channels(text, origin, &explicit) {
         Ok(data) => {
             // Whatever the reader accepts, the writer must write and the reader re-read with
             // the same shape (values may round at the writer's 6 decimals).
             let mut out = Vec::new();
-            write_bvh(&data.motion, data.frame_rate, LengthUnit::Centimetre, &mut out).expect("write_bvh of a parsed file");
+            write_bvh(&data.motion, data.frame_rate, LengthUnit::Centimetre, &mut out)
+                .expect("write_bvh of a parsed file");
             let again = std::str::from_utf8(&out).expect("write_bvh writes UTF-8");
-            let back = parse_bvh_channels(again, Path::new("rewritten.bvh"), &explicit).expect("re-reading written BVH");
+            let back = parse_bvh_channels(again, Path::new("rewritten.bvh"), &explicit)
+                .expect("re-reading written BVH");
             assert_eq!(back.motion.n_frames(), data.motion.n_frames());
             assert_eq!(back.motion.n_channels(), data.motion.n_channels());
             assert_eq!(back.motion.skeleton.joints.len(), data.motion.skeleton.joints.len());

@@ -20,7 +20,12 @@ fuzz_target!(|data: &[u8]| {
         }
         Err(e) => common::assert_names_file(&e, "fuzz.c3d"),
     }
-    let zeros = C3dOptions { up_axis: Axis::Y, zero_means_missing: true, strip_subject_prefix: false, strict: true };
+    let zeros = C3dOptions {
+        up_axis: Axis::Y,
+        zero_means_missing: true,
+        strip_subject_prefix: false,
+        strict: true,
+    };
     let _ = parse_c3d(data, origin, &zeros);
     if let Ok(file) = C3dFile::parse(data, origin) {
         let _ = file.params();

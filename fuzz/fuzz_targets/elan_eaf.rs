@@ -22,8 +22,17 @@ fuzz_target!(|data: &[u8]| {
     let rate = FrameRate::new(120.0).expect("valid rate");
     let n_frames = usize::from(data.last().copied().unwrap_or(0)) * 251 + 1;
     for tier in tiers.iter().filter(|t| t.time_aligned) {
-        assert!(tier.track.items.iter().all(|i| i.end.as_ref().is_some_and(|(_, end)| i.start <= *end)));
-        match track_segmentation(&tier.track, |ms| ms * 120.0 / 1000.0, EndRule::EveryEnd, origin, rate, n_frames) {
+        assert!(
+            tier.track.items.iter().all(|i| i.end.as_ref().is_some_and(|(_, end)| i.start <= *end))
+        );
+        match track_segmentation(
+            &tier.track,
+            |ms| ms * 120.0 / 1000.0,
+            EndRule::EveryEnd,
+            origin,
+            rate,
+            n_frames,
+        ) {
             Ok(s) => {
                 assert!(s.boundaries.windows(2).all(|w| w[0].frame < w[1].frame));
                 assert!(s.boundaries.iter().all(|b| b.frame > 0 && b.frame + 1 < n_frames));

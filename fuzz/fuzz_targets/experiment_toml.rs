@@ -12,7 +12,7 @@ use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
 use motionlab_engine::consent::commands_of;
-use motionlab_engine::plan::{Source, parse_experiment, build_stages_in_memory};
+use motionlab_engine::plan::{Source, build_stages_in_memory, parse_experiment};
 
 // Name the plugin crates so their registrations are linked in.
 use motionlab_eval as _;
@@ -30,7 +30,8 @@ fuzz_target!(|data: &[u8]| {
         Some(o) => vec![o.to_string()],
         None => vec![],
     };
-    let source = Source { path: Path::new("/nonexistent/fuzz.toml").to_path_buf(), text: text.to_string() };
+    let source =
+        Source { path: Path::new("/nonexistent/fuzz.toml").to_path_buf(), text: text.to_string() };
     match parse_experiment(&source, &overrides) {
         Ok(parsed) => {
             let mut built = true;
@@ -44,7 +45,10 @@ fuzz_target!(|data: &[u8]| {
             for c in commands_of(&parsed.combos) {
                 assert!(!c.at.is_empty() && !c.plugin.is_empty());
                 if built {
-                    assert!(!c.command.is_empty() && !c.command_line().is_empty(), "an empty command line passed validation");
+                    assert!(
+                        !c.command.is_empty() && !c.command_line().is_empty(),
+                        "an empty command line passed validation"
+                    );
                 }
             }
         }

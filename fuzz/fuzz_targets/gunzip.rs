@@ -21,7 +21,9 @@ fuzz_target!(|data: &[u8]| {
             assert!(out.len() as u64 <= LIMIT, "{} bytes returned past the limit", out.len());
             // The reference: flate2 on its own, read no further than just past the limit.
             let mut reference = Vec::new();
-            let result = flate2::bufread::MultiGzDecoder::new(data).take(LIMIT + 1).read_to_end(&mut reference);
+            let result = flate2::bufread::MultiGzDecoder::new(data)
+                .take(LIMIT + 1)
+                .read_to_end(&mut reference);
             assert!(result.is_ok(), "accepted what flate2 refuses: {result:?}");
             assert!(out == reference, "libdeflate and flate2 disagree");
         }

@@ -19,8 +19,15 @@ fuzz_target!(|data: &[u8]| {
     };
     let n_frames = usize::from(data.last().copied().unwrap_or(0)) * 13 + 1;
     let rate = FrameRate::new(120.0).expect("valid rate");
-    let motion = Motion::new("m", rate, Axis::Y, PointKind::Joint, vec!["root".into()], vec![[0.0; 3]; n_frames])
-        .expect("a one-point motion");
+    let motion = Motion::new(
+        "m",
+        rate,
+        Axis::Y,
+        PointKind::Joint,
+        vec!["root".into()],
+        vec![[0.0; 3]; n_frames],
+    )
+    .expect("a one-point motion");
     for block_frames in [1, 12, usize::MAX] {
         match block_segmentation(&labels, origin, block_frames, &motion) {
             Ok(s) => assert!(s.segments.iter().all(|g| g.start < g.end && g.end <= n_frames)),

@@ -7,7 +7,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use motionlab_external::protocol::{feature_set, parse_reply, segmenter_output, FeaturesReply, SegmenterReply};
+use motionlab_external::protocol::{
+    FeaturesReply, SegmenterReply, feature_set, parse_reply, segmenter_output,
+};
 
 fn column_safe(name: &str) -> bool {
     !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
@@ -33,7 +35,12 @@ fuzz_target!(|data: &[u8]| {
         assert!(!set.traces.is_empty() || !set.labels.is_empty());
         assert!(set.traces.iter().all(|t| t.values.len() == n_frames && column_safe(&t.name)));
         assert!(set.labels.iter().all(|l| l.values.len() == n_frames && column_safe(&l.name)));
-        let mut names: Vec<&str> = set.traces.iter().map(|t| t.name.as_str()).chain(set.labels.iter().map(|l| l.name.as_str())).collect();
+        let mut names: Vec<&str> = set
+            .traces
+            .iter()
+            .map(|t| t.name.as_str())
+            .chain(set.labels.iter().map(|l| l.name.as_str()))
+            .collect();
         names.sort();
         assert!(names.windows(2).all(|w| w[0] != w[1]), "a name returned twice was accepted");
     }

@@ -41,8 +41,8 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use sha2::{Digest, Sha256};
 
@@ -112,7 +112,13 @@ pub fn build_fingerprint() -> &'static str {
     FP.get_or_init(|| {
         let exe = std::env::current_exe().ok().and_then(|p| std::fs::metadata(p).ok());
         let (len, mtime) = match exe {
-            Some(m) => (m.len(), m.modified().ok().and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok()).map_or(0, |d| d.as_nanos())),
+            Some(m) => (
+                m.len(),
+                m.modified()
+                    .ok()
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                    .map_or(0, |d| d.as_nanos()),
+            ),
             None => (0, 0),
         };
         format!("motionlab {} exe {len} {mtime}", env!("CARGO_PKG_VERSION"))
@@ -123,7 +129,9 @@ pub fn build_fingerprint() -> &'static str {
 /// `$HOME/.cache/motionlab`; `None` when none of them is set.
 pub fn default_dir() -> Option<PathBuf> {
     let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
-    var("MOTIONLAB_CACHE_DIR").or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("motionlab"))).or_else(|| var("HOME").map(|h| h.join(".cache").join("motionlab")))
+    var("MOTIONLAB_CACHE_DIR")
+        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("motionlab")))
+        .or_else(|| var("HOME").map(|h| h.join(".cache").join("motionlab")))
 }
 
 /// What [`Cache::info`] counts.
@@ -191,7 +199,11 @@ impl Cache {
         let path = self.entry_path(kind, key);
         let Some(dir) = path.parent() else { return Ok(()) };
         std::fs::create_dir_all(dir)?;
-        let tmp = dir.join(format!(".tmp-{}-{}", std::process::id(), TMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
+        let tmp = dir.join(format!(
+            ".tmp-{}-{}",
+            std::process::id(),
+            TMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+        ));
         let result = (|| {
             let mut f = std::fs::File::create(&tmp)?;
             f.write_all(&encode_entry(key, payload))?;
@@ -209,7 +221,8 @@ impl Cache {
     pub fn info(&self) -> std::io::Result<Info> {
         let mut info = Info::default();
         let Ok(kinds) = std::fs::read_dir(&self.dir) else { return Ok(info) };
-        let mut kinds: Vec<PathBuf> = kinds.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
+        let mut kinds: Vec<PathBuf> =
+            kinds.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
         kinds.sort();
         for k in kinds {
             let (mut n, mut bytes) = (0, 0);
@@ -228,7 +241,11 @@ impl Cache {
             }
             info.entries += n;
             info.bytes += bytes;
-            info.kinds.push((k.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), n, bytes));
+            info.kinds.push((
+                k.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+                n,
+                bytes,
+            ));
         }
         Ok(info)
     }
@@ -267,8 +284,10 @@ pub fn decode_entry(bytes: &[u8], key: &Key) -> Result<Vec<u8>, Miss> {
     if &header[..8] != MAGIC {
         return Err(Miss::BadMagic);
     }
-    let u32_at = |a: usize| header.get(a..a + 4).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
-    let u64_at = |a: usize| header.get(a..a + 8).and_then(|s| s.try_into().ok()).map(u64::from_le_bytes);
+    let u32_at =
+        |a: usize| header.get(a..a + 4).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
+    let u64_at =
+        |a: usize| header.get(a..a + 8).and_then(|s| s.try_into().ok()).map(u64::from_le_bytes);
     if u32_at(8) != Some(FORMAT_VERSION) {
         return Err(Miss::OtherVersion);
     }
@@ -288,7 +307,9 @@ pub fn decode_entry(bytes: &[u8], key: &Key) -> Result<Vec<u8>, Miss> {
 /// an entry's temporary file and renaming it, so a test can kill the process mid-write.
 fn test_hook_pause() {
     #[cfg(debug_assertions)]
-    if let Some(ms) = std::env::var("MOTIONLAB_CACHE_TEST_PAUSE_MS").ok().and_then(|v| v.parse::<u64>().ok()) {
+    if let Some(ms) =
+        std::env::var("MOTIONLAB_CACHE_TEST_PAUSE_MS").ok().and_then(|v| v.parse::<u64>().ok())
+    {
         std::thread::sleep(std::time::Duration::from_millis(ms));
     }
 }

@@ -13,7 +13,10 @@ use nalgebra::{Matrix3, Rotation3};
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::skeleton::{ChannelKind, Joint, Skeleton, SkeletonMotion};
-use motionlab_core::{Axis, Boundary, Channels, Segment, Error, ErrorKind, Event, FrameRate, LoadNotes, Motion, PointKind, Result, Seconds, Segmentation};
+use motionlab_core::{
+    Axis, Boundary, Channels, Error, ErrorKind, Event, FrameRate, LoadNotes, Motion, PointKind,
+    Result, Seconds, Segment, Segmentation,
+};
 
 #[derive(Serialize, Deserialize)]
 struct Header {
@@ -104,7 +107,11 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
         point_names: motion.point_names().to_vec(),
         n_frames: motion.n_frames() as u64,
         skeleton,
-        events: motion.events.iter().map(|e| (e.label.clone(), e.context.clone(), e.time.value(), e.frame)).collect(),
+        events: motion
+            .events
+            .iter()
+            .map(|e| (e.label.clone(), e.context.clone(), e.time.value(), e.frame))
+            .collect(),
         truth: truth.map(|t| TruthRecord {
             frame_rate_hz: t.frame_rate.hz(),
             boundaries: t.boundaries.clone(),
@@ -112,12 +119,14 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
             annotators: t.annotators.clone(),
             annotator_names: t.annotator_names.clone(),
         }),
-        channels: (!motion.channels().is_empty()).then(|| (motion.channels().names().to_vec(), motion.channels().units().to_vec())),
+        channels: (!motion.channels().is_empty())
+            .then(|| (motion.channels().names().to_vec(), motion.channels().units().to_vec())),
         load_notes: motion.load_notes.clone(),
     };
     let head = rmp_serde::to_vec(&header).map_err(|e| bad(format!("cannot encode: {e}")))?;
     let values = motion.skeleton.as_ref().map_or(&[][..], |s| s.channel_values());
-    let mut out = Vec::with_capacity(8 + head.len() + (motion.positions().len() * 3 + values.len()) * 8);
+    let mut out =
+        Vec::with_capacity(8 + head.len() + (motion.positions().len() * 3 + values.len()) * 8);
     out.extend_from_slice(&(head.len() as u64).to_le_bytes());
     out.extend_from_slice(&head);
     for p in motion.positions() {
@@ -141,13 +150,19 @@ fn f64s(bytes: &[u8]) -> impl Iterator<Item = f64> + '_ {
 
 /// Decodes what [`encode`] wrote. Any inconsistency is an error (the caller then recomputes).
 pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
-    let len_bytes: [u8; 8] = bytes.get(..8).and_then(|s| s.try_into().ok()).ok_or_else(|| bad("too short"))?;
-    let head_len = usize::try_from(u64::from_le_bytes(len_bytes)).map_err(|_| bad("header length"))?;
-    let head = bytes.get(8..8usize.saturating_add(head_len)).ok_or_else(|| bad("header past the end"))?;
+    let len_bytes: [u8; 8] =
+        bytes.get(..8).and_then(|s| s.try_into().ok()).ok_or_else(|| bad("too short"))?;
+    let head_len =
+        usize::try_from(u64::from_le_bytes(len_bytes)).map_err(|_| bad("header length"))?;
+    let head =
+        bytes.get(8..8usize.saturating_add(head_len)).ok_or_else(|| bad("header past the end"))?;
     let h: Header = rmp_serde::from_slice(head).map_err(|e| bad(format!("header: {e}")))?;
     let body = &bytes[8 + head_len..];
     let n_frames = usize::try_from(h.n_frames).map_err(|_| bad("frame count"))?;
-    let n_pos = n_frames.checked_mul(h.point_names.len()).and_then(|n| n.checked_mul(3)).ok_or_else(|| bad("size"))?;
+    let n_pos = n_frames
+        .checked_mul(h.point_names.len())
+        .and_then(|n| n.checked_mul(3))
+        .ok_or_else(|| bad("size"))?;
     let pos_bytes = body.get(..n_pos * 8).ok_or_else(|| bad("positions past the end"))?;
     let flat: Vec<f64> = f64s(pos_bytes).collect();
     let positions: Vec<[f64; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
@@ -157,7 +172,10 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
     let channels = match h.channels {
         None => None,
         Some((names, units)) => {
-            let n = n_frames.checked_mul(names.len()).and_then(|n| n.checked_mul(8)).ok_or_else(|| bad("size"))?;
+            let n = n_frames
+                .checked_mul(names.len())
+                .and_then(|n| n.checked_mul(8))
+                .ok_or_else(|| bad("size"))?;
             let at = rest.len().checked_sub(n).ok_or_else(|| bad("channels past the end"))?;
             let values = f64s(&rest[at..]).collect();
             rest = &rest[..at];
@@ -180,24 +198,40 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
     }
     motion.source = h.source;
     motion.format = h.format;
-    motion.events = h.events.into_iter().map(|(label, context, t, frame)| Event { label, context, time: Seconds(t), frame }).collect();
+    motion.events = h
+        .events
+        .into_iter()
+        .map(|(label, context, t, frame)| Event { label, context, time: Seconds(t), frame })
+        .collect();
     motion.load_notes = h.load_notes;
     match h.skeleton {
         Some(joints) => {
-            let joints: Vec<Joint> = joints
-                .into_iter()
-                .map(|j| Joint {
-                    name: j.name,
-                    parent: j.parent,
-                    offset: j.offset,
-                    channels: j.channels.into_iter().map(|(t, a)| if t { ChannelKind::Translation(a) } else { ChannelKind::Rotation(a) }).collect(),
-                    rotation_order: j.rotation_order,
-                    axis: Rotation3::from_matrix_unchecked(Matrix3::from_column_slice(&j.axis)),
-                    end_sites: j.end_sites,
-                })
-                .collect();
+            let joints: Vec<Joint> =
+                joints
+                    .into_iter()
+                    .map(|j| Joint {
+                        name: j.name,
+                        parent: j.parent,
+                        offset: j.offset,
+                        channels: j
+                            .channels
+                            .into_iter()
+                            .map(|(t, a)| {
+                                if t {
+                                    ChannelKind::Translation(a)
+                                } else {
+                                    ChannelKind::Rotation(a)
+                                }
+                            })
+                            .collect(),
+                        rotation_order: j.rotation_order,
+                        axis: Rotation3::from_matrix_unchecked(Matrix3::from_column_slice(&j.axis)),
+                        end_sites: j.end_sites,
+                    })
+                    .collect();
             let skeleton = Skeleton { joints };
-            let expected = n_frames.checked_mul(skeleton.n_channels()).ok_or_else(|| bad("size"))?;
+            let expected =
+                n_frames.checked_mul(skeleton.n_channels()).ok_or_else(|| bad("size"))?;
             if rest.len() != expected * 8 {
                 return Err(bad("channel values have the wrong length"));
             }
@@ -226,24 +260,53 @@ mod tests {
     #[test]
     fn round_trip_keeps_every_bit() {
         let rate = FrameRate::new(120.0).unwrap();
-        let pos = vec![[1.5, -0.0, 1e-300], [f64::NAN, f64::NAN, f64::NAN], [3.0, 4.0, 5.0], [0.1, 0.2, 0.3]];
-        let mut m = Motion::new("take", rate, Axis::Y, PointKind::Joint, vec!["a".into(), "b".into()], pos).unwrap().with_source("/x/take.amc", "asf_amc");
-        let mut root = Joint::new("a", None, [0.0, 0.0, 0.0], vec![ChannelKind::Translation(Axis::X), ChannelKind::Rotation(Axis::Z)]);
+        let pos = vec![
+            [1.5, -0.0, 1e-300],
+            [f64::NAN, f64::NAN, f64::NAN],
+            [3.0, 4.0, 5.0],
+            [0.1, 0.2, 0.3],
+        ];
+        let mut m =
+            Motion::new("take", rate, Axis::Y, PointKind::Joint, vec!["a".into(), "b".into()], pos)
+                .unwrap()
+                .with_source("/x/take.amc", "asf_amc");
+        let mut root = Joint::new(
+            "a",
+            None,
+            [0.0, 0.0, 0.0],
+            vec![ChannelKind::Translation(Axis::X), ChannelKind::Rotation(Axis::Z)],
+        );
         root.axis = Rotation3::from_axis_angle(&nalgebra::Vector3::x_axis(), 0.3);
-        let child = Joint::new("b", Some(0), [0.0, 10.0, 0.0], vec![ChannelKind::Rotation(Axis::X)]);
-        m.skeleton = Some(SkeletonMotion::new(Skeleton { joints: vec![root, child] }, vec![1.0, 2.0, 3.0, 4.0, 5.0, 0.1]).unwrap());
-        m.events.push(Event { label: "Foot Strike".into(), context: "Left".into(), time: Seconds(0.5), frame: 1.25 });
+        let child =
+            Joint::new("b", Some(0), [0.0, 10.0, 0.0], vec![ChannelKind::Rotation(Axis::X)]);
+        m.skeleton = Some(
+            SkeletonMotion::new(
+                Skeleton { joints: vec![root, child] },
+                vec![1.0, 2.0, 3.0, 4.0, 5.0, 0.1],
+            )
+            .unwrap(),
+        );
+        m.events.push(Event {
+            label: "Foot Strike".into(),
+            context: "Left".into(),
+            time: Seconds(0.5),
+            frame: 1.25,
+        });
         m.load_notes.length_unit = Some(motionlab_core::LengthUnit::CmuUnit);
         m.load_notes.length_unit_from = "ASF :units length 0.45".into();
         m.load_notes.repairs = vec!["duplicate label \"a\" renamed".into()];
         let bytes = encode(&m, None).unwrap();
         let (back, truth) = decode(&bytes).unwrap();
         assert!(truth.is_none());
-        let bits = |m: &Motion| m.positions().iter().flat_map(|p| p.map(f64::to_bits)).collect::<Vec<_>>();
+        let bits =
+            |m: &Motion| m.positions().iter().flat_map(|p| p.map(f64::to_bits)).collect::<Vec<_>>();
         assert_eq!(bits(&back), bits(&m));
         assert_eq!(back.missing_mask(), m.missing_mask());
         assert_eq!(back.point_names(), m.point_names());
-        assert_eq!((back.name.as_str(), back.format.as_str(), back.source.clone()), (m.name.as_str(), m.format.as_str(), m.source.clone()));
+        assert_eq!(
+            (back.name.as_str(), back.format.as_str(), back.source.clone()),
+            (m.name.as_str(), m.format.as_str(), m.source.clone())
+        );
         let (s0, s1) = (m.skeleton.as_ref().unwrap(), back.skeleton.as_ref().unwrap());
         assert_eq!(s0.skeleton, s1.skeleton);
         assert_eq!(s0.channel_values(), s1.channel_values());
@@ -257,14 +320,31 @@ mod tests {
     #[test]
     fn channels_round_trip_with_and_without_points() {
         let rate = FrameRate::new(1.0).unwrap();
-        let c = Channels::new(vec!["value".into(), "b".into()], vec![String::new(), "mm/s".into()], vec![1.0, f64::NAN, -2.5, 1e-300]).unwrap();
-        let series = Motion::from_channels("Adiac", rate, c.clone()).unwrap().with_source("/x/Adiac.txt", "channels");
+        let c = Channels::new(
+            vec!["value".into(), "b".into()],
+            vec![String::new(), "mm/s".into()],
+            vec![1.0, f64::NAN, -2.5, 1e-300],
+        )
+        .unwrap();
+        let series = Motion::from_channels("Adiac", rate, c.clone())
+            .unwrap()
+            .with_source("/x/Adiac.txt", "channels");
         let (back, _) = decode(&encode(&series, None).unwrap()).unwrap();
         assert_eq!((back.n_points(), back.n_frames()), (0, 2));
         let bits = |c: &Channels| c.values().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(back.channels()), bits(&c));
         assert_eq!((back.channels().names(), back.channels().units()), (c.names(), c.units()));
-        let take = Motion::new("t", rate, Axis::Y, PointKind::Marker, vec!["a".into()], vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]).unwrap().with_channels(c.clone()).unwrap();
+        let take = Motion::new(
+            "t",
+            rate,
+            Axis::Y,
+            PointKind::Marker,
+            vec!["a".into()],
+            vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]],
+        )
+        .unwrap()
+        .with_channels(c.clone())
+        .unwrap();
         let bytes = encode(&take, None).unwrap();
         let (back, _) = decode(&bytes).unwrap();
         assert_eq!((back.positions(), bits(back.channels())), (take.positions(), bits(&c)));

@@ -42,12 +42,15 @@ pub fn encode(tables: &[Table]) -> Result<Vec<u8>> {
                 .collect(),
         })
         .collect();
-    rmp_serde::to_vec(&records).map_err(|e| Error::new(ErrorKind::Report, format!("cannot encode tables for the cache: {e}")))
+    rmp_serde::to_vec(&records).map_err(|e| {
+        Error::new(ErrorKind::Report, format!("cannot encode tables for the cache: {e}"))
+    })
 }
 
 /// Decodes what [`encode`] wrote.
 pub fn decode(bytes: &[u8]) -> Result<Vec<Table>> {
-    let records: Vec<TableRecord> = rmp_serde::from_slice(bytes).map_err(|e| Error::new(ErrorKind::Mismatch, format!("cached tables: {e}")))?;
+    let records: Vec<TableRecord> = rmp_serde::from_slice(bytes)
+        .map_err(|e| Error::new(ErrorKind::Mismatch, format!("cached tables: {e}")))?;
     Ok(records
         .into_iter()
         .map(|r| Table {
@@ -80,7 +83,11 @@ mod tests {
         t.push_column("x", ColumnValues::F64(vec![0.1, f64::NAN, -0.0, 1e308])).unwrap();
         t.push_column("n", ColumnValues::I64(vec![1, -2, i64::MAX, 0])).unwrap();
         t.push_column("b", ColumnValues::Bool(vec![true, false, true, false])).unwrap();
-        t.push_column("s", ColumnValues::Str(vec![Some("a".into()), None, Some(String::new()), Some("é".into())])).unwrap();
+        t.push_column(
+            "s",
+            ColumnValues::Str(vec![Some("a".into()), None, Some(String::new()), Some("é".into())]),
+        )
+        .unwrap();
         let back = decode(&encode(std::slice::from_ref(&t)).unwrap()).unwrap();
         assert_eq!(back.len(), 1);
         let bits = |t: &Table| match &t.columns[0].values {

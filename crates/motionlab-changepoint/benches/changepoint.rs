@@ -12,9 +12,13 @@ fn main() {
 /// n samples in 10 segments of random mean (N(0, 3²)) and unit noise, `channels` channels.
 fn series(n: usize, channels: usize, seed: u64) -> Vec<f64> {
     let mut rng = fastrand::Rng::with_seed(seed);
-    let mut gauss = move || (-2.0 * rng.f64().max(1e-300).ln()).sqrt() * (std::f64::consts::TAU * rng.f64()).cos();
+    let mut gauss = move || {
+        (-2.0 * rng.f64().max(1e-300).ln()).sqrt() * (std::f64::consts::TAU * rng.f64()).cos()
+    };
     let means: Vec<f64> = (0..10 * channels).map(|_| 3.0 * gauss()).collect();
-    (0..n * channels).map(|i| means[(i / channels) * 10 / n * channels + i % channels] + gauss()).collect()
+    (0..n * channels)
+        .map(|i| means[(i / channels) * 10 / n * channels + i % channels] + gauss())
+        .collect()
 }
 
 fn kernel_cpd(toml_text: &str) -> motionlab_changepoint::KernelCpd {
@@ -25,7 +29,10 @@ fn kernel_cpd(toml_text: &str) -> motionlab_changepoint::KernelCpd {
 #[divan::bench(args = [2_000, 10_000, 100_000], sample_count = 5)]
 fn kernel_pelt_rbf(bencher: divan::Bencher, n: usize) {
     let x = series(n, 1, 1);
-    let stage = kernel_cpd(&format!("search = \"kernel_pelt\"\ncost = \"rbf\"\ngamma = 0.05\npen = {}", (n as f64).ln()));
+    let stage = kernel_cpd(&format!(
+        "search = \"kernel_pelt\"\ncost = \"rbf\"\ngamma = 0.05\npen = {}",
+        (n as f64).ln()
+    ));
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }
 
@@ -42,7 +49,9 @@ fn kernel_pelt_rbf_median_heuristic(bencher: divan::Bencher, n: usize) {
 #[divan::bench(args = [(1, 10_000), (1, 100_000), (3, 2_000), (3, 10_000)], sample_count = 5)]
 fn median_heuristic(bencher: divan::Bencher, (channels, n): (usize, usize)) {
     let x = series(n, channels, 2);
-    bencher.bench(|| motionlab_changepoint::kernel_cpd::median_heuristic(divan::black_box(&x), channels).unwrap());
+    bencher.bench(|| {
+        motionlab_changepoint::kernel_cpd::median_heuristic(divan::black_box(&x), channels).unwrap()
+    });
 }
 
 /// ruptures' Pelt semantics: l2 (prefix sums) and rbf (running kernel sums), jump 5.
@@ -65,7 +74,8 @@ fn binseg_n_bkps9_n5000(bencher: divan::Bencher, cost: &str) {
 #[divan::bench(args = ["l2", "rbf"], sample_count = 5)]
 fn window_n10000(bencher: divan::Bencher, cost: &str) {
     let x = series(10_000, 1, 5);
-    let stage = toml::from_str::<WindowParams>(&format!("cost = \"{cost}\"")).unwrap().check().unwrap();
+    let stage =
+        toml::from_str::<WindowParams>(&format!("cost = \"{cost}\"")).unwrap().check().unwrap();
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }
 
@@ -73,6 +83,9 @@ fn window_n10000(bencher: divan::Bencher, cost: &str) {
 #[divan::bench(args = [0.0, 1e-6], sample_count = 5)]
 fn bocpd_n5000(bencher: divan::Bencher, truncate_below: f64) {
     let x = series(5_000, 1, 6);
-    let stage = toml::from_str::<BocpdParams>(&format!("truncate_below = {truncate_below}")).unwrap().check().unwrap();
+    let stage = toml::from_str::<BocpdParams>(&format!("truncate_below = {truncate_below}"))
+        .unwrap()
+        .check()
+        .unwrap();
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }

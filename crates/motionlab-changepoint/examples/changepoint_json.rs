@@ -26,20 +26,37 @@ use serde_json::{Value, json};
 fn run_job(job: &Value) -> Result<Value, String> {
     let segmenter = job["segmenter"].as_str().ok_or("job without \"segmenter\"")?;
     if segmenter == "verify_exp" {
-        let (bad, total) = motionlab_changepoint::kernel_cpd::verify_inlined_exp(job["stride"].as_u64().unwrap_or(1) as u32);
+        let (bad, total) = motionlab_changepoint::kernel_cpd::verify_inlined_exp(
+            job["stride"].as_u64().unwrap_or(1) as u32,
+        );
         return Ok(json!({"differ": bad, "compared": total}));
     }
     let params = job.get("params").cloned().unwrap_or(json!({}));
     let (values, n_channels): (Vec<f64>, usize) = if let Some(path) = job["values_file"].as_str() {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
-        let v = text.lines().filter(|l| !l.trim().is_empty()).map(|l| l.trim().parse::<f64>().map_err(|e| format!("{path}: {e}"))).collect::<Result<_, _>>()?;
+        let v = text
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .map(|l| l.trim().parse::<f64>().map_err(|e| format!("{path}: {e}")))
+            .collect::<Result<_, _>>()?;
         (v, 1)
     } else if let Some(hex) = job["values_hex"].as_str() {
-        let bytes: Vec<u8> = (0..hex.len() / 2).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16)).collect::<Result<_, _>>().map_err(|e| format!("values_hex: {e}"))?;
-        let v = bytes.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
+        let bytes: Vec<u8> = (0..hex.len() / 2)
+            .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16))
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("values_hex: {e}"))?;
+        let v = bytes
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+            .collect();
         (v, job["n_channels"].as_u64().unwrap_or(1) as usize)
     } else {
-        let v = job["values"].as_array().ok_or("job without \"values\"")?.iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect();
+        let v = job["values"]
+            .as_array()
+            .ok_or("job without \"values\"")?
+            .iter()
+            .map(|v| v.as_f64().unwrap_or(f64::NAN))
+            .collect();
         (v, job["n_channels"].as_u64().unwrap_or(1) as usize)
     };
     let repeats = job["repeats"].as_u64().unwrap_or(1).max(1);
@@ -51,23 +68,37 @@ fn run_job(job: &Value) -> Result<Value, String> {
         let cpu_start = thread_cpu_ns();
         out = match segmenter {
             "kernel_cpd" => {
-                let stage = serde_json::from_value::<KernelCpdParams>(params.clone()).map_err(|e| e.to_string())?.check().map_err(|e| e.to_string())?;
+                let stage = serde_json::from_value::<KernelCpdParams>(params.clone())
+                    .map_err(|e| e.to_string())?
+                    .check()
+                    .map_err(|e| e.to_string())?;
                 let run = stage.run(&values, n_channels).map_err(|e| e.to_string())?;
                 let n = values.len() / n_channels;
                 json!({"breakpoints": run.breakpoints, "candidates": run.breakpoints.iter().filter(|&&b| b < n).collect::<Vec<_>>(), "pen": run.pen, "gamma": run.gamma})
             }
             "window" => {
-                let stage = serde_json::from_value::<WindowParams>(params.clone()).map_err(|e| e.to_string())?.check().map_err(|e| e.to_string())?;
+                let stage = serde_json::from_value::<WindowParams>(params.clone())
+                    .map_err(|e| e.to_string())?
+                    .check()
+                    .map_err(|e| e.to_string())?;
                 let run = stage.run(&values, n_channels).map_err(|e| e.to_string())?;
                 let n = values.len() / n_channels;
                 json!({"breakpoints": run.breakpoints, "candidates": run.breakpoints.iter().filter(|&&b| b < n).collect::<Vec<_>>(), "pen": run.pen, "gamma": run.gamma})
             }
             "bocpd" => {
-                let stage = serde_json::from_value::<BocpdParams>(params.clone()).map_err(|e| e.to_string())?.check().map_err(|e| e.to_string())?;
+                let stage = serde_json::from_value::<BocpdParams>(params.clone())
+                    .map_err(|e| e.to_string())?
+                    .check()
+                    .map_err(|e| e.to_string())?;
                 let run = stage.run(&values, n_channels).map_err(|e| e.to_string())?;
-                let mut o = json!({"candidates": run.candidates, "map_run_length": run.map_run_length});
+                let mut o =
+                    json!({"candidates": run.candidates, "map_run_length": run.map_run_length});
                 if job["posterior"].as_bool().unwrap_or(false) {
-                    o["posterior"] = json!(stage.run_length_posterior(&values, n_channels).map_err(|e| e.to_string())?);
+                    o["posterior"] = json!(
+                        stage
+                            .run_length_posterior(&values, n_channels)
+                            .map_err(|e| e.to_string())?
+                    );
                 }
                 o
             }
@@ -84,7 +115,12 @@ fn run_job(job: &Value) -> Result<Value, String> {
 /// CPU time of this thread so far (ns), from /proc/thread-self/schedstat: on a loaded machine
 /// wall time counts the waits for a core, CPU time does not.
 fn thread_cpu_ns() -> Option<u64> {
-    std::fs::read_to_string("/proc/thread-self/schedstat").ok()?.split_whitespace().next()?.parse().ok()
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
 }
 
 fn peak_rss_kib() -> Option<u64> {
@@ -106,6 +142,7 @@ fn main() {
         }
     };
     let jobs = request["jobs"].as_array().cloned().unwrap_or_default();
-    let results: Vec<Value> = jobs.iter().map(|job| run_job(job).unwrap_or_else(|e| json!({"error": e}))).collect();
+    let results: Vec<Value> =
+        jobs.iter().map(|job| run_job(job).unwrap_or_else(|e| json!({"error": e}))).collect();
     println!("{}", json!({"results": results, "peak_rss_kib": peak_rss_kib()}));
 }

@@ -154,14 +154,36 @@ impl ParamGuard for BocpdParams {
     type Checked = Bocpd;
     fn check(self) -> Result<Bocpd> {
         let range = |field: &str, value: f64, ok: bool, expected: &str| {
-            if ok { Ok(()) } else { Err(Error::new(ErrorKind::OutOfRange, format!("{field} is {value}, expected {expected}")).with_field(field.to_string())) }
+            if ok {
+                Ok(())
+            } else {
+                Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("{field} is {value}, expected {expected}"),
+                )
+                .with_field(field.to_string()))
+            }
         };
-        range("lambda", self.lambda, self.lambda.is_finite() && self.lambda >= 1.0, "an expected segment length ≥ 1 sample")?;
+        range(
+            "lambda",
+            self.lambda,
+            self.lambda.is_finite() && self.lambda >= 1.0,
+            "an expected segment length ≥ 1 sample",
+        )?;
         range("prior_mean", self.prior_mean, self.prior_mean.is_finite(), "a finite number")?;
-        for (field, v) in [("prior_kappa", self.prior_kappa), ("prior_alpha", self.prior_alpha), ("prior_beta", self.prior_beta)] {
+        for (field, v) in [
+            ("prior_kappa", self.prior_kappa),
+            ("prior_alpha", self.prior_alpha),
+            ("prior_beta", self.prior_beta),
+        ] {
             range(field, v, v.is_finite() && v > 0.0, "a finite number > 0")?;
         }
-        range("truncate_below", self.truncate_below, (0.0..1.0).contains(&self.truncate_below), "a probability in [0, 1)")?;
+        range(
+            "truncate_below",
+            self.truncate_below,
+            (0.0..1.0).contains(&self.truncate_below),
+            "a probability in [0, 1)",
+        )?;
         let drop_threshold = match (self.change_points, self.drop_threshold) {
             (BocpdChangePoints::MapPath, Some(_)) => {
                 return Err(Error::new(
@@ -173,7 +195,12 @@ impl ParamGuard for BocpdParams {
             (BocpdChangePoints::MapPath, None) => None,
             (BocpdChangePoints::RunLengthDrop, d) => {
                 let d = d.unwrap_or(250.0);
-                range("drop_threshold", d, d.is_finite() && d > 0.0, "a run-length fall > 0 samples")?;
+                range(
+                    "drop_threshold",
+                    d,
+                    d.is_finite() && d > 0.0,
+                    "a run-length fall > 0 samples",
+                )?;
                 Some(d)
             }
         };
@@ -221,7 +248,12 @@ struct RunStats {
 impl Bocpd {
     /// Runs the filter, calling `step(t, posterior)` after each sample with P(r_t = r | x_0..=t)
     /// for r = 0, 1, ….
-    fn filter(&self, values: &[f64], n_channels: usize, mut step: impl FnMut(usize, &[f64])) -> Result<usize> {
+    fn filter(
+        &self,
+        values: &[f64],
+        n_channels: usize,
+        mut step: impl FnMut(usize, &[f64]),
+    ) -> Result<usize> {
         let signal = Signal::new(values, n_channels, "bocpd", Missing::Allow)?;
         let (n, d) = (signal.n_samples, signal.n_channels);
         let x = self.normalize.apply(signal.values, d);
@@ -244,7 +276,11 @@ impl Bocpd {
                 }
             })
             .collect();
-        let mut stats = RunStats { count: vec![0; d], mu: vec![self.prior_mean; d], beta: vec![self.prior_beta; d] };
+        let mut stats = RunStats {
+            count: vec![0; d],
+            mu: vec![self.prior_mean; d],
+            beta: vec![self.prior_beta; d],
+        };
         let mut posterior = vec![1.0];
         let mut log_pred = Vec::new();
         let mut next = Vec::new();
@@ -264,7 +300,9 @@ impl Bocpd {
                     let beta = stats.beta[i];
                     // log Student-t: log Γ(α+½) − log Γ(α) − ½ log(π ν scale²) − (ν+1)/2 · log(1 + (x−μ)²/(ν scale²))
                     let z = (v - stats.mu[i]).powi(2) / (beta * k.scale_factor);
-                    lp += k.log_gamma_ratio - 0.5 * (k.log_norm + beta.ln()) - 0.5 * (k.nu + 1.0) * z.ln_1p();
+                    lp += k.log_gamma_ratio
+                        - 0.5 * (k.log_norm + beta.ln())
+                        - 0.5 * (k.nu + 1.0) * z.ln_1p();
                 }
                 log_pred.push(lp);
             }
@@ -302,7 +340,11 @@ impl Bocpd {
                         count.push(stats.count[i] + 1);
                         mu.push((kappa * m + v) / (kappa + 1.0));
                         let spread = kappa * (v - m).powi(2) / (2.0 * (kappa + 1.0));
-                        beta.push(if bocd_package { kappa + spread } else { stats.beta[i] + spread });
+                        beta.push(if bocd_package {
+                            kappa + spread
+                        } else {
+                            stats.beta[i] + spread
+                        });
                     }
                 }
             }
@@ -388,7 +430,11 @@ impl Bocpd {
         Ok(SegmenterOutput {
             candidates: run.candidates,
             traces: vec![
-                Trace::new("map_run_length", "samples", run.map_run_length.iter().map(|&r| r as f64).collect()),
+                Trace::new(
+                    "map_run_length",
+                    "samples",
+                    run.map_run_length.iter().map(|&r| r as f64).collect(),
+                ),
                 Trace::new("mean_run_length", "samples", run.mean_run_length),
             ],
             ..Default::default()
@@ -400,7 +446,11 @@ impl motionlab_core::Segmenter for Bocpd {
     fn consumes(&self) -> motionlab_core::DataKind {
         motionlab_core::DataKind::Channels
     }
-    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+    fn segment(
+        &self,
+        motion: &motionlab_core::Motion,
+        _cache: &motionlab_core::FeatureCache,
+    ) -> Result<SegmenterOutput> {
         let channels = motion.require_channels("bocpd")?;
         self.segment_values(channels.values(), channels.n_channels())
     }
@@ -439,7 +489,9 @@ mod tests {
         let b = Bocpd { normalize: Normalize::None, ..defaults() };
         let post = b.run_length_posterior(&[0.3, 2.0], 1).unwrap();
         let t_pdf = |x: f64, nu: f64, mu: f64, s2: f64| {
-            (libm::lgamma((nu + 1.0) / 2.0) - libm::lgamma(nu / 2.0) - 0.5 * (nu * std::f64::consts::PI * s2).ln()
+            (libm::lgamma((nu + 1.0) / 2.0)
+                - libm::lgamma(nu / 2.0)
+                - 0.5 * (nu * std::f64::consts::PI * s2).ln()
                 - (nu + 1.0) / 2.0 * (1.0 + (x - mu).powi(2) / (nu * s2)).ln())
             .exp()
         };
@@ -457,7 +509,9 @@ mod tests {
     #[test]
     fn finds_a_mean_change_and_a_variance_change() {
         let mut rng = fastrand::Rng::with_seed(3);
-        let gauss = |rng: &mut fastrand::Rng| (-2.0 * rng.f64().max(1e-300).ln()).sqrt() * (std::f64::consts::TAU * rng.f64()).cos();
+        let gauss = |rng: &mut fastrand::Rng| {
+            (-2.0 * rng.f64().max(1e-300).ln()).sqrt() * (std::f64::consts::TAU * rng.f64()).cos()
+        };
         let x: Vec<f64> = (0..600)
             .map(|i| match i {
                 0..200 => gauss(&mut rng),
@@ -475,7 +529,9 @@ mod tests {
     #[test]
     fn channels_add_their_evidence_and_missing_samples_are_skipped() {
         let mut rng = fastrand::Rng::with_seed(4);
-        let x: Vec<f64> = (0..300).flat_map(|i| [rng.f64(), if i < 150 { 0.0 } else { 3.0 } + rng.f64()]).collect();
+        let x: Vec<f64> = (0..300)
+            .flat_map(|i| [rng.f64(), if i < 150 { 0.0 } else { 3.0 } + rng.f64()])
+            .collect();
         let b = defaults();
         assert!(b.run(&x, 2).unwrap().candidates.iter().any(|&c| (c as i64 - 150).abs() <= 3));
         // A gap in one channel: still found; an all-NaN sample advances the run length.
@@ -486,7 +542,11 @@ mod tests {
         gappy[2 * 90] = f64::NAN;
         gappy[2 * 90 + 1] = f64::NAN;
         let run = b.run(&gappy, 2).unwrap();
-        assert!(run.candidates.iter().any(|&c| (c as i64 - 150).abs() <= 3), "{:?}", run.candidates);
+        assert!(
+            run.candidates.iter().any(|&c| (c as i64 - 150).abs() <= 3),
+            "{:?}",
+            run.candidates
+        );
         let post = b.run_length_posterior(&gappy, 2).unwrap();
         assert!(post.iter().flatten().all(|p| p.is_finite()));
     }
@@ -540,7 +600,10 @@ mod tests {
         // the same drop at sample 195), so a threshold under 185 reports it.
         let p: BocpdParams = toml::from_str("model = \"bocd_package\"\nnormalize = \"min_max\"\nchange_points = \"run_length_drop\"\ndrop_threshold = 20.0").unwrap();
         let run = p.check().unwrap().run(&[3.0; 300], 1).unwrap();
-        assert_eq!((run.candidates, run.map_run_length[195], run.map_run_length[196]), (vec![195], 196, 11));
+        assert_eq!(
+            (run.candidates, run.map_run_length[195], run.map_run_length[196]),
+            (vec![195], 196, 11)
+        );
         assert!(b.run(&gap, 1).unwrap().candidates.is_empty());
         assert!(b.run(&[f64::NAN; 50], 1).unwrap().candidates.is_empty());
     }
@@ -556,7 +619,9 @@ mod tests {
         // package, 1 + x²/4 + 2(y − x/2)²/6 for Murphy.
         let (x, y, z) = (0.4, -1.0, 2.0);
         let t_pdf = |v: f64, nu: f64, mu: f64, s2: f64| {
-            (libm::lgamma((nu + 1.0) / 2.0) - libm::lgamma(nu / 2.0) - 0.5 * (nu * std::f64::consts::PI * s2).ln()
+            (libm::lgamma((nu + 1.0) / 2.0)
+                - libm::lgamma(nu / 2.0)
+                - 0.5 * (nu * std::f64::consts::PI * s2).ln()
                 - (nu + 1.0) / 2.0 * (1.0 + (v - mu).powi(2) / (nu * s2)).ln())
             .exp()
         };
@@ -577,9 +642,14 @@ mod tests {
         }
         // A clear mean change: the MAP run length climbs past 50 and collapses at the change.
         let mut rng = fastrand::Rng::with_seed(2);
-        let series: Vec<f64> = (0..300).map(|i| if i < 200 { 0.0 } else { 8.0 } + 0.3 * rng.f64()).collect();
+        let series: Vec<f64> =
+            (0..300).map(|i| if i < 200 { 0.0 } else { 8.0 } + 0.3 * rng.f64()).collect();
         let run = b.run(&series, 1).unwrap();
-        assert!(run.candidates.iter().all(|&c| (c as i64 - 200).abs() <= 3), "{:?}", run.candidates);
+        assert!(
+            run.candidates.iter().all(|&c| (c as i64 - 200).abs() <= 3),
+            "{:?}",
+            run.candidates
+        );
         assert!(!run.candidates.is_empty());
         let i = run.candidates[0];
         assert!(run.map_run_length[i + 1] as f64 - run.map_run_length[i] as f64 <= -50.0);

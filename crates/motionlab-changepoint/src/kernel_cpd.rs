@@ -203,14 +203,19 @@ pub struct KernelCpdRun {
 impl ParamGuard for KernelCpdParams {
     type Checked = KernelCpd;
     fn check(self) -> Result<KernelCpd> {
-        let invalid = |field: &str, msg: String| Error::new(ErrorKind::InvalidParameter, msg).with_field(field.to_string());
+        let invalid = |field: &str, msg: String| {
+            Error::new(ErrorKind::InvalidParameter, msg).with_field(field.to_string())
+        };
         let stop = match check_pen_or_n_bkps(self.pen, self.n_bkps)? {
             (Some(p), None) => StopRule::Penalty(p),
             (_, Some(k)) => {
                 if self.search != Search::Binseg {
                     return Err(invalid(
                         "n_bkps",
-                        format!("search {} stops by a penalty (pen); a number of change points needs search = \"binseg\"", search_name(self.search)),
+                        format!(
+                            "search {} stops by a penalty (pen); a number of change points needs search = \"binseg\"",
+                            search_name(self.search)
+                        ),
                     ));
                 }
                 StopRule::Count(k)
@@ -218,12 +223,27 @@ impl ParamGuard for KernelCpdParams {
             (None, None) => StopRule::Bic,
         };
         if self.min_size == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "min_size is 0, expected at least 1 sample").with_field("min_size"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "min_size is 0, expected at least 1 sample",
+            )
+            .with_field("min_size"));
         }
         let jump = match (self.search, self.jump) {
-            (_, Some(0)) => return Err(Error::new(ErrorKind::OutOfRange, "jump is 0, expected at least 1 sample").with_field("jump")),
+            (_, Some(0)) => {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    "jump is 0, expected at least 1 sample",
+                )
+                .with_field("jump"));
+            }
             (Search::KernelPelt, Some(j)) if j != 1 => {
-                return Err(invalid("jump", format!("jump is {j}; search kernel_pelt (ruptures' KernelCPD) considers every sample, so jump must be 1")));
+                return Err(invalid(
+                    "jump",
+                    format!(
+                        "jump is {j}; search kernel_pelt (ruptures' KernelCPD) considers every sample, so jump must be 1"
+                    ),
+                ));
             }
             (Search::KernelPelt, _) => 1,
             (_, Some(j)) => j,
@@ -240,24 +260,48 @@ impl ParamGuard for KernelCpdParams {
         }
         if let Some(g) = self.gamma {
             if self.cost != CostModel::Rbf {
-                return Err(invalid("gamma", format!("gamma is the rbf bandwidth; cost {} has none", cost_name(self.cost))));
+                return Err(invalid(
+                    "gamma",
+                    format!("gamma is the rbf bandwidth; cost {} has none", cost_name(self.cost)),
+                ));
             }
             if !(g.is_finite() && g > 0.0) {
-                return Err(Error::new(ErrorKind::OutOfRange, format!("gamma is {g}, expected a finite bandwidth > 0")).with_field("gamma"));
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("gamma is {g}, expected a finite bandwidth > 0"),
+                )
+                .with_field("gamma"));
             }
         }
         let ar_order = check_ar_order(self.cost, self.ar_order)?;
-        Ok(KernelCpd { search: self.search, cost: self.cost, stop, min_size: self.min_size, jump, gamma: self.gamma, ar_order, normalize: self.normalize })
+        Ok(KernelCpd {
+            search: self.search,
+            cost: self.cost,
+            stop,
+            min_size: self.min_size,
+            jump,
+            gamma: self.gamma,
+            ar_order,
+            normalize: self.normalize,
+        })
     }
 }
 
 /// `pen` (finite, > 0) or `n_bkps`, not both.
-pub(crate) fn check_pen_or_n_bkps(pen: Option<f64>, n_bkps: Option<usize>) -> Result<(Option<f64>, Option<usize>)> {
+pub(crate) fn check_pen_or_n_bkps(
+    pen: Option<f64>,
+    n_bkps: Option<usize>,
+) -> Result<(Option<f64>, Option<usize>)> {
     match (pen, n_bkps) {
-        (Some(_), Some(_)) => Err(Error::new(ErrorKind::InvalidParameter, "give pen or n_bkps, not both").with_field("pen")),
-        (Some(p), None) if !(p.is_finite() && p > 0.0) => {
-            Err(Error::new(ErrorKind::OutOfRange, format!("pen is {p}, expected a finite penalty > 0")).with_field("pen"))
+        (Some(_), Some(_)) => {
+            Err(Error::new(ErrorKind::InvalidParameter, "give pen or n_bkps, not both")
+                .with_field("pen"))
         }
+        (Some(p), None) if !(p.is_finite() && p > 0.0) => Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("pen is {p}, expected a finite penalty > 0"),
+        )
+        .with_field("pen")),
         other => Ok(other),
     }
 }
@@ -327,8 +371,19 @@ pub(crate) fn admissible(n: usize, n_bkps: usize, jump: usize, min_size: usize) 
 }
 
 /// The error for a series that fails ruptures' sanity check.
-pub(crate) fn too_short(stage: &str, n: usize, n_bkps: usize, jump: usize, min_size: usize, field: &str) -> Error {
-    let kind = if n_bkps == 0 || field == "min_size" { ErrorKind::EmptySequence } else { ErrorKind::OutOfRange };
+pub(crate) fn too_short(
+    stage: &str,
+    n: usize,
+    n_bkps: usize,
+    jump: usize,
+    min_size: usize,
+    field: &str,
+) -> Error {
+    let kind = if n_bkps == 0 || field == "min_size" {
+        ErrorKind::EmptySequence
+    } else {
+        ErrorKind::OutOfRange
+    };
     Error::new(
         kind,
         format!(
@@ -339,17 +394,28 @@ pub(crate) fn too_short(stage: &str, n: usize, n_bkps: usize, jump: usize, min_s
 }
 
 /// The BIC-style penalty of the parameter docs.
-pub(crate) fn bic_penalty(cost: CostModel, ar_order: Option<usize>, signal: &Signal, whole_cost: impl FnOnce() -> f64) -> f64 {
+pub(crate) fn bic_penalty(
+    cost: CostModel,
+    ar_order: Option<usize>,
+    signal: &Signal,
+    whole_cost: impl FnOnce() -> f64,
+) -> f64 {
     let n = signal.n_samples as f64;
     match cost {
         CostModel::L2 => n.ln() * whole_cost() / n,
         CostModel::Rbf => n.ln(),
         CostModel::Linear => n.ln() * (signal.n_channels - 1) as f64 * whole_cost() / n,
-        CostModel::Ar => n.ln() * (ar_order.unwrap_or(DEFAULT_AR_ORDER) + 1) as f64 * whole_cost() / n,
+        CostModel::Ar => {
+            n.ln() * (ar_order.unwrap_or(DEFAULT_AR_ORDER) + 1) as f64 * whole_cost() / n
+        }
     }
 }
 
-pub(crate) fn require_regression_channels(stage: &str, cost: CostModel, signal: &Signal) -> Result<()> {
+pub(crate) fn require_regression_channels(
+    stage: &str,
+    cost: CostModel,
+    signal: &Signal,
+) -> Result<()> {
     if cost == CostModel::Ar && signal.n_channels != 1 {
         return Err(Error::new(
             ErrorKind::InvalidParameter,
@@ -390,10 +456,22 @@ impl KernelCpd {
             _ => 0,
         };
         if !admissible(n, n_bkps, self.jump, min_size) {
-            let field = if matches!(self.stop, StopRule::Count(_)) && admissible(n, 0, self.jump, min_size) { "n_bkps" } else { "min_size" };
+            let field = if matches!(self.stop, StopRule::Count(_))
+                && admissible(n, 0, self.jump, min_size)
+            {
+                "n_bkps"
+            } else {
+                "min_size"
+            };
             return Err(too_short(STAGE, n, n_bkps, self.jump, min_size, field));
         }
-        let mut result = KernelCpdRun { breakpoints: vec![n], pen: None, gamma: None, min_size, first_split_gain: None };
+        let mut result = KernelCpdRun {
+            breakpoints: vec![n],
+            pen: None,
+            gamma: None,
+            min_size,
+            first_split_gain: None,
+        };
         if signal.is_constant() {
             if let StopRule::Count(k) = self.stop
                 && k > 0
@@ -406,18 +484,21 @@ impl KernelCpd {
             }
             return Ok(result);
         }
-        let gamma = (self.cost == CostModel::Rbf).then(|| self.gamma.unwrap_or_else(|| median::median_heuristic_gamma(&signal)));
+        let gamma = (self.cost == CostModel::Rbf)
+            .then(|| self.gamma.unwrap_or_else(|| median::median_heuristic_gamma(&signal)));
         result.gamma = gamma;
         let ar_order = self.ar_order.unwrap_or(DEFAULT_AR_ORDER);
         let pen = match self.stop {
             StopRule::Penalty(p) => Some(p),
             StopRule::Count(_) => None,
-            StopRule::Bic => Some(bic_penalty(self.cost, self.ar_order, &signal, || match self.cost {
-                CostModel::L2 => L2Cost::new(&signal).error(0, n),
-                CostModel::Linear => LinearCost::new(signal).error(0, n),
-                CostModel::Ar => ArDesign::new(signal.values, ar_order).fit(0, n).cost(),
-                CostModel::Rbf => 0.0,
-            })),
+            StopRule::Bic => {
+                Some(bic_penalty(self.cost, self.ar_order, &signal, || match self.cost {
+                    CostModel::L2 => L2Cost::new(&signal).error(0, n),
+                    CostModel::Linear => LinearCost::new(signal).error(0, n),
+                    CostModel::Ar => ArDesign::new(signal.values, ar_order).fit(0, n).cost(),
+                    CostModel::Rbf => 0.0,
+                }))
+            }
         };
         result.pen = pen;
         match self.search {
@@ -431,10 +512,34 @@ impl KernelCpd {
             Search::Pelt => {
                 let pen = pen.unwrap_or(0.0);
                 result.breakpoints = match self.cost {
-                    CostModel::L2 => pelt(n, pen, min_size, self.jump, &mut DirectEndCosts(&L2Cost::new(&signal))),
-                    CostModel::Linear => pelt(n, pen, min_size, self.jump, &mut DirectEndCosts(&LinearCost::new(signal))),
-                    CostModel::Rbf => pelt(n, pen, min_size, self.jump, &mut RbfEndCosts::new(signal, gamma.unwrap_or(1.0), self.jump)),
-                    CostModel::Ar => pelt(n, pen, min_size, self.jump, &mut ArEndCosts::new(&ArDesign::new(signal.values, ar_order), self.jump)),
+                    CostModel::L2 => pelt(
+                        n,
+                        pen,
+                        min_size,
+                        self.jump,
+                        &mut DirectEndCosts(&L2Cost::new(&signal)),
+                    ),
+                    CostModel::Linear => pelt(
+                        n,
+                        pen,
+                        min_size,
+                        self.jump,
+                        &mut DirectEndCosts(&LinearCost::new(signal)),
+                    ),
+                    CostModel::Rbf => pelt(
+                        n,
+                        pen,
+                        min_size,
+                        self.jump,
+                        &mut RbfEndCosts::new(signal, gamma.unwrap_or(1.0), self.jump),
+                    ),
+                    CostModel::Ar => pelt(
+                        n,
+                        pen,
+                        min_size,
+                        self.jump,
+                        &mut ArEndCosts::new(&ArDesign::new(signal.values, ar_order), self.jump),
+                    ),
                 };
             }
             Search::Binseg => {
@@ -444,10 +549,26 @@ impl KernelCpd {
                     (_, None) => Stop::Count(0),
                 };
                 let found = match self.cost {
-                    CostModel::L2 => binseg(n, stop, min_size, self.jump, &DirectGains(&L2Cost::new(&signal))),
-                    CostModel::Linear => binseg(n, stop, min_size, self.jump, &DirectGains(&LinearCost::new(signal))),
-                    CostModel::Rbf => binseg(n, stop, min_size, self.jump, &RbfGains { signal, gamma: gamma.unwrap_or(1.0) }),
-                    CostModel::Ar => binseg(n, stop, min_size, self.jump, &ArGains(&ArDesign::new(signal.values, ar_order))),
+                    CostModel::L2 => {
+                        binseg(n, stop, min_size, self.jump, &DirectGains(&L2Cost::new(&signal)))
+                    }
+                    CostModel::Linear => {
+                        binseg(n, stop, min_size, self.jump, &DirectGains(&LinearCost::new(signal)))
+                    }
+                    CostModel::Rbf => binseg(
+                        n,
+                        stop,
+                        min_size,
+                        self.jump,
+                        &RbfGains { signal, gamma: gamma.unwrap_or(1.0) },
+                    ),
+                    CostModel::Ar => binseg(
+                        n,
+                        stop,
+                        min_size,
+                        self.jump,
+                        &ArGains(&ArDesign::new(signal.values, ar_order)),
+                    ),
                 };
                 let mut curve = vec![f64::NAN; n];
                 for (b, g) in found.first_gains {
@@ -467,11 +588,18 @@ impl KernelCpd {
     pub fn segment_values(&self, values: &[f64], n_channels: usize) -> Result<SegmenterOutput> {
         let run = self.run(values, n_channels)?;
         let n = values.len() / n_channels;
-        let mut output = SegmenterOutput { candidates: candidates_from_breakpoints(&run.breakpoints, n), ..Default::default() };
+        let mut output = SegmenterOutput {
+            candidates: candidates_from_breakpoints(&run.breakpoints, n),
+            ..Default::default()
+        };
         if let Some(curve) = run.first_split_gain {
             output.traces.push(Trace::new("first_split_gain", "", curve));
             if let Some(pen) = run.pen {
-                output.thresholds.push(Threshold { name: "pen".into(), trace: "first_split_gain".into(), value: pen });
+                output.thresholds.push(Threshold {
+                    name: "pen".into(),
+                    trace: "first_split_gain".into(),
+                    value: pen,
+                });
             }
         }
         Ok(output)
@@ -482,7 +610,11 @@ impl motionlab_core::Segmenter for KernelCpd {
     fn consumes(&self) -> motionlab_core::DataKind {
         motionlab_core::DataKind::Channels
     }
-    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+    fn segment(
+        &self,
+        motion: &motionlab_core::Motion,
+        _cache: &motionlab_core::FeatureCache,
+    ) -> Result<SegmenterOutput> {
         let channels = motion.require_channels("kernel_cpd")?;
         self.segment_values(channels.values(), channels.n_channels())
     }
@@ -495,7 +627,8 @@ mod tests {
     use super::*;
 
     fn params(toml_text: &str) -> Result<KernelCpd> {
-        let p: KernelCpdParams = toml::from_str(toml_text).map_err(|e| Error::new(ErrorKind::UnknownKey, e.to_string()))?;
+        let p: KernelCpdParams = toml::from_str(toml_text)
+            .map_err(|e| Error::new(ErrorKind::UnknownKey, e.to_string()))?;
         p.check()
     }
 
@@ -509,7 +642,16 @@ mod tests {
         let k = params("").unwrap();
         assert_eq!(
             k,
-            KernelCpd { search: Search::KernelPelt, cost: CostModel::Rbf, stop: StopRule::Bic, min_size: 2, jump: 1, gamma: None, ar_order: None, normalize: Normalize::None }
+            KernelCpd {
+                search: Search::KernelPelt,
+                cost: CostModel::Rbf,
+                stop: StopRule::Bic,
+                min_size: 2,
+                jump: 1,
+                gamma: None,
+                ar_order: None,
+                normalize: Normalize::None
+            }
         );
         assert_eq!(params("search = \"pelt\"").unwrap().jump, 5);
         let x = step_signal(300, &[100, 200], 1);
@@ -524,8 +666,16 @@ mod tests {
         let x = step_signal(240, &[80, 160], 2);
         for search in ["pelt", "binseg", "kernel_pelt"] {
             for cost in ["l2", "rbf"] {
-                let k = params(&format!("search = \"{search}\"\ncost = \"{cost}\"\njump = {}", if search == "kernel_pelt" { 1 } else { 5 })).unwrap();
-                assert_eq!(k.segment_values(&x, 1).unwrap().candidates, vec![80, 160], "{search} {cost}");
+                let k = params(&format!(
+                    "search = \"{search}\"\ncost = \"{cost}\"\njump = {}",
+                    if search == "kernel_pelt" { 1 } else { 5 }
+                ))
+                .unwrap();
+                assert_eq!(
+                    k.segment_values(&x, 1).unwrap().candidates,
+                    vec![80, 160],
+                    "{search} {cost}"
+                );
             }
         }
         let k = params("search = \"binseg\"\nn_bkps = 2").unwrap();
@@ -576,11 +726,20 @@ mod tests {
         let k = params("search = \"binseg\"\nn_bkps = 3\nmin_size = 10\njump = 1").unwrap();
         // 3 breakpoints with min_size 10 need 40 samples.
         let e = k.segment_values(&step_signal(35, &[], 1), 1).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("n_bkps")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("n_bkps"))
+        );
         assert!(k.segment_values(&step_signal(40, &[20], 1), 1).is_ok());
         // Shorter than min_size itself.
-        let e = params("min_size = 10").unwrap().segment_values(&step_signal(15, &[], 1), 1).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::EmptySequence, Some("min_size")));
+        let e = params("min_size = 10")
+            .unwrap()
+            .segment_values(&step_signal(15, &[], 1), 1)
+            .unwrap_err();
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::EmptySequence, Some("min_size"))
+        );
         // Constant: no change with a penalty, an error when change points are asked for.
         let flat = vec![4.0; 100];
         for search in ["pelt", "kernel_pelt", "binseg"] {
@@ -592,23 +751,44 @@ mod tests {
         // NaN gaps and empty input.
         let mut gap = step_signal(100, &[50], 1);
         gap[30] = f64::NAN;
-        assert_eq!(params("").unwrap().segment_values(&gap, 1).unwrap_err().kind(), ErrorKind::MissingData);
-        assert_eq!(params("").unwrap().segment_values(&[], 1).unwrap_err().kind(), ErrorKind::EmptySequence);
+        assert_eq!(
+            params("").unwrap().segment_values(&gap, 1).unwrap_err().kind(),
+            ErrorKind::MissingData
+        );
+        assert_eq!(
+            params("").unwrap().segment_values(&[], 1).unwrap_err().kind(),
+            ErrorKind::EmptySequence
+        );
     }
 
     #[test]
     fn degenerate_series_with_the_ar_cost_and_normalisation() {
         for search in ["pelt", "binseg"] {
-            let k = params(&format!("search = \"{search}\"\ncost = \"ar\"\npen = 10.0\njump = 1")).unwrap();
+            let k = params(&format!("search = \"{search}\"\ncost = \"ar\"\npen = 10.0\njump = 1"))
+                .unwrap();
             // Shorter than the cost's own minimum (5 samples for order 4): one error naming min_size.
             let e = k.segment_values(&step_signal(4, &[], 1), 1).unwrap_err();
-            assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::EmptySequence, Some("min_size")), "{search}");
+            assert_eq!(
+                (e.kind(), e.location().field.as_deref()),
+                (ErrorKind::EmptySequence, Some("min_size")),
+                "{search}"
+            );
             assert!(k.segment_values(&step_signal(5, &[], 1), 1).unwrap().candidates.is_empty());
-            assert!(k.segment_values(&[2.0; 100], 1).unwrap().candidates.is_empty(), "{search}: constant");
+            assert!(
+                k.segment_values(&[2.0; 100], 1).unwrap().candidates.is_empty(),
+                "{search}: constant"
+            );
             let mut gap = step_signal(100, &[50], 1);
             gap[70] = f64::NAN;
             assert_eq!(k.segment_values(&gap, 1).unwrap_err().kind(), ErrorKind::MissingData);
-            assert_eq!(k.segment_values(&step_signal(100, &[50], 1), 2).unwrap_err().location().field.as_deref(), Some("cost"));
+            assert_eq!(
+                k.segment_values(&step_signal(100, &[50], 1), 2)
+                    .unwrap_err()
+                    .location()
+                    .field
+                    .as_deref(),
+                Some("cost")
+            );
         }
         // min-max normalisation maps a constant channel to zeros (numpy would give NaN): no change.
         for norm in ["min_max", "z_score"] {
@@ -621,9 +801,15 @@ mod tests {
     #[test]
     fn multichannel_change_in_one_channel_is_found() {
         let mut rng = fastrand::Rng::with_seed(8);
-        let x: Vec<f64> = (0..200).flat_map(|i| [rng.f64(), if i < 120 { 0.0 } else { 2.0 } + rng.f64(), rng.f64()]).collect();
+        let x: Vec<f64> = (0..200)
+            .flat_map(|i| [rng.f64(), if i < 120 { 0.0 } else { 2.0 } + rng.f64(), rng.f64()])
+            .collect();
         for text in ["", "cost = \"l2\"", "search = \"pelt\"", "search = \"binseg\"\nn_bkps = 1"] {
-            assert_eq!(params(text).unwrap().segment_values(&x, 3).unwrap().candidates, vec![120], "{text}");
+            assert_eq!(
+                params(text).unwrap().segment_values(&x, 3).unwrap().candidates,
+                vec![120],
+                "{text}"
+            );
         }
     }
 }

@@ -27,6 +27,6 @@ mod signal;
 pub mod window;
 
 pub use bocpd::{Bocpd, BocpdChangePoints, BocpdModel, BocpdParams, BocpdRun};
-pub use signal::Normalize;
 pub use kernel_cpd::{CostModel, KernelCpd, KernelCpdParams, KernelCpdRun, Search, StopRule};
+pub use signal::Normalize;
 pub use window::{Window, WindowParams, WindowRun, WindowStop};

@@ -25,10 +25,18 @@ pub(crate) enum Missing {
 impl<'a> Signal<'a> {
     /// Checks the layout and the values: `n_channels ≥ 1`, a whole number of samples, at least
     /// one sample, no ±∞, and NaN only where the segmenter allows it.
-    pub fn new(values: &'a [f64], n_channels: usize, stage: &str, missing: Missing) -> Result<Self> {
+    pub fn new(
+        values: &'a [f64],
+        n_channels: usize,
+        stage: &str,
+        missing: Missing,
+    ) -> Result<Self> {
         if n_channels == 0 {
-            return Err(Error::new(ErrorKind::InvalidParameter, format!("{stage}: n_channels is 0, expected at least one channel"))
-                .with_field("n_channels"));
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                format!("{stage}: n_channels is 0, expected at least one channel"),
+            )
+            .with_field("n_channels"));
         }
         if !values.len().is_multiple_of(n_channels) {
             return Err(Error::new(
@@ -42,13 +50,21 @@ impl<'a> Signal<'a> {
         }
         let n_samples = values.len() / n_channels;
         if n_samples == 0 {
-            return Err(Error::new(ErrorKind::EmptySequence, format!("{stage}: the signal has no samples")).with_field("values"));
+            return Err(Error::new(
+                ErrorKind::EmptySequence,
+                format!("{stage}: the signal has no samples"),
+            )
+            .with_field("values"));
         }
         for (i, v) in values.iter().enumerate() {
             if v.is_infinite() {
                 return Err(Error::new(
                     ErrorKind::NonFinite,
-                    format!("{stage}: sample {} of channel {} is {v}, expected a finite number", i / n_channels, i % n_channels),
+                    format!(
+                        "{stage}: sample {} of channel {} is {v}, expected a finite number",
+                        i / n_channels,
+                        i % n_channels
+                    ),
                 )
                 .with_field("values"));
             }
@@ -114,7 +130,10 @@ impl Normalize {
             let (shift, scale) = match self {
                 Normalize::None => (0.0, 1.0),
                 Normalize::MinMax => {
-                    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+                    let (lo, hi) = finite
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                            (lo.min(v), hi.max(v))
+                        });
                     if lo.is_infinite() {
                         continue;
                     }
@@ -126,14 +145,24 @@ impl Normalize {
                         continue;
                     }
                     let mean = v.iter().sum::<f64>() / v.len() as f64;
-                    let var = if v.len() > 1 { v.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64 } else { 0.0 };
+                    let var = if v.len() > 1 {
+                        v.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64
+                    } else {
+                        0.0
+                    };
                     (mean, var.sqrt())
                 }
             };
             for i in 0..n {
                 let v = &mut x[i * n_channels + c];
                 let centred = *v - shift;
-                *v = if scale > 0.0 { centred / scale } else if self == Normalize::MinMax && !centred.is_nan() { 0.0 } else { centred };
+                *v = if scale > 0.0 {
+                    centred / scale
+                } else if self == Normalize::MinMax && !centred.is_nan() {
+                    0.0
+                } else {
+                    centred
+                };
             }
         }
         x
@@ -143,7 +172,8 @@ impl Normalize {
 /// Change-point candidates from ruptures-style breakpoints (segment ends, the last being `n`):
 /// every breakpoint but `n`, which are the first samples of the second, third, … segments.
 pub(crate) fn candidates_from_breakpoints(breakpoints: &[usize], n_samples: usize) -> Vec<usize> {
-    let mut out: Vec<usize> = breakpoints.iter().copied().filter(|&b| b > 0 && b < n_samples).collect();
+    let mut out: Vec<usize> =
+        breakpoints.iter().copied().filter(|&b| b > 0 && b < n_samples).collect();
     out.sort_unstable();
     out.dedup();
     out

@@ -12,7 +12,10 @@ use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Threshold, Trace
 
 use crate::kernel_cpd::ar::{ArCost, ArDesign, DEFAULT_AR_ORDER, QrFit};
 use crate::kernel_cpd::cost::{L2Cost, LinearCost, RbfCost, SegmentCost, rbf_cost_from_block};
-use crate::kernel_cpd::{CostModel, admissible, bic_penalty, check_ar_order, check_pen_or_n_bkps, cost_min_size, median, require_regression_channels, too_short};
+use crate::kernel_cpd::{
+    CostModel, admissible, bic_penalty, check_ar_order, check_pen_or_n_bkps, cost_min_size, median,
+    require_regression_channels, too_short,
+};
 use crate::signal::{Missing, Normalize, Signal, candidates_from_breakpoints};
 
 /// Change points at the peaks of a sliding-window discrepancy: at each sample k on the grid of
@@ -134,20 +137,42 @@ impl ParamGuard for WindowParams {
             .with_field("width"));
         }
         if self.min_size == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "min_size is 0, expected at least 1 sample").with_field("min_size"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "min_size is 0, expected at least 1 sample",
+            )
+            .with_field("min_size"));
         }
         if self.jump == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "jump is 0, expected at least 1 sample").with_field("jump"));
+            return Err(Error::new(ErrorKind::OutOfRange, "jump is 0, expected at least 1 sample")
+                .with_field("jump"));
         }
         if let Some(g) = self.gamma {
             if self.cost != CostModel::Rbf {
-                return Err(Error::new(ErrorKind::InvalidParameter, "gamma is the rbf bandwidth; only cost rbf takes it").with_field("gamma"));
+                return Err(Error::new(
+                    ErrorKind::InvalidParameter,
+                    "gamma is the rbf bandwidth; only cost rbf takes it",
+                )
+                .with_field("gamma"));
             }
             if !(g.is_finite() && g > 0.0) {
-                return Err(Error::new(ErrorKind::OutOfRange, format!("gamma is {g}, expected a finite bandwidth > 0")).with_field("gamma"));
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("gamma is {g}, expected a finite bandwidth > 0"),
+                )
+                .with_field("gamma"));
             }
         }
-        Ok(Window { width, cost: self.cost, stop, min_size: self.min_size, jump: self.jump, gamma: self.gamma, ar_order, normalize: self.normalize })
+        Ok(Window {
+            width,
+            cost: self.cost,
+            stop,
+            min_size: self.min_size,
+            jump: self.jump,
+            gamma: self.gamma,
+            ar_order,
+            normalize: self.normalize,
+        })
     }
 }
 
@@ -226,10 +251,15 @@ impl Window {
         let n = signal.n_samples;
         let n_bkps = if let WindowStop::Count(k) = self.stop { k } else { 0 };
         if !admissible(n, n_bkps, self.jump, self.min_size) {
-            let field = if n_bkps > 0 && admissible(n, 0, self.jump, self.min_size) { "n_bkps" } else { "min_size" };
+            let field = if n_bkps > 0 && admissible(n, 0, self.jump, self.min_size) {
+                "n_bkps"
+            } else {
+                "min_size"
+            };
             return Err(too_short(STAGE, n, n_bkps, self.jump, self.min_size, field));
         }
-        let mut run = WindowRun { breakpoints: vec![n], score: vec![f64::NAN; n], pen: None, gamma: None };
+        let mut run =
+            WindowRun { breakpoints: vec![n], score: vec![f64::NAN; n], pen: None, gamma: None };
         if signal.is_constant() {
             if n_bkps > 0 {
                 return Err(Error::new(
@@ -268,14 +298,23 @@ impl Window {
                 &rbf
             }
             CostModel::Ar => {
-                ar = ArCost { design: ArDesign::new(signal.values, self.ar_order.unwrap_or(DEFAULT_AR_ORDER)) };
+                ar = ArCost {
+                    design: ArDesign::new(signal.values, self.ar_order.unwrap_or(DEFAULT_AR_ORDER)),
+                };
                 &ar
             }
         };
         let half = self.width / 2;
-        let inds: Vec<usize> = (0..n).step_by(self.jump).filter(|&k| k >= half && k < n.saturating_sub(half)).collect();
+        let inds: Vec<usize> = (0..n)
+            .step_by(self.jump)
+            .filter(|&k| k >= half && k < n.saturating_sub(half))
+            .collect();
         let score: Vec<f64> = if self.cost == CostModel::Ar {
-            ar_scores(&ArDesign::new(signal.values, self.ar_order.unwrap_or(DEFAULT_AR_ORDER)), &inds, half)
+            ar_scores(
+                &ArDesign::new(signal.values, self.ar_order.unwrap_or(DEFAULT_AR_ORDER)),
+                &inds,
+                half,
+            )
         } else {
             inds.iter().map(|&k| self.score_at(cost, &signal, run.gamma, k, half)).collect()
         };
@@ -286,7 +325,9 @@ impl Window {
         run.pen = match self.stop {
             WindowStop::Penalty(p) => Some(p),
             WindowStop::Count(_) => None,
-            WindowStop::Bic => Some(bic_penalty(self.cost, self.ar_order, &signal, || memo.error(0, n))),
+            WindowStop::Bic => {
+                Some(bic_penalty(self.cost, self.ar_order, &signal, || memo.error(0, n)))
+            }
         };
         if score.is_empty() {
             return Ok(run);
@@ -298,7 +339,11 @@ impl Window {
         let mut peaks: Vec<(f64, usize)> = peaks.into_iter().map(|p| (score[p], inds[p])).collect();
         peaks.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut breakpoints = vec![n];
-        let mut error = if matches!(self.stop, WindowStop::Count(_)) { 0.0 } else { memo.sum_of_costs(&breakpoints) };
+        let mut error = if matches!(self.stop, WindowStop::Count(_)) {
+            0.0
+        } else {
+            memo.sum_of_costs(&breakpoints)
+        };
         while let Some((_, bkp)) = peaks.pop() {
             let add = match (self.stop, run.pen) {
                 (WindowStop::Count(k), _) => breakpoints.len() - 1 < k,
@@ -324,14 +369,22 @@ impl Window {
     }
 
     /// The discrepancy at sample k: `c(k−h, k+h) − (c(k−h, k) + c(k, k+h))`.
-    fn score_at(&self, cost: &dyn SegmentCost, signal: &Signal, gamma: Option<f64>, k: usize, half: usize) -> f64 {
+    fn score_at(
+        &self,
+        cost: &dyn SegmentCost,
+        signal: &Signal,
+        gamma: Option<f64>,
+        k: usize,
+        half: usize,
+    ) -> f64 {
         if let Some(gamma) = gamma {
             // One pass over the window's Gram matrix for all three rbf costs.
             let rbf = RbfCost { signal: *signal, gamma };
             let left = half as f64 + 2.0 * rbf.upper_sum(k - half, k);
             let right = half as f64 + 2.0 * rbf.upper_sum(k, k + half);
             let whole = left + right + 2.0 * rbf.cross_sum(k - half..k, k..k + half);
-            return rbf_cost_from_block(2 * half, whole) - (rbf_cost_from_block(half, left) + rbf_cost_from_block(half, right));
+            return rbf_cost_from_block(2 * half, whole)
+                - (rbf_cost_from_block(half, left) + rbf_cost_from_block(half, right));
         }
         cost.error(k - half, k + half) - (cost.error(k - half, k) + cost.error(k, k + half))
     }
@@ -343,10 +396,17 @@ impl Window {
     pub fn segment_values(&self, values: &[f64], n_channels: usize) -> Result<SegmenterOutput> {
         let run = self.run(values, n_channels)?;
         let n = run.score.len();
-        let mut output = SegmenterOutput { candidates: candidates_from_breakpoints(&run.breakpoints, n), ..Default::default() };
+        let mut output = SegmenterOutput {
+            candidates: candidates_from_breakpoints(&run.breakpoints, n),
+            ..Default::default()
+        };
         output.traces.push(Trace::new("window_discrepancy", "", run.score));
         if let Some(pen) = run.pen {
-            output.thresholds.push(Threshold { name: "pen".into(), trace: "window_discrepancy".into(), value: pen });
+            output.thresholds.push(Threshold {
+                name: "pen".into(),
+                trace: "window_discrepancy".into(),
+                value: pen,
+            });
         }
         Ok(output)
     }
@@ -356,7 +416,11 @@ impl motionlab_core::Segmenter for Window {
     fn consumes(&self) -> motionlab_core::DataKind {
         motionlab_core::DataKind::Channels
     }
-    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+    fn segment(
+        &self,
+        motion: &motionlab_core::Motion,
+        _cache: &motionlab_core::FeatureCache,
+    ) -> Result<SegmenterOutput> {
         let channels = motion.require_channels("window")?;
         self.segment_values(channels.values(), channels.n_channels())
     }
@@ -369,7 +433,8 @@ mod tests {
     use super::*;
 
     fn params(text: &str) -> Result<Window> {
-        let p: WindowParams = toml::from_str(text).map_err(|e| Error::new(ErrorKind::UnknownKey, e.to_string()))?;
+        let p: WindowParams =
+            toml::from_str(text).map_err(|e| Error::new(ErrorKind::UnknownKey, e.to_string()))?;
         p.check()
     }
 
@@ -416,10 +481,24 @@ mod tests {
         let mut gap = steps(300, &[100]);
         gap[10] = f64::NAN;
         assert_eq!(w.segment_values(&gap, 1).unwrap_err().kind(), ErrorKind::MissingData);
-        for (text, field) in [("width = 1", "width"), ("pen = -3.0", "pen"), ("pen = 1.0\nn_bkps = 1", "pen"), ("jump = 0", "jump"), ("gamma = 1.0", "gamma"), ("cost = \"linear\"\nwidth = 3", "width")] {
-            assert_eq!(params(text).unwrap_err().location().field.as_deref(), Some(field), "{text}");
+        for (text, field) in [
+            ("width = 1", "width"),
+            ("pen = -3.0", "pen"),
+            ("pen = 1.0\nn_bkps = 1", "pen"),
+            ("jump = 0", "jump"),
+            ("gamma = 1.0", "gamma"),
+            ("cost = \"linear\"\nwidth = 3", "width"),
+        ] {
+            assert_eq!(
+                params(text).unwrap_err().location().field.as_deref(),
+                Some(field),
+                "{text}"
+            );
         }
-        let e = params("n_bkps = 30\nmin_size = 10").unwrap().segment_values(&steps(300, &[100]), 1).unwrap_err();
+        let e = params("n_bkps = 30\nmin_size = 10")
+            .unwrap()
+            .segment_values(&steps(300, &[100]), 1)
+            .unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("n_bkps"));
     }
 
@@ -430,7 +509,10 @@ mod tests {
         let ar = params("width = 20\ncost = \"ar\"\npen = 10.0").unwrap();
         for n in [2, 4, 5, 19] {
             let out = ar.segment_values(&steps(n, &[]), 1).unwrap();
-            assert!(out.candidates.is_empty() && out.traces[0].values.iter().all(|v| v.is_nan()), "n = {n}");
+            assert!(
+                out.candidates.is_empty() && out.traces[0].values.iter().all(|v| v.is_nan()),
+                "n = {n}"
+            );
             assert_eq!(out.thresholds[0].value, 10.0);
         }
         assert_eq!(ar.segment_values(&steps(200, &[100]), 1).unwrap().candidates, vec![100]);
@@ -438,7 +520,10 @@ mod tests {
         let mut gap = steps(200, &[100]);
         gap[150] = f64::NAN;
         assert_eq!(ar.segment_values(&gap, 1).unwrap_err().kind(), ErrorKind::MissingData);
-        assert_eq!(ar.segment_values(&steps(200, &[100]), 2).unwrap_err().location().field.as_deref(), Some("cost"));
+        assert_eq!(
+            ar.segment_values(&steps(200, &[100]), 2).unwrap_err().location().field.as_deref(),
+            Some("cost")
+        );
         // min-max normalisation of a constant series leaves zeros: no change.
         let w = params("width = 10\nnormalize = \"min_max\"").unwrap();
         assert!(w.segment_values(&[7.0; 100], 1).unwrap().candidates.is_empty());

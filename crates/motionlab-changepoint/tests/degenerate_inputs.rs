@@ -7,7 +7,10 @@ use motionlab_testkit::degenerate::{Series, checked, degenerate_series, sweep_se
 fn series() -> Vec<Series> {
     let mut v = degenerate_series(&[1, 2, 3, 4, 5, 7, 10, 15, 30, 100]);
     // A clear change (noise around 0, then around 6 with more spread), so each setting finds something.
-    let clear = (0..600).map(|i| (((i * 7919) % 101) as f64 / 101.0 - 0.5) * if i < 300 { 1.0 } else { 3.0 } + if i < 300 { 0.0 } else { 6.0 });
+    let clear = (0..600).map(|i| {
+        (((i * 7919) % 101) as f64 / 101.0 - 0.5) * if i < 300 { 1.0 } else { 3.0 }
+            + if i < 300 { 0.0 } else { 6.0 }
+    });
     v.push(("clear change".into(), clear.collect(), 1));
     v
 }
@@ -52,15 +55,21 @@ const BOCPD: &[&str] = &[
 
 #[test]
 fn kernel_cpd_never_panics_on_degenerate_series() {
-    sweep_segmenter("kernel_cpd", KERNEL_CPD, &series(), checked::<KernelCpdParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("kernel_cpd", KERNEL_CPD, &series(), checked::<KernelCpdParams>, |s, v, d| {
+        s.segment_values(v, d)
+    });
 }
 
 #[test]
 fn window_never_panics_on_degenerate_series() {
-    sweep_segmenter("window", WINDOW, &series(), checked::<WindowParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("window", WINDOW, &series(), checked::<WindowParams>, |s, v, d| {
+        s.segment_values(v, d)
+    });
 }
 
 #[test]
 fn bocpd_never_panics_on_degenerate_series() {
-    sweep_segmenter("bocpd", BOCPD, &series(), checked::<BocpdParams>, |s, v, d| s.segment_values(v, d));
+    sweep_segmenter("bocpd", BOCPD, &series(), checked::<BocpdParams>, |s, v, d| {
+        s.segment_values(v, d)
+    });
 }

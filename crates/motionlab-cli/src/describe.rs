@@ -3,8 +3,8 @@
 
 use std::fmt::Write;
 
-use motionlab_core::registry::{self, ParamDoc, StageKind};
 use motionlab_core::Result;
+use motionlab_core::registry::{self, ParamDoc, StageKind};
 use motionlab_experiment::workflow::{find_workflow, workflows};
 
 pub fn list() -> String {
@@ -18,10 +18,20 @@ pub fn list() -> String {
     // Core's kinds and the kinds family crates declare, in list order; each kind's plugins.
     let mut kinds: Vec<(u32, &str, Vec<(&str, String)>)> = StageKind::ALL
         .iter()
-        .map(|&k| (k.list_order(), k.label(), all.iter().filter(|p| p.kind == k).map(|p| (p.name, p.summary())).collect()))
+        .map(|&k| {
+            (
+                k.list_order(),
+                k.label(),
+                all.iter().filter(|p| p.kind == k).map(|p| (p.name, p.summary())).collect(),
+            )
+        })
         .collect();
     for k in registry::declared_kinds() {
-        kinds.push((k.list_order, k.label, custom.iter().filter(|p| p.kind == k.name).map(|p| (p.name, p.summary())).collect()));
+        kinds.push((
+            k.list_order,
+            k.label,
+            custom.iter().filter(|p| p.kind == k.name).map(|p| (p.name, p.summary())).collect(),
+        ));
     }
     kinds.sort_by_key(|k| k.0);
     for (_, label, of_kind) in kinds {
@@ -34,7 +44,9 @@ pub fn list() -> String {
         }
     }
     // Kinds nobody declares (`register_custom_plugin!` alone), under their kind's name.
-    for kind in registry::custom_kinds().into_iter().filter(|k| registry::declared_kind(k).is_none()) {
+    for kind in
+        registry::custom_kinds().into_iter().filter(|k| registry::declared_kind(k).is_none())
+    {
         let _ = writeln!(out, "{kind} (custom kind):");
         for p in custom.iter().filter(|p| p.kind == kind) {
             let _ = writeln!(out, "  {:<28} {}", p.name, p.summary());
@@ -57,13 +69,19 @@ pub fn describe(name: &str) -> Result<String> {
         let mut out = String::new();
         match registry::declared_kind(p.kind) {
             Some(k) => writeln!(out, "{} ({}, from {})\n", p.name, k.label, p.crate_name),
-            None => writeln!(out, "{} ({}, a custom kind, from {})\n", p.name, p.kind, p.crate_name),
+            None => {
+                writeln!(out, "{} ({}, a custom kind, from {})\n", p.name, p.kind, p.crate_name)
+            }
         }
         .ok();
         let _ = writeln!(out, "{}\n", p.doc());
         if write_params(&mut out, p.params()) {
             let kind = registry::declared_kind(p.kind).map_or(p.kind, |k| k.label);
-            let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }} where a {kind} is expected", p.name);
+            let _ = writeln!(
+                out,
+                "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }} where a {kind} is expected",
+                p.name
+            );
         }
         return Ok(out);
     }
@@ -83,7 +101,8 @@ pub fn describe(name: &str) -> Result<String> {
             let _ = writeln!(out, "  {h}");
         }
     }
-    let _ = writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }}", p.name);
+    let _ =
+        writeln!(out, "\nIn an experiment: {{ type = \"{}\", <parameter> = <value>, … }}", p.name);
     Ok(out)
 }
 

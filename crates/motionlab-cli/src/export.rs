@@ -34,11 +34,20 @@ pub fn export(run_dir: &Path, format: ExportFormat, out: Option<&Path>) -> Resul
             Error::io(&path, e)
         }
     })?;
-    let run: RunBoundaries = serde_json::from_slice(&text)
-        .map_err(|e| Error::at_line(ErrorKind::Syntax, &path, e.line(), format!("not a segmentation run's boundaries: {e}")))?;
+    let run: RunBoundaries = serde_json::from_slice(&text).map_err(|e| {
+        Error::at_line(
+            ErrorKind::Syntax,
+            &path,
+            e.line(),
+            format!("not a segmentation run's boundaries: {e}"),
+        )
+    })?;
     if run.format != RunBoundaries::FORMAT {
-        return Err(Error::new(ErrorKind::Mismatch, format!("format {:?}; expected {:?}", run.format, RunBoundaries::FORMAT))
-            .with_location(Location::file(&path).field("format")));
+        return Err(Error::new(
+            ErrorKind::Mismatch,
+            format!("format {:?}; expected {:?}", run.format, RunBoundaries::FORMAT),
+        )
+        .with_location(Location::file(&path).field("format")));
     }
     // The document's date is the run's (exporting a run twice gives the same files).
     let date = std::fs::read(run_dir.join("provenance.json"))

@@ -57,16 +57,25 @@ pub fn loader_for(path: &Path) -> Result<(&'static str, Box<dyn Loader>)> {
             known.extend(loader.extensions().iter().map(|e| e.to_string()));
         }
     }
-    Err(Error::new(ErrorKind::UnknownPlugin, format!("no loader reads .{ext} files (known: {})", known.join(", ")))
-        .with_location(motionlab_core::Location::file(path)))
+    Err(Error::new(
+        ErrorKind::UnknownPlugin,
+        format!("no loader reads .{ext} files (known: {})", known.join(", ")),
+    )
+    .with_location(motionlab_core::Location::file(path)))
 }
 
 /// The extent along the up axis of the first frame holding any sample, and that frame.
 fn first_height(m: &Motion) -> Option<(f64, usize)> {
     let up = m.up_axis().index();
     (0..m.n_frames()).find_map(|f| {
-        let heights = m.frame(f).iter().zip(m.frame_missing(f)).filter(|(_, gone)| !**gone).map(|(p, _)| p[up]);
-        let (lo, hi) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), h| (lo.min(h), hi.max(h)));
+        let heights = m
+            .frame(f)
+            .iter()
+            .zip(m.frame_missing(f))
+            .filter(|(_, gone)| !**gone)
+            .map(|(p, _)| p[up]);
+        let (lo, hi) =
+            heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), h| (lo.min(h), hi.max(h)));
         (lo <= hi).then_some((hi - lo, f))
     })
 }
@@ -80,7 +89,13 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         Some(out) => {
             let io = |e: std::io::Error| Error::io(out, e);
             let mut w = std::io::BufWriter::new(std::fs::File::create(out).map_err(io)?);
-            motionlab_external::npy::write_positions(&mut w, m.positions(), m.n_frames(), m.n_points()).map_err(io)?;
+            motionlab_external::npy::write_positions(
+                &mut w,
+                m.positions(),
+                m.n_frames(),
+                m.n_points(),
+            )
+            .map_err(io)?;
             std::io::Write::flush(&mut w).map_err(io)?;
             Some(out.display().to_string())
         }
@@ -96,7 +111,11 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         up_axis: m.up_axis().to_string(),
         points: m.point_names().to_vec(),
         missing_samples: m.missing_count(),
-        missing_percent: if total == 0 { 0.0 } else { 100.0 * m.missing_count() as f64 / total as f64 },
+        missing_percent: if total == 0 {
+            0.0
+        } else {
+            100.0 * m.missing_count() as f64 / total as f64
+        },
         length_unit: m.load_notes.length_unit,
         length_unit_from: m.load_notes.length_unit_from.clone(),
         height_mm: height.map(|h| h.0),
@@ -104,7 +123,16 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         repairs: m.load_notes.repairs.clone(),
         skeleton_joints: m.skeleton.as_ref().map(|s| s.skeleton.joints.len()),
         skeleton_channels: m.skeleton.as_ref().map(|s| s.n_channels()),
-        events: m.events.iter().map(|e| EventRow { label: e.label.clone(), context: e.context.clone(), time_s: e.time.value(), frame: e.frame }).collect(),
+        events: m
+            .events
+            .iter()
+            .map(|e| EventRow {
+                label: e.label.clone(),
+                context: e.context.clone(),
+                time_s: e.time.value(),
+                frame: e.frame,
+            })
+            .collect(),
         positions_npy,
     })
 }
@@ -133,7 +161,12 @@ fn unit_text(unit: LengthUnit) -> &'static str {
 fn text(r: &Report) -> String {
     let mut s = format!("{}\n", r.file);
     s += &format!("  format    {}\n", r.format);
-    s += &format!("  frames    {} at {} Hz ({:.3} s)\n", r.frames, rate_text(r.frame_rate_hz), r.duration_s);
+    s += &format!(
+        "  frames    {} at {} Hz ({:.3} s)\n",
+        r.frames,
+        rate_text(r.frame_rate_hz),
+        r.duration_s
+    );
     let kind = match r.point_kind {
         motionlab_core::PointKind::Marker => "markers",
         motionlab_core::PointKind::Joint => "joints",
@@ -146,7 +179,11 @@ fn text(r: &Report) -> String {
         None => "  unit      not stated by the loader (positions are mm)\n".to_string(),
     };
     s += &match (r.height_mm, r.height_frame) {
-        (Some(h), Some(f)) => format!("  height    {h:.0} mm along {} in frame {} (the figure's extent)\n", r.up_axis, f + 1),
+        (Some(h), Some(f)) => format!(
+            "  height    {h:.0} mm along {} in frame {} (the figure's extent)\n",
+            r.up_axis,
+            f + 1
+        ),
         _ => "  height    none (no sample in any frame)\n".to_string(),
     };
     for repair in &r.repairs {
@@ -160,7 +197,10 @@ fn text(r: &Report) -> String {
     } else {
         s += &format!("  events    {}\n", r.events.len());
         for e in &r.events {
-            s += &format!("            {:>8.3} s  frame {:>8.2}  {} ({})\n", e.time_s, e.frame, e.label, e.context);
+            s += &format!(
+                "            {:>8.3} s  frame {:>8.2}  {} ({})\n",
+                e.time_s, e.frame, e.label, e.context
+            );
         }
     }
     s

@@ -47,7 +47,11 @@ pub mod progress;
 mod slurm;
 
 #[derive(Parser)]
-#[command(name = "motionlab", version, about = "Motion-capture experiments from TOML: segmentation, multistream matching, walk analysis")]
+#[command(
+    name = "motionlab",
+    version,
+    about = "Motion-capture experiments from TOML: segmentation, multistream matching, walk analysis"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -255,11 +259,12 @@ fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
 }
 
 fn options(args: &RunArgs) -> RunOptions {
-    let progress: Arc<dyn motionlab_engine::Progress> = if !args.quiet && std::io::stderr().is_terminal() {
-        Arc::new(progress::Bars::default())
-    } else {
-        Arc::new(motionlab_engine::Silent)
-    };
+    let progress: Arc<dyn motionlab_engine::Progress> =
+        if !args.quiet && std::io::stderr().is_terminal() {
+            Arc::new(progress::Bars::default())
+        } else {
+            Arc::new(motionlab_engine::Silent)
+        };
     let cache = if args.no_cache { None } else { motionlab_cache::Cache::open_default() };
     RunOptions {
         reports_dir: args.reports.clone(),
@@ -325,7 +330,11 @@ fn dispatch(command: Command) -> Result<ExitCode> {
         Command::Validate { experiment, overrides, allow_external } => {
             let plan = motionlab_engine::plan(&experiment, &overrides)?;
             let commands = motionlab_engine::consent::external_commands(&plan);
-            let consent = motionlab_engine::consent::check(&plan.source.path, &commands, &external_policy(allow_external))?;
+            let consent = motionlab_engine::consent::check(
+                &plan.source.path,
+                &commands,
+                &external_policy(allow_external),
+            )?;
             let items: usize = plan.built.iter().map(|b| b.workflow.items(&b.data).len()).sum();
             println!(
                 "{}: valid — {} workflow, {} dataset(s), {} input file(s), {} combination(s), {} work item(s)",
@@ -348,11 +357,18 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             print!("{}", describe::describe(&name)?);
             Ok(ExitCode::SUCCESS)
         }
-        Command::Reproduce { experiments, opts, record, only } => reproduce(&experiments, &opts, record, only.as_deref()),
+        Command::Reproduce { experiments, opts, record, only } => {
+            reproduce(&experiments, &opts, record, only.as_deref())
+        }
         Command::Inspect { files, json, npy } => inspect::inspect(&files, json, npy.as_deref()),
         Command::New { input, truth, output, force, benchmark } => {
-            let path = new::new_experiment(&new::NewArgs { input, truth, output, force, benchmark })?;
-            println!("wrote {} (valid); run it with: motionlab run {}", path.display(), path.display());
+            let path =
+                new::new_experiment(&new::NewArgs { input, truth, output, force, benchmark })?;
+            println!(
+                "wrote {} (valid); run it with: motionlab run {}",
+                path.display(),
+                path.display()
+            );
             Ok(ExitCode::SUCCESS)
         }
         Command::Merge { run_dir, opts } => {
@@ -360,19 +376,37 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             print_summary(&summary);
             Ok(ExitCode::SUCCESS)
         }
-        Command::Slurm { experiment, overrides, shards, run_dir, reports, partition, time, mem, threads, submit, allow_external } => {
+        Command::Slurm {
+            experiment,
+            overrides,
+            shards,
+            run_dir,
+            reports,
+            partition,
+            time,
+            mem,
+            threads,
+            submit,
+            allow_external,
+        } => {
             if shards == 0 {
                 return Err(Error::new(ErrorKind::OutOfRange, "--shards must be at least 1"));
             }
             // Validate now, on the login node, rather than in N failing array tasks — consent
             // too (the tasks check it again: a trust record must be readable there).
             let plan = motionlab_engine::plan(&experiment, &overrides)?;
-            motionlab_engine::consent::check(&plan.source.path, &motionlab_engine::consent::external_commands(&plan), &external_policy(allow_external))?;
+            motionlab_engine::consent::check(
+                &plan.source.path,
+                &motionlab_engine::consent::external_commands(&plan),
+                &external_policy(allow_external),
+            )?;
             let run_dir = match run_dir {
                 Some(d) => d,
                 None => {
                     let stamp = motionlab_engine::rundir::utc_stamp(std::time::SystemTime::now());
-                    reports.join(&plan.file.experiment.name).join(format!("{stamp}-slurm-p{}", std::process::id()))
+                    reports
+                        .join(&plan.file.experiment.name)
+                        .join(format!("{stamp}-slurm-p{}", std::process::id()))
                 }
             };
             let abs = |p: &Path| std::path::absolute(p).map_err(|e| Error::io(p, e));
@@ -386,16 +420,24 @@ fn dispatch(command: Command) -> Result<ExitCode> {
                 mem,
                 threads,
                 allow_external,
-                binary: std::env::current_exe().map_err(|e| Error::new(ErrorKind::Io, format!("cannot locate the motionlab binary: {e}")))?,
+                binary: std::env::current_exe().map_err(|e| {
+                    Error::new(ErrorKind::Io, format!("cannot locate the motionlab binary: {e}"))
+                })?,
             };
             let (array, merge) = slurm::write_scripts(&job)?;
             println!("wrote {} and {}", array.display(), merge.display());
             if submit {
                 let (a, m) = slurm::submit(&array, &merge)?;
-                println!("submitted shard array job {a} ({shards} tasks) and merge job {m} (afterok:{a})");
+                println!(
+                    "submitted shard array job {a} ({shards} tasks) and merge job {m} (afterok:{a})"
+                );
                 println!("results: {}", job.run_dir.display());
             } else {
-                println!("submit with: sbatch {}  then  sbatch --dependency=afterok:<array id> {}", array.display(), merge.display());
+                println!(
+                    "submit with: sbatch {}  then  sbatch --dependency=afterok:<array id> {}",
+                    array.display(),
+                    merge.display()
+                );
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -408,7 +450,10 @@ fn dispatch(command: Command) -> Result<ExitCode> {
         }
         Command::Cache { action } => {
             let Some(cache) = motionlab_cache::Cache::open_default() else {
-                return Err(Error::new(ErrorKind::MissingKey, "no cache folder: set MOTIONLAB_CACHE_DIR (or HOME)"));
+                return Err(Error::new(
+                    ErrorKind::MissingKey,
+                    "no cache folder: set MOTIONLAB_CACHE_DIR (or HOME)",
+                ));
             };
             let io = |e: std::io::Error| Error::io(cache.dir(), e);
             match action {
@@ -418,20 +463,34 @@ fn dispatch(command: Command) -> Result<ExitCode> {
                     for (kind, n, bytes) in &info.kinds {
                         println!("  {kind}: {n} entries, {bytes} bytes");
                     }
-                    println!("total: {} entries, {} bytes ({:.1} MiB)", info.entries, info.bytes, info.bytes as f64 / 1048576.0);
+                    println!(
+                        "total: {} entries, {} bytes ({:.1} MiB)",
+                        info.entries,
+                        info.bytes,
+                        info.bytes as f64 / 1048576.0
+                    );
                     if info.temporary > 0 {
-                        println!("{} temporary file(s) of interrupted writes (never read; `motionlab cache clear` removes them)", info.temporary);
+                        println!(
+                            "{} temporary file(s) of interrupted writes (never read; `motionlab cache clear` removes them)",
+                            info.temporary
+                        );
                     }
                 }
                 CacheAction::Clear => {
                     let info = cache.clear().map_err(io)?;
-                    println!("removed {} entries ({} bytes) from {}", info.entries, info.bytes, cache.dir().display());
+                    println!(
+                        "removed {} entries ({} bytes) from {}",
+                        info.entries,
+                        info.bytes,
+                        cache.dir().display()
+                    );
                 }
             }
             Ok(ExitCode::SUCCESS)
         }
         Command::Index { experiments, reports, records } => {
-            let p = motionlab_report::pages::write_reproduction_index(&experiments, &reports, records)?;
+            let p =
+                motionlab_report::pages::write_reproduction_index(&experiments, &reports, records)?;
             println!("wrote {}", p.display());
             Ok(ExitCode::SUCCESS)
         }
@@ -450,20 +509,42 @@ fn dispatch(command: Command) -> Result<ExitCode> {
 
 fn print_summary(s: &RunSummary) {
     if s.complete {
-        println!("{}: {} item(s), {} table file(s), {} figure file(s)", s.run_dir.display(), s.items, s.written.tables.len(), s.written.figures.len());
+        println!(
+            "{}: {} item(s), {} table file(s), {} figure file(s)",
+            s.run_dir.display(),
+            s.items,
+            s.written.tables.len(),
+            s.written.figures.len()
+        );
     } else {
-        println!("{}: shard done ({} item(s)); run `motionlab merge {}` when every shard has finished", s.run_dir.display(), s.items, s.run_dir.display());
+        println!(
+            "{}: shard done ({} item(s)); run `motionlab merge {}` when every shard has finished",
+            s.run_dir.display(),
+            s.items,
+            s.run_dir.display()
+        );
     }
 }
 
 /// `motionlab trust`: validates the experiment, lists its programs and records (or removes)
 /// the user's trust in exactly these command lines.
 fn trust(experiment: &Path, overrides: &[String], revoke: bool) -> Result<ExitCode> {
-    let store = TrustStore::open_default()
-        .ok_or_else(|| Error::new(ErrorKind::MissingKey, format!("no configuration folder: set {} (or HOME)", motionlab_engine::consent::CONFIG_DIR_ENV)))?;
+    let store = TrustStore::open_default().ok_or_else(|| {
+        Error::new(
+            ErrorKind::MissingKey,
+            format!(
+                "no configuration folder: set {} (or HOME)",
+                motionlab_engine::consent::CONFIG_DIR_ENV
+            ),
+        )
+    })?;
     if revoke {
         let removed = store.revoke(experiment)?;
-        println!("{}: {}", experiment.display(), if removed { "trust record removed" } else { "had no trust record" });
+        println!(
+            "{}: {}",
+            experiment.display(),
+            if removed { "trust record removed" } else { "had no trust record" }
+        );
         return Ok(ExitCode::SUCCESS);
     }
     let plan = motionlab_engine::plan(experiment, overrides)?;
@@ -474,7 +555,11 @@ fn trust(experiment: &Path, overrides: &[String], revoke: bool) -> Result<ExitCo
     }
     let record = store.trust(experiment, &commands)?;
     print_external(&commands, "trusted");
-    println!("wrote {}: these command lines may run until one of them changes (`motionlab trust --revoke {}` removes it)", record.display(), experiment.display());
+    println!(
+        "wrote {}: these command lines may run until one of them changes (`motionlab trust --revoke {}` removes it)",
+        record.display(),
+        experiment.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -491,16 +576,26 @@ fn experiment_files(dir: &Path) -> Result<Vec<PathBuf>> {
 
 fn reproduce(dir: &Path, args: &RunArgs, record: bool, only: Option<&str>) -> Result<ExitCode> {
     let files = experiment_files(dir)?;
-    let files: Vec<PathBuf> = files.into_iter().filter(|f| only.is_none_or(|o| f.to_string_lossy().contains(o))).collect();
+    let files: Vec<PathBuf> = files
+        .into_iter()
+        .filter(|f| only.is_none_or(|o| f.to_string_lossy().contains(o)))
+        .collect();
     if files.is_empty() {
-        return Err(Error::new(ErrorKind::Io, format!("no experiment files (*.toml) in {}", dir.display())));
+        return Err(Error::new(
+            ErrorKind::Io,
+            format!("no experiment files (*.toml) in {}", dir.display()),
+        ));
     }
     // Validate everything first: a typo in the last experiment fails before an hour of work.
     let plans = files.iter().map(|f| motionlab_engine::plan(f, &[])).collect::<Result<Vec<_>>>()?;
     let opts = options(args);
     // Consent too, for every experiment, before the first one runs.
     for plan in &plans {
-        motionlab_engine::consent::check(&plan.source.path, &motionlab_engine::consent::external_commands(plan), &opts.external)?;
+        motionlab_engine::consent::check(
+            &plan.source.path,
+            &motionlab_engine::consent::external_commands(plan),
+            &opts.external,
+        )?;
     }
     for (f, plan) in files.iter().zip(&plans) {
         let started = std::time::Instant::now();

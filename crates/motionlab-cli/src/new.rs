@@ -54,7 +54,8 @@ fn is_pelvis(name: &str) -> bool {
 fn is_hip(name: &str) -> bool {
     let n = name.to_ascii_lowercase();
     let plain = n.trim_start_matches(['l', 'r', '_']);
-    n.contains("hip") || ["asi", "psi", "ias", "ips", "fwt", "bwt"].iter().any(|k| plain == *k || n.ends_with(k))
+    n.contains("hip")
+        || ["asi", "psi", "ias", "ips", "fwt", "bwt"].iter().any(|k| plain == *k || n.ends_with(k))
 }
 
 fn choose_root(m: &Motion) -> Root {
@@ -65,20 +66,30 @@ fn choose_root(m: &Motion) -> Root {
     }
     let names = m.point_names();
     if let Some(p) = names.iter().find(|n| is_pelvis(n)) {
-        return Root::Point { name: p.clone(), why: format!("marker {p:?} (its name says pelvis/sacrum)") };
+        return Root::Point {
+            name: p.clone(),
+            why: format!("marker {p:?} (its name says pelvis/sacrum)"),
+        };
     }
     let hips: Vec<String> = names.iter().filter(|n| is_hip(n)).cloned().collect();
     if !hips.is_empty() {
-        return Root::Centroid { why: format!("no marker is a root: the centroid of the {} hip markers", hips.len()), markers: hips };
+        return Root::Centroid {
+            why: format!("no marker is a root: the centroid of the {} hip markers", hips.len()),
+            markers: hips,
+        };
     }
-    Root::Centroid { markers: names.to_vec(), why: "no pelvis or hip marker by name: the centroid of every marker".into() }
+    Root::Centroid {
+        markers: names.to_vec(),
+        why: "no pelvis or hip marker by name: the centroid of every marker".into(),
+    }
 }
 
 /// `to` relative to the folder `from` (both made absolute); absolute when they share only `/`.
 fn relative(from: &Path, to: &Path) -> Result<PathBuf> {
     let abs = |p: &Path| std::path::absolute(p).map_err(|e| Error::io(p, e)).map(|p| normalise(&p));
     let (from, to) = (abs(from)?, abs(to)?);
-    let (a, b): (Vec<Component>, Vec<Component>) = (from.components().collect(), to.components().collect());
+    let (a, b): (Vec<Component>, Vec<Component>) =
+        (from.components().collect(), to.components().collect());
     let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
     if common <= 1 {
         return Ok(to);
@@ -120,7 +131,8 @@ fn motion_files(input: &str) -> Result<(Vec<PathBuf>, String)> {
     let files: Vec<PathBuf> = if dir.is_dir() {
         let mut by_ext: Vec<(String, Vec<PathBuf>)> = Vec::new();
         let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
-        let mut paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()).collect();
+        let mut paths: Vec<PathBuf> =
+            entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()).collect();
         paths.sort();
         for p in paths {
             if loader_for(&p).is_err() {
@@ -135,13 +147,19 @@ fn motion_files(input: &str) -> Result<(Vec<PathBuf>, String)> {
         // Most files first; C3D first on a tie (it carries the capture's own rate and units).
         by_ext.sort_by_key(|(ext, v)| (std::cmp::Reverse(v.len()), ext != "c3d", ext.clone()));
         if by_ext.len() > 1 {
-            let others: Vec<String> = by_ext[1..].iter().map(|(e, v)| format!("{} .{e}", v.len())).collect();
-            note = format!("the folder also holds {}; this uses the .{} files", others.join(", "), by_ext[0].0);
+            let others: Vec<String> =
+                by_ext[1..].iter().map(|(e, v)| format!("{} .{e}", v.len())).collect();
+            note = format!(
+                "the folder also holds {}; this uses the .{} files",
+                others.join(", "),
+                by_ext[0].0
+            );
         }
         by_ext.into_iter().next().map(|(_, v)| v).unwrap_or_default()
     } else {
-        let paths = glob::glob(input)
-            .map_err(|e| Error::new(ErrorKind::Syntax, format!("{input:?} is no folder and no valid glob: {e}")))?;
+        let paths = glob::glob(input).map_err(|e| {
+            Error::new(ErrorKind::Syntax, format!("{input:?} is no folder and no valid glob: {e}"))
+        })?;
         let mut v: Vec<PathBuf> = paths.filter_map(|p| p.ok()).filter(|p| p.is_file()).collect();
         v.sort();
         v
@@ -155,8 +173,14 @@ fn motion_files(input: &str) -> Result<(Vec<PathBuf>, String)> {
 
 /// A name the experiment table accepts: lower-case letters, digits and `_`.
 fn experiment_name(input: &str) -> String {
-    let base = Path::new(input.trim_end_matches(['/', '*'])).file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut name: String = base.chars().map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' }).collect();
+    let base = Path::new(input.trim_end_matches(['/', '*']))
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut name: String = base
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .collect();
     name = name.trim_matches('_').to_string();
     if name.is_empty() {
         name = "my_data".into();
@@ -173,7 +197,8 @@ struct Truth {
 }
 
 fn truth_spec(truth: &Path, out_dir: &Path, files: &[PathBuf]) -> Result<Truth> {
-    let ext = truth.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let ext =
+        truth.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     let rel = toml_path(&relative(out_dir, truth)?);
     let text = motionlab_io::read::read_text(truth)?;
     match ext.as_str() {
@@ -245,9 +270,14 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
         if keep.is_empty() {
             return Err(Error::new(
                 ErrorKind::UnknownName,
-                format!("the annotations name sequences {} but no motion file has those stems", seqs.join(", ")),
+                format!(
+                    "the annotations name sequences {} but no motion file has those stems",
+                    seqs.join(", ")
+                ),
             )
-            .with_location(Location::file(args.truth.as_deref().unwrap_or(Path::new(""))).field("sequence")));
+            .with_location(
+                Location::file(args.truth.as_deref().unwrap_or(Path::new(""))).field("sequence"),
+            ));
         }
         files = keep;
         skipped = drop;
@@ -258,21 +288,48 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
 
     let mut t = String::new();
     let w = &mut t;
-    let _ = writeln!(w, "# Written by `motionlab new {}{}`.", args.input, args.truth.as_ref().map(|p| format!(" --truth {}", p.display())).unwrap_or_default());
+    let _ = writeln!(
+        w,
+        "# Written by `motionlab new {}{}`.",
+        args.input,
+        args.truth.as_ref().map(|p| format!(" --truth {}", p.display())).unwrap_or_default()
+    );
     let _ = writeln!(w, "# Run it: motionlab run {}", output.display());
-    let _ = writeln!(w, "# Segmentation of Sonoda et al. (fastest-marker speed, direction change, convex-hull volume,");
-    let _ = writeln!(w, "# fused by union) at the plugins' defaults, which were tuned on seven shipped CMU takes");
-    let _ = writeln!(w, "# (the evaluation's `parameters_chosen` column says, per file, whether it is one of them);");
+    let _ = writeln!(
+        w,
+        "# Segmentation of Sonoda et al. (fastest-marker speed, direction change, convex-hull volume,"
+    );
+    let _ = writeln!(
+        w,
+        "# fused by union) at the plugins' defaults, which were tuned on seven shipped CMU takes"
+    );
+    let _ = writeln!(
+        w,
+        "# (the evaluation's `parameters_chosen` column says, per file, whether it is one of them);"
+    );
     let _ = writeln!(w, "# `motionlab describe <type>` documents every stage and parameter.\n");
     let _ = writeln!(w, "[experiment]\nname = \"{name}\"");
-    let _ = writeln!(w, "description = \"Sonoda segmentation of {}{}\"\n", args.input.replace('"', "'"), if truth.is_some() { " against its annotations" } else { "" });
+    let _ = writeln!(
+        w,
+        "description = \"Sonoda segmentation of {}{}\"\n",
+        args.input.replace('"', "'"),
+        if truth.is_some() { " against its annotations" } else { "" }
+    );
     let _ = writeln!(w, "[[dataset]]");
-    let _ = writeln!(w, "# {} file(s), loader `{loader_name}` (from the extension){}.", files.len(), if folder_note.is_empty() { String::new() } else { format!("; {folder_note}") });
+    let _ = writeln!(
+        w,
+        "# {} file(s), loader `{loader_name}` (from the extension){}.",
+        files.len(),
+        if folder_note.is_empty() { String::new() } else { format!("; {folder_note}") }
+    );
     if !skipped.is_empty() {
         let s: Vec<String> = skipped.iter().map(|p| motionlab_core::paths::stem(p)).collect();
         let _ = writeln!(w, "# Not annotated, so left out: {}.", s.join(", "));
     }
-    let listed: Vec<String> = files.iter().map(|f| relative(&out_dir, f).map(|p| format!("\"{}\"", toml_path(&p)))).collect::<Result<_>>()?;
+    let listed: Vec<String> = files
+        .iter()
+        .map(|f| relative(&out_dir, f).map(|p| format!("\"{}\"", toml_path(&p))))
+        .collect::<Result<_>>()?;
     let _ = writeln!(w, "files = [{}]", listed.join(", "));
     let _ = writeln!(w, "loader = {{ type = \"{loader_name}\" }}");
     let root_name = match &root {
@@ -283,7 +340,11 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
         Root::Centroid { markers, why } => {
             let _ = writeln!(w, "# Root: {why}, added as the virtual marker \"root\".");
             let quoted: Vec<String> = markers.iter().map(|m| format!("{m:?}")).collect();
-            let _ = writeln!(w, "preprocess = [{{ type = \"add_centroid\", name = \"root\", markers = [{}] }}]", quoted.join(", "));
+            let _ = writeln!(
+                w,
+                "preprocess = [{{ type = \"add_centroid\", name = \"root\", markers = [{}] }}]",
+                quoted.join(", ")
+            );
             "root".into()
         }
     };
@@ -293,16 +354,40 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
         }
         let _ = writeln!(w, "ground_truth = {}", tr.table);
     }
-    let _ = writeln!(w, "\n[segmentation]\nroot = {root_name:?}\nfuse = [\"speed\", \"direction\", \"hull\"]\n");
-    let _ = writeln!(w, "[[segmentation.segmenter]]\ntype = \"fastest_marker_speed\"                           # §2.1\nname = \"speed\"\n");
-    let _ = writeln!(w, "[[segmentation.segmenter]]\ntype = \"direction_change\"                               # §2.2\nname = \"direction\"\nlag = {{ seconds = 0.5 }}                                 # the paper's 15 frames at 30 fps\n");
-    let _ = writeln!(w, "[[segmentation.segmenter]]\ntype = \"hull_volume_change\"                             # §2.3\nname = \"hull\"\n");
-    let _ = writeln!(w, "[segmentation.fuser]\ntype = \"union_merge\"                                    # §2.4\nname = \"fused\"");
+    let _ = writeln!(
+        w,
+        "\n[segmentation]\nroot = {root_name:?}\nfuse = [\"speed\", \"direction\", \"hull\"]\n"
+    );
+    let _ = writeln!(
+        w,
+        "[[segmentation.segmenter]]\ntype = \"fastest_marker_speed\"                           # §2.1\nname = \"speed\"\n"
+    );
+    let _ = writeln!(
+        w,
+        "[[segmentation.segmenter]]\ntype = \"direction_change\"                               # §2.2\nname = \"direction\"\nlag = {{ seconds = 0.5 }}                                 # the paper's 15 frames at 30 fps\n"
+    );
+    let _ = writeln!(
+        w,
+        "[[segmentation.segmenter]]\ntype = \"hull_volume_change\"                             # §2.3\nname = \"hull\"\n"
+    );
+    let _ = writeln!(
+        w,
+        "[segmentation.fuser]\ntype = \"union_merge\"                                    # §2.4\nname = \"fused\""
+    );
     if truth.is_some() {
-        let _ = writeln!(w, "\n# Precision/recall per file and pooled: a found frame matches an annotation within 0.5 s;");
-        let _ = writeln!(w, "# only found frames from the first to the last annotation (± 0.5 s) count (span = \"whole\"");
+        let _ = writeln!(
+            w,
+            "\n# Precision/recall per file and pooled: a found frame matches an annotation within 0.5 s;"
+        );
+        let _ = writeln!(
+            w,
+            "# only found frames from the first to the last annotation (± 0.5 s) count (span = \"whole\""
+        );
         let _ = writeln!(w, "# counts those in the unannotated start and end too).");
-        let _ = writeln!(w, "[[evaluate]]\ntype = \"boundary_pr\"\ntolerance = {{ seconds = 0.5 }}\nspan = \"annotated\"");
+        let _ = writeln!(
+            w,
+            "[[evaluate]]\ntype = \"boundary_pr\"\ntolerance = {{ seconds = 0.5 }}\nspan = \"annotated\""
+        );
     }
     write_validated(&output, &t)
 }
@@ -311,9 +396,17 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
 fn output_path(args: &NewArgs, name: &str) -> Result<(PathBuf, PathBuf)> {
     let output = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{name}.toml")));
     if output.exists() && !args.force {
-        return Err(Error::new(ErrorKind::Report, "exists; choose another -o or pass --force to overwrite").with_location(Location::file(&output)));
+        return Err(Error::new(
+            ErrorKind::Report,
+            "exists; choose another -o or pass --force to overwrite",
+        )
+        .with_location(Location::file(&output)));
     }
-    let out_dir = output.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new(".")).to_path_buf();
+    let out_dir = output
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
     Ok((output, out_dir))
 }
 
@@ -332,17 +425,25 @@ fn write_validated(output: &Path, text: &str) -> Result<PathBuf> {
 /// Sonoda ones and the PCA baseline).
 fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> Result<PathBuf> {
     let Some(truth_path) = args.truth.as_deref() else {
-        return Err(Error::new(ErrorKind::MissingKey, "a benchmark scores against ground truth: pass --truth (TSSB's desc.txt, a boundaries CSV or an ELAN .eaf)"));
+        return Err(Error::new(
+            ErrorKind::MissingKey,
+            "a benchmark scores against ground truth: pass --truth (TSSB's desc.txt, a boundaries CSV or an ELAN .eaf)",
+        ));
     };
     let base = experiment_name(&args.input);
     let name = format!("{}_benchmark", base.trim_end_matches("_segmentation"));
     let (output, out_dir) = output_path(args, &name)?;
     // TSSB's desc.txt (`name,width,cp,…` per line) names its series; anything else is read as
     // the segmentation scaffold reads annotations.
-    let desc = motionlab_io::read::read_text(truth_path).ok().and_then(|t| motionlab_io::labels::tssb_desc::parse_tssb_desc(&t, truth_path).ok());
+    let desc = motionlab_io::read::read_text(truth_path)
+        .ok()
+        .and_then(|t| motionlab_io::labels::tssb_desc::parse_tssb_desc(&t, truth_path).ok());
     let (truth_table, truth_comments, sequences) = match desc {
         Some(entries) => (
-            format!("{{ type = \"tssb_desc\", file = \"{}\" }}", toml_path(&relative(&out_dir, truth_path)?)),
+            format!(
+                "{{ type = \"tssb_desc\", file = \"{}\" }}",
+                toml_path(&relative(&out_dir, truth_path)?)
+            ),
             vec![format!("TSSB's desc.txt: {} series with their change points", entries.len())],
             Some(entries.into_iter().map(|e| e.name).collect::<Vec<_>>()),
         ),
@@ -353,9 +454,14 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
     };
     let mut skipped = Vec::new();
     if let Some(seqs) = &sequences {
-        let (keep, drop): (Vec<PathBuf>, Vec<PathBuf>) = files.into_iter().partition(|f| seqs.contains(&motionlab_core::paths::stem(f)));
+        let (keep, drop): (Vec<PathBuf>, Vec<PathBuf>) =
+            files.into_iter().partition(|f| seqs.contains(&motionlab_core::paths::stem(f)));
         if keep.is_empty() {
-            return Err(Error::new(ErrorKind::UnknownName, "the annotations name no file of the input (by its stem)").with_location(Location::file(truth_path)));
+            return Err(Error::new(
+                ErrorKind::UnknownName,
+                "the annotations name no file of the input (by its stem)",
+            )
+            .with_location(Location::file(truth_path)));
         }
         files = keep;
         skipped = drop;
@@ -370,22 +476,48 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
     };
     let mut t = String::new();
     let w = &mut t;
-    let _ = writeln!(w, "# Written by `motionlab new {} --truth {} --benchmark`.", args.input, truth_path.display());
+    let _ = writeln!(
+        w,
+        "# Written by `motionlab new {} --truth {} --benchmark`.",
+        args.input,
+        truth_path.display()
+    );
     let _ = writeln!(w, "# Run it: motionlab run {}", output.display());
-    let _ = writeln!(w, "# Every segmenter at the defaults of its paper or peer library (never tuned on these data):");
-    let _ = writeln!(w, "# covering and TCPDBench F1 per sequence against chance, mean ranks and a critical-difference");
-    let _ = writeln!(w, "# diagram. A segmenter joins with one line in `segmenter = [...]`; `motionlab describe <type>`");
+    let _ = writeln!(
+        w,
+        "# Every segmenter at the defaults of its paper or peer library (never tuned on these data):"
+    );
+    let _ = writeln!(
+        w,
+        "# covering and TCPDBench F1 per sequence against chance, mean ranks and a critical-difference"
+    );
+    let _ = writeln!(
+        w,
+        "# diagram. A segmenter joins with one line in `segmenter = [...]`; `motionlab describe <type>`"
+    );
     let _ = writeln!(w, "# documents each.\n");
     let _ = writeln!(w, "[experiment]\nname = \"{name}\"");
-    let _ = writeln!(w, "description = \"Segmentation benchmark on {}\"", args.input.replace('"', "'"));
-    let _ = writeln!(w, "record_tables = [\"benchmark_covering\", \"benchmark_f1\", \"benchmark_ranks\", \"benchmark_rank_test\"]   # runtimes vary run to run\n");
+    let _ =
+        writeln!(w, "description = \"Segmentation benchmark on {}\"", args.input.replace('"', "'"));
+    let _ = writeln!(
+        w,
+        "record_tables = [\"benchmark_covering\", \"benchmark_f1\", \"benchmark_ranks\", \"benchmark_rank_test\"]   # runtimes vary run to run\n"
+    );
     let _ = writeln!(w, "[[dataset]]");
-    let _ = writeln!(w, "# {} file(s), loader `{loader_name}` (from the extension){}.", files.len(), if folder_note.is_empty() { String::new() } else { format!("; {folder_note}") });
+    let _ = writeln!(
+        w,
+        "# {} file(s), loader `{loader_name}` (from the extension){}.",
+        files.len(),
+        if folder_note.is_empty() { String::new() } else { format!("; {folder_note}") }
+    );
     if !skipped.is_empty() {
         let s: Vec<String> = skipped.iter().map(|p| motionlab_core::paths::stem(p)).collect();
         let _ = writeln!(w, "# Not annotated, so left out: {}.", s.join(", "));
     }
-    let listed: Vec<String> = files.iter().map(|f| relative(&out_dir, f).map(|p| format!("\"{}\"", toml_path(&p)))).collect::<Result<_>>()?;
+    let listed: Vec<String> = files
+        .iter()
+        .map(|f| relative(&out_dir, f).map(|p| format!("\"{}\"", toml_path(&p))))
+        .collect::<Result<_>>()?;
     let _ = writeln!(w, "files = [{}]", listed.join(", "));
     let _ = writeln!(w, "loader = {loader_table}");
     for c in &truth_comments {
@@ -393,19 +525,28 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
     }
     let _ = writeln!(w, "ground_truth = {truth_table}\n");
     let _ = writeln!(w, "[benchmark]");
-    let margin = if channels { "{ frames = 5 }]                             # TCPDBench's margin, in samples" } else { "{ seconds = 0.5 }]" };
+    let margin = if channels {
+        "{ frames = 5 }]                             # TCPDBench's margin, in samples"
+    } else {
+        "{ seconds = 0.5 }]"
+    };
     let _ = writeln!(w, "margins = [{margin}");
     let _ = writeln!(w, "segmenter = [");
     if channels {
         let _ = writeln!(w, "    {{ type = \"clasp\" }},");
         let _ = writeln!(w, "    {{ type = \"kernel_cpd\", name = \"PELT\", search = \"pelt\" }},");
-        let _ = writeln!(w, "    {{ type = \"kernel_cpd\", name = \"BinSeg\", search = \"binseg\" }},");
-        let _ = writeln!(w, "    {{ type = \"floss\", cac_threshold = 0.45 }},        # FLOSS needs a threshold or a regime count");
+        let _ =
+            writeln!(w, "    {{ type = \"kernel_cpd\", name = \"BinSeg\", search = \"binseg\" }},");
+        let _ = writeln!(
+            w,
+            "    {{ type = \"floss\", cac_threshold = 0.45 }},        # FLOSS needs a threshold or a regime count"
+        );
         let _ = writeln!(w, "    {{ type = \"bocpd\" }},");
         let _ = writeln!(w, "    {{ type = \"window\" }},");
     } else {
         let input = "input = { features = [{ type = \"marker_speed\" }] }";
-        let _ = writeln!(w, "    {{ type = \"clasp\", {input} }},     # on the fastest marker's speed");
+        let _ =
+            writeln!(w, "    {{ type = \"clasp\", {input} }},     # on the fastest marker's speed");
         let _ = writeln!(w, "    {{ type = \"kernel_cpd\", {input} }},");
         let _ = writeln!(w, "    {{ type = \"fastest_marker_speed\", name = \"speed\" }},");
         let _ = writeln!(w, "    {{ type = \"hull_volume_change\", name = \"hull\" }},");
@@ -434,8 +575,17 @@ mod tests {
 
     #[test]
     fn relative_paths() {
-        assert_eq!(relative(Path::new("/a/b/exp"), Path::new("/a/b/data/x.c3d")).unwrap(), PathBuf::from("../data/x.c3d"));
-        assert_eq!(relative(Path::new("/a/b"), Path::new("/a/b/x.c3d")).unwrap(), PathBuf::from("x.c3d"));
-        assert_eq!(relative(Path::new("/tmp/q"), Path::new("/work/x.c3d")).unwrap(), PathBuf::from("/work/x.c3d"));
+        assert_eq!(
+            relative(Path::new("/a/b/exp"), Path::new("/a/b/data/x.c3d")).unwrap(),
+            PathBuf::from("../data/x.c3d")
+        );
+        assert_eq!(
+            relative(Path::new("/a/b"), Path::new("/a/b/x.c3d")).unwrap(),
+            PathBuf::from("x.c3d")
+        );
+        assert_eq!(
+            relative(Path::new("/tmp/q"), Path::new("/work/x.c3d")).unwrap(),
+            PathBuf::from("/work/x.c3d")
+        );
     }
 }

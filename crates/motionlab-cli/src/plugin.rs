@@ -48,9 +48,15 @@ impl PluginKind {
     /// The skeleton's text and its placeholder names (module, type stem).
     fn skeleton(self) -> (&'static str, &'static str, &'static str) {
         match self {
-            PluginKind::Segmenter => (include_str!("plugin/segmenter.rs"), "template_segmenter", "TemplateSegmenter"),
-            PluginKind::Extractor => (include_str!("plugin/extractor.rs"), "template_extractor", "TemplateExtractor"),
-            PluginKind::Evaluator => (include_str!("plugin/evaluator.rs"), "template_evaluator", "TemplateEvaluator"),
+            PluginKind::Segmenter => {
+                (include_str!("plugin/segmenter.rs"), "template_segmenter", "TemplateSegmenter")
+            }
+            PluginKind::Extractor => {
+                (include_str!("plugin/extractor.rs"), "template_extractor", "TemplateExtractor")
+            }
+            PluginKind::Evaluator => {
+                (include_str!("plugin/evaluator.rs"), "template_evaluator", "TemplateEvaluator")
+            }
         }
     }
 
@@ -88,18 +94,26 @@ pub struct Scaffold {
 pub fn run(command: PluginCommand) -> Result<()> {
     match command {
         PluginCommand::New { name, kind, crate_dir } => {
-            let cwd = std::env::current_dir().map_err(|e| Error::new(ErrorKind::Io, format!("cannot read the current directory: {e}")))?;
+            let cwd = std::env::current_dir().map_err(|e| {
+                Error::new(ErrorKind::Io, format!("cannot read the current directory: {e}"))
+            })?;
             let crate_dir = match crate_dir {
                 Some(d) => d,
                 None => checkout_root(&cwd)?.join("crates").join(kind.home_crate()),
             };
             let s = new_plugin(&name, kind, &crate_dir)?;
-            println!("wrote {} ({}: params, ParamGuard, the stage, a known-answer test)", s.file.display(), kind.label());
+            println!(
+                "wrote {} ({}: params, ParamGuard, the stage, a known-answer test)",
+                s.file.display(),
+                kind.label()
+            );
             println!("added `pub mod {name};` to {}", s.lib.display());
             if let Some((before, after)) = s.plugin_count {
                 println!("PLUGIN_COUNT {before} → {after}");
             }
-            println!("next: replace the placeholder method with yours, then `cargo test` in the crate and `motionlab describe {name}`");
+            println!(
+                "next: replace the placeholder method with yours, then `cargo test` in the crate and `motionlab describe {name}`"
+            );
             Ok(())
         }
     }
@@ -125,17 +139,27 @@ pub fn new_plugin(name: &str, kind: PluginKind, crate_dir: &Path) -> Result<Scaf
     if !manifest.is_file() || !lib.is_file() {
         return Err(Error::new(
             ErrorKind::MissingKey,
-            format!("{} is not a crate with a library: expected Cargo.toml and src/lib.rs in it", crate_dir.display()),
+            format!(
+                "{} is not a crate with a library: expected Cargo.toml and src/lib.rs in it",
+                crate_dir.display()
+            ),
         ));
     }
     check_dependencies(&manifest)?;
     let file = crate_dir.join("src").join(format!("{name}.rs"));
     if file.exists() {
-        return Err(Error::new(ErrorKind::DuplicateName, format!("{} exists already; choose another name", file.display())));
+        return Err(Error::new(
+            ErrorKind::DuplicateName,
+            format!("{} exists already; choose another name", file.display()),
+        ));
     }
     let lib_text = std::fs::read_to_string(&lib).map_err(|e| Error::io(&lib, e))?;
     if lib_text.lines().any(|l| l.trim_start_matches("pub ").trim() == format!("mod {name};")) {
-        return Err(Error::new(ErrorKind::DuplicateName, format!("src/lib.rs declares `mod {name};` already")).with_location(Location::file(&lib)));
+        return Err(Error::new(
+            ErrorKind::DuplicateName,
+            format!("src/lib.rs declares `mod {name};` already"),
+        )
+        .with_location(Location::file(&lib)));
     }
     let (lib_text, plugin_count) = wire(&lib_text, name);
     let text = skeleton.replace(module, name).replace(type_stem, &type_name);
@@ -152,21 +176,44 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
         && !name.ends_with('_')
         && !name.contains("__");
     if !snake {
-        return Err(Error::new(ErrorKind::InvalidParameter, format!("plugin name {name:?}: expected snake_case (`my_segmenter`: lower-case letters, digits, single `_`)")));
+        return Err(Error::new(
+            ErrorKind::InvalidParameter,
+            format!(
+                "plugin name {name:?}: expected snake_case (`my_segmenter`: lower-case letters, digits, single `_`)"
+            ),
+        ));
     }
     const KEYWORDS: [&str; 51] = [
-        "as", "async", "await", "break", "const", "continue", "crate", "dyn", "else", "enum", "extern", "false", "fn", "for", "if", "impl", "in", "let", "loop",
-        "match", "mod", "move", "mut", "pub", "ref", "return", "self", "static", "struct", "super", "trait", "true", "type", "unsafe", "use", "where", "while",
-        "abstract", "become", "box", "do", "final", "gen", "macro", "override", "priv", "try", "typeof", "unsized", "virtual", "yield",
+        "as", "async", "await", "break", "const", "continue", "crate", "dyn", "else", "enum",
+        "extern", "false", "fn", "for", "if", "impl", "in", "let", "loop", "match", "mod", "move",
+        "mut", "pub", "ref", "return", "self", "static", "struct", "super", "trait", "true",
+        "type", "unsafe", "use", "where", "while", "abstract", "become", "box", "do", "final",
+        "gen", "macro", "override", "priv", "try", "typeof", "unsized", "virtual", "yield",
     ];
     if KEYWORDS.contains(&name) {
-        return Err(Error::new(ErrorKind::InvalidParameter, format!("plugin name {name:?} is a Rust keyword; it cannot name a module")));
+        return Err(Error::new(
+            ErrorKind::InvalidParameter,
+            format!("plugin name {name:?} is a Rust keyword; it cannot name a module"),
+        ));
     }
     if let Some(p) = registry::plugins().into_iter().find(|p| p.name == name) {
-        return Err(Error::new(ErrorKind::DuplicateName, format!("a plugin named {name:?} exists already (a {} from {}); choose another name", p.kind.label(), p.crate_name)));
+        return Err(Error::new(
+            ErrorKind::DuplicateName,
+            format!(
+                "a plugin named {name:?} exists already (a {} from {}); choose another name",
+                p.kind.label(),
+                p.crate_name
+            ),
+        ));
     }
     if let Some(p) = registry::custom_plugins().into_iter().find(|p| p.name == name) {
-        return Err(Error::new(ErrorKind::DuplicateName, format!("a plugin named {name:?} exists already (a {} from {}); choose another name", p.kind, p.crate_name)));
+        return Err(Error::new(
+            ErrorKind::DuplicateName,
+            format!(
+                "a plugin named {name:?} exists already (a {} from {}); choose another name",
+                p.kind, p.crate_name
+            ),
+        ));
     }
     let camel: String = name
         .split('_')
@@ -175,9 +222,18 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
             c.next().map(|f| f.to_ascii_uppercase().to_string() + c.as_str()).unwrap_or_default()
         })
         .collect();
-    let imported: Vec<&str> = skeleton.lines().filter(|l| l.starts_with("use ")).flat_map(|l| l.split(|c: char| !c.is_ascii_alphanumeric() && c != '_')).collect();
+    let imported: Vec<&str> = skeleton
+        .lines()
+        .filter(|l| l.starts_with("use "))
+        .flat_map(|l| l.split(|c: char| !c.is_ascii_alphanumeric() && c != '_'))
+        .collect();
     if imported.contains(&camel.as_str()) || imported.contains(&format!("{camel}Params").as_str()) {
-        return Err(Error::new(ErrorKind::InvalidParameter, format!("plugin name {name:?} would name its stage `{camel}`, which the file imports already; choose another name")));
+        return Err(Error::new(
+            ErrorKind::InvalidParameter,
+            format!(
+                "plugin name {name:?} would name its stage `{camel}`, which the file imports already; choose another name"
+            ),
+        ));
     }
     Ok(camel)
 }
@@ -186,9 +242,18 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
 /// for its test.
 fn check_dependencies(manifest: &Path) -> Result<()> {
     let text = std::fs::read_to_string(manifest).map_err(|e| Error::io(manifest, e))?;
-    let doc: toml::Table = text.parse().map_err(|e| Error::new(ErrorKind::Syntax, format!("cannot parse it: {e}")).with_location(Location::file(manifest)))?;
-    let has = |section: &str, dep: &str| doc.get(section).and_then(|t| t.as_table()).is_some_and(|t| t.contains_key(dep));
-    let mut missing: Vec<String> = ["motionlab-core", "serde", "schemars"].iter().filter(|d| !has("dependencies", d)).map(|d| format!("[dependencies] {d}")).collect();
+    let doc: toml::Table = text.parse().map_err(|e| {
+        Error::new(ErrorKind::Syntax, format!("cannot parse it: {e}"))
+            .with_location(Location::file(manifest))
+    })?;
+    let has = |section: &str, dep: &str| {
+        doc.get(section).and_then(|t| t.as_table()).is_some_and(|t| t.contains_key(dep))
+    };
+    let mut missing: Vec<String> = ["motionlab-core", "serde", "schemars"]
+        .iter()
+        .filter(|d| !has("dependencies", d))
+        .map(|d| format!("[dependencies] {d}"))
+        .collect();
     if !has("dependencies", "toml") && !has("dev-dependencies", "toml") {
         missing.push("[dev-dependencies] toml".into());
     }
@@ -212,7 +277,11 @@ fn wire(lib: &str, name: &str) -> (String, Option<(usize, usize)>) {
     let mut count = None;
     const COUNT: &str = "pub const PLUGIN_COUNT: usize = ";
     for l in &mut lines {
-        if let Some(n) = l.strip_prefix(COUNT).and_then(|rest| rest.strip_suffix(';')).and_then(|n| n.trim().parse::<usize>().ok()) {
+        if let Some(n) = l
+            .strip_prefix(COUNT)
+            .and_then(|rest| rest.strip_suffix(';'))
+            .and_then(|n| n.trim().parse::<usize>().ok())
+        {
             *l = format!("{COUNT}{};", n + 1);
             count = Some((n, n + 1));
         }
@@ -263,11 +332,24 @@ mod tests {
         let s = new_plugin("my_seg", PluginKind::Segmenter, dir.path()).unwrap();
         assert_eq!(s.plugin_count, Some((2, 3)));
         let lib = std::fs::read_to_string(dir.path().join("src/lib.rs")).unwrap();
-        assert_eq!(lib, "//! Mine.\n\npub const PLUGIN_COUNT: usize = 3;\n\npub mod alpha;\npub mod beta;\npub mod my_seg;\n\n#[cfg(test)]\nmod support;\n");
+        assert_eq!(
+            lib,
+            "//! Mine.\n\npub const PLUGIN_COUNT: usize = 3;\n\npub mod alpha;\npub mod beta;\npub mod my_seg;\n\n#[cfg(test)]\nmod support;\n"
+        );
         let file = std::fs::read_to_string(dir.path().join("src/my_seg.rs")).unwrap();
-        assert!(file.contains("motionlab_core::register_plugin!(Segmenter, MySegParams, \"my_seg\");"), "{file}");
-        assert!(file.contains("pub struct MySeg {") && file.contains("impl Segmenter for MySeg {") && file.contains("`motionlab describe my_seg`"));
-        assert!(!file.contains("template") && !file.contains("Template"), "a placeholder is left:\n{file}");
+        assert!(
+            file.contains("motionlab_core::register_plugin!(Segmenter, MySegParams, \"my_seg\");"),
+            "{file}"
+        );
+        assert!(
+            file.contains("pub struct MySeg {")
+                && file.contains("impl Segmenter for MySeg {")
+                && file.contains("`motionlab describe my_seg`")
+        );
+        assert!(
+            !file.contains("template") && !file.contains("Template"),
+            "a placeholder is left:\n{file}"
+        );
         // Written once: a second time is refused, and nothing changes.
         let e = new_plugin("my_seg", PluginKind::Segmenter, dir.path()).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::DuplicateName);
@@ -277,34 +359,62 @@ mod tests {
     #[test]
     fn every_kind_gets_its_skeleton_and_an_uncounted_crate_only_its_mod_line() {
         for (kind, name, line) in [
-            (PluginKind::Extractor, "knee_height", "register_plugin!(FeatureExtractor, KneeHeightParams, \"knee_height\")"),
+            (
+                PluginKind::Extractor,
+                "knee_height",
+                "register_plugin!(FeatureExtractor, KneeHeightParams, \"knee_height\")",
+            ),
             (PluginKind::Evaluator, "rate2", "register_plugin!(Evaluator, Rate2Params, \"rate2\")"),
         ] {
             let dir = scratch_crate(false);
             let s = new_plugin(name, kind, dir.path()).unwrap();
             assert_eq!(s.plugin_count, None);
             assert!(std::fs::read_to_string(&s.file).unwrap().contains(line));
-            assert!(std::fs::read_to_string(&s.lib).unwrap().contains(&format!("pub mod beta;\npub mod {name};\n")));
+            assert!(
+                std::fs::read_to_string(&s.lib)
+                    .unwrap()
+                    .contains(&format!("pub mod beta;\npub mod {name};\n"))
+            );
         }
     }
 
     #[test]
     fn bad_names_and_crates_are_refused_with_the_reason() {
         let dir = scratch_crate(true);
-        let refused = |name: &str, kind: PluginKind| new_plugin(name, kind, dir.path()).unwrap_err().to_string();
+        let refused = |name: &str, kind: PluginKind| {
+            new_plugin(name, kind, dir.path()).unwrap_err().to_string()
+        };
         assert!(refused("MySeg", PluginKind::Segmenter).contains("expected snake_case"));
         assert!(refused("my__seg", PluginKind::Segmenter).contains("expected snake_case"));
         assert!(refused("type", PluginKind::Segmenter).contains("Rust keyword"));
         // The binary has the built-in plugins: their names are taken.
-        assert!(refused("speed_minima", PluginKind::Segmenter).contains("exists already (a segmenter from motionlab-segment)"));
+        assert!(
+            refused("speed_minima", PluginKind::Segmenter)
+                .contains("exists already (a segmenter from motionlab-segment)")
+        );
         // `segmenter` would be a struct `Segmenter` beside the trait it implements.
         assert!(refused("segmenter", PluginKind::Segmenter).contains("imports already"));
-        assert!(!dir.path().join("src/speed_minima.rs").exists() && !dir.path().join("src/segmenter.rs").exists());
+        assert!(
+            !dir.path().join("src/speed_minima.rs").exists()
+                && !dir.path().join("src/segmenter.rs").exists()
+        );
         // A crate without what the file uses.
-        std::fs::write(dir.path().join("Cargo.toml"), "[package]\nname = \"mine\"\n\n[dependencies]\nmotionlab-core.workspace = true\n").unwrap();
+        std::fs::write(
+            dir.path().join("Cargo.toml"),
+            "[package]\nname = \"mine\"\n\n[dependencies]\nmotionlab-core.workspace = true\n",
+        )
+        .unwrap();
         let e = refused("fine_name", PluginKind::Segmenter);
-        assert!(e.contains("Cargo.toml") && e.contains("[dependencies] serde, [dependencies] schemars, [dev-dependencies] toml"), "{e}");
-        let e = new_plugin("fine_name", PluginKind::Segmenter, &dir.path().join("src")).unwrap_err().to_string();
+        assert!(
+            e.contains("Cargo.toml")
+                && e.contains(
+                    "[dependencies] serde, [dependencies] schemars, [dev-dependencies] toml"
+                ),
+            "{e}"
+        );
+        let e = new_plugin("fine_name", PluginKind::Segmenter, &dir.path().join("src"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("expected Cargo.toml and src/lib.rs"), "{e}");
     }
 
@@ -315,7 +425,8 @@ mod tests {
         for name in ["template_segmenter", "template_extractor", "template_evaluator"] {
             assert!(registry::find(name).is_ok(), "{name} is not registered");
         }
-        let problems: Vec<String> = registry::check_registry().into_iter().filter(|p| p.contains("template_")).collect();
+        let problems: Vec<String> =
+            registry::check_registry().into_iter().filter(|p| p.contains("template_")).collect();
         assert!(problems.is_empty(), "{problems:?}");
     }
 

@@ -51,7 +51,12 @@ pub fn scripts(job: &SlurmJob) -> (String, String) {
     let bin = shell_word(&job.binary.to_string_lossy());
     let overrides: String = job.overrides.iter().map(|o| format!(" {}", shell_word(o))).collect();
     let allow = if job.allow_external { " --allow-external" } else { "" };
-    let mut array = header(job, "motionlab-shard", &format!("{dir}/slurm/shard-%a.log"), &[format!("--array=0-{}", job.shards - 1)]);
+    let mut array = header(
+        job,
+        "motionlab-shard",
+        &format!("{dir}/slurm/shard-%a.log"),
+        &[format!("--array=0-{}", job.shards - 1)],
+    );
     array += &format!(
         "exec {bin} run {}{overrides} --quiet{allow} --threads {} --shard \"$SLURM_ARRAY_TASK_ID/{}\" --run-dir {}\n",
         shell_word(&job.experiment.to_string_lossy()),
@@ -60,7 +65,11 @@ pub fn scripts(job: &SlurmJob) -> (String, String) {
         shell_word(&dir)
     );
     let mut merge = header(job, "motionlab-merge", &format!("{dir}/slurm/merge.log"), &[]);
-    merge += &format!("exec {bin} merge --quiet{allow} --threads {} {}\n", job.threads, shell_word(&dir));
+    merge += &format!(
+        "exec {bin} merge --quiet{allow} --threads {} {}\n",
+        job.threads,
+        shell_word(&dir)
+    );
     (array, merge)
 }
 
@@ -78,15 +87,17 @@ pub fn write_scripts(job: &SlurmJob) -> Result<(PathBuf, PathBuf)> {
 
 /// `sbatch --parsable` a script, returning the job id.
 fn sbatch(args: &[&str], script: &Path) -> Result<String> {
-    let out = Command::new("sbatch")
-        .arg("--parsable")
-        .args(args)
-        .arg(script)
-        .output()
-        .map_err(|e| Error::new(ErrorKind::Io, format!("cannot run sbatch (is Slurm installed?): {e}")).with_location(Location::file(script)))?;
+    let out =
+        Command::new("sbatch").arg("--parsable").args(args).arg(script).output().map_err(|e| {
+            Error::new(ErrorKind::Io, format!("cannot run sbatch (is Slurm installed?): {e}"))
+                .with_location(Location::file(script))
+        })?;
     if !out.status.success() {
-        return Err(Error::new(ErrorKind::Report, format!("sbatch failed: {}", String::from_utf8_lossy(&out.stderr).trim()))
-            .with_location(Location::file(script)));
+        return Err(Error::new(
+            ErrorKind::Report,
+            format!("sbatch failed: {}", String::from_utf8_lossy(&out.stderr).trim()),
+        )
+        .with_location(Location::file(script)));
     }
     // `--parsable` prints `jobid` or `jobid;cluster`.
     let text = String::from_utf8_lossy(&out.stdout);
@@ -122,7 +133,13 @@ mod tests {
         assert!(a.contains("#SBATCH --array=0-3"));
         // Every directive precedes the first command, or sbatch ignores it.
         let first_command = a.lines().position(|l| !l.starts_with('#')).unwrap();
-        let last_directive = a.lines().enumerate().filter(|(_, l)| l.starts_with("#SBATCH")).map(|(i, _)| i).max().unwrap();
+        let last_directive = a
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.starts_with("#SBATCH"))
+            .map(|(i, _)| i)
+            .max()
+            .unwrap();
         assert!(last_directive < first_command, "{a}");
         assert!(a.contains("#SBATCH --partition=short") && a.contains("#SBATCH --time=00:10:00"));
         assert!(!a.contains("--mem"));
@@ -131,6 +148,10 @@ mod tests {
         assert!(m.contains("merge --quiet --threads 2 /runs/r1"), "{m}");
         assert!(!a.contains("--allow-external") && !m.contains("--allow-external"));
         let (a, m) = scripts(&SlurmJob { allow_external: true, ..job });
-        assert!(a.contains(" --quiet --allow-external --threads 2 --shard") && m.contains("merge --quiet --allow-external --threads 2 /runs/r1"), "{a}\n{m}");
+        assert!(
+            a.contains(" --quiet --allow-external --threads 2 --shard")
+                && m.contains("merge --quiet --allow-external --threads 2 /runs/r1"),
+            "{a}\n{m}"
+        );
     }
 }

@@ -29,10 +29,16 @@ impl Channels {
     pub fn new(names: Vec<String>, units: Vec<String>, mut values: Vec<f64>) -> Result<Self> {
         let d = names.len();
         if d == 0 {
-            return Err(Error::new(ErrorKind::EmptySequence, "channels need at least one named channel"));
+            return Err(Error::new(
+                ErrorKind::EmptySequence,
+                "channels need at least one named channel",
+            ));
         }
         if units.len() != d {
-            return Err(Error::new(ErrorKind::WrongValueCount, format!("{} units for {d} channels", units.len())));
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!("{} units for {d} channels", units.len()),
+            ));
         }
         let mut seen = std::collections::HashSet::with_capacity(d);
         for n in &names {
@@ -40,11 +46,17 @@ impl Channels {
                 return Err(Error::new(ErrorKind::InvalidParameter, "a channel name is empty"));
             }
             if !seen.insert(n.as_str()) {
-                return Err(Error::new(ErrorKind::DuplicateName, format!("channel name {n:?} appears twice")));
+                return Err(Error::new(
+                    ErrorKind::DuplicateName,
+                    format!("channel name {n:?} appears twice"),
+                ));
             }
         }
         if !values.len().is_multiple_of(d) {
-            return Err(Error::new(ErrorKind::WrongValueCount, format!("{} values is not a whole number of samples of {d} channels", values.len())));
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!("{} values is not a whole number of samples of {d} channels", values.len()),
+            ));
         }
         for v in values.iter_mut().filter(|v| !v.is_finite()) {
             *v = f64::NAN;
@@ -61,14 +73,23 @@ impl Channels {
         if let Some(t) = traces.iter().find(|t| t.values.len() != n) {
             return Err(Error::new(
                 ErrorKind::WrongValueCount,
-                format!("trace {:?} has {} values, trace {:?} {n}: channels need one value per sample each", t.name, t.values.len(), first.name),
+                format!(
+                    "trace {:?} has {} values, trace {:?} {n}: channels need one value per sample each",
+                    t.name,
+                    t.values.len(),
+                    first.name
+                ),
             ));
         }
         let mut values = Vec::with_capacity(n * traces.len());
         for s in 0..n {
             values.extend(traces.iter().map(|t| t.values[s]));
         }
-        Channels::new(traces.iter().map(|t| t.name.clone()).collect(), traces.iter().map(|t| t.unit.clone()).collect(), values)
+        Channels::new(
+            traces.iter().map(|t| t.name.clone()).collect(),
+            traces.iter().map(|t| t.unit.clone()).collect(),
+            values,
+        )
     }
 
     pub fn names(&self) -> &[String] {
@@ -105,24 +126,39 @@ impl Channels {
     pub fn index(&self, name: &str) -> Result<usize> {
         self.names.iter().position(|n| n == name).ok_or_else(|| {
             let close = crate::registry::closest_names(name, self.names.iter().map(String::as_str));
-            let hint = if close.is_empty() { format!(" (channels: {})", self.names.join(", ")) } else { format!(" (closest: {})", close.join(", ")) };
-            Error::new(ErrorKind::UnknownName, format!("no channel named {name:?}{hint}")).with_field(name)
+            let hint = if close.is_empty() {
+                format!(" (channels: {})", self.names.join(", "))
+            } else {
+                format!(" (closest: {})", close.join(", "))
+            };
+            Error::new(ErrorKind::UnknownName, format!("no channel named {name:?}{hint}"))
+                .with_field(name)
         })
     }
     /// A copy holding only the named channels, in the given order.
     pub fn select(&self, names: &[impl AsRef<str>]) -> Result<Channels> {
-        let idx: Vec<usize> = names.iter().map(|n| self.index(n.as_ref())).collect::<Result<_>>()?;
+        let idx: Vec<usize> =
+            names.iter().map(|n| self.index(n.as_ref())).collect::<Result<_>>()?;
         let d = self.n_channels();
         let mut values = Vec::with_capacity(self.n_samples * idx.len());
         for s in 0..self.n_samples {
             values.extend(idx.iter().map(|&k| self.values[s * d + k]));
         }
-        Channels::new(idx.iter().map(|&k| self.names[k].clone()).collect(), idx.iter().map(|&k| self.units[k].clone()).collect(), values)
+        Channels::new(
+            idx.iter().map(|&k| self.names[k].clone()).collect(),
+            idx.iter().map(|&k| self.units[k].clone()).collect(),
+            values,
+        )
     }
     /// A copy holding samples `start..end` (the caller checks the range).
     pub(crate) fn slice_samples(&self, start: usize, end: usize) -> Channels {
         let d = self.n_channels();
-        Channels { names: self.names.clone(), units: self.units.clone(), n_samples: end - start, values: self.values[start * d..end * d].to_vec() }
+        Channels {
+            names: self.names.clone(),
+            units: self.units.clone(),
+            n_samples: end - start,
+            values: self.values[start * d..end * d].to_vec(),
+        }
     }
 }
 
@@ -132,7 +168,10 @@ mod tests {
 
     #[test]
     fn traces_become_sample_major_channels_and_select_reorders() {
-        let t = [Trace::new("a", "mm/s", vec![1.0, 2.0, 3.0]), Trace::new("b", "", vec![10.0, f64::INFINITY, 30.0])];
+        let t = [
+            Trace::new("a", "mm/s", vec![1.0, 2.0, 3.0]),
+            Trace::new("b", "", vec![10.0, f64::INFINITY, 30.0]),
+        ];
         let c = Channels::from_traces(&t).unwrap();
         assert_eq!((c.n_samples(), c.n_channels()), (3, 2));
         assert_eq!(&c.values()[..2], &[1.0, 10.0]);
@@ -152,10 +191,22 @@ mod tests {
     #[test]
     fn malformed_channels_are_errors() {
         let v = |n: &[&str]| n.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-        assert_eq!(Channels::new(vec![], vec![], vec![]).unwrap_err().kind(), ErrorKind::EmptySequence);
-        assert_eq!(Channels::new(v(&["a", "a"]), v(&["", ""]), vec![]).unwrap_err().kind(), ErrorKind::DuplicateName);
-        assert_eq!(Channels::new(v(&["a", "b"]), v(&[""]), vec![]).unwrap_err().kind(), ErrorKind::WrongValueCount);
-        assert_eq!(Channels::new(v(&["a", "b"]), v(&["", ""]), vec![1.0]).unwrap_err().kind(), ErrorKind::WrongValueCount);
+        assert_eq!(
+            Channels::new(vec![], vec![], vec![]).unwrap_err().kind(),
+            ErrorKind::EmptySequence
+        );
+        assert_eq!(
+            Channels::new(v(&["a", "a"]), v(&["", ""]), vec![]).unwrap_err().kind(),
+            ErrorKind::DuplicateName
+        );
+        assert_eq!(
+            Channels::new(v(&["a", "b"]), v(&[""]), vec![]).unwrap_err().kind(),
+            ErrorKind::WrongValueCount
+        );
+        assert_eq!(
+            Channels::new(v(&["a", "b"]), v(&["", ""]), vec![1.0]).unwrap_err().kind(),
+            ErrorKind::WrongValueCount
+        );
         let t = [Trace::new("a", "", vec![1.0]), Trace::new("b", "", vec![])];
         assert_eq!(Channels::from_traces(&t).unwrap_err().kind(), ErrorKind::WrongValueCount);
         assert_eq!(Channels::from_traces(&[]).unwrap_err().kind(), ErrorKind::EmptySequence);

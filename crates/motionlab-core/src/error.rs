@@ -83,7 +83,10 @@ impl Location {
         self
     }
     fn is_empty(&self) -> bool {
-        self.file.is_none() && self.line.is_none() && self.field.is_none() && self.byte_offset.is_none()
+        self.file.is_none()
+            && self.line.is_none()
+            && self.field.is_none()
+            && self.byte_offset.is_none()
     }
 }
 
@@ -135,15 +138,30 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
     pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
-        Error(Box::new(Inner { kind, location: Location::default(), message: message.into(), source: None }))
+        Error(Box::new(Inner {
+            kind,
+            location: Location::default(),
+            message: message.into(),
+            source: None,
+        }))
     }
     /// Shorthand for the most common case: a text format problem at `file:line`.
-    pub fn at_line(kind: ErrorKind, file: impl AsRef<Path>, line: usize, message: impl Into<String>) -> Self {
+    pub fn at_line(
+        kind: ErrorKind,
+        file: impl AsRef<Path>,
+        line: usize,
+        message: impl Into<String>,
+    ) -> Self {
         Error::new(kind, message).with_location(Location::file(file).line(line))
     }
     pub fn io(file: impl AsRef<Path>, err: std::io::Error) -> Self {
         let message = err.to_string();
-        Error(Box::new(Inner { kind: ErrorKind::Io, location: Location::file(file), message, source: Some(Box::new(err)) }))
+        Error(Box::new(Inner {
+            kind: ErrorKind::Io,
+            location: Location::file(file),
+            message,
+            source: Some(Box::new(err)),
+        }))
     }
     pub fn with_location(mut self, location: Location) -> Self {
         self.0.location = location;
@@ -219,8 +237,13 @@ mod tests {
 
     #[test]
     fn display_is_one_line_with_file_line_and_field() {
-        let e = Error::at_line(ErrorKind::WrongValueCount, "walk.bvh", 190, "frame has 95 values, expected 96")
-            .with_field("MOTION");
+        let e = Error::at_line(
+            ErrorKind::WrongValueCount,
+            "walk.bvh",
+            190,
+            "frame has 95 values, expected 96",
+        )
+        .with_field("MOTION");
         assert_eq!(e.to_string(), "walk.bvh:190: MOTION: frame has 95 values, expected 96");
         assert!(!e.to_string().contains('\n'));
     }

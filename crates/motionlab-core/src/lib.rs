@@ -38,7 +38,10 @@ pub use segmentation::{Boundary, Segment, Segmentation, Transition};
 pub use skeleton::{ChannelKind, ForwardKinematics, Joint, Skeleton, SkeletonMotion};
 pub use stage::*;
 pub use table::{Column, ColumnValues, Table};
-pub use units::{Axis, CubicMillimetres, Degrees, FrameRate, LengthUnit, Millimetres, MillimetresPerSecond, Seconds, TimeSpan};
+pub use units::{
+    Axis, CubicMillimetres, Degrees, FrameRate, LengthUnit, Millimetres, MillimetresPerSecond,
+    Seconds, TimeSpan,
+};
 
 // Re-exported for `register_plugin!` and for plugin crates' params structs.
 pub use inventory;

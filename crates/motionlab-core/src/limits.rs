@@ -35,16 +35,31 @@ pub fn max_input_bytes() -> Result<u64> {
     match std::env::var(MAX_INPUT_MB_ENV) {
         Err(std::env::VarError::NotPresent) => Ok(DEFAULT_MAX_INPUT_MB * MIB),
         Ok(text) if text.trim().is_empty() => Ok(DEFAULT_MAX_INPUT_MB * MIB),
-        Ok(text) => text.trim().parse::<u64>().ok().filter(|&mb| mb > 0).and_then(|mb| mb.checked_mul(MIB)).ok_or_else(|| {
-            Error::new(ErrorKind::OutOfRange, format!("{MAX_INPUT_MB_ENV}={text:?}: expected a positive whole number of MiB")).with_field(MAX_INPUT_MB_ENV)
-        }),
-        Err(e) => Err(Error::new(ErrorKind::OutOfRange, format!("{MAX_INPUT_MB_ENV}: {e}")).with_field(MAX_INPUT_MB_ENV)),
+        Ok(text) => text
+            .trim()
+            .parse::<u64>()
+            .ok()
+            .filter(|&mb| mb > 0)
+            .and_then(|mb| mb.checked_mul(MIB))
+            .ok_or_else(|| {
+                Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("{MAX_INPUT_MB_ENV}={text:?}: expected a positive whole number of MiB"),
+                )
+                .with_field(MAX_INPUT_MB_ENV)
+            }),
+        Err(e) => Err(Error::new(ErrorKind::OutOfRange, format!("{MAX_INPUT_MB_ENV}: {e}"))
+            .with_field(MAX_INPUT_MB_ENV)),
     }
 }
 
 /// A limit in words: `1024 MiB` (or bytes when below one MiB).
 pub fn describe_limit(limit: u64) -> String {
-    if limit >= MIB && limit.is_multiple_of(MIB) { format!("{} MiB", limit / MIB) } else { format!("{limit} bytes") }
+    if limit >= MIB && limit.is_multiple_of(MIB) {
+        format!("{} MiB", limit / MIB)
+    } else {
+        format!("{limit} bytes")
+    }
 }
 
 /// The error for a motion or annotation file beyond the input limit `limit`: `what` says how
@@ -66,8 +81,14 @@ pub fn read_input_file(path: &Path, limit: u64) -> Result<Vec<u8>> {
 /// The bytes of an experiment file, refused beyond [`MAX_EXPERIMENT_BYTES`].
 pub fn read_experiment_file(path: &Path) -> Result<Vec<u8>> {
     read_bounded(path, MAX_EXPERIMENT_BYTES, |what| {
-        Error::new(ErrorKind::TooLarge, format!("{what}, more than the {} an experiment file may hold", describe_limit(MAX_EXPERIMENT_BYTES)))
-            .with_location(Location::file(path))
+        Error::new(
+            ErrorKind::TooLarge,
+            format!(
+                "{what}, more than the {} an experiment file may hold",
+                describe_limit(MAX_EXPERIMENT_BYTES)
+            ),
+        )
+        .with_location(Location::file(path))
     })
 }
 
@@ -101,7 +122,10 @@ mod tests {
         let e = read_input_file(&path, 9).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::TooLarge);
         assert_eq!(e.location().file.as_deref(), Some(path.as_path()));
-        assert!(e.to_string().contains("holds 10 bytes, more than the input limit of 9 bytes"), "{e}");
+        assert!(
+            e.to_string().contains("holds 10 bytes, more than the input limit of 9 bytes"),
+            "{e}"
+        );
         assert_eq!(describe_limit(DEFAULT_MAX_INPUT_MB * MIB), "1024 MiB");
         std::fs::remove_dir_all(&dir).ok();
     }

@@ -102,18 +102,27 @@ impl Motion {
     ) -> Result<Self> {
         let m = point_names.len();
         if m == 0 {
-            return Err(Error::new(ErrorKind::EmptySequence, "a motion needs at least one marker or joint"));
+            return Err(Error::new(
+                ErrorKind::EmptySequence,
+                "a motion needs at least one marker or joint",
+            ));
         }
         if !positions.len().is_multiple_of(m) {
             return Err(Error::new(
                 ErrorKind::WrongValueCount,
-                format!("{} positions is not a whole number of frames of {m} points", positions.len()),
+                format!(
+                    "{} positions is not a whole number of frames of {m} points",
+                    positions.len()
+                ),
             ));
         }
         let mut seen = std::collections::HashSet::with_capacity(m);
         for n in &point_names {
             if !seen.insert(n.as_str()) {
-                return Err(Error::new(ErrorKind::DuplicateName, format!("point name {n:?} appears twice")));
+                return Err(Error::new(
+                    ErrorKind::DuplicateName,
+                    format!("point name {n:?} appears twice"),
+                ));
             }
         }
         let n_frames = positions.len() / m;
@@ -146,9 +155,16 @@ impl Motion {
     }
 
     /// A motion of channels only (a channel file: no points), one frame per sample.
-    pub fn from_channels(name: impl Into<String>, frame_rate: FrameRate, channels: Channels) -> Result<Self> {
+    pub fn from_channels(
+        name: impl Into<String>,
+        frame_rate: FrameRate,
+        channels: Channels,
+    ) -> Result<Self> {
         if channels.is_empty() {
-            return Err(Error::new(ErrorKind::EmptySequence, "a motion needs at least one marker, joint or channel"));
+            return Err(Error::new(
+                ErrorKind::EmptySequence,
+                "a motion needs at least one marker, joint or channel",
+            ));
         }
         Ok(Motion {
             name: name.into(),
@@ -174,7 +190,12 @@ impl Motion {
         if channels.n_samples() != self.n_frames {
             return Err(Error::new(
                 ErrorKind::WrongValueCount,
-                format!("{} channel samples for a motion of {} frames ({})", channels.n_samples(), self.n_frames, self.name),
+                format!(
+                    "{} channel samples for a motion of {} frames ({})",
+                    channels.n_samples(),
+                    self.n_frames,
+                    self.name
+                ),
             ));
         }
         self.channels = channels;
@@ -264,14 +285,22 @@ impl Motion {
     /// Index of a named point; the error names the file and lists what exists.
     pub fn point_index(&self, name: &str) -> Result<usize> {
         self.point_names.iter().position(|n| n == name).ok_or_else(|| {
-            let close = crate::registry::closest_names(name, self.point_names.iter().map(String::as_str));
-            let hint = if close.is_empty() { String::new() } else { format!(" (closest: {})", close.join(", ")) };
+            let close =
+                crate::registry::closest_names(name, self.point_names.iter().map(String::as_str));
+            let hint = if close.is_empty() {
+                String::new()
+            } else {
+                format!(" (closest: {})", close.join(", "))
+            };
             let loc = match &self.source {
                 Some(s) => Location::file(s),
                 None => Location::default(),
             };
-            Error::new(ErrorKind::UnknownName, format!("no marker or joint named {name:?} in {}{hint}", self.name))
-                .with_location(loc.field(name))
+            Error::new(
+                ErrorKind::UnknownName,
+                format!("no marker or joint named {name:?} in {}{hint}", self.name),
+            )
+            .with_location(loc.field(name))
         })
     }
     /// The floor-plane coordinates of a point (drops the up axis; keeps the other two in order).
@@ -288,7 +317,10 @@ impl Motion {
         if start >= end || end > self.n_frames {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
-                format!("frame range {start}..{end} is empty or outside 0..{} of {}", self.n_frames, self.name),
+                format!(
+                    "frame range {start}..{end} is empty or outside 0..{} of {}",
+                    self.n_frames, self.name
+                ),
             ));
         }
         let m = self.n_points();
@@ -310,7 +342,8 @@ impl Motion {
     }
     /// A copy holding only the named points, in the given order.
     pub fn select_points(&self, names: &[impl AsRef<str>]) -> Result<Motion> {
-        let idx: Vec<usize> = names.iter().map(|n| self.point_index(n.as_ref())).collect::<Result<_>>()?;
+        let idx: Vec<usize> =
+            names.iter().map(|n| self.point_index(n.as_ref())).collect::<Result<_>>()?;
         let m = self.n_points();
         let mut positions = Vec::with_capacity(self.n_frames * idx.len());
         for f in 0..self.n_frames {
@@ -365,7 +398,10 @@ impl Motion {
             let loc = self.source.as_ref().map(Location::file).unwrap_or_default();
             Err(Error::new(
                 ErrorKind::EmptySequence,
-                format!("{stage} needs at least {min_frames} frames, {} has {}", self.name, self.n_frames),
+                format!(
+                    "{stage} needs at least {min_frames} frames, {} has {}",
+                    self.name, self.n_frames
+                ),
             )
             .with_location(loc))
         } else {
@@ -402,8 +438,16 @@ mod tests {
 
     fn two_point_motion() -> Motion {
         let rate = FrameRate::new(10.0).unwrap();
-        let pos = vec![[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [1.0, 0.0, 0.0], [f64::INFINITY, 2.0, 3.0], [2.0, 0.0, 0.0], [1.0, 2.0, 3.0]];
-        Motion::new("t", rate, Axis::Z, PointKind::Marker, vec!["a".into(), "b".into()], pos).unwrap()
+        let pos = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 2.0, 3.0],
+            [1.0, 0.0, 0.0],
+            [f64::INFINITY, 2.0, 3.0],
+            [2.0, 0.0, 0.0],
+            [1.0, 2.0, 3.0],
+        ];
+        Motion::new("t", rate, Axis::Z, PointKind::Marker, vec!["a".into(), "b".into()], pos)
+            .unwrap()
     }
 
     #[test]
@@ -419,9 +463,25 @@ mod tests {
     #[test]
     fn wrong_buffer_length_and_duplicate_names_are_errors() {
         let rate = FrameRate::new(10.0).unwrap();
-        let e = Motion::new("t", rate, Axis::Y, PointKind::Marker, vec!["a".into(), "b".into()], vec![[0.0; 3]; 3]).unwrap_err();
+        let e = Motion::new(
+            "t",
+            rate,
+            Axis::Y,
+            PointKind::Marker,
+            vec!["a".into(), "b".into()],
+            vec![[0.0; 3]; 3],
+        )
+        .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::WrongValueCount);
-        let e = Motion::new("t", rate, Axis::Y, PointKind::Marker, vec!["a".into(), "a".into()], vec![[0.0; 3]; 2]).unwrap_err();
+        let e = Motion::new(
+            "t",
+            rate,
+            Axis::Y,
+            PointKind::Marker,
+            vec!["a".into(), "a".into()],
+            vec![[0.0; 3]; 2],
+        )
+        .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::DuplicateName);
     }
 

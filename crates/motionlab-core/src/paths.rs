@@ -16,10 +16,15 @@ pub const MAX_SAFE_NAME_BYTES: usize = 150;
 /// (a leading `.`), carry NUL or control characters, or exceed the file system's limit.
 pub fn safe_file_name(name: &str) -> Cow<'_, str> {
     let allowed = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.');
-    if !name.is_empty() && !name.starts_with('.') && name.len() <= MAX_SAFE_NAME_BYTES && name.chars().all(allowed) {
+    if !name.is_empty()
+        && !name.starts_with('.')
+        && name.len() <= MAX_SAFE_NAME_BYTES
+        && name.chars().all(allowed)
+    {
         return Cow::Borrowed(name);
     }
-    let mut out: String = name.chars().map(|c| if allowed(c) { c } else { '_' }).take(MAX_SAFE_NAME_BYTES).collect();
+    let mut out: String =
+        name.chars().map(|c| if allowed(c) { c } else { '_' }).take(MAX_SAFE_NAME_BYTES).collect();
     if out.starts_with('.') {
         out.replace_range(..1, "_");
     }
@@ -67,12 +72,33 @@ mod tests {
         for plain in ["86_01", "86_01_speed_zoom", "walk-1.bvh", "a..b"] {
             assert!(matches!(safe_file_name(plain), Cow::Borrowed(_)), "{plain}");
         }
-        let odd = ["..", "../../etc/passwd", "/abs", "a/b", "a b", "a_b\u{0}", "<script>alert(1)</script>", "日本語", ".hidden", "", "tab\there", "\u{1b}[2J"];
+        let odd = [
+            "..",
+            "../../etc/passwd",
+            "/abs",
+            "a/b",
+            "a b",
+            "a_b\u{0}",
+            "<script>alert(1)</script>",
+            "日本語",
+            ".hidden",
+            "",
+            "tab\there",
+            "\u{1b}[2J",
+        ];
         let mut seen = std::collections::HashSet::new();
         for name in odd {
             let safe = safe_file_name(name);
-            assert!(!safe.is_empty() && !safe.starts_with('.') && safe.len() <= MAX_SAFE_NAME_BYTES + 17, "{name:?} → {safe}");
-            assert!(safe.chars().all(|c| c.is_ascii_alphanumeric() || "_-.~".contains(c)), "{name:?} → {safe}");
+            assert!(
+                !safe.is_empty()
+                    && !safe.starts_with('.')
+                    && safe.len() <= MAX_SAFE_NAME_BYTES + 17,
+                "{name:?} → {safe}"
+            );
+            assert!(
+                safe.chars().all(|c| c.is_ascii_alphanumeric() || "_-.~".contains(c)),
+                "{name:?} → {safe}"
+            );
             assert_eq!(Path::new(safe.as_ref()).components().count(), 1, "{name:?} → {safe}");
             assert!(seen.insert(safe.into_owned()), "{name:?} collides");
         }

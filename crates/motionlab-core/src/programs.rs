@@ -57,7 +57,8 @@ pub fn is_allowed(command: &[String]) -> bool {
 /// written as Rust escapes (`\u{1b}`), so a command cannot disguise itself on the screen.
 pub fn command_line(command: &[String]) -> String {
     let quote = |a: &String| {
-        let plain = !a.is_empty() && a.chars().all(|c| !c.is_whitespace() && c.escape_debug().len() == 1);
+        let plain =
+            !a.is_empty() && a.chars().all(|c| !c.is_whitespace() && c.escape_debug().len() == 1);
         if plain { a.clone() } else { format!("{a:?}") }
     };
     command.iter().map(quote).collect::<Vec<_>>().join(" ")
@@ -95,7 +96,10 @@ mod tests {
     fn command_lines_print_escaped() {
         assert_eq!(command_line(&v(&["sh", "-c", "exit 1"])), "sh -c \"exit 1\"");
         assert_eq!(command_line(&v(&["python3", "my_seg.py"])), "python3 my_seg.py");
-        assert_eq!(command_line(&v(&["a\u{1b}[2Jb", "", "r\u{202e}l", "日本"])), "\"a\\u{1b}[2Jb\" \"\" \"r\\u{202e}l\" 日本");
+        assert_eq!(
+            command_line(&v(&["a\u{1b}[2Jb", "", "r\u{202e}l", "日本"])),
+            "\"a\\u{1b}[2Jb\" \"\" \"r\\u{202e}l\" 日本"
+        );
         assert_eq!(shell_word("/x/exp.toml"), "/x/exp.toml");
         assert_eq!(shell_word("it's here"), "'it'\\''s here'");
     }

@@ -228,20 +228,28 @@ pub fn schema_params(schema: &schemars::Schema) -> Vec<ParamDoc> {
     let root = schema.as_value();
     let defs = root.get("$defs");
     let Some(props) = root.get("properties").and_then(|p| p.as_object()) else { return Vec::new() };
-    let required: Vec<&str> =
-        root.get("required").and_then(|r| r.as_array()).map(|a| a.iter().filter_map(|v| v.as_str()).collect()).unwrap_or_default();
+    let required: Vec<&str> = root
+        .get("required")
+        .and_then(|r| r.as_array())
+        .map(|a| a.iter().filter_map(|v| v.as_str()).collect())
+        .unwrap_or_default();
     props
         .iter()
         .map(|(name, p)| ParamDoc {
             name: name.clone(),
             type_name: type_name(p, defs),
             default: p.get("default").map(toml_like),
-            default_note: p.get(DEFAULT_NOTE_KEY).and_then(|d| d.as_str()).map(|d| d.trim().to_string()),
+            default_note: p
+                .get(DEFAULT_NOTE_KEY)
+                .and_then(|d| d.as_str())
+                .map(|d| d.trim().to_string()),
             required: required.contains(&name.as_str()),
             description: p
                 .get("description")
                 .and_then(|d| d.as_str())
-                .or_else(|| resolve(p, defs).and_then(|r| r.get("description")).and_then(|d| d.as_str()))
+                .or_else(|| {
+                    resolve(p, defs).and_then(|r| r.get("description")).and_then(|d| d.as_str())
+                })
                 .unwrap_or("")
                 .trim()
                 .to_string(),
@@ -283,7 +291,10 @@ pub struct ParamDoc {
     pub description: String,
 }
 
-fn resolve<'a>(p: &'a serde_json::Value, defs: Option<&'a serde_json::Value>) -> Option<&'a serde_json::Value> {
+fn resolve<'a>(
+    p: &'a serde_json::Value,
+    defs: Option<&'a serde_json::Value>,
+) -> Option<&'a serde_json::Value> {
     let r = p.get("$ref")?.as_str()?;
     let name = r.rsplit('/').next()?;
     defs?.get(name)
@@ -318,14 +329,21 @@ fn type_name(p: &serde_json::Value, defs: Option<&serde_json::Value>) -> String 
     }
     match p.get("type") {
         Some(serde_json::Value::String(t)) => match t.as_str() {
-            "array" => format!("[{}]", p.get("items").map(|i| type_name(i, defs)).unwrap_or_default()),
+            "array" => {
+                format!("[{}]", p.get("items").map(|i| type_name(i, defs)).unwrap_or_default())
+            }
             "number" => "float".into(),
             other => other.to_string(),
         },
         Some(serde_json::Value::Array(ts)) => {
-            let parts: Vec<&str> = ts.iter().filter_map(|t| t.as_str()).filter(|t| *t != "null").collect();
+            let parts: Vec<&str> =
+                ts.iter().filter_map(|t| t.as_str()).filter(|t| *t != "null").collect();
             let nullable = ts.iter().any(|t| t.as_str() == Some("null"));
-            let joined = parts.iter().map(|t| if *t == "number" { "float" } else { t }).collect::<Vec<_>>().join(" | ");
+            let joined = parts
+                .iter()
+                .map(|t| if *t == "number" { "float" } else { t })
+                .collect::<Vec<_>>()
+                .join(" | ");
             if nullable { format!("{joined} (optional)") } else { joined }
         }
         _ => "value".into(),
@@ -363,10 +381,13 @@ fn toml_like(v: &serde_json::Value) -> String {
     match v {
         serde_json::Value::Object(m) if m.is_empty() => "{}".into(),
         serde_json::Value::Object(m) => {
-            let parts: Vec<String> = m.iter().map(|(k, v)| format!("{k} = {}", toml_like(v))).collect();
+            let parts: Vec<String> =
+                m.iter().map(|(k, v)| format!("{k} = {}", toml_like(v))).collect();
             format!("{{ {} }}", parts.join(", "))
         }
-        serde_json::Value::Array(a) => format!("[{}]", a.iter().map(toml_like).collect::<Vec<_>>().join(", ")),
+        serde_json::Value::Array(a) => {
+            format!("[{}]", a.iter().map(toml_like).collect::<Vec<_>>().join(", "))
+        }
         serde_json::Value::Null => "(none)".into(),
         other => other.to_string(),
     }
@@ -408,7 +429,10 @@ fn unknown_plugin(name: &str, kind: Option<StageKind>, all: &[&'static PluginEnt
     let hint = if close.is_empty() {
         " (run `motionlab list` to see them all)".to_string()
     } else {
-        format!("; did you mean {}?", close.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(" or "))
+        format!(
+            "; did you mean {}?",
+            close.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(" or ")
+        )
     };
     Error::new(ErrorKind::UnknownPlugin, format!("no {what} named {name:?} is registered{hint}"))
 }
@@ -439,7 +463,11 @@ pub fn parse_params<P: DeserializeOwned>(value: &toml::Value) -> Result<P> {
         let inner = e.into_inner();
         let msg = inner.message().to_string();
         let kind = if msg.starts_with("unknown field") || msg.starts_with("unknown variant") {
-            if msg.starts_with("unknown field") { ErrorKind::UnknownKey } else { ErrorKind::WrongType }
+            if msg.starts_with("unknown field") {
+                ErrorKind::UnknownKey
+            } else {
+                ErrorKind::WrongType
+            }
         } else if msg.starts_with("invalid type") || msg.starts_with("invalid value") {
             ErrorKind::WrongType
         } else if msg.starts_with("missing field") {
@@ -509,7 +537,8 @@ inventory::collect!(CustomPluginEntry);
 
 /// Every registered custom-kind plugin, sorted by kind then name.
 pub fn custom_plugins() -> Vec<&'static CustomPluginEntry> {
-    let mut v: Vec<&'static CustomPluginEntry> = inventory::iter::<CustomPluginEntry>.into_iter().collect();
+    let mut v: Vec<&'static CustomPluginEntry> =
+        inventory::iter::<CustomPluginEntry>.into_iter().collect();
     v.sort_by_key(|p| (p.kind, p.name));
     v
 }
@@ -532,18 +561,28 @@ pub fn find_custom(name: &str) -> Option<&'static CustomPluginEntry> {
 /// Errors ([`ErrorKind::UnknownPlugin`]): the kind is not registered (closest kinds named), no
 /// plugin of that kind has this name (closest names of the kind), the name belongs to another
 /// kind, or the plugin builds another trait object than `T`.
-pub fn build_custom<T: ?Sized + 'static>(kind: &str, name: &str, params: &toml::Value) -> Result<Box<T>> {
+pub fn build_custom<T: ?Sized + 'static>(
+    kind: &str,
+    name: &str,
+    params: &toml::Value,
+) -> Result<Box<T>> {
     let all = custom_plugins();
     let hint = |close: Vec<String>| {
         if close.is_empty() {
             " (run `motionlab list` to see them all)".to_string()
         } else {
-            format!("; did you mean {}?", close.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(" or "))
+            format!(
+                "; did you mean {}?",
+                close.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(" or ")
+            )
         }
     };
     if !all.iter().any(|p| p.kind == kind) {
         let close = closest_names(kind, custom_kinds());
-        return Err(Error::new(ErrorKind::UnknownPlugin, format!("no custom stage kind {kind:?} is registered{}", hint(close))));
+        return Err(Error::new(
+            ErrorKind::UnknownPlugin,
+            format!("no custom stage kind {kind:?} is registered{}", hint(close)),
+        ));
     }
     fn label(k: &str) -> &str {
         declared_kind(k).map_or(k, |d| d.label)
@@ -551,16 +590,24 @@ pub fn build_custom<T: ?Sized + 'static>(kind: &str, name: &str, params: &toml::
     let entry = match all.iter().find(|p| p.name == name) {
         Some(p) if p.kind == kind => *p,
         Some(p) => {
-            let msg = format!("{name:?} is a {}, but a {} is expected here", label(p.kind), label(kind));
+            let msg =
+                format!("{name:?} is a {}, but a {} is expected here", label(p.kind), label(kind));
             return Err(Error::new(ErrorKind::UnknownPlugin, msg));
         }
         None => {
             if let Some(p) = plugins().into_iter().find(|p| p.name == name) {
-                let msg = format!("{name:?} is a {}, but a {} is expected here", p.kind.label(), label(kind));
+                let msg = format!(
+                    "{name:?} is a {}, but a {} is expected here",
+                    p.kind.label(),
+                    label(kind)
+                );
                 return Err(Error::new(ErrorKind::UnknownPlugin, msg));
             }
             let close = closest_names(name, all.iter().filter(|p| p.kind == kind).map(|p| p.name));
-            return Err(Error::new(ErrorKind::UnknownPlugin, format!("no {} named {name:?} is registered{}", label(kind), hint(close))));
+            return Err(Error::new(
+                ErrorKind::UnknownPlugin,
+                format!("no {} named {name:?} is registered{}", label(kind), hint(close)),
+            ));
         }
     };
     let built = (entry.build)(params)?;
@@ -588,9 +635,12 @@ pub fn build_custom<T: ?Sized + 'static>(kind: &str, name: &str, params: &toml::
 macro_rules! register_custom_plugin {
     ($trait:path, $params:ty, $name:literal, kind = $kind:literal) => {
         const _: () = {
-            fn build(value: &$crate::toml::Value) -> $crate::Result<::std::boxed::Box<dyn ::std::any::Any + Send + Sync>> {
+            fn build(
+                value: &$crate::toml::Value,
+            ) -> $crate::Result<::std::boxed::Box<dyn ::std::any::Any + Send + Sync>> {
                 let params: $params = $crate::registry::parse_params(value)?;
-                let stage: ::std::boxed::Box<dyn $trait> = ::std::boxed::Box::new($crate::registry::ParamGuard::check(params)?);
+                let stage: ::std::boxed::Box<dyn $trait> =
+                    ::std::boxed::Box::new($crate::registry::ParamGuard::check(params)?);
                 Ok(::std::boxed::Box::new(stage))
             }
             $crate::inventory::submit! {
@@ -618,7 +668,9 @@ pub fn default_note_problem(param: &ParamDoc) -> Option<String> {
     }
     match param.default.as_deref() {
         Some("(none)" | "[]" | "{}") => None,
-        Some(value) => Some(format!("has the serde default {value} and also a {DEFAULT_NOTE_KEY:?} note ({note:?}); keep one")),
+        Some(value) => Some(format!(
+            "has the serde default {value} and also a {DEFAULT_NOTE_KEY:?} note ({note:?}); keep one"
+        )),
         None if param.required => Some(format!("is required but has a {DEFAULT_NOTE_KEY:?} note")),
         None => None,
     }
@@ -634,19 +686,29 @@ pub fn default_params() -> toml::Value {
 /// either build or fail only for a missing required key.
 pub fn check_registry() -> Vec<String> {
     let mut problems = Vec::new();
-    let builtin = plugins().into_iter().map(|p| (p.name, p.kind.label().to_string(), p.params_type, p.doc(), p.params()));
-    let custom = custom_plugins().into_iter().map(|p| (p.name, p.kind.to_string(), p.params_type, p.doc(), p.params()));
+    let builtin = plugins()
+        .into_iter()
+        .map(|p| (p.name, p.kind.label().to_string(), p.params_type, p.doc(), p.params()));
+    let custom = custom_plugins()
+        .into_iter()
+        .map(|p| (p.name, p.kind.to_string(), p.params_type, p.doc(), p.params()));
     let snake = |s: &str| {
-        s.chars().next().is_some_and(|c| c.is_ascii_lowercase()) && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        s.chars().next().is_some_and(|c| c.is_ascii_lowercase())
+            && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
     };
     for kind in custom_kinds() {
         if !snake(kind) || StageKind::ALL.iter().any(|k| k.label() == kind) {
-            problems.push(format!("custom kind {kind:?} is not a snake_case name distinct from the built-in kinds"));
+            problems.push(format!(
+                "custom kind {kind:?} is not a snake_case name distinct from the built-in kinds"
+            ));
         }
     }
     let mut declared = std::collections::HashSet::new();
     for k in declared_kinds() {
-        if !declared.insert(k.name) || !snake(k.name) || StageKind::ALL.iter().any(|c| c.label() == k.label) {
+        if !declared.insert(k.name)
+            || !snake(k.name)
+            || StageKind::ALL.iter().any(|c| c.label() == k.label)
+        {
             problems.push(format!("declared kind {:?} ({}) is not a unique snake_case name with a label distinct from core's kinds", k.name, k.crate_name));
         }
     }
@@ -654,9 +716,14 @@ pub fn check_registry() -> Vec<String> {
         let schema = (p.schema)();
         let tuned_on = defaults_tuned_on(&schema);
         if schema.as_value().get(DEFAULTS_TUNED_ON_KEY).is_some() && tuned_on.is_empty()
-            || tuned_on.iter().any(|h| h.len() != 64 || !h.chars().all(|c| c.is_ascii_digit() || ('a'..='f').contains(&c)))
+            || tuned_on.iter().any(|h| {
+                h.len() != 64 || !h.chars().all(|c| c.is_ascii_digit() || ('a'..='f').contains(&c))
+            })
         {
-            problems.push(format!("{:?}: {DEFAULTS_TUNED_ON_KEY:?} must list lower-case hex SHA-256 digests", p.name));
+            problems.push(format!(
+                "{:?}: {DEFAULTS_TUNED_ON_KEY:?} must list lower-case hex SHA-256 digests",
+                p.name
+            ));
         }
     }
     let mut seen = std::collections::HashSet::new();
@@ -675,7 +742,10 @@ pub fn check_registry() -> Vec<String> {
                 problems.push(format!("{name:?}: parameter {:?} has no doc comment", param.name));
             }
             if !param.required && param.default.is_none() && !param.type_name.contains("optional") {
-                problems.push(format!("{name:?}: parameter {:?} is optional but documents no default", param.name));
+                problems.push(format!(
+                    "{name:?}: parameter {:?} is optional but documents no default",
+                    param.name
+                ));
             }
             if let Some(problem) = default_note_problem(&param) {
                 problems.push(format!("{name:?}: parameter {:?}: {problem}", param.name));

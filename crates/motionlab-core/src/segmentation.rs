@@ -51,8 +51,15 @@ impl Segmentation {
                 ));
             }
         }
-        let boundaries = segments.iter().skip(1).map(|s| Boundary { frame: s.start, window: None }).collect();
-        Ok(Segmentation { frame_rate, boundaries, segments, annotators: Vec::new(), annotator_names: Vec::new() })
+        let boundaries =
+            segments.iter().skip(1).map(|s| Boundary { frame: s.start, window: None }).collect();
+        Ok(Segmentation {
+            frame_rate,
+            boundaries,
+            segments,
+            annotators: Vec::new(),
+            annotator_names: Vec::new(),
+        })
     }
     pub fn frames(&self) -> Vec<usize> {
         self.boundaries.iter().map(|b| b.frame).collect()
@@ -66,7 +73,11 @@ impl Segmentation {
     pub fn transitions(&self) -> Vec<Transition> {
         self.segments
             .windows(2)
-            .map(|w| Transition { frame: w[1].start, from: w[0].label.clone(), to: w[1].label.clone() })
+            .map(|w| Transition {
+                frame: w[1].start,
+                from: w[0].label.clone(),
+                to: w[1].label.clone(),
+            })
             .collect()
     }
 }
@@ -106,7 +117,10 @@ mod tests {
         let r = FrameRate::new(120.0).unwrap();
         let e = Segmentation::from_segments(
             r,
-            vec![Segment { start: 0, end: 10, label: "a".into() }, Segment { start: 11, end: 20, label: "b".into() }],
+            vec![
+                Segment { start: 0, end: 10, label: "a".into() },
+                Segment { start: 11, end: 20, label: "b".into() },
+            ],
         );
         assert!(e.is_err());
     }

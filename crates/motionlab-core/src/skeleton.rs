@@ -79,7 +79,12 @@ pub struct Joint {
 
 impl Joint {
     /// A BVH-style joint (no axis rotation; rotations compose in channel order).
-    pub fn new(name: impl Into<String>, parent: Option<usize>, offset: Point3, channels: Vec<ChannelKind>) -> Self {
+    pub fn new(
+        name: impl Into<String>,
+        parent: Option<usize>,
+        offset: Point3,
+        channels: Vec<ChannelKind>,
+    ) -> Self {
         let rotation_order = channels
             .iter()
             .filter_map(|c| match c {
@@ -87,7 +92,15 @@ impl Joint {
                 ChannelKind::Translation(_) => None,
             })
             .collect();
-        Joint { name: name.into(), parent, offset, channels, rotation_order, axis: Rotation3::identity(), end_sites: Vec::new() }
+        Joint {
+            name: name.into(),
+            parent,
+            offset,
+            channels,
+            rotation_order,
+            axis: Rotation3::identity(),
+            end_sites: Vec::new(),
+        }
     }
 }
 
@@ -104,15 +117,24 @@ impl Skeleton {
         let mut seen = std::collections::HashSet::new();
         for (i, j) in self.joints.iter().enumerate() {
             if !seen.insert(j.name.as_str()) {
-                return Err(Error::new(ErrorKind::DuplicateName, format!("joint {:?} is declared twice", j.name)));
+                return Err(Error::new(
+                    ErrorKind::DuplicateName,
+                    format!("joint {:?} is declared twice", j.name),
+                ));
             }
             if let Some(p) = j.parent
                 && p >= i
             {
-                return Err(Error::new(ErrorKind::Syntax, format!("joint {:?} comes before its parent", j.name)));
+                return Err(Error::new(
+                    ErrorKind::Syntax,
+                    format!("joint {:?} comes before its parent", j.name),
+                ));
             }
             if !j.offset.iter().chain(j.end_sites.iter().flatten()).all(|c| c.is_finite()) {
-                return Err(Error::new(ErrorKind::NonFinite, format!("joint {:?} has a non-finite offset", j.name)));
+                return Err(Error::new(
+                    ErrorKind::NonFinite,
+                    format!("joint {:?} has a non-finite offset", j.name),
+                ));
             }
         }
         Ok(())
@@ -136,7 +158,11 @@ impl Skeleton {
         let mut names: Vec<String> = self.joints.iter().map(|j| j.name.clone()).collect();
         for j in &self.joints {
             for (e, _) in j.end_sites.iter().enumerate() {
-                names.push(if e == 0 { format!("{}_end", j.name) } else { format!("{}_end{}", j.name, e + 1) });
+                names.push(if e == 0 {
+                    format!("{}_end", j.name)
+                } else {
+                    format!("{}_end{}", j.name, e + 1)
+                });
             }
         }
         names
@@ -181,7 +207,10 @@ impl Skeleton {
         let mut points = vec![[0.0; 3]; fk.n_points()];
         let mut rot = vec![IDENTITY; self.joints.len()];
         fk.frame::<Portable>(values, &mut points, &mut rot);
-        let rot = rot.iter().map(|g| Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| g[i][j]))).collect();
+        let rot = rot
+            .iter()
+            .map(|g| Rotation3::from_matrix_unchecked(Matrix3::from_fn(|i, j| g[i][j])))
+            .collect();
         (points, rot)
     }
 }
@@ -242,14 +271,23 @@ impl DenseProduct for Avx {
 #[target_feature(enable = "avx")]
 #[inline]
 fn mat_mul_avx(a: &Mat3, b: &Mat3) -> Mat3 {
-    use std::arch::x86_64::{_mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd};
+    use std::arch::x86_64::{
+        _mm256_add_pd, _mm256_loadu_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_storeu_pd,
+    };
     let mut out = [[0.0; 4]; 3];
     // SAFETY: every pointer is to a whole `[f64; 4]` row (four readable/writable f64s).
     unsafe {
-        let (b0, b1, b2) = (_mm256_loadu_pd(b[0].as_ptr()), _mm256_loadu_pd(b[1].as_ptr()), _mm256_loadu_pd(b[2].as_ptr()));
+        let (b0, b1, b2) = (
+            _mm256_loadu_pd(b[0].as_ptr()),
+            _mm256_loadu_pd(b[1].as_ptr()),
+            _mm256_loadu_pd(b[2].as_ptr()),
+        );
         for (row, a) in out.iter_mut().zip(a) {
             let sum = _mm256_add_pd(
-                _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(a[0]), b0), _mm256_mul_pd(_mm256_set1_pd(a[1]), b1)),
+                _mm256_add_pd(
+                    _mm256_mul_pd(_mm256_set1_pd(a[0]), b0),
+                    _mm256_mul_pd(_mm256_set1_pd(a[1]), b1),
+                ),
                 _mm256_mul_pd(_mm256_set1_pd(a[2]), b2),
             );
             _mm256_storeu_pd(row.as_mut_ptr(), sum);
@@ -396,22 +434,32 @@ impl ForwardKinematics {
                 }
             }
             at += joint.channels.len();
-            let c: Mat3 =
-                std::array::from_fn(|i| std::array::from_fn(|j| if j < 3 { joint.axis.matrix()[(i, j)] } else { 0.0 }));
-            let ct: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| if j < 3 { c[j][i] } else { 0.0 }));
+            let c: Mat3 = std::array::from_fn(|i| {
+                std::array::from_fn(|j| if j < 3 { joint.axis.matrix()[(i, j)] } else { 0.0 })
+            });
+            let ct: Mat3 =
+                std::array::from_fn(|i| std::array::from_fn(|j| if j < 3 { c[j][i] } else { 0.0 }));
             let rest_local = mat_mul(&mat_mul(&c, &IDENTITY), &ct);
             let axis = (c != IDENTITY || has_negative_zero(&c)).then_some((c, ct));
             joints.push(FkJoint {
                 parent: joint.parent,
                 offset: joint.offset,
                 translations,
-                rotations: joint.rotation_order.iter().map(|a| (a.index(), angle_channel[a.index()])).collect(),
+                rotations: joint
+                    .rotation_order
+                    .iter()
+                    .map(|a| (a.index(), angle_channel[a.index()]))
+                    .collect(),
                 axis,
                 rest_local,
             });
         }
-        let end_sites =
-            skeleton.joints.iter().enumerate().flat_map(|(j, joint)| joint.end_sites.iter().map(move |e| (j, *e))).collect();
+        let end_sites = skeleton
+            .joints
+            .iter()
+            .enumerate()
+            .flat_map(|(j, joint)| joint.end_sites.iter().map(move |e| (j, *e)))
+            .collect();
         ForwardKinematics { joints, end_sites, n_channels: at }
     }
 
@@ -472,7 +520,11 @@ impl ForwardKinematics {
         match (&joint.axis, Self::euler(joint, values)) {
             (None, None) => None,
             // (I · M) · Iᵀ
-            (None, Some(m)) => Some(if has_negative_zero(&m) { mat_mul(&mat_mul(&IDENTITY, &m), &IDENTITY) } else { m }),
+            (None, Some(m)) => Some(if has_negative_zero(&m) {
+                mat_mul(&mat_mul(&IDENTITY, &m), &IDENTITY)
+            } else {
+                m
+            }),
             (Some(_), None) => Some(joint.rest_local),
             (Some((c, ct)), Some(m)) => Some(P::mul(&P::mul(c, &m), ct)),
         }
@@ -544,7 +596,10 @@ impl ForwardKinematics {
     fn frames_inline<P: DenseProduct>(&self, channel_values: &[f64], points: &mut [Point3]) {
         let m = self.n_points();
         let mut rot = vec![IDENTITY; self.joints.len()];
-        for (values, out) in channel_values.chunks_exact(self.n_channels.max(1)).zip(points.chunks_exact_mut(m.max(1))) {
+        for (values, out) in channel_values
+            .chunks_exact(self.n_channels.max(1))
+            .zip(points.chunks_exact_mut(m.max(1)))
+        {
             self.frame::<P>(values, out, &mut rot);
         }
     }
@@ -577,7 +632,10 @@ impl SkeletonMotion {
         if c == 0 || !channel_values.len().is_multiple_of(c) {
             return Err(Error::new(
                 ErrorKind::WrongValueCount,
-                format!("{} channel values is not a whole number of frames of {c} channels", channel_values.len()),
+                format!(
+                    "{} channel values is not a whole number of frames of {c} channels",
+                    channel_values.len()
+                ),
             ));
         }
         Ok(SkeletonMotion { skeleton, channel_values, n_frames })
@@ -639,7 +697,8 @@ mod tests {
                 ChannelKind::Rotation(Axis::Z),
             ],
         );
-        let mut elbow = Joint::new("elbow", Some(0), [100.0, 0.0, 0.0], vec![ChannelKind::Rotation(Axis::Z)]);
+        let mut elbow =
+            Joint::new("elbow", Some(0), [100.0, 0.0, 0.0], vec![ChannelKind::Rotation(Axis::Z)]);
         elbow.end_sites.push([50.0, 0.0, 0.0]);
         Skeleton { joints: vec![root, elbow] }
     }
@@ -674,10 +733,15 @@ mod tests {
         // A 3-joint chain with an axis rotation, every angle non-zero and varying per frame.
         let mut s = arm();
         s.joints[1].axis = axis_rotation(Axis::Y, 0.7) * axis_rotation(Axis::Z, -0.2);
-        s.joints[1].channels = vec![ChannelKind::Rotation(Axis::X), ChannelKind::Rotation(Axis::Y), ChannelKind::Rotation(Axis::Z)];
+        s.joints[1].channels = vec![
+            ChannelKind::Rotation(Axis::X),
+            ChannelKind::Rotation(Axis::Y),
+            ChannelKind::Rotation(Axis::Z),
+        ];
         s.joints[1].rotation_order = vec![Axis::Z, Axis::Y, Axis::X];
         let fk = ForwardKinematics::new(&s);
-        let values: Vec<f64> = (0..7 * 200).map(|i| ((i * 37 % 101) as f64 - 50.0) * 1.37).collect();
+        let values: Vec<f64> =
+            (0..7 * 200).map(|i| ((i * 37 % 101) as f64 - 50.0) * 1.37).collect();
         let mut portable = vec![[0.0; 3]; 200 * fk.n_points()];
         fk.frames(&values, &mut portable);
         let bits = |p: &[Point3]| p.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();

@@ -163,7 +163,13 @@ impl<'a> EvalInput<'a> {
     /// and what it was given (a workflow that wires an evaluator wrongly).
     pub fn read<T: Any>(&self, expected: EvalInputType, evaluator: &str) -> Result<&'a T> {
         self.get::<T>().ok_or_else(|| {
-            Error::new(ErrorKind::Mismatch, format!("{evaluator} evaluates {}, but was given `{}`", expected.name, self.type_name))
+            Error::new(
+                ErrorKind::Mismatch,
+                format!(
+                    "{evaluator} evaluates {}, but was given `{}`",
+                    expected.name, self.type_name
+                ),
+            )
         })
     }
 }
@@ -185,11 +191,18 @@ impl FeatureCache {
         Self::default()
     }
     /// Returns the cached value under `key`, computing it with `compute` the first time.
-    pub fn get_or_compute<T: Any + Send + Sync>(&self, key: &str, compute: impl FnOnce() -> Result<T>) -> Result<Arc<T>> {
+    pub fn get_or_compute<T: Any + Send + Sync>(
+        &self,
+        key: &str,
+        compute: impl FnOnce() -> Result<T>,
+    ) -> Result<Arc<T>> {
         if let Some(v) = self.lock().get(key) {
-            return Arc::clone(v)
-                .downcast::<T>()
-                .map_err(|_| Error::new(ErrorKind::Mismatch, format!("feature cache key {key:?} holds another type")));
+            return Arc::clone(v).downcast::<T>().map_err(|_| {
+                Error::new(
+                    ErrorKind::Mismatch,
+                    format!("feature cache key {key:?} holds another type"),
+                )
+            });
         }
         // Computed outside the lock so independent features can run concurrently.
         let value: Arc<T> = Arc::new(compute()?);
@@ -302,7 +315,10 @@ pub struct Analysis {
 }
 
 enum AnalysisState {
-    Live { value: Box<dyn Any + Send + Sync>, encode: Option<fn(&(dyn Any + Send + Sync)) -> Option<Vec<u8>>> },
+    Live {
+        value: Box<dyn Any + Send + Sync>,
+        encode: Option<fn(&(dyn Any + Send + Sync)) -> Option<Vec<u8>>>,
+    },
     Encoded(Vec<u8>),
 }
 
@@ -320,7 +336,10 @@ impl std::fmt::Debug for Analysis {
 impl Analysis {
     /// An analysis the cache cannot keep (an evaluation that returns it is not cached).
     pub fn new<T: Any + Send + Sync>(value: T) -> Self {
-        Analysis { type_name: std::any::type_name::<T>().to_string(), state: AnalysisState::Live { value: Box::new(value), encode: None } }
+        Analysis {
+            type_name: std::any::type_name::<T>().to_string(),
+            state: AnalysisState::Live { value: Box::new(value), encode: None },
+        }
     }
     /// An analysis the on-disk cache can keep.
     pub fn cacheable<T: Any + Send + Sync + Serialize>(value: T) -> Self {
@@ -350,9 +369,9 @@ impl Analysis {
     /// The value as a `T`, or the analysis back when it is not a live `T`.
     pub fn downcast<T: 'static>(self) -> std::result::Result<Box<T>, Analysis> {
         match self.state {
-            AnalysisState::Live { value, encode } => {
-                value.downcast::<T>().map_err(|value| Analysis { type_name: self.type_name, state: AnalysisState::Live { value, encode } })
-            }
+            AnalysisState::Live { value, encode } => value.downcast::<T>().map_err(|value| {
+                Analysis { type_name: self.type_name, state: AnalysisState::Live { value, encode } }
+            }),
             state => Err(Analysis { type_name: self.type_name, state }),
         }
     }
@@ -361,9 +380,9 @@ impl Analysis {
     pub fn read<T: Clone + serde::de::DeserializeOwned + 'static>(&self) -> Option<T> {
         match &self.state {
             AnalysisState::Live { value, .. } => value.downcast_ref::<T>().cloned(),
-            AnalysisState::Encoded(bytes) => {
-                (self.type_name == std::any::type_name::<T>()).then(|| rmp_serde::from_slice::<T>(bytes).ok()).flatten()
-            }
+            AnalysisState::Encoded(bytes) => (self.type_name == std::any::type_name::<T>())
+                .then(|| rmp_serde::from_slice::<T>(bytes).ok())
+                .flatten(),
         }
     }
     /// The encoded form, when the value was made [`Analysis::cacheable`] (or restored).
@@ -413,7 +432,11 @@ mod tests {
         assert_eq!(restored.get::<Judged>(), None, "a restored analysis is not live");
         assert_eq!(restored.read::<Judged>(), Some(value));
         assert_eq!(restored.read::<Vec<usize>>(), None, "another type's name");
-        assert_eq!(Analysis::restored(live.type_name(), vec![0xc1]).read::<Judged>(), None, "undecodable bytes");
+        assert_eq!(
+            Analysis::restored(live.type_name(), vec![0xc1]).read::<Judged>(),
+            None,
+            "undecodable bytes"
+        );
         // Not cacheable: no encoded form; downcast hands it back when the type is wrong.
         let plain = Analysis::new(7_u8);
         assert!(plain.encode().is_none());

@@ -67,20 +67,31 @@ impl Table {
     /// Builds a table from serde records: one row per record, one column per field (in field
     /// order). Numbers that are all integers become `I64`, other numbers `F64` (a `null` in a
     /// number column becomes NaN), booleans `Bool`, anything else text.
-    pub fn from_records<T: Serialize>(name: impl Into<String>, title: impl Into<String>, records: &[T]) -> Result<Self> {
+    pub fn from_records<T: Serialize>(
+        name: impl Into<String>,
+        title: impl Into<String>,
+        records: &[T],
+    ) -> Result<Self> {
         let mut table = Table::new(name, title);
         let rows: Vec<serde_json::Map<String, Value>> = records
             .iter()
             .map(|r| match serde_json::to_value(r) {
                 Ok(Value::Object(m)) => Ok(m),
-                Ok(other) => Err(Error::new(ErrorKind::Report, format!("a table record must be a struct, found {other}"))),
-                Err(e) => Err(Error::new(ErrorKind::Report, format!("cannot serialise a table record: {e}"))),
+                Ok(other) => Err(Error::new(
+                    ErrorKind::Report,
+                    format!("a table record must be a struct, found {other}"),
+                )),
+                Err(e) => Err(Error::new(
+                    ErrorKind::Report,
+                    format!("cannot serialise a table record: {e}"),
+                )),
             })
             .collect::<Result<_>>()?;
         let Some(first) = rows.first() else { return Ok(table) };
         let names: Vec<String> = first.keys().cloned().collect();
         for name in names {
-            let cells: Vec<&Value> = rows.iter().map(|r| r.get(&name).unwrap_or(&Value::Null)).collect();
+            let cells: Vec<&Value> =
+                rows.iter().map(|r| r.get(&name).unwrap_or(&Value::Null)).collect();
             table.columns.push(Column { values: column_from_json(&cells), name });
         }
         Ok(table)
@@ -96,7 +107,12 @@ impl Table {
         if !self.columns.is_empty() && values.len() != self.n_rows() {
             return Err(Error::new(
                 ErrorKind::Report,
-                format!("column {name:?} has {} rows, table {:?} has {}", values.len(), self.name, self.n_rows()),
+                format!(
+                    "column {name:?} has {} rows, table {:?} has {}",
+                    values.len(),
+                    self.name,
+                    self.n_rows()
+                ),
             ));
         }
         self.columns.push(Column { name, values });
@@ -104,10 +120,15 @@ impl Table {
     }
 
     /// Prepends a column holding one constant text value (sweep parameters, sequence names).
-    pub fn with_constant_column(mut self, name: impl Into<String>, value: impl Into<String>) -> Self {
+    pub fn with_constant_column(
+        mut self,
+        name: impl Into<String>,
+        value: impl Into<String>,
+    ) -> Self {
         let v = value.into();
         let n = self.n_rows();
-        self.columns.insert(0, Column { name: name.into(), values: ColumnValues::Str(vec![Some(v); n]) });
+        self.columns
+            .insert(0, Column { name: name.into(), values: ColumnValues::Str(vec![Some(v); n]) });
         self
     }
 
@@ -131,36 +152,40 @@ impl Table {
         if names_a != names_b {
             return Err(Error::new(
                 ErrorKind::Report,
-                format!("cannot append table {:?}: columns {names_b:?} differ from {names_a:?}", self.name),
+                format!(
+                    "cannot append table {:?}: columns {names_b:?} differ from {names_a:?}",
+                    self.name
+                ),
             ));
         }
         for (a, b) in self.columns.iter_mut().zip(other.columns) {
-            a.values = match (std::mem::replace(&mut a.values, ColumnValues::Bool(vec![])), b.values) {
-                (ColumnValues::F64(mut x), ColumnValues::F64(y)) => {
-                    x.extend(y);
-                    ColumnValues::F64(x)
-                }
-                (ColumnValues::I64(mut x), ColumnValues::I64(y)) => {
-                    x.extend(y);
-                    ColumnValues::I64(x)
-                }
-                (ColumnValues::F64(mut x), ColumnValues::I64(y)) => {
-                    x.extend(y.into_iter().map(|v| v as f64));
-                    ColumnValues::F64(x)
-                }
-                (ColumnValues::I64(x), ColumnValues::F64(y)) => {
-                    ColumnValues::F64(x.into_iter().map(|v| v as f64).chain(y).collect())
-                }
-                (ColumnValues::Bool(mut x), ColumnValues::Bool(y)) => {
-                    x.extend(y);
-                    ColumnValues::Bool(x)
-                }
-                (x, y) => {
-                    let mut s = to_strings(x);
-                    s.extend(to_strings(y));
-                    ColumnValues::Str(s)
-                }
-            };
+            a.values =
+                match (std::mem::replace(&mut a.values, ColumnValues::Bool(vec![])), b.values) {
+                    (ColumnValues::F64(mut x), ColumnValues::F64(y)) => {
+                        x.extend(y);
+                        ColumnValues::F64(x)
+                    }
+                    (ColumnValues::I64(mut x), ColumnValues::I64(y)) => {
+                        x.extend(y);
+                        ColumnValues::I64(x)
+                    }
+                    (ColumnValues::F64(mut x), ColumnValues::I64(y)) => {
+                        x.extend(y.into_iter().map(|v| v as f64));
+                        ColumnValues::F64(x)
+                    }
+                    (ColumnValues::I64(x), ColumnValues::F64(y)) => {
+                        ColumnValues::F64(x.into_iter().map(|v| v as f64).chain(y).collect())
+                    }
+                    (ColumnValues::Bool(mut x), ColumnValues::Bool(y)) => {
+                        x.extend(y);
+                        ColumnValues::Bool(x)
+                    }
+                    (x, y) => {
+                        let mut s = to_strings(x);
+                        s.extend(to_strings(y));
+                        ColumnValues::Str(s)
+                    }
+                };
         }
         Ok(())
     }
@@ -199,13 +224,27 @@ fn column_from_json(cells: &[&Value]) -> ColumnValues {
 /// scientific notation for everyday magnitudes; NaN as `–`, infinities as `∞`/`−∞`.
 pub fn fmt_num(v: f64) -> String {
     if !v.is_finite() {
-        return if v.is_nan() { "–".into() } else if v > 0.0 { "∞".into() } else { "−∞".into() };
+        return if v.is_nan() {
+            "–".into()
+        } else if v > 0.0 {
+            "∞".into()
+        } else {
+            "−∞".into()
+        };
     }
     let a = v.abs();
     if a != 0.0 && !(1e-3..1e7).contains(&a) {
         return format!("{v:.3e}");
     }
-    let decimals = if a >= 1000.0 { 0 } else if a >= 100.0 { 1 } else if a >= 10.0 { 2 } else { 3 };
+    let decimals = if a >= 1000.0 {
+        0
+    } else if a >= 100.0 {
+        1
+    } else if a >= 10.0 {
+        2
+    } else {
+        3
+    };
     let s = format!("{v:.decimals$}");
     if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
 }
@@ -259,7 +298,13 @@ mod tests {
             "T",
             &[
                 Row { method: "speed", found: 3, precision: 0.5, best: false, note: None },
-                Row { method: "fused", found: 4, precision: f64::NAN, best: true, note: Some("x".into()) },
+                Row {
+                    method: "fused",
+                    found: 4,
+                    precision: f64::NAN,
+                    best: true,
+                    note: Some("x".into()),
+                },
             ],
         )
         .unwrap();
@@ -296,4 +341,3 @@ mod tests {
         assert!(a.push_column("z", ColumnValues::I64(vec![1, 2, 3])).is_err());
     }
 }
-

@@ -66,7 +66,10 @@ impl FrameRate {
         if hz.is_finite() && hz > 0.0 {
             Ok(FrameRate(hz))
         } else {
-            Err(Error::new(ErrorKind::OutOfRange, format!("frame rate must be a finite number > 0 Hz, found {hz}")))
+            Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("frame rate must be a finite number > 0 Hz, found {hz}"),
+            ))
         }
     }
     pub fn hz(self) -> f64 {
@@ -143,8 +146,11 @@ impl TimeSpan {
             Ok(self)
         } else {
             let want = if strictly_positive { "> 0" } else { ">= 0" };
-            Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite time span {want}, found {self}"))
-                .with_field(field))
+            Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a finite time span {want}, found {self}"),
+            )
+            .with_field(field))
         }
     }
 }
@@ -184,7 +190,9 @@ impl LengthUnit {
     /// Parses the unit strings found in file headers (`mm`, `cm`, `m`, `in`…).
     pub fn from_label(label: &str) -> Option<Self> {
         match label.trim().to_ascii_lowercase().as_str() {
-            "mm" | "millimetre" | "millimeter" | "millimetres" | "millimeters" => Some(LengthUnit::Millimetre),
+            "mm" | "millimetre" | "millimeter" | "millimetres" | "millimeters" => {
+                Some(LengthUnit::Millimetre)
+            }
             "cm" | "centimetre" | "centimeter" => Some(LengthUnit::Centimetre),
             "m" | "metre" | "meter" | "metres" | "meters" => Some(LengthUnit::Metre),
             "in" | "inch" | "inches" => Some(LengthUnit::Inch),

@@ -77,9 +77,13 @@ impl ViewerMotion {
         let bones: Vec<(usize, usize)> = match &motion.skeleton {
             // Forward kinematics names its points after the skeleton; bones index them.
             Some(s) if s.skeleton.point_names() == motion.point_names() => s.skeleton.bones(),
-            _ => bones.iter().map(|[a, b]| Ok((motion.point_index(a)?, motion.point_index(b)?))).collect::<Result<_>>()?,
+            _ => bones
+                .iter()
+                .map(|[a, b]| Ok((motion.point_index(a)?, motion.point_index(b)?)))
+                .collect::<Result<_>>()?,
         };
-        let positions_mm = motion.positions().iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect();
+        let positions_mm =
+            motion.positions().iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect();
         let out = ViewerMotion {
             frame_rate_hz: motion.frame_rate().hz(),
             up_axis: motion.up_axis(),
@@ -150,20 +154,38 @@ pub struct EventLane {
 impl EventLane {
     /// A lane of unjudged marks at `frames`.
     pub fn new(name: impl Into<String>, kind: EventKind, frames: &[usize]) -> Self {
-        let mut marks: Vec<Mark> = frames.iter().map(|&frame| Mark { frame, label: String::new(), status: None }).collect();
+        let mut marks: Vec<Mark> = frames
+            .iter()
+            .map(|&frame| Mark { frame, label: String::new(), status: None })
+            .collect();
         marks.sort_by_key(|m| m.frame);
-        EventLane { name: name.into(), kind, tolerance_frames: None, windows: Vec::new(), judged_against: None, marks }
+        EventLane {
+            name: name.into(),
+            kind,
+            tolerance_frames: None,
+            windows: Vec::new(),
+            judged_against: None,
+            marks,
+        }
     }
     /// The ground truth's boundaries (labelled `from → to` where the truth names its
     /// segments), with their annotated windows and the matching tolerance in frames.
-    pub fn truth(name: impl Into<String>, truth: &Segmentation, tolerance_frames: Option<f64>) -> Self {
+    pub fn truth(
+        name: impl Into<String>,
+        truth: &Segmentation,
+        tolerance_frames: Option<f64>,
+    ) -> Self {
         let transitions = truth.transitions();
         let marks = truth
             .boundaries
             .iter()
             .map(|b| Mark {
                 frame: b.frame,
-                label: transitions.iter().find(|t| t.frame == b.frame).map(|t| format!("{} → {}", t.from, t.to)).unwrap_or_default(),
+                label: transitions
+                    .iter()
+                    .find(|t| t.frame == b.frame)
+                    .map(|t| format!("{} → {}", t.from, t.to))
+                    .unwrap_or_default(),
                 status: None,
             })
             .collect();
@@ -217,7 +239,12 @@ impl TraceLane {
     /// traces, named `<stage>` (`<stage> (<unit>)` when the stage has several units). A trace
     /// shorter than `n_frames` (a speed has one value fewer than positions) is undefined (NaN)
     /// after its end; a longer one is left for [`ViewerSpec::validate`] to refuse.
-    pub fn from_traces(stage: &str, traces: &[Trace], thresholds: &[Threshold], n_frames: usize) -> Vec<TraceLane> {
+    pub fn from_traces(
+        stage: &str,
+        traces: &[Trace],
+        thresholds: &[Threshold],
+        n_frames: usize,
+    ) -> Vec<TraceLane> {
         let mut units: Vec<&str> = Vec::new();
         for t in traces {
             if !units.contains(&t.unit.as_str()) {
@@ -230,7 +257,11 @@ impl TraceLane {
             .map(|unit| {
                 let group: Vec<&Trace> = traces.iter().filter(|t| t.unit == unit).collect();
                 TraceLane {
-                    name: if several && !unit.is_empty() { format!("{stage} ({unit})") } else { stage.to_string() },
+                    name: if several && !unit.is_empty() {
+                        format!("{stage} ({unit})")
+                    } else {
+                        stage.to_string()
+                    },
                     unit: unit.to_string(),
                     series: group
                         .iter()
@@ -301,22 +332,35 @@ impl Lane {
 
 impl ViewerSpec {
     pub fn new(name: impl Into<String>, title: impl Into<String>, motion: ViewerMotion) -> Self {
-        ViewerSpec { name: name.into(), title: title.into(), motion, lanes: Vec::new(), annotation: None }
+        ViewerSpec {
+            name: name.into(),
+            title: title.into(),
+            motion,
+            lanes: Vec::new(),
+            annotation: None,
+        }
     }
 
     /// Checks what a renderer relies on: a file-safe name, a positive rate, positions for every
     /// frame and point, bones, root and marks inside the motion, one trace value per frame and
     /// intervals with `start ≤ end` inside the motion. The error names the lane.
     pub fn validate(&self) -> Result<()> {
-        let bad = |what: String| Err(Error::new(ErrorKind::OutOfRange, format!("viewer {:?}: {what}", self.name)));
-        if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
-            return bad("the name must be letters, digits, '-' or '_' (it is the page's file name)".into());
+        let bad = |what: String| {
+            Err(Error::new(ErrorKind::OutOfRange, format!("viewer {:?}: {what}", self.name)))
+        };
+        if self.name.is_empty()
+            || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return bad(
+                "the name must be letters, digits, '-' or '_' (it is the page's file name)".into(),
+            );
         }
         let m = &self.motion;
         if !(m.frame_rate_hz.is_finite() && m.frame_rate_hz > 0.0) {
             return bad(format!("frame rate {} Hz is not a positive number", m.frame_rate_hz));
         }
-        if m.n_points() == 0 || m.n_frames == 0 || m.positions_mm.len() != m.n_frames * m.n_points() {
+        if m.n_points() == 0 || m.n_frames == 0 || m.positions_mm.len() != m.n_frames * m.n_points()
+        {
             return bad(format!(
                 "{} positions for {} frames of {} points (expected frames × points, both > 0)",
                 m.positions_mm.len(),
@@ -324,7 +368,8 @@ impl ViewerSpec {
                 m.n_points()
             ));
         }
-        if let Some((a, b)) = m.bones.iter().find(|(a, b)| *a >= m.n_points() || *b >= m.n_points()) {
+        if let Some((a, b)) = m.bones.iter().find(|(a, b)| *a >= m.n_points() || *b >= m.n_points())
+        {
             return bad(format!("bone ({a}, {b}) names a point outside 0..{}", m.n_points()));
         }
         if let Some(r) = m.root.filter(|r| *r >= m.n_points()) {
@@ -334,32 +379,61 @@ impl ViewerSpec {
             if a.sequence.trim().is_empty() {
                 return bad("annotation: the sequence name is empty".into());
             }
-            if a.input_sha256.len() != 64 || !a.input_sha256.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)) {
-                return bad(format!("annotation: input_sha256 {:?} is not 64 lower-case hex digits", a.input_sha256));
+            if a.input_sha256.len() != 64
+                || !a.input_sha256.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+            {
+                return bad(format!(
+                    "annotation: input_sha256 {:?} is not 64 lower-case hex digits",
+                    a.input_sha256
+                ));
             }
             if a.tolerance_frames.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
-                return bad("annotation: the tolerance must be a finite number of frames ≥ 0".into());
+                return bad(
+                    "annotation: the tolerance must be a finite number of frames ≥ 0".into()
+                );
             }
         }
         for lane in &self.lanes {
             match lane {
                 Lane::Events(l) => {
-                    let outside = l.marks.iter().map(|k| k.frame).chain(l.windows.iter().flat_map(|w| [w.0, w.1])).find(|f| *f >= m.n_frames);
+                    let outside = l
+                        .marks
+                        .iter()
+                        .map(|k| k.frame)
+                        .chain(l.windows.iter().flat_map(|w| [w.0, w.1]))
+                        .find(|f| *f >= m.n_frames);
                     if let Some(f) = outside {
-                        return bad(format!("lane {:?}: frame {f} is outside 0..{}", l.name, m.n_frames));
+                        return bad(format!(
+                            "lane {:?}: frame {f} is outside 0..{}",
+                            l.name, m.n_frames
+                        ));
                     }
                     if l.tolerance_frames.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
-                        return bad(format!("lane {:?}: the tolerance must be a finite number of frames ≥ 0", l.name));
+                        return bad(format!(
+                            "lane {:?}: the tolerance must be a finite number of frames ≥ 0",
+                            l.name
+                        ));
                     }
                 }
                 Lane::Trace(l) => {
                     if let Some(s) = l.series.iter().find(|s| s.values.len() != m.n_frames) {
-                        return bad(format!("lane {:?}: series {:?} has {} values for {} frames", l.name, s.name, s.values.len(), m.n_frames));
+                        return bad(format!(
+                            "lane {:?}: series {:?} has {} values for {} frames",
+                            l.name,
+                            s.name,
+                            s.values.len(),
+                            m.n_frames
+                        ));
                     }
                 }
                 Lane::Intervals(l) => {
-                    if let Some(i) = l.intervals.iter().find(|i| i.start > i.end || i.end >= m.n_frames) {
-                        return bad(format!("lane {:?}: interval [{}, {}] is not inside 0..{}", l.name, i.start, i.end, m.n_frames));
+                    if let Some(i) =
+                        l.intervals.iter().find(|i| i.start > i.end || i.end >= m.n_frames)
+                    {
+                        return bad(format!(
+                            "lane {:?}: interval [{}, {}] is not inside 0..{}",
+                            l.name, i.start, i.end, m.n_frames
+                        ));
                     }
                 }
             }
@@ -371,15 +445,16 @@ impl ViewerSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Segment;
     use crate::motion::PointKind;
     use crate::skeleton::{ChannelKind, Joint, Skeleton, SkeletonMotion};
     use crate::units::FrameRate;
-    use crate::Segment;
 
     fn markers() -> Motion {
         let rate = FrameRate::new(100.0).unwrap();
         let pos = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1000.0], [10.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0]];
-        Motion::new("m", rate, Axis::Z, PointKind::Marker, vec!["foot".into(), "head".into()], pos).unwrap()
+        Motion::new("m", rate, Axis::Z, PointKind::Marker, vec!["foot".into(), "head".into()], pos)
+            .unwrap()
     }
 
     #[test]
@@ -399,9 +474,18 @@ mod tests {
         arm.end_sites.push([0.0, 0.0, 100.0]);
         let skel = Skeleton { joints: vec![arm] };
         let sm = SkeletonMotion::new(skel.clone(), vec![0.0, 5.0]).unwrap();
-        let mut m = Motion::new("s", FrameRate::new(10.0).unwrap(), Axis::Z, PointKind::Joint, skel.point_names(), sm.positions()).unwrap();
+        let mut m = Motion::new(
+            "s",
+            FrameRate::new(10.0).unwrap(),
+            Axis::Z,
+            PointKind::Joint,
+            skel.point_names(),
+            sm.positions(),
+        )
+        .unwrap();
         m.skeleton = Some(sm);
-        let v = ViewerMotion::from_motion(&m, &[["root".into(), "root".into()]], Some("root")).unwrap();
+        let v =
+            ViewerMotion::from_motion(&m, &[["root".into(), "root".into()]], Some("root")).unwrap();
         assert_eq!(v.bones, vec![(0, 1)]);
     }
 
@@ -410,7 +494,10 @@ mod tests {
         let rate = FrameRate::new(10.0).unwrap();
         let mut t = Segmentation::from_segments(
             rate,
-            vec![Segment { start: 0, end: 5, label: "walk".into() }, Segment { start: 5, end: 9, label: "jump".into() }],
+            vec![
+                Segment { start: 0, end: 5, label: "walk".into() },
+                Segment { start: 5, end: 9, label: "jump".into() },
+            ],
         )
         .unwrap();
         t.boundaries[0].window = Some((4, 6));
@@ -424,12 +511,19 @@ mod tests {
 
     #[test]
     fn trace_lanes_group_by_unit_with_their_thresholds() {
-        let traces = vec![Trace::new("V_mm_per_s", "mm/s", vec![1.0, 2.0]), Trace::new("v_m", "mm/s", vec![2.0]), Trace::new("C", "", vec![0.5, 0.1])];
+        let traces = vec![
+            Trace::new("V_mm_per_s", "mm/s", vec![1.0, 2.0]),
+            Trace::new("v_m", "mm/s", vec![2.0]),
+            Trace::new("C", "", vec![0.5, 0.1]),
+        ];
         let th = vec![Threshold { name: "v_low".into(), trace: "V_mm_per_s".into(), value: 3.0 }];
         let lanes = TraceLane::from_traces("speed", &traces, &th, 2);
         assert!(lanes[0].series[1].values[1].is_nan(), "a short trace is undefined after its end");
         assert_eq!(lanes.len(), 2);
-        assert_eq!((lanes[0].name.as_str(), lanes[0].series.len(), lanes[0].thresholds.len()), ("speed (mm/s)", 2, 1));
+        assert_eq!(
+            (lanes[0].name.as_str(), lanes[0].series.len(), lanes[0].thresholds.len()),
+            ("speed (mm/s)", 2, 1)
+        );
         assert_eq!((lanes[1].name.as_str(), lanes[1].thresholds.len()), ("speed", 0));
     }
 
@@ -441,15 +535,32 @@ mod tests {
         spec.lanes.push(Lane::Events(EventLane::new("speed", EventKind::Candidates, &[1, 2])));
         let e = spec.validate().unwrap_err();
         assert!(e.to_string().contains("frame 2 is outside 0..2"), "{e}");
-        spec.lanes[0] = Lane::Trace(TraceLane { name: "V".into(), unit: String::new(), series: vec![TraceSeries { name: "V".into(), values: vec![1.0] }], thresholds: vec![] });
+        spec.lanes[0] = Lane::Trace(TraceLane {
+            name: "V".into(),
+            unit: String::new(),
+            series: vec![TraceSeries { name: "V".into(), values: vec![1.0] }],
+            thresholds: vec![],
+        });
         assert!(spec.validate().unwrap_err().to_string().contains("1 values for 2 frames"));
         spec.lanes.clear();
         let sha = "0123456789abcdef".repeat(4);
-        spec.annotation = Some(AnnotationSpec { sequence: "m".into(), input_sha256: sha.clone(), tolerance_frames: Some(5.0) });
+        spec.annotation = Some(AnnotationSpec {
+            sequence: "m".into(),
+            input_sha256: sha.clone(),
+            tolerance_frames: Some(5.0),
+        });
         assert!(spec.validate().is_ok());
-        spec.annotation = Some(AnnotationSpec { sequence: "m".into(), input_sha256: sha.to_uppercase(), tolerance_frames: None });
+        spec.annotation = Some(AnnotationSpec {
+            sequence: "m".into(),
+            input_sha256: sha.to_uppercase(),
+            tolerance_frames: None,
+        });
         assert!(spec.validate().unwrap_err().to_string().contains("input_sha256"));
-        spec.annotation = Some(AnnotationSpec { sequence: "m".into(), input_sha256: sha, tolerance_frames: Some(-1.0) });
+        spec.annotation = Some(AnnotationSpec {
+            sequence: "m".into(),
+            input_sha256: sha,
+            tolerance_frames: Some(-1.0),
+        });
         assert!(spec.validate().unwrap_err().to_string().contains("tolerance"));
         spec.annotation = None;
         spec.name = "a/b".into();

@@ -2,7 +2,9 @@
 //! through `build_custom` as its trait object, with clear errors for an unknown kind or name and
 //! for asking for the wrong trait.
 
-use motionlab_core::registry::{build_custom, check_registry, custom_kinds, find_custom, ParamGuard};
+use motionlab_core::registry::{
+    ParamGuard, build_custom, check_registry, custom_kinds, find_custom,
+};
 use motionlab_core::{ErrorKind, Result};
 use schemars::JsonSchema;
 use serde::Deserialize;
@@ -34,7 +36,8 @@ impl ParamGuard for TimesParams {
         if self.factor > 0.0 {
             Ok(Times(self.factor))
         } else {
-            Err(motionlab_core::Error::new(ErrorKind::OutOfRange, "factor must be > 0").with_field("factor"))
+            Err(motionlab_core::Error::new(ErrorKind::OutOfRange, "factor must be > 0")
+                .with_field("factor"))
         }
     }
 }
@@ -54,9 +57,15 @@ fn params(text: &str) -> toml::Value {
 #[test]
 fn builds_the_kinds_trait_object_with_its_parameters() {
     assert_eq!(build_custom::<dyn Scaler>("scaler", "times", &params("")).unwrap().scale(3.0), 6.0);
-    assert_eq!(build_custom::<dyn Scaler>("scaler", "times", &params("factor = 0.5")).unwrap().scale(3.0), 1.5);
+    assert_eq!(
+        build_custom::<dyn Scaler>("scaler", "times", &params("factor = 0.5")).unwrap().scale(3.0),
+        1.5
+    );
     assert_eq!(custom_kinds(), vec!["scaler"]);
-    assert_eq!(find_custom("times").map(|p| (p.kind, p.crate_name)), Some(("scaler", "motionlab-core")));
+    assert_eq!(
+        find_custom("times").map(|p| (p.kind, p.crate_name)),
+        Some(("scaler", "motionlab-core"))
+    );
     assert!(check_registry().is_empty(), "{:?}", check_registry());
 }
 
@@ -65,13 +74,22 @@ fn unknown_kind_name_wrong_trait_and_bad_parameter_are_clear_errors() {
     let err = |r: Result<Box<dyn Scaler>>| r.err().map(|e| (e.kind(), e.to_string())).unwrap();
     let (kind, msg) = err(build_custom::<dyn Scaler>("scalar", "times", &params("")));
     assert_eq!(kind, ErrorKind::UnknownPlugin);
-    assert!(msg.contains("no custom stage kind \"scalar\"") && msg.contains("did you mean \"scaler\""), "{msg}");
+    assert!(
+        msg.contains("no custom stage kind \"scalar\"") && msg.contains("did you mean \"scaler\""),
+        "{msg}"
+    );
     let (_, msg) = err(build_custom::<dyn Scaler>("scaler", "tims", &params("")));
-    assert!(msg.contains("no scaler named \"tims\"") && msg.contains("did you mean \"times\""), "{msg}");
-    let wrong = build_custom::<dyn Other>("scaler", "times", &params("")).err().unwrap().to_string();
+    assert!(
+        msg.contains("no scaler named \"tims\"") && msg.contains("did you mean \"times\""),
+        "{msg}"
+    );
+    let wrong =
+        build_custom::<dyn Other>("scaler", "times", &params("")).err().unwrap().to_string();
     assert!(wrong.contains("builds a `dyn Scaler`") && wrong.contains("Other"), "{wrong}");
-    let bad = build_custom::<dyn Scaler>("scaler", "times", &params("factor = -1.0")).err().unwrap();
+    let bad =
+        build_custom::<dyn Scaler>("scaler", "times", &params("factor = -1.0")).err().unwrap();
     assert_eq!(bad.location().field.as_deref(), Some("factor"));
-    let unknown_key = build_custom::<dyn Scaler>("scaler", "times", &params("factr = 1.0")).err().unwrap();
+    let unknown_key =
+        build_custom::<dyn Scaler>("scaler", "times", &params("factr = 1.0")).err().unwrap();
     assert_eq!(unknown_key.kind(), ErrorKind::UnknownKey);
 }

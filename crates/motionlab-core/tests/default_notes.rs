@@ -2,7 +2,7 @@
 //! resolved at run time — an `x-default` note on the field, which `schema_params` reads and
 //! `check_registry` keeps from shadowing a real default.
 
-use motionlab_core::registry::{default_note_problem, schema_of, schema_params, ParamDoc};
+use motionlab_core::registry::{ParamDoc, default_note_problem, schema_of, schema_params};
 use schemars::JsonSchema;
 use serde::Deserialize;
 
@@ -38,7 +38,10 @@ fn param(name: &str) -> ParamDoc {
 #[test]
 fn a_note_is_read_beside_the_serde_default() {
     let rate = param("rate_hz");
-    assert_eq!((rate.default.as_deref(), rate.default_note.as_deref()), (Some("(none)"), Some("the motion's frame rate")));
+    assert_eq!(
+        (rate.default.as_deref(), rate.default_note.as_deref()),
+        (Some("(none)"), Some("the motion's frame rate"))
+    );
     assert_eq!(param("markers").default_note.as_deref(), Some("every marker"));
     let lag = param("lag");
     assert_eq!((lag.default.as_deref(), lag.default_note), (Some("3"), None));
@@ -49,6 +52,7 @@ fn a_note_may_only_say_what_an_unset_key_means() {
     for name in ["rate_hz", "markers", "lag"] {
         assert_eq!(default_note_problem(&param(name)), None, "{name}");
     }
-    let problem = default_note_problem(&param("shadowed")).expect("a note beside a real default is a problem");
+    let problem = default_note_problem(&param("shadowed"))
+        .expect("a note beside a real default is a problem");
     assert!(problem.contains("serde default 3") && problem.contains("five frames"), "{problem}");
 }

@@ -4,9 +4,9 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
 use motionlab_core::table::fmt_num;
-use motionlab_report::html::{write_compare_page, ComparePage, MetricDiff};
+use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
+use motionlab_report::html::{ComparePage, MetricDiff, write_compare_page};
 
 use motionlab_report::pages::read_table_csv;
 
@@ -33,7 +33,9 @@ fn flatten(prefix: &str, v: &toml::Value, out: &mut BTreeMap<String, String>) {
 fn read_config(run: &Path) -> Result<BTreeMap<String, String>> {
     let p = run.join("config.toml");
     let text = std::fs::read_to_string(&p).map_err(|e| Error::io(&p, e))?;
-    let doc: toml::Value = toml::from_str(&text).map_err(|e| Error::new(ErrorKind::Syntax, e.message().to_string()).with_location(Location::file(&p)))?;
+    let doc: toml::Value = toml::from_str(&text).map_err(|e| {
+        Error::new(ErrorKind::Syntax, e.message().to_string()).with_location(Location::file(&p))
+    })?;
     let mut out = BTreeMap::new();
     flatten("", &doc, &mut out);
     Ok(out)
@@ -43,7 +45,8 @@ fn read_config(run: &Path) -> Result<BTreeMap<String, String>> {
 /// how its chance was computed, whether it beat chance, whether a transition was detected
 /// (`table3_transitions`) and how a mark was judged (`boundary_matches`) change with the
 /// parameters compared, so they are compared as values, never used to pair rows.
-const OUTCOME_TEXT: [&str; 5] = ["parameters_chosen", "chance_expectation", "above_chance", "detected", "outcome"];
+const OUTCOME_TEXT: [&str; 5] =
+    ["parameters_chosen", "chance_expectation", "above_chance", "detected", "outcome"];
 
 /// Row keys: the text cells of a row joined (`sequence=pooled, method=fused`), outcome columns
 /// ([`OUTCOME_TEXT`]) left out.
@@ -52,7 +55,10 @@ fn row_keys(t: &Table) -> Vec<String> {
         .map(|r| {
             t.columns
                 .iter()
-                .filter(|c| matches!(c.values, ColumnValues::Str(_)) && !OUTCOME_TEXT.contains(&c.name.as_str()))
+                .filter(|c| {
+                    matches!(c.values, ColumnValues::Str(_))
+                        && !OUTCOME_TEXT.contains(&c.name.as_str())
+                })
                 .map(|c| format!("{}={}", c.name, c.values.cell(r)))
                 .collect::<Vec<_>>()
                 .join(", ")
@@ -68,7 +74,11 @@ fn paired_rows(a: &[String], b: &[String]) -> Vec<(Option<usize>, Option<usize>)
     for (rb, k) in b.iter().enumerate() {
         by_key.entry(k).or_default().push_back(rb);
     }
-    let mut out: Vec<(Option<usize>, Option<usize>)> = a.iter().enumerate().map(|(ra, k)| (Some(ra), by_key.get_mut(k.as_str()).and_then(|q| q.pop_front()))).collect();
+    let mut out: Vec<(Option<usize>, Option<usize>)> = a
+        .iter()
+        .enumerate()
+        .map(|(ra, k)| (Some(ra), by_key.get_mut(k.as_str()).and_then(|q| q.pop_front())))
+        .collect();
     let mut rest: Vec<usize> = by_key.into_values().flatten().collect();
     rest.sort_unstable();
     out.extend(rest.into_iter().map(|rb| (None, Some(rb))));
@@ -87,12 +97,16 @@ fn number(values: &ColumnValues, row: usize) -> Option<f64> {
 /// Compares two runs; returns the page data (also printed by the CLI).
 pub fn compare(run_a: &Path, run_b: &Path) -> Result<ComparePage> {
     let (ca, cb) = (read_config(run_a)?, read_config(run_b)?);
-    let name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name =
+        |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let exp = ca.get("experiment.name").cloned().unwrap_or_default();
     if cb.get("experiment.name") != ca.get("experiment.name") {
         return Err(Error::new(
             ErrorKind::Mismatch,
-            format!("runs of different experiments: {exp} and {}", cb.get("experiment.name").cloned().unwrap_or_default()),
+            format!(
+                "runs of different experiments: {exp} and {}",
+                cb.get("experiment.name").cloned().unwrap_or_default()
+            ),
         )
         .with_location(Location::file(run_b)));
     }
@@ -100,7 +114,13 @@ pub fn compare(run_a: &Path, run_b: &Path) -> Result<ComparePage> {
     let parameters = keys
         .into_iter()
         .filter(|k| ca.get(*k) != cb.get(*k))
-        .map(|k| (k.clone(), ca.get(k).cloned().unwrap_or_else(|| "(unset)".into()), cb.get(k).cloned().unwrap_or_else(|| "(unset)".into())))
+        .map(|k| {
+            (
+                k.clone(),
+                ca.get(k).cloned().unwrap_or_else(|| "(unset)".into()),
+                cb.get(k).cloned().unwrap_or_else(|| "(unset)".into()),
+            )
+        })
         .collect();
     let mut metrics = Vec::new();
     let tables_a = run_a.join("tables");
@@ -111,30 +131,61 @@ pub fn compare(run_a: &Path, run_b: &Path) -> Result<ComparePage> {
         .collect();
     csvs.sort();
     for a_path in csvs {
-        let table = a_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let table =
+            a_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let b_path = run_b.join("tables").join(format!("{table}.csv"));
-        let (Some(ta), Some(tb)) = (read_table_csv(&a_path, &table), read_table_csv(&b_path, &table)) else { continue };
+        let (Some(ta), Some(tb)) =
+            (read_table_csv(&a_path, &table), read_table_csv(&b_path, &table))
+        else {
+            continue;
+        };
         // Per-frame tables are compared elsewhere; here the summaries people read.
         if ta.n_rows() > 500 {
             continue;
         }
         let (ka, kb) = (row_keys(&ta), row_keys(&tb));
         for (ra, rb) in paired_rows(&ka, &kb) {
-            let key = ra.or(rb).map(|r| if ra.is_some() { &ka[r] } else { &kb[r] }).cloned().unwrap_or_default();
+            let key = ra
+                .or(rb)
+                .map(|r| if ra.is_some() { &ka[r] } else { &kb[r] })
+                .cloned()
+                .unwrap_or_default();
             let (Some(ra), Some(rb)) = (ra, rb) else {
-                let (a, b) = if ra.is_some() { ("present", "(absent)") } else { ("(absent)", "present") };
-                metrics.push(MetricDiff { table: table.clone(), row: key, column: "(row)".into(), a: a.into(), b: b.into(), delta: String::new() });
+                let (a, b) =
+                    if ra.is_some() { ("present", "(absent)") } else { ("(absent)", "present") };
+                metrics.push(MetricDiff {
+                    table: table.clone(),
+                    row: key,
+                    column: "(row)".into(),
+                    a: a.into(),
+                    b: b.into(),
+                    delta: String::new(),
+                });
                 continue;
             };
             for col in &ta.columns {
                 if OUTCOME_TEXT.contains(&col.name.as_str()) {
-                    let (x, y) = (col.values.cell(ra), tb.column(&col.name).map(|v| v.cell(rb)).unwrap_or_default());
+                    let (x, y) = (
+                        col.values.cell(ra),
+                        tb.column(&col.name).map(|v| v.cell(rb)).unwrap_or_default(),
+                    );
                     if x != y {
-                        metrics.push(MetricDiff { table: table.clone(), row: key.clone(), column: col.name.clone(), a: x, b: y, delta: String::new() });
+                        metrics.push(MetricDiff {
+                            table: table.clone(),
+                            row: key.clone(),
+                            column: col.name.clone(),
+                            a: x,
+                            b: y,
+                            delta: String::new(),
+                        });
                     }
                     continue;
                 }
-                let (Some(x), Some(y)) = (number(&col.values, ra), tb.column(&col.name).and_then(|v| number(v, rb))) else { continue };
+                let (Some(x), Some(y)) =
+                    (number(&col.values, ra), tb.column(&col.name).and_then(|v| number(v, rb)))
+                else {
+                    continue;
+                };
                 let same = (x.is_nan() && y.is_nan()) || x == y;
                 if !same {
                     metrics.push(MetricDiff {
@@ -200,14 +251,30 @@ mod tests {
     fn rows_sharing_their_text_pair_in_order_and_counts_are_metrics() {
         let dir = tempfile::tempdir().unwrap();
         // Two rows per sequence (one per truth window), an integer and a float column.
-        let a = run(dir.path(), "a", "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.25,no\ny,7,1.0,no\n");
-        let same = run(dir.path(), "same", "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.25,no\ny,7,1.0,no\n");
+        let a = run(
+            dir.path(),
+            "a",
+            "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.25,no\ny,7,1.0,no\n",
+        );
+        let same = run(
+            dir.path(),
+            "same",
+            "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.25,no\ny,7,1.0,no\n",
+        );
         assert!(compare(&a, &same).unwrap().metrics.is_empty(), "identical runs differ in nothing");
         // The second x row's float and the y row's integer moved; a third x row is new; an
         // outcome column changed, which pairs rows no differently.
-        let b = run(dir.path(), "b", "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.75,yes\ny,8,1.0,no\nx,500,0.1,no\n");
-        let diffs: Vec<(String, String, String, String)> =
-            compare(&a, &b).unwrap().metrics.into_iter().map(|m| (m.row, m.column, m.a, m.b)).collect();
+        let b = run(
+            dir.path(),
+            "b",
+            "sequence,truth_frame,p,above_chance\nx,100,0.5,no\nx,300,0.75,yes\ny,8,1.0,no\nx,500,0.1,no\n",
+        );
+        let diffs: Vec<(String, String, String, String)> = compare(&a, &b)
+            .unwrap()
+            .metrics
+            .into_iter()
+            .map(|m| (m.row, m.column, m.a, m.b))
+            .collect();
         assert_eq!(
             diffs,
             [

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::{programs, registry, Error, ErrorKind, Location, Result};
+use motionlab_core::{Error, ErrorKind, Location, Result, programs, registry};
 
 use crate::plan::{Combo, Plan};
 use crate::rundir::{sha256_bytes, utc_iso, write_atomic};
@@ -72,14 +72,23 @@ pub fn commands_of(combos: &[Combo]) -> Vec<ExternalCommand> {
 
 /// Collects the command of every stage table (a table with a `type` naming a plugin that
 /// declares a program key) under `value`, at any depth.
-fn walk(value: &toml::Value, at: String, keys: &mut HashMap<String, Option<String>>, out: &mut Vec<ExternalCommand>) {
+fn walk(
+    value: &toml::Value,
+    at: String,
+    keys: &mut HashMap<String, Option<String>>,
+    out: &mut Vec<ExternalCommand>,
+) {
     match value {
         toml::Value::Table(t) => {
             if let Some(toml::Value::String(plugin)) = t.get("type")
-                && let Some(key) = keys.entry(plugin.clone()).or_insert_with(|| program_key(plugin)).clone()
+                && let Some(key) =
+                    keys.entry(plugin.clone()).or_insert_with(|| program_key(plugin)).clone()
                 && let Some(toml::Value::Array(args)) = t.get(&key)
             {
-                let command: Vec<String> = args.iter().map(|a| a.as_str().map(str::to_string).unwrap_or_else(|| a.to_string())).collect();
+                let command: Vec<String> = args
+                    .iter()
+                    .map(|a| a.as_str().map(str::to_string).unwrap_or_else(|| a.to_string()))
+                    .collect();
                 let found = ExternalCommand { at: at.clone(), plugin: plugin.clone(), command };
                 if !out.contains(&found) {
                     out.push(found);
@@ -165,7 +174,11 @@ pub fn require(plan: &Plan, policy: &ExternalPolicy) -> Result<(Vec<ExternalComm
 
 /// [`require`] without allowing anything: whether `commands`, the programs of the experiment
 /// at `path`, may run.
-pub fn check(path: &Path, commands: &[ExternalCommand], policy: &ExternalPolicy) -> Result<Consent> {
+pub fn check(
+    path: &Path,
+    commands: &[ExternalCommand],
+    policy: &ExternalPolicy,
+) -> Result<Consent> {
     if commands.is_empty() {
         return Ok(Consent::NotNeeded);
     }
@@ -179,13 +192,22 @@ pub fn check(path: &Path, commands: &[ExternalCommand], policy: &ExternalPolicy)
     if let TrustStatus::Trusted(record) = status {
         return Ok(Consent::Trusted(record));
     }
-    let listed: Vec<String> = commands.iter().map(|c| format!("`{}` ({}, {})", c.command_line(), c.at, c.plugin)).collect();
+    let listed: Vec<String> = commands
+        .iter()
+        .map(|c| format!("`{}` ({}, {})", c.command_line(), c.at, c.plugin))
+        .collect();
     let changed = match status {
-        TrustStatus::Changed { trusted_utc } => format!(" (you trusted this file on {trusted_utc}, but its command lines have changed since)"),
+        TrustStatus::Changed { trusted_utc } => format!(
+            " (you trusted this file on {trusted_utc}, but its command lines have changed since)"
+        ),
         _ => String::new(),
     };
     let shown = programs::shell_word(&path.display().to_string());
-    let store_hint = if policy.trust.is_none() { format!(" (needs a configuration folder: set {CONFIG_DIR_ENV} or HOME)") } else { String::new() };
+    let store_hint = if policy.trust.is_none() {
+        format!(" (needs a configuration folder: set {CONFIG_DIR_ENV} or HOME)")
+    } else {
+        String::new()
+    };
     Err(Error::new(
         ErrorKind::NotAllowed,
         format!(
@@ -255,7 +277,10 @@ impl TrustStore {
     /// The record file of an experiment.
     pub fn record_path(&self, experiment: &Path) -> Result<PathBuf> {
         let canonical = Self::canonical(experiment)?;
-        Ok(self.dir.join("trust").join(format!("{}.json", sha256_bytes(canonical.as_os_str().as_encoded_bytes()))))
+        Ok(self
+            .dir
+            .join("trust")
+            .join(format!("{}.json", sha256_bytes(canonical.as_os_str().as_encoded_bytes()))))
     }
 
     /// Whether the record of `experiment` covers exactly `commands`.
@@ -267,11 +292,17 @@ impl TrustStore {
             Err(e) => return Err(Error::io(&path, e)),
         };
         // A damaged record counts as none: trust is never granted on what cannot be read.
-        let Ok(record) = serde_json::from_slice::<TrustRecord>(&bytes) else { return Ok(TrustStatus::None) };
+        let Ok(record) = serde_json::from_slice::<TrustRecord>(&bytes) else {
+            return Ok(TrustStatus::None);
+        };
         if record.experiment != Self::canonical(experiment)? {
             return Ok(TrustStatus::None);
         }
-        Ok(if record.commands_sha256 == commands_sha256(commands) { TrustStatus::Trusted(path) } else { TrustStatus::Changed { trusted_utc: record.trusted_utc } })
+        Ok(if record.commands_sha256 == commands_sha256(commands) {
+            TrustStatus::Trusted(path)
+        } else {
+            TrustStatus::Changed { trusted_utc: record.trusted_utc }
+        })
     }
 
     /// Records that the user trusts `commands`, the programs of `experiment`; returns the record.
@@ -285,7 +316,8 @@ impl TrustStore {
         };
         let dir = self.dir.join("trust");
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-        let json = serde_json::to_vec_pretty(&record).map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))?;
+        let json = serde_json::to_vec_pretty(&record)
+            .map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))?;
         write_atomic(&path, &json)?;
         Ok(path)
     }
@@ -306,7 +338,11 @@ mod tests {
     use super::*;
 
     fn cmd(at: &str, args: &[&str]) -> ExternalCommand {
-        ExternalCommand { at: at.into(), plugin: "external".into(), command: args.iter().map(|s| s.to_string()).collect() }
+        ExternalCommand {
+            at: at.into(),
+            plugin: "external".into(),
+            command: args.iter().map(|s| s.to_string()).collect(),
+        }
     }
 
     #[test]
@@ -327,14 +363,23 @@ mod tests {
         let cmds = vec![cmd("s[0]", &["python3", "seg.py"])];
         let e = check(&exp, &cmds, &policy).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::NotAllowed);
-        assert!(e.to_string().contains("`python3 seg.py` (s[0], external)") && e.to_string().contains("motionlab trust"), "{e}");
-        assert_eq!(check(&exp, &cmds, &ExternalPolicy { allow_external: true, trust: None }).unwrap(), Consent::Flag);
+        assert!(
+            e.to_string().contains("`python3 seg.py` (s[0], external)")
+                && e.to_string().contains("motionlab trust"),
+            "{e}"
+        );
+        assert_eq!(
+            check(&exp, &cmds, &ExternalPolicy { allow_external: true, trust: None }).unwrap(),
+            Consent::Flag
+        );
         assert_eq!(check(&exp, &[], &policy).unwrap(), Consent::NotNeeded);
         let record = store.trust(&exp, &cmds).unwrap();
         assert_eq!(check(&exp, &cmds, &policy).unwrap(), Consent::Trusted(record));
         let changed = vec![cmd("s[0]", &["python3", "seg.py", "--fast"])];
         assert!(matches!(store.status(&exp, &changed).unwrap(), TrustStatus::Changed { .. }));
-        assert!(check(&exp, &changed, &policy).unwrap_err().to_string().contains("have changed since"));
+        assert!(
+            check(&exp, &changed, &policy).unwrap_err().to_string().contains("have changed since")
+        );
         // Another file with the same commands is not trusted by this one's record.
         let other = dir.path().join("f.toml");
         std::fs::write(&other, "").unwrap();

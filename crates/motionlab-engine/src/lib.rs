@@ -22,5 +22,5 @@ pub mod rundir;
 // The schema and key paths live beside the Workflow trait; re-exported under their old paths.
 pub use motionlab_experiment::{spec, toml_paths, workflow as workflows};
 
-pub use plan::{plan, Plan};
-pub use run::{merge, run, run_file, Progress, RunOptions, RunSummary, Silent};
+pub use plan::{Plan, plan};
+pub use run::{Progress, RunOptions, RunSummary, Silent, merge, run, run_file};

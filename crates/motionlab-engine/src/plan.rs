@@ -11,13 +11,15 @@ use std::sync::Arc;
 
 use motionlab_core::registry;
 use motionlab_core::{Error, ErrorKind, Location, Result};
-use motionlab_experiment::spec::{ExperimentFile, SweepGrid};
-use motionlab_experiment::toml_paths::{parse_override, set_path, syntax_error_line, KeyPath};
-use motionlab_experiment::workflow::{self, Workflow, WorkflowEntry};
 use motionlab_experiment::RunCache;
+use motionlab_experiment::spec::{ExperimentFile, SweepGrid};
+use motionlab_experiment::toml_paths::{KeyPath, parse_override, set_path, syntax_error_line};
+use motionlab_experiment::workflow::{self, Workflow, WorkflowEntry};
 
 // What workflows are given, defined beside the Workflow trait (polars-free).
-pub use motionlab_experiment::context::{build_stage, deserialize_section, BuiltDataset, Combo, Datasets, LoadedItem, Source};
+pub use motionlab_experiment::context::{
+    BuiltDataset, Combo, Datasets, LoadedItem, Source, build_stage, deserialize_section,
+};
 
 /// A validated experiment: every combination with its workflow built.
 pub struct Plan {
@@ -46,7 +48,14 @@ impl Plan {
         let mut v: Vec<PathBuf> = self
             .built
             .iter()
-            .flat_map(|b| b.data.datasets.iter().flat_map(|d| d.files.iter().cloned().chain((0..d.files.len()).filter_map(|k| d.ground_truth_path(k)))))
+            .flat_map(|b| {
+                b.data.datasets.iter().flat_map(|d| {
+                    d.files
+                        .iter()
+                        .cloned()
+                        .chain((0..d.files.len()).filter_map(|k| d.ground_truth_path(k)))
+                })
+            })
             .collect();
         v.sort();
         v.dedup();
@@ -91,13 +100,17 @@ pub fn parse_experiment(source: &Source, overrides: &[String]) -> Result<ParsedE
     })?;
     for o in overrides {
         // An override is not written in the file, so its errors name the file but no line.
-        let (p, v) = parse_override(o).map_err(|e| e.with_location(Location::file(&source.path)))?;
+        let (p, v) =
+            parse_override(o).map_err(|e| e.with_location(Location::file(&source.path)))?;
         set_path(&mut doc, &p, v).map_err(|e| {
-            Error::new(e.kind(), format!("override {o:?}: {}", e.message())).with_location(Location::file(&source.path).field(p.to_string()))
+            Error::new(e.kind(), format!("override {o:?}: {}", e.message()))
+                .with_location(Location::file(&source.path).field(p.to_string()))
         })?;
     }
     let file = deserialize_file(source, &doc)?;
-    let workflow = workflow::find_workflow(&file.workflow).ok_or_else(|| Error::new(ErrorKind::UnknownKey, format!("no workflow {:?}", file.workflow)))?;
+    let workflow = workflow::find_workflow(&file.workflow).ok_or_else(|| {
+        Error::new(ErrorKind::UnknownKey, format!("no workflow {:?}", file.workflow))
+    })?;
     check_name(source, &file)?;
     let combos = expand_sweep(source, &doc, &file)?;
     Ok(ParsedExperiment { doc, file, workflow, combos })
@@ -106,7 +119,11 @@ pub fn parse_experiment(source: &Source, overrides: &[String]) -> Result<ParsedE
 /// Builds every stage of one combination — loaders, ground-truth readers, preprocessors and
 /// the workflow's own stages — through the registry, as [`plan`] does, but resolves no input
 /// file (datasets get no files). For the experiment fuzz target.
-pub fn build_stages_in_memory(source: &Source, workflow: &WorkflowEntry, combo: &Combo) -> Result<()> {
+pub fn build_stages_in_memory(
+    source: &Source,
+    workflow: &WorkflowEntry,
+    combo: &Combo,
+) -> Result<()> {
     let data = build_datasets(source, combo, Inputs::Skip, &Arc::new(RunCache::default()))?;
     workflow::build(workflow, source, combo, &data).map(|_| ())
 }
@@ -116,7 +133,8 @@ pub fn build_stages_in_memory(source: &Source, workflow: &WorkflowEntry, combo: 
 fn deserialize_file(source: &Source, doc: &toml::Table) -> Result<ExperimentFile> {
     let workflow = workflow::workflow_section(source, doc)?;
     let fixed = ExperimentFile::fixed_part(doc);
-    let mut file: ExperimentFile = deserialize_section(source, doc, toml::Value::Table(fixed), &KeyPath::default())?;
+    let mut file: ExperimentFile =
+        deserialize_section(source, doc, toml::Value::Table(fixed), &KeyPath::default())?;
     file.workflow = workflow.name.to_string();
     Ok(file)
 }
@@ -127,7 +145,10 @@ pub const MAX_EXPERIMENT_NAME: usize = 100;
 fn check_name(source: &Source, file: &ExperimentFile) -> Result<()> {
     let n = &file.experiment.name;
     // It names the run's folder (`reports/<name>/`): nothing there may climb out or hide.
-    if n.is_empty() || n.len() > MAX_EXPERIMENT_NAME || !n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+    if n.is_empty()
+        || n.len() > MAX_EXPERIMENT_NAME
+        || !n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
         let doc = toml::Table::new();
         return Err(source.locate(
             Error::new(ErrorKind::OutOfRange, format!("experiment name {n:?} must be 1 to {MAX_EXPERIMENT_NAME} letters, digits, _ or -")),
@@ -143,7 +164,14 @@ pub const MAX_SWEEP_COMBINATIONS: usize = 10_000;
 
 fn expand_sweep(source: &Source, doc: &toml::Table, file: &ExperimentFile) -> Result<Vec<Combo>> {
     let Some(sweep) = &file.sweep else {
-        return Ok(vec![Combo { index: 0, sweep: None, focus: None, params: vec![], doc: doc.clone(), file: file.clone() }]);
+        return Ok(vec![Combo {
+            index: 0,
+            sweep: None,
+            focus: None,
+            params: vec![],
+            doc: doc.clone(),
+            file: file.clone(),
+        }]);
     };
     let grids = sweep.grids();
     // Counted before expanding: 20 keys of 3 values are 3.5e9 combinations, which would
@@ -183,11 +211,22 @@ fn expand_sweep(source: &Source, doc: &toml::Table, file: &ExperimentFile) -> Re
                 })?;
             }
             let f = deserialize_file(source, &d)?;
-            combos.push(Combo { index: combos.len(), sweep: Some(name.clone()), focus: grid.focus.clone(), params: assignment, doc: d, file: f });
+            combos.push(Combo {
+                index: combos.len(),
+                sweep: Some(name.clone()),
+                focus: grid.focus.clone(),
+                params: assignment,
+                doc: d,
+                file: f,
+            });
         }
     }
     if combos.is_empty() {
-        return Err(Error::new(ErrorKind::EmptySequence, "the sweep has no combinations (an empty value list?)").with_location(Location::file(&source.path).field("sweep")));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "the sweep has no combinations (an empty value list?)",
+        )
+        .with_location(Location::file(&source.path).field("sweep")));
     }
     Ok(combos)
 }
@@ -217,16 +256,26 @@ enum Inputs {
     Skip,
 }
 
-fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs, cache: &Arc<RunCache>) -> Result<Datasets> {
+fn build_datasets(
+    source: &Source,
+    combo: &Combo,
+    inputs: Inputs,
+    cache: &Arc<RunCache>,
+) -> Result<Datasets> {
     let base = source.base_dir();
     let mut datasets = Vec::new();
     let root = KeyPath::parse("dataset")?;
     if combo.file.datasets.is_empty() {
-        return Err(source.locate(Error::new(ErrorKind::MissingKey, "at least one [[dataset]] is required"), &root, &combo.doc));
+        return Err(source.locate(
+            Error::new(ErrorKind::MissingKey, "at least one [[dataset]] is required"),
+            &root,
+            &combo.doc,
+        ));
     }
     for (i, spec) in combo.file.datasets.iter().enumerate() {
         let dp = root.index(i);
-        let loader = build_stage(source, combo, &spec.loader, &dp.key("loader"), registry::build_loader)?;
+        let loader =
+            build_stage(source, combo, &spec.loader, &dp.key("loader"), registry::build_loader)?;
         let ground_truth = match &spec.ground_truth {
             None => None,
             Some(gt) => {
@@ -235,7 +284,10 @@ fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs, cache: &Arc<Ru
                     Some(toml::Value::String(f)) => base.join(f),
                     _ => {
                         return Err(source.locate(
-                            Error::new(ErrorKind::MissingKey, "ground_truth needs `file = \"<path>\"`"),
+                            Error::new(
+                                ErrorKind::MissingKey,
+                                "ground_truth needs `file = \"<path>\"`",
+                            ),
                             &gp,
                             &combo.doc,
                         ));
@@ -243,7 +295,8 @@ fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs, cache: &Arc<Ru
                 };
                 let mut params = gt.clone();
                 params.params.remove("file");
-                let reader = build_stage(source, combo, &params, &gp, registry::build_ground_truth)?;
+                let reader =
+                    build_stage(source, combo, &params, &gp, registry::build_ground_truth)?;
                 Some((reader, file))
             }
         };
@@ -251,19 +304,32 @@ fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs, cache: &Arc<Ru
             .preprocess
             .iter()
             .enumerate()
-            .map(|(k, p)| build_stage(source, combo, p, &dp.key("preprocess").index(k), registry::build_preprocessor))
+            .map(|(k, p)| {
+                build_stage(
+                    source,
+                    combo,
+                    p,
+                    &dp.key("preprocess").index(k),
+                    registry::build_preprocessor,
+                )
+            })
             .collect::<Result<Vec<_>>>()?;
         let files = match inputs {
-            Inputs::Resolve => resolve_files(source, &base, &spec.files).map_err(|e| source.locate(e, dp.key("files"), &combo.doc))?,
+            Inputs::Resolve => resolve_files(source, &base, &spec.files)
+                .map_err(|e| source.locate(e, dp.key("files"), &combo.doc))?,
             Inputs::Skip => Vec::new(),
         };
-        let built = BuiltDataset { index: i, spec: spec.clone(), loader, ground_truth, preprocess, files };
+        let built =
+            BuiltDataset { index: i, spec: spec.clone(), loader, ground_truth, preprocess, files };
         for k in 0..built.files.len() {
             if let Some(gt) = built.ground_truth_path(k)
                 && !gt.is_file()
             {
                 return Err(source.locate(
-                    Error::new(ErrorKind::Io, format!("ground-truth file {} does not exist", gt.display())),
+                    Error::new(
+                        ErrorKind::Io,
+                        format!("ground-truth file {} does not exist", gt.display()),
+                    ),
                     dp.key("ground_truth").key("file"),
                     &combo.doc,
                 ));
@@ -276,7 +342,15 @@ fn build_datasets(source: &Source, combo: &Combo, inputs: Inputs, cache: &Arc<Ru
         .preprocess
         .iter()
         .enumerate()
-        .map(|(k, p)| build_stage(source, combo, p, &KeyPath::parse("preprocess")?.index(k), registry::build_preprocessor))
+        .map(|(k, p)| {
+            build_stage(
+                source,
+                combo,
+                p,
+                &KeyPath::parse("preprocess")?.index(k),
+                registry::build_preprocessor,
+            )
+        })
         .collect::<Result<Vec<_>>>()?;
     Ok(Datasets::new(datasets, preprocess, combo.file.preprocess.clone(), Arc::clone(cache)))
 }
@@ -296,13 +370,22 @@ fn resolve_files(_source: &Source, base: &Path, patterns: &[String]) -> Result<V
                 .filter(|f| f.is_file())
                 .collect();
             if matches.is_empty() {
-                return Err(Error::new(ErrorKind::Io, format!("glob {p:?} matches no file (relative to {})", base.display())));
+                return Err(Error::new(
+                    ErrorKind::Io,
+                    format!("glob {p:?} matches no file (relative to {})", base.display()),
+                ));
             }
             out.extend(matches);
         } else if full.is_file() {
             out.push(full);
         } else {
-            return Err(Error::new(ErrorKind::Io, format!("{} does not exist (paths are relative to the experiment file's folder)", full.display())));
+            return Err(Error::new(
+                ErrorKind::Io,
+                format!(
+                    "{} does not exist (paths are relative to the experiment file's folder)",
+                    full.display()
+                ),
+            ));
         }
     }
     out.sort();

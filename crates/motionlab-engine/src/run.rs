@@ -18,8 +18,8 @@ use motionlab_report::output::{FileLists, Written};
 use motionlab_report::pages::write_run_html;
 
 use crate::consent::{self, Consent, ExternalCommand, ExternalPolicy};
-use crate::plan::{plan, Plan};
-use crate::rundir::{sha256_bytes, utc_iso, write_atomic, RunDir};
+use crate::plan::{Plan, plan};
+use crate::rundir::{RunDir, sha256_bytes, utc_iso, write_atomic};
 use motionlab_experiment::workflow::{ComboOutput, ItemData, Output, WorkItem};
 
 /// Progress reporting, implemented by the CLI (indicatif) or silent.
@@ -147,7 +147,7 @@ struct Provenance {
 /// and the totals.
 fn cache_provenance(plan: &Plan, opts: &RunOptions) -> Option<serde_json::Value> {
     use motionlab_experiment::Origin;
-    use serde_json::{json, Map, Value};
+    use serde_json::{Map, Value, json};
     let mut rows = Vec::new();
     let mut totals: std::collections::BTreeMap<String, usize> = Default::default();
     for (c, b) in plan.built.iter().enumerate() {
@@ -204,7 +204,11 @@ pub fn run_file(path: &Path, overrides: &[String], opts: &RunOptions) -> Result<
 
 /// Every (combination, item) of a plan, in a deterministic order.
 fn all_items(plan: &Plan) -> Vec<(usize, WorkItem)> {
-    plan.built.iter().enumerate().flat_map(|(c, b)| b.workflow.items(&b.data).into_iter().map(move |i| (c, i))).collect()
+    plan.built
+        .iter()
+        .enumerate()
+        .flat_map(|(c, b)| b.workflow.items(&b.data).into_iter().map(move |i| (c, i)))
+        .collect()
 }
 
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
@@ -212,7 +216,8 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     if let Some(n) = threads {
         b = b.num_threads(n.max(1));
     }
-    b.build().map_err(|e| Error::new(ErrorKind::Report, format!("cannot start worker threads: {e}")))
+    b.build()
+        .map_err(|e| Error::new(ErrorKind::Report, format!("cannot start worker threads: {e}")))
 }
 
 /// One finished item: its index in the full item list, its combination, the item, its result
@@ -234,26 +239,39 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
     let config_hash = sha256_bytes(config.as_bytes());
     let rundir = match (&opts.shard, &opts.run_dir) {
         (Some(_), Some(dir)) => RunDir::shared(dir)?,
-        (Some(_), None) => return Err(Error::new(ErrorKind::MissingKey, "--shard needs --run-dir (shared by all shards)")),
+        (Some(_), None) => {
+            return Err(Error::new(
+                ErrorKind::MissingKey,
+                "--shard needs --run-dir (shared by all shards)",
+            ));
+        }
         (None, Some(dir)) => RunDir::shared(dir)?,
         (None, None) => RunDir::fresh(&opts.reports_dir, &plan.file.experiment.name)?,
     };
     let items = all_items(plan);
     let (shard, shards) = opts.shard.unwrap_or((0, 1));
     if shards == 0 || shard >= shards {
-        return Err(Error::new(ErrorKind::OutOfRange, format!("shard {shard}/{shards}: expected 0 <= i < n")));
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("shard {shard}/{shards}: expected 0 <= i < n"),
+        ));
     }
     // The manifest is identical for every shard, so concurrent writers agree.
     let manifest = RunManifest {
-        experiment_file: std::fs::canonicalize(&plan.source.path).unwrap_or_else(|_| plan.source.path.clone()),
+        experiment_file: std::fs::canonicalize(&plan.source.path)
+            .unwrap_or_else(|_| plan.source.path.clone()),
         overrides: plan.overrides.clone(),
         config_sha256: config_hash.clone(),
         total_items: items.len(),
     };
     write_atomic(&rundir.work.join("run.json"), &json_bytes(&manifest)?)?;
     write_atomic(&rundir.work.join("config.toml"), config.as_bytes())?;
-    let mut mine: Vec<(usize, usize, WorkItem)> =
-        items.iter().enumerate().filter(|(k, _)| k % shards == shard).map(|(k, (c, i))| (k, *c, i.clone())).collect();
+    let mut mine: Vec<(usize, usize, WorkItem)> = items
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % shards == shard)
+        .map(|(k, (c, i))| (k, *c, i.clone()))
+        .collect();
     // By input file, then combination: each take is loaded once and is live for one stretch
     // of the run (threads take contiguous runs of this list), whatever the memory budget.
     mine.sort_by_key(|(k, c, i)| (i.dataset, i.file, *c, *k));
@@ -267,8 +285,11 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
                 let built = &plan.built[*c];
                 // Per-item figures are drawn for the base combination only: a sweep would
                 // otherwise multiply them by its size.
-                let (result, output) =
-                    built.workflow.run_item(item, &built.data, *c == 0).map_err(|e| e.under_field(format!("item {}", item.id)))?.into_parts();
+                let (result, output) = built
+                    .workflow
+                    .run_item(item, &built.data, *c == 0)
+                    .map_err(|e| e.under_field(format!("item {}", item.id)))?
+                    .into_parts();
                 let (result_path, written_path) = item_files(&items_dir, *c, item);
                 write_atomic(&result_path, &result.0)?;
                 let written = motionlab_report::output::write(&rundir.work, &output)?;
@@ -296,9 +317,15 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunSummary> {
         let dir = rundir.subdir("shards")?;
         write_atomic(&dir.join(format!("shard-{shard}-of-{shards}.json")), &json_bytes(&m)?)?;
         let written = Written::concat(done.iter().map(|d| &d.4));
-        return Ok(RunSummary { run_dir: rundir.target.clone(), written, items: done.len(), complete: false });
+        return Ok(RunSummary {
+            run_dir: rundir.target.clone(),
+            written,
+            items: done.len(),
+            complete: false,
+        });
     }
-    let item_outputs: Vec<(PathBuf, Written)> = done.iter().map(|d| (item_files(&items_dir, d.1, &d.2).1, d.4.clone())).collect();
+    let item_outputs: Vec<(PathBuf, Written)> =
+        done.iter().map(|d| (item_files(&items_dir, d.1, &d.2).1, d.4.clone())).collect();
     let by_combo = group_by_combo(plan, done.into_iter().map(|d| (d.1, d.2, d.3)).collect());
     let written = complete(plan, opts, &rundir, &started, None, by_combo, item_outputs)?;
     let target = rundir.finalize()?;
@@ -324,22 +351,37 @@ fn complete(
     plan.cache.clear_memory();
     let (tables, finished) = finished?;
     let in_item_order = Written::concat(item_outputs.iter().map(|(_, w)| w).chain([&finished]));
-    write_provenance(plan, opts, rundir, started, total_items, shards, FileLists::of(&in_item_order))?;
+    write_provenance(
+        plan,
+        opts,
+        rundir,
+        started,
+        total_items,
+        shards,
+        FileLists::of(&in_item_order),
+    )?;
     item_outputs.sort_by(|a, b| a.0.cmp(&b.0));
-    let page_order: Vec<&Written> = [&finished].into_iter().chain(item_outputs.iter().map(|(_, w)| w)).collect();
-    let run_id = rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let page_order: Vec<&Written> =
+        [&finished].into_iter().chain(item_outputs.iter().map(|(_, w)| w)).collect();
+    let run_id =
+        rundir.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     write_run_html(&rundir.work, &plan.file, &config_text(plan), &tables, &page_order, &run_id)?;
     Ok(in_item_order)
 }
 
-fn group_by_combo(plan: &Plan, done: Vec<(usize, WorkItem, ItemData)>) -> Vec<Vec<(WorkItem, ItemData)>> {
-    let mut by: Vec<Vec<(WorkItem, ItemData)>> = (0..plan.built.len()).map(|_| Vec::new()).collect();
+fn group_by_combo(
+    plan: &Plan,
+    done: Vec<(usize, WorkItem, ItemData)>,
+) -> Vec<Vec<(WorkItem, ItemData)>> {
+    let mut by: Vec<Vec<(WorkItem, ItemData)>> =
+        (0..plan.built.len()).map(|_| Vec::new()).collect();
     for (c, i, d) in done {
         by[c].push((i, d));
     }
     // Items in their deterministic order, whatever order threads or shards finished in.
     for (c, v) in by.iter_mut().enumerate() {
-        let order: Vec<String> = plan.built[c].workflow.items(&plan.built[c].data).into_iter().map(|i| i.id).collect();
+        let order: Vec<String> =
+            plan.built[c].workflow.items(&plan.built[c].data).into_iter().map(|i| i.id).collect();
         v.sort_by_key(|(i, _)| order.iter().position(|o| *o == i.id).unwrap_or(usize::MAX));
     }
     by
@@ -348,7 +390,12 @@ fn group_by_combo(plan: &Plan, done: Vec<(usize, WorkItem, ItemData)>) -> Vec<Ve
 /// `finish` per combination, sweep columns, concatenation, `summarize`; then the run's whole
 /// output ([`Output::of_run`]) handed to `motionlab-report` to write. Returns the tables (for
 /// the run page) and what was written.
-fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemData)>>, opts: &RunOptions) -> Result<(Vec<Table>, Written)> {
+fn finish_all(
+    plan: &Plan,
+    rundir: &RunDir,
+    by_combo: Vec<Vec<(WorkItem, ItemData)>>,
+    opts: &RunOptions,
+) -> Result<(Vec<Table>, Written)> {
     opts.progress.begin("finishing", by_combo.len() as u64);
     let outputs: Vec<Output> = by_combo
         .iter()
@@ -372,7 +419,11 @@ fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemDat
             }
         }
     }
-    let combos: Vec<ComboOutput<'_>> = outputs.iter().enumerate().map(|(c, o)| ComboOutput { combo: &plan.combos[c], output: o }).collect();
+    let combos: Vec<ComboOutput<'_>> = outputs
+        .iter()
+        .enumerate()
+        .map(|(c, o)| ComboOutput { combo: &plan.combos[c], output: o })
+        .collect();
     let summary = plan.built[0].workflow.summarize(&combos)?;
     drop(combos);
     let all = Output::of_run(tables, outputs, summary);
@@ -383,9 +434,27 @@ fn finish_all(plan: &Plan, rundir: &RunDir, by_combo: Vec<Vec<(WorkItem, ItemDat
 /// Prepends `sweep`, `combination` and `parameters` columns.
 fn with_sweep_columns(mut t: Table, combo: &crate::plan::Combo) -> Result<Table> {
     let n = t.n_rows();
-    t.columns.insert(0, motionlab_core::Column { name: "parameters".into(), values: ColumnValues::Str(vec![Some(combo.label()); n]) });
-    t.columns.insert(0, motionlab_core::Column { name: "combination".into(), values: ColumnValues::I64(vec![combo.index as i64; n]) });
-    t.columns.insert(0, motionlab_core::Column { name: "sweep".into(), values: ColumnValues::Str(vec![combo.sweep.clone(); n]) });
+    t.columns.insert(
+        0,
+        motionlab_core::Column {
+            name: "parameters".into(),
+            values: ColumnValues::Str(vec![Some(combo.label()); n]),
+        },
+    );
+    t.columns.insert(
+        0,
+        motionlab_core::Column {
+            name: "combination".into(),
+            values: ColumnValues::I64(vec![combo.index as i64; n]),
+        },
+    );
+    t.columns.insert(
+        0,
+        motionlab_core::Column {
+            name: "sweep".into(),
+            values: ColumnValues::Str(vec![combo.sweep.clone(); n]),
+        },
+    );
     Ok(t)
 }
 
@@ -435,13 +504,15 @@ fn write_provenance(
         outputs,
         cache,
         external_commands: started.external_commands.clone(),
-        external_consent: (started.consent != Consent::NotNeeded).then(|| started.consent.describe()),
+        external_consent: (started.consent != Consent::NotNeeded)
+            .then(|| started.consent.describe()),
     };
     write_atomic(&rundir.work.join("provenance.json"), &json_bytes(&prov)?)
 }
 
 fn json_bytes<T: Serialize>(v: &T) -> Result<Vec<u8>> {
-    serde_json::to_vec_pretty(v).map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))
+    serde_json::to_vec_pretty(v)
+        .map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))
 }
 
 /// The git revision of the checkout holding `dir` and whether it has uncommitted changes —
@@ -458,7 +529,18 @@ fn git_state(dir: &Path) -> (String, Option<bool>) {
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
     };
     match git(&["rev-parse", "HEAD"]) {
-        Some(rev) => (rev, git(&["status", "--porcelain", "--untracked-files=no", "--", ":/", ":(exclude,top)reports"]).map(|s| !s.is_empty())),
+        Some(rev) => (
+            rev,
+            git(&[
+                "status",
+                "--porcelain",
+                "--untracked-files=no",
+                "--",
+                ":/",
+                ":(exclude,top)reports",
+            ])
+            .map(|s| !s.is_empty()),
+        ),
         None => ("unknown (not a git checkout)".into(), None),
     }
 }
@@ -490,18 +572,31 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
         .filter(|p| p.extension().is_some_and(|e| e == "json"))
         .collect();
     shard_files.sort();
-    let shards: Vec<ShardManifest> = shard_files.iter().map(|p| read_json(p)).collect::<Result<_>>()?;
-    let n = shards.first().map(|s| s.shards).ok_or_else(|| Error::new(ErrorKind::Report, "no shard has finished").with_location(loc(&shard_dir)))?;
+    let shards: Vec<ShardManifest> =
+        shard_files.iter().map(|p| read_json(p)).collect::<Result<_>>()?;
+    let n = shards.first().map(|s| s.shards).ok_or_else(|| {
+        Error::new(ErrorKind::Report, "no shard has finished").with_location(loc(&shard_dir))
+    })?;
     for (s, p) in shards.iter().zip(&shard_files) {
         if s.config_sha256 != manifest.config_sha256 {
             return Err(Error::new(
                 ErrorKind::Mismatch,
-                format!("shard {}/{} was produced by a different configuration (sha256 {} ≠ {})", s.shard, s.shards, &s.config_sha256[..12], &manifest.config_sha256[..12]),
+                format!(
+                    "shard {}/{} was produced by a different configuration (sha256 {} ≠ {})",
+                    s.shard,
+                    s.shards,
+                    &s.config_sha256[..12],
+                    &manifest.config_sha256[..12]
+                ),
             )
             .with_location(loc(p)));
         }
         if s.shards != n {
-            return Err(Error::new(ErrorKind::Mismatch, format!("shard counts differ: {} and {n}", s.shards)).with_location(loc(p)));
+            return Err(Error::new(
+                ErrorKind::Mismatch,
+                format!("shard counts differ: {} and {n}", s.shards),
+            )
+            .with_location(loc(p)));
         }
     }
     let missing: Vec<usize> = (0..n).filter(|i| !shards.iter().any(|s| s.shard == *i)).collect();
@@ -539,5 +634,6 @@ pub fn merge(run_dir: &Path, opts: &RunOptions) -> Result<RunSummary> {
 
 fn read_json<T: for<'de> Deserialize<'de>>(p: &Path) -> Result<T> {
     let bytes = std::fs::read(p).map_err(|e| Error::io(p, e))?;
-    serde_json::from_slice(&bytes).map_err(|e| Error::new(ErrorKind::Syntax, format!("{e}")).with_location(Location::file(p)))
+    serde_json::from_slice(&bytes)
+        .map_err(|e| Error::new(ErrorKind::Syntax, format!("{e}")).with_location(Location::file(p)))
 }

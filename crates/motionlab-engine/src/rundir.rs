@@ -93,12 +93,17 @@ impl RunDir {
     pub fn finalize(&self) -> Result<PathBuf> {
         if self.work != self.target {
             if self.target.exists() {
-                return Err(Error::new(ErrorKind::Report, "refusing to overwrite an existing run").with_location(Location::file(&self.target)));
+                return Err(Error::new(ErrorKind::Report, "refusing to overwrite an existing run")
+                    .with_location(Location::file(&self.target)));
             }
             std::fs::rename(&self.work, &self.target).map_err(|e| Error::io(&self.target, e))?;
         }
         if let Some(exp) = &self.experiment_dir {
-            let id = self.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let id = self
+                .target
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
             write_atomic(&exp.join("latest"), format!("{id}\n").as_bytes())?;
         }
         Ok(self.target.clone())
@@ -153,6 +158,9 @@ mod tests {
 
     #[test]
     fn sha256_of_known_bytes() {
-        assert_eq!(sha256_bytes(b"abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+        assert_eq!(
+            sha256_bytes(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
     }
 }

@@ -8,9 +8,12 @@ use std::sync::Arc;
 use divan::counter::ItemsCount;
 use divan::{Bencher, black_box};
 use motionlab_core::registry::{build_evaluator, default_params};
-use motionlab_core::{Boundary, EvalInput, FrameRate, MethodResult, Segment, Segmentation, SequenceResult};
+use motionlab_core::{
+    Boundary, EvalInput, FrameRate, MethodResult, Segment, Segmentation, SequenceResult,
+};
 use motionlab_eval::boundaries::{
-    MatchRule, TruthWindow, evaluate_boundaries, hausdorff_frames, max_matching_graph, max_matching_windows,
+    MatchRule, TruthWindow, evaluate_boundaries, hausdorff_frames, max_matching_graph,
+    max_matching_windows,
 };
 use motionlab_testkit::{Rng, motion_from_fn};
 
@@ -24,7 +27,8 @@ fn instance(n: usize) -> (Vec<usize>, Vec<TruthWindow>) {
     let mut rng = Rng::new(42);
     let span = 10.0 * n as f64;
     let found = (0..n).map(|_| (rng.uniform() * span) as usize).collect();
-    let windows = (0..n).map(|_| TruthWindow::around((rng.uniform() * span) as usize, 20.0)).collect();
+    let windows =
+        (0..n).map(|_| TruthWindow::around((rng.uniform() * span) as usize, 20.0)).collect();
     (found, windows)
 }
 
@@ -62,18 +66,26 @@ fn hopcroft_karp(bencher: Bencher, n: usize) {
 fn hausdorff(bencher: Bencher, n: usize) {
     let (found, windows) = instance(n);
     let truth: Vec<usize> = windows.iter().map(|w| w.frame).collect();
-    bencher.counter(ItemsCount::new(2 * n)).bench(|| hausdorff_frames(black_box(&found), black_box(&truth)));
+    bencher
+        .counter(ItemsCount::new(2 * n))
+        .bench(|| hausdorff_frames(black_box(&found), black_box(&truth)));
 }
 
 /// One method on one sequence the size of CMU 86_01: 6 truths, 120 candidates.
 #[divan::bench]
 fn evaluate_one_method(bencher: Bencher) {
     let mut rng = Rng::new(1);
-    let truth: Vec<Boundary> =
-        [549, 1149, 1979, 2499, 3199, 4064].iter().map(|&frame| Boundary { frame, window: None }).collect();
+    let truth: Vec<Boundary> = [549, 1149, 1979, 2499, 3199, 4064]
+        .iter()
+        .map(|&frame| Boundary { frame, window: None })
+        .collect();
     let mut found: Vec<usize> = (0..120).map(|_| (rng.uniform() * 4579.0) as usize).collect();
     found.sort_unstable();
-    bencher.bench(|| evaluate_boundaries(black_box(&found), black_box(&truth), &MatchRule::time(10.0)).scores.n_matched);
+    bencher.bench(|| {
+        evaluate_boundaries(black_box(&found), black_box(&truth), &MatchRule::time(10.0))
+            .scores
+            .n_matched
+    });
 }
 
 /// The whole `boundary_pr` evaluator on a Table-1-sized input: 4 sequences × 4 methods, ~100
@@ -86,12 +98,15 @@ fn boundary_pr_table1(bencher: Bencher) {
         .map(|s| {
             let n = 4600;
             let cuts = [0, 549, 1149, 1979, 2499, 3199, 4064, n];
-            let segments =
-                cuts.windows(2).map(|w| Segment { start: w[0], end: w[1], label: format!("a{}", w[0]) }).collect();
+            let segments = cuts
+                .windows(2)
+                .map(|w| Segment { start: w[0], end: w[1], label: format!("a{}", w[0]) })
+                .collect();
             let methods = ["speed", "direction", "hull", "fused"]
                 .iter()
                 .map(|m| {
-                    let mut c: Vec<usize> = (0..100).map(|_| (rng.uniform() * n as f64) as usize).collect();
+                    let mut c: Vec<usize> =
+                        (0..100).map(|_| (rng.uniform() * n as f64) as usize).collect();
                     c.sort_unstable();
                     c.dedup();
                     MethodResult { method: m.to_string(), candidates: c }
@@ -106,5 +121,7 @@ fn boundary_pr_table1(bencher: Bencher) {
         })
         .collect();
     let evaluator = build_evaluator("boundary_pr", &default_params()).unwrap();
-    bencher.bench(|| evaluator.evaluate(EvalInput::segmentation(black_box(&sequences))).unwrap().len());
+    bencher.bench(|| {
+        evaluator.evaluate(EvalInput::segmentation(black_box(&sequences))).unwrap().len()
+    });
 }

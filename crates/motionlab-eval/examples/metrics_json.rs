@@ -37,7 +37,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out: Vec<Value> = cases
         .iter()
         .map(|c| {
-            let truth: Vec<Boundary> = c.truth.iter().map(|&frame| Boundary { frame, window: None }).collect();
+            let truth: Vec<Boundary> =
+                c.truth.iter().map(|&frame| Boundary { frame, window: None }).collect();
             let s = evaluate_boundaries(&c.found, &truth, &MatchRule::time(c.tolerance_frames));
             let (f1, p, r) = tcpd_f_measure(&c.annotators, &c.found, c.margin_frames);
             json!({

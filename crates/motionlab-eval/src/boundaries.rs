@@ -283,7 +283,12 @@ pub struct PoseRule<'m> {
 impl<'m> PoseRule<'m> {
     /// `root` names the point subtracted before comparing (error names the field `root`);
     /// `max_gap`, when given, limits the rule to frames at most that far apart.
-    pub fn new(motion: &'m Motion, root: &str, pose_mm: f64, max_gap: Option<TimeSpan>) -> Result<Self> {
+    pub fn new(
+        motion: &'m Motion,
+        root: &str,
+        pose_mm: f64,
+        max_gap: Option<TimeSpan>,
+    ) -> Result<Self> {
         if !(pose_mm.is_finite() && pose_mm > 0.0) {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
@@ -318,7 +323,12 @@ impl<'m> PoseRule<'m> {
 /// at both frames; None when undefined.
 pub fn root_aligned_pose_distance(motion: &Motion, root: usize, a: usize, b: usize) -> Option<f64> {
     let n = motion.n_frames();
-    if a >= n || b >= n || root >= motion.n_points() || motion.is_missing(a, root) || motion.is_missing(b, root) {
+    if a >= n
+        || b >= n
+        || root >= motion.n_points()
+        || motion.is_missing(a, root)
+        || motion.is_missing(b, root)
+    {
         return None;
     }
     let (pa, pb) = (motion.frame(a), motion.frame(b));
@@ -406,9 +416,15 @@ pub fn ratios(n_found: usize, n_truth: usize, n_matched: usize) -> (f64, f64, f6
 
 /// Matches `found` frames to `truth` boundaries under `rule` (maximum one-to-one matching) and
 /// scores the result.
-pub fn evaluate_boundaries(found: &[usize], truth: &[Boundary], rule: &MatchRule<'_>) -> BoundaryScores {
-    let windows: Vec<TruthWindow> =
-        truth.iter().map(|b| TruthWindow::from_boundary(b, rule.tolerance_frames, rule.use_windows)).collect();
+pub fn evaluate_boundaries(
+    found: &[usize],
+    truth: &[Boundary],
+    rule: &MatchRule<'_>,
+) -> BoundaryScores {
+    let windows: Vec<TruthWindow> = truth
+        .iter()
+        .map(|b| TruthWindow::from_boundary(b, rule.tolerance_frames, rule.use_windows))
+        .collect();
     let index_pairs = match &rule.pose {
         None => max_matching_windows(found, &windows),
         Some(pose) => {
@@ -425,7 +441,11 @@ pub fn evaluate_boundaries(found: &[usize], truth: &[Boundary], rule: &MatchRule
     };
     let mut pairs: Vec<MatchedPair> = index_pairs
         .iter()
-        .map(|&(i, j)| MatchedPair { found: found[i], truth: truth[j].frame, by_pose: !windows[j].contains(found[i]) })
+        .map(|&(i, j)| MatchedPair {
+            found: found[i],
+            truth: truth[j].frame,
+            by_pose: !windows[j].contains(found[i]),
+        })
         .collect();
     pairs.sort_by_key(|p| (p.found, p.truth));
     let truth_frames: Vec<usize> = truth.iter().map(|b| b.frame).collect();
@@ -562,13 +582,17 @@ mod tests {
         // Truth at 100, 200, 300, 400; found at 103, 196, 250, 309, 500, 505; tol 5.
         // 103↔100 (3), 196↔200 (4); 250, 309 (9 from 300), 500, 505 unmatched; 300, 400 missed.
         // precision 2/6, recall 2/4, F1 = 2·2/(6+4) = 0.4 (= 2·(1/3)(1/2)/(1/3 + 1/2)).
-        let s =
-            evaluate_boundaries(&[103, 196, 250, 309, 500, 505], &points(&[100, 200, 300, 400]), &MatchRule::time(5.0));
+        let s = evaluate_boundaries(
+            &[103, 196, 250, 309, 500, 505],
+            &points(&[100, 200, 300, 400]),
+            &MatchRule::time(5.0),
+        );
         assert_eq!((s.scores.n_found, s.scores.n_truth, s.scores.n_matched), (6, 4, 2));
         assert!((s.scores.precision - 1.0 / 3.0).abs() < 1e-15);
         assert_eq!(s.scores.recall, 0.5);
         assert!((s.scores.f1 - 0.4).abs() < 1e-15);
-        let hm = 2.0 * s.scores.precision * s.scores.recall / (s.scores.precision + s.scores.recall);
+        let hm =
+            2.0 * s.scores.precision * s.scores.recall / (s.scores.precision + s.scores.recall);
         assert!((s.scores.f1 - hm).abs() < 1e-15);
         // Hausdorff: found→truth max is 505→400 = 105; truth→found max is 400→309 = 91.
         assert_eq!(s.hausdorff_frames, 105.0);
@@ -581,7 +605,10 @@ mod tests {
         let tol = tolerance_frames(TimeSpan::Seconds(1.0 / 24.0), r120);
         assert!((5.0..5.0 + 1e-6).contains(&tol));
         let s = evaluate_boundaries(&[15, 26], &points(&[10, 20]), &MatchRule::time(tol));
-        assert_eq!(s.scores.n_matched, 1, "15 is exactly 5 frames from 10 (match), 26 is 6 from 20 (no match)");
+        assert_eq!(
+            s.scores.n_matched, 1,
+            "15 is exactly 5 frames from 10 (match), 26 is 6 from 20 (no match)"
+        );
         assert_eq!(s.pairs[0], MatchedPair { found: 15, truth: 10, by_pose: false });
     }
 
@@ -606,7 +633,11 @@ mod tests {
         assert_eq!((no_truth.scores.precision, no_truth.scores.f1), (0.0, 0.0));
         assert_eq!(no_truth.hausdorff_frames, f64::INFINITY);
         let both = evaluate_boundaries(&[], &[], &MatchRule::time(5.0));
-        assert!(both.scores.precision.is_nan() && both.scores.recall.is_nan() && both.scores.f1.is_nan());
+        assert!(
+            both.scores.precision.is_nan()
+                && both.scores.recall.is_nan()
+                && both.scores.f1.is_nan()
+        );
         assert_eq!(both.hausdorff_frames, 0.0);
     }
 
@@ -641,14 +672,20 @@ mod tests {
                 .map(|_| {
                     let frame = (rng.uniform() * span) as usize;
                     let window = (rng.uniform() < 0.4).then(|| {
-                        (frame.saturating_sub((rng.uniform() * 6.0) as usize), frame + (rng.uniform() * 6.0) as usize)
+                        (
+                            frame.saturating_sub((rng.uniform() * 6.0) as usize),
+                            frame + (rng.uniform() * 6.0) as usize,
+                        )
                     });
                     Boundary { frame, window }
                 })
                 .collect();
-            let windows: Vec<TruthWindow> = truth.iter().map(|b| TruthWindow::from_boundary(b, tol, true)).collect();
-            let adjacency: Vec<Vec<usize>> =
-                found.iter().map(|&a| (0..n_truth).filter(|&j| windows[j].contains(a)).collect()).collect();
+            let windows: Vec<TruthWindow> =
+                truth.iter().map(|b| TruthWindow::from_boundary(b, tol, true)).collect();
+            let adjacency: Vec<Vec<usize>> = found
+                .iter()
+                .map(|&a| (0..n_truth).filter(|&j| windows[j].contains(a)).collect())
+                .collect();
             let best = brute_force_max(n_truth, &adjacency);
             let sweep = max_matching_windows(&found, &windows);
             assert_valid(&sweep, n_truth, &adjacency);
@@ -666,11 +703,16 @@ mod tests {
             let n_left = (rng.uniform() * 8.0) as usize;
             let n_right = (rng.uniform() * 8.0) as usize;
             let density = rng.uniform();
-            let adjacency: Vec<Vec<usize>> =
-                (0..n_left).map(|_| (0..n_right).filter(|_| rng.uniform() < density).collect()).collect();
+            let adjacency: Vec<Vec<usize>> = (0..n_left)
+                .map(|_| (0..n_right).filter(|_| rng.uniform() < density).collect())
+                .collect();
             let hk = max_matching_graph(n_right, &adjacency);
             assert_valid(&hk, n_right, &adjacency);
-            assert_eq!(hk.len(), brute_force_max(n_right, &adjacency), "case {case}: {adjacency:?}");
+            assert_eq!(
+                hk.len(),
+                brute_force_max(n_right, &adjacency),
+                "case {case}: {adjacency:?}"
+            );
         }
     }
 
@@ -679,7 +721,8 @@ mod tests {
         // Left u may match right u or u+1; a bad initial structure forces long alternating
         // paths. 200 000 vertices would overflow a recursive DFS's stack.
         let n = 200_000;
-        let adjacency: Vec<Vec<usize>> = (0..n).map(|u| if u + 1 < n { vec![u + 1, u] } else { vec![u] }).collect();
+        let adjacency: Vec<Vec<usize>> =
+            (0..n).map(|u| if u + 1 < n { vec![u + 1, u] } else { vec![u] }).collect();
         assert_eq!(max_matching_graph(n, &adjacency).len(), n);
     }
 
@@ -689,7 +732,11 @@ mod tests {
         // where it is raised to 300 mm. Poses at 10 and 30 are the same (root-relative).
         let m = motion_from_fn(60, 10.0, 2, |i, k| {
             let x = 50.0 * i as f64;
-            if k == 0 { [x, 0.0, 0.0] } else { [x, 0.0, if (40..50).contains(&i) { 300.0 } else { 100.0 }] }
+            if k == 0 {
+                [x, 0.0, 0.0]
+            } else {
+                [x, 0.0, if (40..50).contains(&i) { 300.0 } else { 100.0 }]
+            }
         });
         let pose = PoseRule::new(&m, "m0", 1.0, None).unwrap();
         assert_eq!(pose.distance_mm(10, 30), Some(0.0));
@@ -703,7 +750,11 @@ mod tests {
         assert_eq!(s.pairs[1], MatchedPair { found: 44, truth: 45, by_pose: false });
         // A time limit on the pose rule removes the far pose match.
         let limited = PoseRule::new(&m, "m0", 1.0, Some(TimeSpan::Frames(5.0))).unwrap();
-        let s = evaluate_boundaries(&[30, 44], &points(&[10, 45]), &MatchRule { pose: Some(limited), ..rule });
+        let s = evaluate_boundaries(
+            &[30, 44],
+            &points(&[10, 45]),
+            &MatchRule { pose: Some(limited), ..rule },
+        );
         assert_eq!(s.scores.n_matched, 1);
     }
 
@@ -720,7 +771,10 @@ mod tests {
         assert_eq!(root_aligned_pose_distance(&m, 0, 0, 1), Some(10.0));
         assert_eq!(root_aligned_pose_distance(&m, 0, 0, 2), None);
         let e = PoseRule::new(&m, "pelvis", 10.0, None).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::UnknownName, Some("root")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::UnknownName, Some("root"))
+        );
         let e = PoseRule::new(&m, "m0", 0.0, None).unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("pose_mm"));
     }
@@ -729,13 +783,16 @@ mod tests {
     fn hausdorff_is_symmetric_and_zero_only_for_equal_sets() {
         let mut rng = Rng::new(3);
         for _ in 0..500 {
-            let a: Vec<usize> =
-                (0..1 + (rng.uniform() * 6.0) as usize).map(|_| (rng.uniform() * 100.0) as usize).collect();
-            let b: Vec<usize> =
-                (0..1 + (rng.uniform() * 6.0) as usize).map(|_| (rng.uniform() * 100.0) as usize).collect();
+            let a: Vec<usize> = (0..1 + (rng.uniform() * 6.0) as usize)
+                .map(|_| (rng.uniform() * 100.0) as usize)
+                .collect();
+            let b: Vec<usize> = (0..1 + (rng.uniform() * 6.0) as usize)
+                .map(|_| (rng.uniform() * 100.0) as usize)
+                .collect();
             // Independent O(n·m) definition.
             let d = |x: &[usize], y: &[usize]| {
-                x.iter().map(|&p| y.iter().map(|&q| p.abs_diff(q)).min().unwrap()).max().unwrap() as f64
+                x.iter().map(|&p| y.iter().map(|&q| p.abs_diff(q)).min().unwrap()).max().unwrap()
+                    as f64
             };
             let h = hausdorff_frames(&a, &b);
             assert_eq!(h, d(&a, &b).max(d(&b, &a)));

@@ -126,7 +126,13 @@ impl ChanceSetup {
     /// The chance counts of `n_found` random candidates for `method` on `sequence`: the draws
     /// `boundary_pr` makes for that row.
     pub fn counts(&self, sequence: &str, method: &str, n_found: usize) -> ChanceCounts {
-        chance_counts(n_found, &self.windows, self.span.clone(), self.draws, row_seed(self.seed, sequence, method))
+        chance_counts(
+            n_found,
+            &self.windows,
+            self.span.clone(),
+            self.draws,
+            row_seed(self.seed, sequence, method),
+        )
     }
 }
 

@@ -5,10 +5,14 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalInputType, EvalInput, Evaluator, Result, Table, TimeSpan};
+use motionlab_core::{
+    Error, ErrorKind, EvalInput, EvalInputType, Evaluator, Result, Table, TimeSpan,
+};
 
 use crate::boundaries::{MatchRule, PrScores, TruthWindow, evaluate_boundaries, tolerance_frames};
-use crate::chance::{ChanceCounts, ChanceScores, ChanceSettings, chance_counts, metric_chance, row_seed};
+use crate::chance::{
+    ChanceCounts, ChanceScores, ChanceSettings, chance_counts, metric_chance, row_seed,
+};
 use crate::cpd_metrics::{covering, tcpd_f_measure};
 use crate::sequences::{nothing_to_evaluate, segmentation_input, truth_of};
 
@@ -62,7 +66,12 @@ pub struct BoundaryMetricsParams {
 
 /// The default tolerances of the evaluators that score at several (this one, `human_agreement`).
 pub(crate) fn default_tolerances() -> Vec<TimeSpan> {
-    vec![TimeSpan::Seconds(1.0 / 12.0), TimeSpan::Seconds(0.25), TimeSpan::Seconds(0.5), TimeSpan::Seconds(1.0)]
+    vec![
+        TimeSpan::Seconds(1.0 / 12.0),
+        TimeSpan::Seconds(0.25),
+        TimeSpan::Seconds(0.5),
+        TimeSpan::Seconds(1.0),
+    ]
 }
 
 fn default_margin() -> TimeSpan {
@@ -81,10 +90,15 @@ impl ParamGuard for BoundaryMetricsParams {
     type Checked = BoundaryMetrics;
     fn check(self) -> Result<BoundaryMetrics> {
         if self.tolerances.is_empty() {
-            return Err(Error::new(ErrorKind::OutOfRange, "must list at least one tolerance").with_field("tolerances"));
+            return Err(Error::new(ErrorKind::OutOfRange, "must list at least one tolerance")
+                .with_field("tolerances"));
         }
-        let tolerances =
-            self.tolerances.into_iter().enumerate().map(|(i, t)| t.check(&format!("tolerances[{i}]"), false)).collect::<Result<_>>()?;
+        let tolerances = self
+            .tolerances
+            .into_iter()
+            .enumerate()
+            .map(|(i, t)| t.check(&format!("tolerances[{i}]"), false))
+            .collect::<Result<_>>()?;
         let margin = self.margin.check("margin", false)?;
         let chance = ChanceSettings::checked(self.chance_draws, self.chance_seed)?;
         Ok(BoundaryMetrics { tolerances, margin, chance })
@@ -164,9 +178,20 @@ impl Evaluator for BoundaryMetrics {
                 for (ti, &tol) in self.tolerances.iter().enumerate() {
                     let rule = MatchRule::time(tolerance_frames(tol, rate));
                     let s = evaluate_boundaries(&m.candidates, &truth.boundaries, &rule);
-                    let windows: Vec<TruthWindow> =
-                        truth.boundaries.iter().map(|b| TruthWindow::from_boundary(b, rule.tolerance_frames, rule.use_windows)).collect();
-                    let chance = chance_counts(m.candidates.len(), &windows, 0..n_frames, self.chance.draws, seed);
+                    let windows: Vec<TruthWindow> = truth
+                        .boundaries
+                        .iter()
+                        .map(|b| {
+                            TruthWindow::from_boundary(b, rule.tolerance_frames, rule.use_windows)
+                        })
+                        .collect();
+                    let chance = chance_counts(
+                        m.candidates.len(),
+                        &windows,
+                        0..n_frames,
+                        self.chance.draws,
+                        seed,
+                    );
                     by_tol.push(ToleranceRow {
                         sequence: seq.sequence.clone(),
                         method: m.method.clone(),
@@ -182,15 +207,26 @@ impl Evaluator for BoundaryMetrics {
                             c[2] += s.scores.n_matched;
                             parts.push(chance);
                         }
-                        None => pools.push((m.method.clone(), ti, [s.scores.n_truth, s.scores.n_found, s.scores.n_matched], vec![chance])),
+                        None => pools.push((
+                            m.method.clone(),
+                            ti,
+                            [s.scores.n_truth, s.scores.n_found, s.scores.n_matched],
+                            vec![chance],
+                        )),
                     }
                 }
-                let (f1, precision, recall) = tcpd_f_measure(&annotators, &m.candidates, margin_frames);
+                let (f1, precision, recall) =
+                    tcpd_f_measure(&annotators, &m.candidates, margin_frames);
                 let cover = covering(&annotators, &m.candidates, n_frames);
                 let k = m.candidates.len();
                 let (chance_f1, p_f1) =
-                    metric_chance(k, 0..n_frames, self.chance.draws, seed, f1, |c| tcpd_f_measure(&annotators, c, margin_frames).0);
-                let (chance_cover, p_cover) = metric_chance(k, 0..n_frames, self.chance.draws, seed, cover, |c| covering(&annotators, c, n_frames));
+                    metric_chance(k, 0..n_frames, self.chance.draws, seed, f1, |c| {
+                        tcpd_f_measure(&annotators, c, margin_frames).0
+                    });
+                let (chance_cover, p_cover) =
+                    metric_chance(k, 0..n_frames, self.chance.draws, seed, cover, |c| {
+                        covering(&annotators, c, n_frames)
+                    });
                 tcpd.push(TcpdRow {
                     sequence: seq.sequence.clone(),
                     method: m.method.clone(),
@@ -228,7 +264,10 @@ impl Evaluator for BoundaryMetrics {
             )?,
             Table::from_records(
                 "tcpd_metrics",
-                format!("TCPDBench F1 (margin {}) and segment covering per sequence and method", self.margin),
+                format!(
+                    "TCPDBench F1 (margin {}) and segment covering per sequence and method",
+                    self.margin
+                ),
                 &tcpd,
             )?,
         ])
@@ -273,7 +312,11 @@ mod tests {
             .unwrap();
         let t = &tables[0];
         assert_eq!(t.name, "boundary_f1_by_tolerance");
-        assert_eq!(f64s(t, "n_matched"), [0.0, 1.0, 2.0, 0.0, 1.0, 2.0], "3 sequence rows, then 3 pooled");
+        assert_eq!(
+            f64s(t, "n_matched"),
+            [0.0, 1.0, 2.0, 0.0, 1.0, 2.0],
+            "3 sequence rows, then 3 pooled"
+        );
         assert_eq!(f64s(t, "f1")[..3], [0.0, 0.5, 1.0]);
         let labels: Vec<String> = (0..3).map(|i| t.column("tolerance").unwrap().cell(i)).collect();
         assert_eq!(labels, ["2 frames", "5 frames", "0.25 s"]);
@@ -285,7 +328,8 @@ mod tests {
         assert!((f64s(c, "tcpd_f1")[0] - 2.0 / 3.0).abs() < 1e-15);
         // Covering: truth [0,100) by found [0,104): 100/104; [100,300) by [104,320): 196/220;
         // [300,600) by [320,600): 280/300.
-        let expected = (100.0 * (100.0 / 104.0) + 200.0 * (196.0 / 220.0) + 300.0 * (280.0 / 300.0)) / 600.0;
+        let expected =
+            (100.0 * (100.0 / 104.0) + 200.0 * (196.0 / 220.0) + 300.0 * (280.0 / 300.0)) / 600.0;
         assert!((f64s(c, "covering")[0] - expected).abs() < 1e-12);
     }
 
@@ -294,11 +338,18 @@ mod tests {
         // Consensus truth 100 from two annotators, [100] and [100, 300]; found 104; margin 5.
         // X = {0, 104}; union {0, 100, 300}: P = 2/2. Recall per annotator: {0, 100} 2/2,
         // {0, 100, 300} 2/3 → R = 5/6 (the consensus alone would give R = 1).
-        let mut seqs = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 600, "y")]), &[("m", &[104])])];
+        let mut seqs = vec![sequence(
+            "a",
+            600,
+            100.0,
+            Some(vec![(0, 100, "x"), (100, 600, "y")]),
+            &[("m", &[104])],
+        )];
         if let Some(t) = seqs[0].truth.as_mut() {
             t.annotators = vec![vec![100], vec![100, 300]];
         }
-        let tables = evaluator("margin = { frames = 5 }").evaluate(EvalInput::segmentation(&seqs)).unwrap();
+        let tables =
+            evaluator("margin = { frames = 5 }").evaluate(EvalInput::segmentation(&seqs)).unwrap();
         let c = &tables[1];
         assert_eq!(f64s(c, "n_annotators"), [2.0]);
         assert_eq!(f64s(c, "tcpd_precision"), [1.0]);
@@ -306,22 +357,34 @@ mod tests {
         let (f, _, _) = tcpd_f_measure(&[vec![100], vec![100, 300]], &[104], 5);
         assert_eq!(f64s(c, "tcpd_f1"), [f]);
         // Covering averaged over the two annotators' partitions.
-        let expected = (covering(&[vec![100]], &[104], 600) + covering(&[vec![100, 300]], &[104], 600)) / 2.0;
+        let expected =
+            (covering(&[vec![100]], &[104], 600) + covering(&[vec![100, 300]], &[104], 600)) / 2.0;
         assert!((f64s(c, "covering")[0] - expected).abs() < 1e-15);
     }
 
     #[test]
     fn chance_columns_are_boundary_prs_at_its_tolerance_and_known_answers_otherwise() {
         // 600 frames at 100 Hz, truths 100 and 300 (span: the whole motion), 2 found frames.
-        let seqs = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]), &[("m", &[104, 320])])];
-        let tables = evaluator("tolerances = [{ frames = 5 }, { seconds = 0.25 }]\nmargin = { frames = 5 }")
-            .evaluate(EvalInput::segmentation(&seqs))
-            .unwrap();
+        let seqs = vec![sequence(
+            "a",
+            600,
+            100.0,
+            Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]),
+            &[("m", &[104, 320])],
+        )];
+        let tables =
+            evaluator("tolerances = [{ frames = 5 }, { seconds = 0.25 }]\nmargin = { frames = 5 }")
+                .evaluate(EvalInput::segmentation(&seqs))
+                .unwrap();
         let t = &tables[0];
         // Exact expectation (disjoint windows of 11 frames, k = 2 of n = 600):
         // E[M] = 2·(1 − C(589, 2)/C(600, 2)); chance precision E[M]/2.
         let e = 2.0 * (1.0 - (589.0 * 588.0) / (600.0 * 599.0));
-        assert!((f64s(t, "chance_matched")[0] - e).abs() < 1e-12, "{:?}", f64s(t, "chance_matched"));
+        assert!(
+            (f64s(t, "chance_matched")[0] - e).abs() < 1e-12,
+            "{:?}",
+            f64s(t, "chance_matched")
+        );
         assert!((f64s(t, "chance_precision")[0] - e / 2.0).abs() < 1e-12);
         assert_eq!(t.column("chance_expectation").unwrap().cell(0), "exact");
         // The pooled row of one sequence is that sequence's.
@@ -329,33 +392,53 @@ mod tests {
         // At boundary_pr's tolerance and (whole) span, with the same seed, both evaluators
         // give the same chance numbers, p-value included.
         let pr: toml::Value = toml::from_str("tolerance = { seconds = 0.25 }").unwrap();
-        let pr = build_evaluator("boundary_pr", &pr).unwrap().evaluate(EvalInput::segmentation(&seqs)).unwrap();
+        let pr = build_evaluator("boundary_pr", &pr)
+            .unwrap()
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap();
         let p = pr.iter().find(|t| t.name == "table1_precision_recall").unwrap();
         for c in ["chance_matched", "chance_precision", "chance_recall", "chance_f1", "p_value"] {
             assert_eq!(f64s(t, c)[1], f64s(p, c)[0], "{c}");
         }
         // TCPDBench chance: a random pair of frames rarely lands within 5 frames of both
         // truths, so the perfect method's F1 beats nearly every draw.
-        let perfect = vec![sequence("a", 600, 100.0, Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]), &[("m", &[100, 300])])];
-        let c = evaluator("margin = { frames = 5 }\nchance_draws = 500").evaluate(EvalInput::segmentation(&perfect)).unwrap().remove(1);
+        let perfect = vec![sequence(
+            "a",
+            600,
+            100.0,
+            Some(vec![(0, 100, "x"), (100, 300, "y"), (300, 600, "z")]),
+            &[("m", &[100, 300])],
+        )];
+        let c = evaluator("margin = { frames = 5 }\nchance_draws = 500")
+            .evaluate(EvalInput::segmentation(&perfect))
+            .unwrap()
+            .remove(1);
         assert_eq!(f64s(&c, "tcpd_f1"), [1.0]);
         let (chance_f1, p_f1) = (f64s(&c, "chance_tcpd_f1")[0], f64s(&c, "p_value_tcpd_f1")[0]);
         assert!(chance_f1 > 0.3 && chance_f1 < 0.6, "{chance_f1}");
         assert!(p_f1 < 0.01, "{p_f1}");
-        assert!(f64s(&c, "chance_covering")[0] < f64s(&c, "covering")[0] && f64s(&c, "p_value_covering")[0] < 0.05);
+        assert!(
+            f64s(&c, "chance_covering")[0] < f64s(&c, "covering")[0]
+                && f64s(&c, "p_value_covering")[0] < 0.05
+        );
     }
 
     #[test]
     fn parameters_and_missing_truth_are_errors() {
         let field = |t: &str| {
             let v: toml::Value = toml::from_str(t).unwrap();
-            build_evaluator("boundary_metrics", &v).err().map(|e| e.location().field.clone().unwrap_or_default())
+            build_evaluator("boundary_metrics", &v)
+                .err()
+                .map(|e| e.location().field.clone().unwrap_or_default())
         };
         assert_eq!(field("tolerances = []").as_deref(), Some("tolerances"));
         assert_eq!(field("tolerances = [{ frames = -1 }]").as_deref(), Some("tolerances[0]"));
         assert_eq!(field("margin = { seconds = -1.0 }").as_deref(), Some("margin"));
         let seqs = vec![sequence("x", 100, 50.0, None, &[("m", &[3])])];
-        assert_eq!(evaluator("").evaluate(EvalInput::segmentation(&seqs)).unwrap_err().kind(), ErrorKind::MissingKey);
+        assert_eq!(
+            evaluator("").evaluate(EvalInput::segmentation(&seqs)).unwrap_err().kind(),
+            ErrorKind::MissingKey
+        );
         let entry = motionlab_core::registry::find("boundary_metrics").unwrap();
         assert!(entry.doc().contains("Missing samples"));
     }

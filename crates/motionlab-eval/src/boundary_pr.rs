@@ -5,14 +5,23 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Analysis, Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, Millimetres, Result, Table, TimeSpan};
+use motionlab_core::{
+    Analysis, Error, ErrorKind, EvalInput, EvalInputType, Evaluation, Evaluator, Millimetres,
+    Result, Table, TimeSpan,
+};
 
-use crate::boundary_analysis::{BoundaryAnalysis, BoundaryMatch, ChanceSetup, Counts, MatchOutcome, MethodBoundaries, SequenceBoundaries};
+use crate::boundary_analysis::{
+    BoundaryAnalysis, BoundaryMatch, ChanceSetup, Counts, MatchOutcome, MethodBoundaries,
+    SequenceBoundaries,
+};
 
 use crate::boundaries::{
-    MatchRule, PoseRule, TruthWindow, default_tolerance, evaluate_boundaries, max_matching_windows, ratios, tolerance_frames,
+    MatchRule, PoseRule, TruthWindow, default_tolerance, evaluate_boundaries, max_matching_windows,
+    ratios, tolerance_frames,
 };
-use crate::chance::{ChanceCounts, ChanceScores, ChanceSettings, chance_counts, periodic_candidates, row_seed};
+use crate::chance::{
+    ChanceCounts, ChanceScores, ChanceSettings, chance_counts, periodic_candidates, row_seed,
+};
 use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
 use crate::span::{Span, counted};
 
@@ -113,7 +122,6 @@ pub struct BoundaryPrParams {
     pub chance_seed: u64,
 }
 
-
 fn default_root() -> String {
     "root".into()
 }
@@ -140,8 +148,11 @@ impl ParamGuard for BoundaryPrParams {
             None => None,
             Some(Millimetres(v)) if v.is_finite() && v > 0.0 => Some(v),
             Some(Millimetres(v)) => {
-                return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite distance > 0 mm, found {v}"))
-                    .with_field("pose_mm"));
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("must be a finite distance > 0 mm, found {v}"),
+                )
+                .with_field("pose_mm"));
             }
         };
         if pose_max_gap.is_some() && pose_mm.is_none() {
@@ -152,11 +163,15 @@ impl ParamGuard for BoundaryPrParams {
             .with_field("pose_max_gap"));
         }
         if self.root.trim().is_empty() {
-            return Err(Error::new(ErrorKind::OutOfRange, "must name a marker or joint, found an empty name")
-                .with_field("root"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "must name a marker or joint, found an empty name",
+            )
+            .with_field("root"));
         }
         if self.claim_against.as_ref().is_some_and(|v| v.is_empty()) {
-            return Err(Error::new(ErrorKind::OutOfRange, "must name at least one method").with_field("claim_against"));
+            return Err(Error::new(ErrorKind::OutOfRange, "must name at least one method")
+                .with_field("claim_against"));
         }
         let chance = ChanceSettings::checked(self.chance_draws, self.chance_seed)?;
         Ok(BoundaryPr {
@@ -337,9 +352,15 @@ impl Evaluator for BoundaryPr {
             let period_s = rate.frame_period().value();
             let pose = match self.pose_mm {
                 None => None,
-                Some(mm) => Some(PoseRule::new(&seq.motion, &self.root, mm, self.pose_max_gap).map_err(|e| {
-                    if e.location().file.is_none() { e.with_location(location_of(seq).field("root")) } else { e }
-                })?),
+                Some(mm) => Some(
+                    PoseRule::new(&seq.motion, &self.root, mm, self.pose_max_gap).map_err(|e| {
+                        if e.location().file.is_none() {
+                            e.with_location(location_of(seq).field("root"))
+                        } else {
+                            e
+                        }
+                    })?,
+                ),
             };
             let rule = MatchRule {
                 tolerance_frames: tolerance_frames(self.tolerance, rate),
@@ -352,7 +373,8 @@ impl Evaluator for BoundaryPr {
             let span = match (self.span, crate::span::annotated_span(truth)) {
                 (Span::Annotated, Some((first, last))) => {
                     let lo = (first as f64 - rule.tolerance_frames).ceil().max(0.0) as usize;
-                    let hi = ((last as f64 + rule.tolerance_frames).floor() as usize + 1).min(n_frames);
+                    let hi =
+                        ((last as f64 + rule.tolerance_frames).floor() as usize + 1).min(n_frames);
                     lo.min(hi)..hi
                 }
                 (Span::Annotated, None) => 0..0,
@@ -382,7 +404,12 @@ impl Evaluator for BoundaryPr {
             let mut judged = SequenceBoundaries {
                 sequence: seq.sequence.clone(),
                 tolerance_frames: self.tolerance.frames_at(rate),
-                chance: ChanceSetup { span: span.clone(), windows: windows.clone(), draws: self.chance.draws, seed: self.chance.seed },
+                chance: ChanceSetup {
+                    span: span.clone(),
+                    windows: windows.clone(),
+                    draws: self.chance.draws,
+                    seed: self.chance.seed,
+                },
                 methods: Vec::new(),
             };
             for m in &seq.methods {
@@ -444,7 +471,11 @@ impl Evaluator for BoundaryPr {
                 pool.chance.push(baselines.chance);
 
                 let matches = matches_of(&candidates, &truth.frames(), &s);
-                match_rows.extend(matches.iter().map(|b| BoundaryMatchRow::of(&seq.sequence, &m.method, b, period_s)));
+                match_rows.extend(
+                    matches
+                        .iter()
+                        .map(|b| BoundaryMatchRow::of(&seq.sequence, &m.method, b, period_s)),
+                );
                 judged.methods.push(MethodBoundaries {
                     method: m.method.clone(),
                     counts: Counts {
@@ -501,9 +532,14 @@ impl Evaluator for BoundaryPr {
                 ),
                 &rows,
             )?,
-            Table::from_records("boundary_matches", "Matched, missed and extra boundaries per method", &match_rows)?,
+            Table::from_records(
+                "boundary_matches",
+                "Matched, missed and extra boundaries per method",
+                &match_rows,
+            )?,
         ];
-        if let Some(claim) = fused_recall_claim(&rows, n_evaluated, self.claim_against.as_deref())? {
+        if let Some(claim) = fused_recall_claim(&rows, n_evaluated, self.claim_against.as_deref())?
+        {
             tables.push(Table::from_records(
                 "claim_fused_recall",
                 "Does the fused method's pooled recall exceed every single method's?",
@@ -527,15 +563,26 @@ impl BoundaryMatchRow {
             outcome: b.outcome.as_str(),
             truth_frame: b.truth_frame,
             found_frame: b.found_frame,
-            offset_s: b.truth_frame.zip(b.found_frame).map(|(t, f)| (f as f64 - t as f64) * period_s),
+            offset_s: b
+                .truth_frame
+                .zip(b.found_frame)
+                .map(|(t, f)| (f as f64 - t as f64) * period_s),
         }
     }
 }
 
 /// Every truth (matched or missed) and every unmatched found frame of one method on one
 /// sequence, in frame order.
-fn matches_of(found: &[usize], truth: &[usize], s: &crate::boundaries::BoundaryScores) -> Vec<BoundaryMatch> {
-    let mark = |outcome, truth_frame: Option<usize>, found_frame: Option<usize>| BoundaryMatch { outcome, truth_frame, found_frame };
+fn matches_of(
+    found: &[usize],
+    truth: &[usize],
+    s: &crate::boundaries::BoundaryScores,
+) -> Vec<BoundaryMatch> {
+    let mark = |outcome, truth_frame: Option<usize>, found_frame: Option<usize>| BoundaryMatch {
+        outcome,
+        truth_frame,
+        found_frame,
+    };
     let mut out: Vec<(usize, BoundaryMatch)> = Vec::new();
     // Duplicated frames are counted: remove one occurrence per pair.
     let mut unmatched_truth = truth.to_vec();
@@ -558,7 +605,11 @@ fn matches_of(found: &[usize], truth: &[usize], s: &crate::boundaries::BoundaryS
 
 /// The paper's central claim on the pooled rows: the last method's recall against the others'
 /// (or against the named ones).
-fn fused_recall_claim(rows: &[PrecisionRecallRow], n_sequences: usize, against: Option<&[String]>) -> Result<Option<FusedRecallClaim>> {
+fn fused_recall_claim(
+    rows: &[PrecisionRecallRow],
+    n_sequences: usize,
+    against: Option<&[String]>,
+) -> Result<Option<FusedRecallClaim>> {
     let pooled: Vec<&PrecisionRecallRow> = rows.iter().filter(|r| r.sequence == "pooled").collect();
     let Some((fused, others)) = pooled.split_last() else { return Ok(None) };
     let others: Vec<&&PrecisionRecallRow> = match against {
@@ -566,14 +617,21 @@ fn fused_recall_claim(rows: &[PrecisionRecallRow], n_sequences: usize, against: 
         Some(names) => {
             for n in names {
                 if !others.iter().any(|o| &o.method == n) {
-                    return Err(Error::new(ErrorKind::UnknownName, format!("claim_against names {n:?}, which is not a method of this experiment"))
-                        .with_field("claim_against"));
+                    return Err(Error::new(
+                        ErrorKind::UnknownName,
+                        format!(
+                            "claim_against names {n:?}, which is not a method of this experiment"
+                        ),
+                    )
+                    .with_field("claim_against"));
                 }
             }
             others.iter().filter(|o| names.contains(&o.method)).collect()
         }
     };
-    let Some(best) = others.iter().max_by(|a, b| a.recall.total_cmp(&b.recall)) else { return Ok(None) };
+    let Some(best) = others.iter().max_by(|a, b| a.recall.total_cmp(&b.recall)) else {
+        return Ok(None);
+    };
     Ok(Some(FusedRecallClaim {
         fused_method: fused.method.clone(),
         fused_recall: fused.recall,
@@ -623,13 +681,26 @@ mod tests {
                 Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 300, "x"), (300, 600, "z")]),
                 &[("speed", &[105, 290, 500]), ("fused", &[100, 200, 300, 400])],
             ),
-            sequence("b", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("speed", &[]), ("fused", &[52])]),
+            sequence(
+                "b",
+                100,
+                50.0,
+                Some(vec![(0, 50, "x"), (50, 100, "y")]),
+                &[("speed", &[]), ("fused", &[52])],
+            ),
         ];
-        let e = evaluator("tolerance = { seconds = 0.1 }\nchance_draws = 200").evaluate_with_analysis(EvalInput::segmentation(&seqs)).unwrap();
+        let e = evaluator("tolerance = { seconds = 0.1 }\nchance_draws = 200")
+            .evaluate_with_analysis(EvalInput::segmentation(&seqs))
+            .unwrap();
         let a = e.analysis::<BoundaryAnalysis>().unwrap();
         let t1 = &e.tables[0];
         let (seq, method) = (strs(t1, "sequence"), strs(t1, "method"));
-        let (truth, found, matched, tol) = (f64s(t1, "n_truth"), f64s(t1, "n_found"), f64s(t1, "n_matched"), strs(t1, "tolerance_frames"));
+        let (truth, found, matched, tol) = (
+            f64s(t1, "n_truth"),
+            f64s(t1, "n_found"),
+            f64s(t1, "n_matched"),
+            strs(t1, "tolerance_frames"),
+        );
         let mut rows = 0;
         for r in 0..t1.n_rows() {
             let counts = if seq[r] == "pooled" {
@@ -639,7 +710,11 @@ mod tests {
                 assert_eq!(s.tolerance_frames.to_string(), tol[r]);
                 s.method(&method[r]).unwrap().counts
             };
-            assert_eq!((counts.n_truth as f64, counts.n_found as f64, counts.n_matched as f64), (truth[r], found[r], matched[r]), "row {r}");
+            assert_eq!(
+                (counts.n_truth as f64, counts.n_found as f64, counts.n_matched as f64),
+                (truth[r], found[r], matched[r]),
+                "row {r}"
+            );
             rows += 1;
         }
         assert_eq!(rows, 6);
@@ -647,21 +722,49 @@ mod tests {
         let listed: Vec<String> = a
             .sequences
             .iter()
-            .flat_map(|s| s.methods.iter().flat_map(move |m| m.matches.iter().map(move |b| format!("{} {} {} {:?} {:?}", s.sequence, m.method, b.outcome.as_str(), b.truth_frame, b.found_frame))))
+            .flat_map(|s| {
+                s.methods.iter().flat_map(move |m| {
+                    m.matches.iter().map(move |b| {
+                        format!(
+                            "{} {} {} {:?} {:?}",
+                            s.sequence,
+                            m.method,
+                            b.outcome.as_str(),
+                            b.truth_frame,
+                            b.found_frame
+                        )
+                    })
+                })
+            })
             .collect();
         let frame = |c: &str, r: usize| bm.column(c).unwrap().cell(r).parse::<usize>().ok();
         let tabled: Vec<String> = (0..bm.n_rows())
-            .map(|r| format!("{} {} {} {:?} {:?}", strs(bm, "sequence")[r], strs(bm, "method")[r], strs(bm, "outcome")[r], frame("truth_frame", r), frame("found_frame", r)))
+            .map(|r| {
+                format!(
+                    "{} {} {} {:?} {:?}",
+                    strs(bm, "sequence")[r],
+                    strs(bm, "method")[r],
+                    strs(bm, "outcome")[r],
+                    frame("truth_frame", r),
+                    frame("found_frame", r)
+                )
+            })
             .collect();
         assert_eq!(listed, tabled);
         let cw = e.tables.iter().find(|t| t.name == "chance_windows").unwrap();
         let starts = f64s(cw, "span_start");
         let los = f64s(cw, "window_lo");
-        let from_analysis: Vec<(f64, f64)> =
-            a.sequences.iter().flat_map(|s| s.chance.windows.iter().map(move |w| (s.chance.span.start as f64, w.lo))).collect();
+        let from_analysis: Vec<(f64, f64)> = a
+            .sequences
+            .iter()
+            .flat_map(|s| s.chance.windows.iter().map(move |w| (s.chance.span.start as f64, w.lo)))
+            .collect();
         assert_eq!(from_analysis, starts.into_iter().zip(los).collect::<Vec<_>>());
         // Restored from its encoded form (as a cached run reads it), it is the same value.
-        let restored = motionlab_core::Analysis::restored(e.analysis.as_ref().unwrap().type_name(), e.analysis.as_ref().unwrap().encode().unwrap());
+        let restored = motionlab_core::Analysis::restored(
+            e.analysis.as_ref().unwrap().type_name(),
+            e.analysis.as_ref().unwrap().encode().unwrap(),
+        );
         assert_eq!(restored.read::<BoundaryAnalysis>().as_ref(), Some(a));
     }
 
@@ -682,10 +785,18 @@ mod tests {
                 Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 300, "x"), (300, 600, "z")]),
                 &[("speed", &[105, 290, 500]), ("fused", &[100, 200, 300, 400])],
             ),
-            sequence("b", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("speed", &[]), ("fused", &[52])]),
+            sequence(
+                "b",
+                100,
+                50.0,
+                Some(vec![(0, 50, "x"), (50, 100, "y")]),
+                &[("speed", &[]), ("fused", &[52])],
+            ),
             sequence("no_truth", 100, 50.0, None, &[("speed", &[3]), ("fused", &[3])]),
         ];
-        let tables = evaluator("tolerance = { seconds = 0.1 }").evaluate(EvalInput::segmentation(&seqs)).unwrap();
+        let tables = evaluator("tolerance = { seconds = 0.1 }")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap();
         let t = &tables[0];
         assert_eq!(t.name, "table1_precision_recall");
         assert_eq!(strs(t, "sequence"), ["a", "a", "b", "b", "pooled", "pooled"]);
@@ -717,10 +828,24 @@ mod tests {
         // probability 7/100 (exact: a single window). "hit" finds 50, "miss" finds 80; the
         // periodic baseline puts its one candidate at 50 (centred) and matches.
         let seqs = vec![
-            sequence("a", 100, 100.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("hit", &[50]), ("miss", &[80])]),
-            sequence("b", 100, 100.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("hit", &[51]), ("miss", &[])]),
+            sequence(
+                "a",
+                100,
+                100.0,
+                Some(vec![(0, 50, "x"), (50, 100, "y")]),
+                &[("hit", &[50]), ("miss", &[80])],
+            ),
+            sequence(
+                "b",
+                100,
+                100.0,
+                Some(vec![(0, 50, "x"), (50, 100, "y")]),
+                &[("hit", &[51]), ("miss", &[])],
+            ),
         ];
-        let t = &evaluator("tolerance = { frames = 3 }").evaluate(EvalInput::segmentation(&seqs)).unwrap()[0];
+        let t = &evaluator("tolerance = { frames = 3 }")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap()[0];
         assert_eq!(strs(t, "chance_expectation"), ["exact"; 6]);
         let cp = f64s(t, "chance_precision");
         assert!((cp[0] - 0.07).abs() < 1e-15 && (cp[1] - 0.07).abs() < 1e-15, "{cp:?}");
@@ -741,9 +866,13 @@ mod tests {
         assert_eq!(f64s(t, "periodic_n_found"), [1.0, 1.0, 1.0, 1.0, 2.0, 2.0]);
         assert_eq!(f64s(t, "periodic_f1"), [1.0; 6]);
         // The same seed gives the same p-values; another seed other ones.
-        let again = &evaluator("tolerance = { frames = 3 }").evaluate(EvalInput::segmentation(&seqs)).unwrap()[0];
+        let again = &evaluator("tolerance = { frames = 3 }")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap()[0];
         assert_eq!(f64s(again, "p_value"), p);
-        let other = &evaluator("tolerance = { frames = 3 }\nchance_seed = 1").evaluate(EvalInput::segmentation(&seqs)).unwrap()[0];
+        let other = &evaluator("tolerance = { frames = 3 }\nchance_seed = 1")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap()[0];
         assert_ne!(f64s(other, "p_value"), p);
     }
 
@@ -763,9 +892,17 @@ mod tests {
             let t = tables.into_iter().find(|t| t.name == "claim_fused_recall").unwrap();
             (strs(&t, "best_other_method")[0].clone(), t.column("fused_exceeds_all").cloned())
         };
-        assert_eq!(claim("tolerance = { frames = 5 }"), ("b".to_string(), Some(ColumnValues::Bool(vec![false]))));
-        assert_eq!(claim("tolerance = { frames = 5 }\nclaim_against = [\"a\"]"), ("a".to_string(), Some(ColumnValues::Bool(vec![true]))));
-        let bad = evaluator("claim_against = [\"zz\"]").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
+        assert_eq!(
+            claim("tolerance = { frames = 5 }"),
+            ("b".to_string(), Some(ColumnValues::Bool(vec![false])))
+        );
+        assert_eq!(
+            claim("tolerance = { frames = 5 }\nclaim_against = [\"a\"]"),
+            ("a".to_string(), Some(ColumnValues::Bool(vec![true])))
+        );
+        let bad = evaluator("claim_against = [\"zz\"]")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap_err();
         assert_eq!(bad.location().field.as_deref(), Some("claim_against"));
     }
 
@@ -778,13 +915,17 @@ mod tests {
             Some(vec![(0, 100, "x"), (100, 200, "y"), (200, 600, "x")]),
             &[("m", &[103, 400])],
         )];
-        let tables = evaluator("tolerance = { frames = 5 }").evaluate(EvalInput::segmentation(&seqs)).unwrap();
+        let tables = evaluator("tolerance = { frames = 5 }")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap();
         let t = &tables[1];
         assert_eq!(strs(t, "outcome"), ["matched", "missed", "extra"]);
         // Absent frames are nulls, which a number column holds as NaN.
         assert_eq!(strs(t, "truth_frame"), ["100", "200", "NaN"]);
         assert_eq!(strs(t, "found_frame"), ["103", "NaN", "400"]);
-        assert!((t.column("offset_s").unwrap().cell(0).parse::<f64>().unwrap() - 0.03).abs() < 1e-12);
+        assert!(
+            (t.column("offset_s").unwrap().cell(0).parse::<f64>().unwrap() - 0.03).abs() < 1e-12
+        );
         assert_eq!(tables.len(), 3, "one method: no claim table");
         assert_eq!(tables[2].name, "chance_windows");
     }
@@ -793,9 +934,19 @@ mod tests {
     fn the_pose_rule_counts_pairs_outside_the_time_window() {
         // Root m0 still; marker m1 at height 100 except frames 40–59 (300). Truth at 20; a
         // method finding 70 matches by pose (same pose as 20), one finding 50 does not.
-        let mut seq = sequence("p", 100, 10.0, Some(vec![(0, 20, "x"), (20, 100, "y")]), &[("m", &[70]), ("n", &[50])]);
+        let mut seq = sequence(
+            "p",
+            100,
+            10.0,
+            Some(vec![(0, 20, "x"), (20, 100, "y")]),
+            &[("m", &[70]), ("n", &[50])],
+        );
         let motion = motionlab_testkit::named_motion(100, 10.0, &["root", "hand"], |i, k| {
-            if k == 0 { [0.0; 3] } else { [0.0, 0.0, if (40..60).contains(&i) { 300.0 } else { 100.0 }] }
+            if k == 0 {
+                [0.0; 3]
+            } else {
+                [0.0, 0.0, if (40..60).contains(&i) { 300.0 } else { 100.0 }]
+            }
         });
         seq.motion = std::sync::Arc::new(motion);
         let tables = evaluator("tolerance = { frames = 2 }\npose_mm = 10.0")
@@ -805,24 +956,39 @@ mod tests {
         assert_eq!(f64s(&tables[0], "n_matched_by_pose")[..2], [1.0, 0.0]);
         assert_eq!(strs(&tables[1], "outcome")[0], "matched_by_pose");
         // Without pose_mm the same input matches nothing.
-        let tables = evaluator("tolerance = { frames = 2 }").evaluate(EvalInput::segmentation(&vec![seq.clone()])).unwrap();
+        let tables = evaluator("tolerance = { frames = 2 }")
+            .evaluate(EvalInput::segmentation(&vec![seq.clone()]))
+            .unwrap();
         assert_eq!(f64s(&tables[0], "n_matched")[..2], [0.0, 0.0]);
         // A root that does not exist is an error naming the field.
-        let e = evaluator("pose_mm = 10.0\nroot = \"pelvis\"").evaluate(EvalInput::segmentation(&vec![seq])).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::UnknownName, Some("root")));
+        let e = evaluator("pose_mm = 10.0\nroot = \"pelvis\"")
+            .evaluate(EvalInput::segmentation(&vec![seq]))
+            .unwrap_err();
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::UnknownName, Some("root"))
+        );
     }
 
     #[test]
     fn no_ground_truth_anywhere_and_wrong_inputs_are_errors() {
         let seqs = vec![sequence("x", 100, 50.0, None, &[("m", &[3])])];
         let e = evaluator("").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::MissingKey, Some("truth")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::MissingKey, Some("truth"))
+        );
         // Results of another workflow: an error naming what it reads and what it got.
         let e = evaluator("").evaluate(EvalInput::new(&vec![1_u8])).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Mismatch);
-        assert!(e.to_string().contains("boundary_pr evaluates segmentation results") && e.to_string().contains("Vec<u8>"), "{e}");
+        assert!(
+            e.to_string().contains("boundary_pr evaluates segmentation results")
+                && e.to_string().contains("Vec<u8>"),
+            "{e}"
+        );
         // Ground truth at another rate than its motion.
-        let mut s = sequence("r", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("m", &[3])]);
+        let mut s =
+            sequence("r", 100, 50.0, Some(vec![(0, 50, "x"), (50, 100, "y")]), &[("m", &[3])]);
         s.truth.as_mut().unwrap().frame_rate = motionlab_core::FrameRate::new(120.0).unwrap();
         let e = evaluator("").evaluate(EvalInput::segmentation(&vec![s])).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Mismatch);
@@ -835,7 +1001,11 @@ mod tests {
             assert_eq!(entry.kind, motionlab_core::StageKind::Evaluator);
             assert!(entry.doc().contains("Missing samples"), "{name} documents missing samples");
             for p in entry.params() {
-                assert!(!p.description.is_empty() && (p.required || p.default.is_some()), "{name}.{}: {p:?}", p.name);
+                assert!(
+                    !p.description.is_empty() && (p.required || p.default.is_some()),
+                    "{name}.{}: {p:?}",
+                    p.name
+                );
             }
         }
         let problems: Vec<String> = motionlab_core::registry::check_registry()
@@ -849,20 +1019,29 @@ mod tests {
     fn parameters_are_validated_naming_the_field() {
         let field = |t: &str| {
             let v: toml::Value = toml::from_str(t).unwrap();
-            build_evaluator("boundary_pr", &v).err().map(|e| (e.kind(), e.location().field.clone().unwrap_or_default()))
+            build_evaluator("boundary_pr", &v)
+                .err()
+                .map(|e| (e.kind(), e.location().field.clone().unwrap_or_default()))
         };
-        assert_eq!(field("tolerance = { frames = -1 }"), Some((ErrorKind::OutOfRange, "tolerance".into())));
+        assert_eq!(
+            field("tolerance = { frames = -1 }"),
+            Some((ErrorKind::OutOfRange, "tolerance".into()))
+        );
         assert_eq!(field("pose_mm = 0.0"), Some((ErrorKind::OutOfRange, "pose_mm".into())));
         assert_eq!(
             field("pose_max_gap = { seconds = 1.0 }"),
             Some((ErrorKind::InvalidParameter, "pose_max_gap".into()))
         );
         assert_eq!(field("root = \" \""), Some((ErrorKind::OutOfRange, "root".into())));
-        assert_eq!(field("chance_draws = 10"), Some((ErrorKind::OutOfRange, "chance_draws".into())));
+        assert_eq!(
+            field("chance_draws = 10"),
+            Some((ErrorKind::OutOfRange, "chance_draws".into()))
+        );
         assert_eq!(field("tolerance = 5"), Some((ErrorKind::WrongType, "tolerance".into())));
         assert_eq!(field("tolerence = { frames = 5 }").map(|f| f.0), Some(ErrorKind::UnknownKey));
         assert_eq!(field(""), None);
-        let p: BoundaryPrParams = parse_params(&motionlab_core::registry::default_params()).unwrap();
+        let p: BoundaryPrParams =
+            parse_params(&motionlab_core::registry::default_params()).unwrap();
         assert_eq!(p.tolerance, TimeSpan::Seconds(1.0 / 12.0));
         assert_eq!(evaluator("").input_type(), EvalInputType::segmentation());
     }

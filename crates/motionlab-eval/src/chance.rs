@@ -70,7 +70,9 @@ impl ChanceSettings {
         if draws < 100 {
             return Err(motionlab_core::Error::new(
                 motionlab_core::ErrorKind::OutOfRange,
-                format!("must be at least 100 draws (p-values below 0.01 need them), found {draws}"),
+                format!(
+                    "must be at least 100 draws (p-values below 0.01 need them), found {draws}"
+                ),
             )
             .with_field("chance_draws"));
         }
@@ -113,7 +115,13 @@ impl ChanceCounts {
     /// Pools per-sequence baselines of one method: sums of expectations, counts and draws
     /// (draw `i` of each); the standard error adds in quadrature. All must have the same draws.
     pub fn pooled<'a>(parts: impl IntoIterator<Item = &'a ChanceCounts>) -> ChanceCounts {
-        let mut out = ChanceCounts { n_found: 0, expected_matched: 0.0, expected_matched_se: 0.0, exact: true, draws: Vec::new() };
+        let mut out = ChanceCounts {
+            n_found: 0,
+            expected_matched: 0.0,
+            expected_matched_se: 0.0,
+            exact: true,
+            draws: Vec::new(),
+        };
         let mut var = 0.0;
         for p in parts {
             out.n_found += p.n_found;
@@ -177,7 +185,16 @@ impl ChanceScores {
     /// No baseline: NaN numbers, empty labels.
     pub fn none() -> Self {
         let nan = f64::NAN;
-        ChanceScores { expectation: "", matched: nan, precision: nan, recall: nan, f1: nan, f1_se: nan, p_value: nan, above: "" }
+        ChanceScores {
+            expectation: "",
+            matched: nan,
+            precision: nan,
+            recall: nan,
+            f1: nan,
+            f1_se: nan,
+            p_value: nan,
+            above: "",
+        }
     }
 
     /// The columns of `chance` against `n_truth` truths, with `observed` matches for the p-value.
@@ -215,11 +232,16 @@ pub fn row_seed(base: u64, sequence: &str, method: &str) -> u64 {
 
 /// Exact `E[M]` for `k` uniform distinct frames of `span` when the windows' integer frames in
 /// the span are pairwise disjoint; None when two windows share a frame (see the module docs).
-pub fn exact_expected_matches(k: usize, windows: &[TruthWindow], span: std::ops::Range<usize>) -> Option<f64> {
+pub fn exact_expected_matches(
+    k: usize,
+    windows: &[TruthWindow],
+    span: std::ops::Range<usize>,
+) -> Option<f64> {
     let n = span.len();
     let k = k.min(n);
     // Integer frames [lo, hi] of each window inside the span (empty when lo > hi).
-    let mut frames: Vec<(usize, usize)> = windows.iter().filter_map(|w| integer_frames(w, &span)).collect();
+    let mut frames: Vec<(usize, usize)> =
+        windows.iter().filter_map(|w| integer_frames(w, &span)).collect();
     frames.sort_unstable();
     if frames.windows(2).any(|p| p[1].0 <= p[0].1) {
         return None;
@@ -255,18 +277,39 @@ fn integer_frames(w: &TruthWindow, span: &std::ops::Range<usize>) -> Option<(usi
 /// The chance baseline of `k` candidates against `windows` over `span` (module docs):
 /// `settings.draws` draws seeded with `seed`; the expectation is exact when the windows are
 /// disjoint, else the Monte Carlo mean with its standard error.
-pub fn chance_counts(k: usize, windows: &[TruthWindow], span: std::ops::Range<usize>, draws: usize, seed: u64) -> ChanceCounts {
+pub fn chance_counts(
+    k: usize,
+    windows: &[TruthWindow],
+    span: std::ops::Range<usize>,
+    draws: usize,
+    seed: u64,
+) -> ChanceCounts {
     let k = k.min(span.len());
     let mut draw = Draws::new(k, span.clone(), seed);
     let mut counts = Vec::with_capacity(draws);
     for _ in 0..draws {
         // At most k ≤ n pairs, so the count fits u32 for any span a motion can have.
-        counts.push(u32::try_from(max_matching_windows(draw.next_draw(), windows).len()).unwrap_or(u32::MAX));
+        counts.push(
+            u32::try_from(max_matching_windows(draw.next_draw(), windows).len())
+                .unwrap_or(u32::MAX),
+        );
     }
     let (mean, se) = mean_and_se(&counts);
     match exact_expected_matches(k, windows, span) {
-        Some(e) => ChanceCounts { n_found: k, expected_matched: e, expected_matched_se: 0.0, exact: true, draws: counts },
-        None => ChanceCounts { n_found: k, expected_matched: mean, expected_matched_se: se, exact: false, draws: counts },
+        Some(e) => ChanceCounts {
+            n_found: k,
+            expected_matched: e,
+            expected_matched_se: 0.0,
+            exact: true,
+            draws: counts,
+        },
+        None => ChanceCounts {
+            n_found: k,
+            expected_matched: mean,
+            expected_matched_se: se,
+            exact: false,
+            draws: counts,
+        },
     }
 }
 
@@ -284,7 +327,13 @@ impl Draws {
     /// `k` is capped at the span's length.
     pub fn new(k: usize, span: std::ops::Range<usize>, seed: u64) -> Self {
         let k = k.min(span.len());
-        Draws { k, rng: fastrand::Rng::with_seed(seed), taken: vec![false; span.len()], picks: Vec::with_capacity(k), span }
+        Draws {
+            k,
+            rng: fastrand::Rng::with_seed(seed),
+            taken: vec![false; span.len()],
+            picks: Vec::with_capacity(k),
+            span,
+        }
     }
 
     /// The next set, in draw order (not sorted).
@@ -309,14 +358,27 @@ impl Draws {
 /// frames of `span` (sorted), its mean and the one-sided p-value of `observed` (the add-one
 /// rule of the module docs: `(1 + #{draws scoring ≥ observed}) / (1 + N)`). NaN draws (a
 /// metric undefined on a set) are left out of both.
-pub fn metric_chance(k: usize, span: std::ops::Range<usize>, draws: usize, seed: u64, observed: f64, metric: impl FnMut(&[usize]) -> f64) -> (f64, f64) {
+pub fn metric_chance(
+    k: usize,
+    span: std::ops::Range<usize>,
+    draws: usize,
+    seed: u64,
+    observed: f64,
+    metric: impl FnMut(&[usize]) -> f64,
+) -> (f64, f64) {
     chance_of_draws(&metric_draws(k, span, draws, seed, metric), observed)
 }
 
 /// `metric` of each of `draws` random sets of `k` distinct frames of `span` (sorted), in draw
 /// order — the draws [`metric_chance`] summarises, kept for pooling: draw `i` of a mean over
 /// sequences is the mean of draw `i` of each.
-pub fn metric_draws(k: usize, span: std::ops::Range<usize>, draws: usize, seed: u64, mut metric: impl FnMut(&[usize]) -> f64) -> Vec<f64> {
+pub fn metric_draws(
+    k: usize,
+    span: std::ops::Range<usize>,
+    draws: usize,
+    seed: u64,
+    mut metric: impl FnMut(&[usize]) -> f64,
+) -> Vec<f64> {
     let mut d = Draws::new(k, span, seed);
     let mut sorted = Vec::with_capacity(k);
     (0..draws)
@@ -378,9 +440,13 @@ mod tests {
         assert_eq!(metric_chance(7, 0..50, 99, 1, 7.0, |c| c.len() as f64), (7.0, 1.0));
         assert_eq!(metric_chance(7, 0..50, 99, 1, 8.0, |c| c.len() as f64), (7.0, 0.01));
         // Sets are sorted, distinct and inside the span; k is capped at the span's length.
-        let (ok, _) = metric_chance(5, 10..15, 20, 2, 0.0, |c| f64::from(u8::from(c == [10, 11, 12, 13, 14])));
+        let (ok, _) = metric_chance(5, 10..15, 20, 2, 0.0, |c| {
+            f64::from(u8::from(c == [10, 11, 12, 13, 14]))
+        });
         assert_eq!(ok, 1.0);
-        let (_, p) = metric_chance(3, 0..100, 50, 3, 1.0, |c| f64::from(u8::from(c.windows(2).all(|w| w[0] < w[1]) && c[2] < 100)));
+        let (_, p) = metric_chance(3, 0..100, 50, 3, 1.0, |c| {
+            f64::from(u8::from(c.windows(2).all(|w| w[0] < w[1]) && c[2] < 100))
+        });
         assert_eq!(p, 1.0);
         // NaN draws and a NaN observation are left out.
         assert!(metric_chance(3, 0..10, 10, 4, 0.5, |_| f64::NAN).0.is_nan());
@@ -398,7 +464,9 @@ mod tests {
         let w = around(&[50], 3.0);
         assert!((exact_expected_matches(1, &w, 0..100).unwrap() - 0.07).abs() < 1e-15);
         // At the edge the window is cut by the span: truth 1 → frames 0..=4, P = 5/100.
-        assert!((exact_expected_matches(1, &around(&[1], 3.0), 0..100).unwrap() - 0.05).abs() < 1e-15);
+        assert!(
+            (exact_expected_matches(1, &around(&[1], 3.0), 0..100).unwrap() - 0.05).abs() < 1e-15
+        );
         // Two candidates: P(hit) = 1 − (93·92)/(100·99).
         let e = exact_expected_matches(2, &w, 0..100).unwrap();
         assert!((e - (1.0 - 93.0 * 92.0 / 9900.0)).abs() < 1e-15);
@@ -421,7 +489,11 @@ mod tests {
             assert!(c.exact);
             let (mean, se) = mean_and_se(&c.draws);
             assert!(se > 0.0);
-            assert!((mean - c.expected_matched).abs() < 3.0 * se, "k {k}: mc {mean} ± {se}, exact {}", c.expected_matched);
+            assert!(
+                (mean - c.expected_matched).abs() < 3.0 * se,
+                "k {k}: mc {mean} ± {se}, exact {}",
+                c.expected_matched
+            );
         }
     }
 
@@ -454,11 +526,23 @@ mod tests {
 
     #[test]
     fn p_values_follow_the_add_one_rule_and_pooling_sums_draw_by_draw() {
-        let c = ChanceCounts { n_found: 2, expected_matched: 1.0, expected_matched_se: 0.1, exact: false, draws: vec![0, 1, 2, 1] };
+        let c = ChanceCounts {
+            n_found: 2,
+            expected_matched: 1.0,
+            expected_matched_se: 0.1,
+            exact: false,
+            draws: vec![0, 1, 2, 1],
+        };
         assert_eq!(c.p_value(2), 2.0 / 5.0);
         assert_eq!(c.p_value(3), 1.0 / 5.0);
         assert_eq!(c.p_value(0), 1.0);
-        let d = ChanceCounts { n_found: 3, expected_matched: 0.5, expected_matched_se: 0.2, exact: true, draws: vec![1, 0, 0, 1] };
+        let d = ChanceCounts {
+            n_found: 3,
+            expected_matched: 0.5,
+            expected_matched_se: 0.2,
+            exact: true,
+            draws: vec![1, 0, 0, 1],
+        };
         let p = ChanceCounts::pooled([&c, &d]);
         assert_eq!(p.draws, [1, 1, 2, 2]);
         assert_eq!((p.n_found, p.expected_matched, p.exact), (5, 1.5, false));
@@ -471,7 +555,10 @@ mod tests {
     #[test]
     fn the_seed_fixes_the_draws_and_names_change_them() {
         let w = around(&[20, 60], 5.0);
-        assert_eq!(chance_counts(4, &w, 0..100, 100, 9).draws, chance_counts(4, &w, 0..100, 100, 9).draws);
+        assert_eq!(
+            chance_counts(4, &w, 0..100, 100, 9).draws,
+            chance_counts(4, &w, 0..100, 100, 9).draws
+        );
         assert_ne!(row_seed(16, "a", "speed"), row_seed(16, "a", "hull"));
         assert_ne!(row_seed(16, "ab", "c"), row_seed(16, "a", "bc"));
     }

@@ -26,7 +26,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Boundary, Error, ErrorKind, MillimetresPerSecond, Motion, Result, Segmentation, TimeSpan};
+use motionlab_core::{
+    Boundary, Error, ErrorKind, MillimetresPerSecond, Motion, Result, Segmentation, TimeSpan,
+};
 use motionlab_features::speed::marker_speeds;
 
 use crate::boundaries::tolerance_frames;
@@ -98,9 +100,8 @@ impl ParamGuard for ConsensusParams {
     fn check(self) -> Result<Consensus> {
         let tolerance = self.tolerance.check("tolerance", false)?;
         if self.min_votes == Some(0) {
-            return Err(
-                Error::new(ErrorKind::OutOfRange, "must be at least 1 annotator, found 0").with_field("min_votes")
-            );
+            return Err(Error::new(ErrorKind::OutOfRange, "must be at least 1 annotator, found 0")
+                .with_field("min_votes"));
         }
         let stop_rule = match self.stop_rule {
             None => None,
@@ -114,8 +115,11 @@ impl ParamGuard for ConsensusParams {
                     .with_field("stop_rule.max_speed"));
                 }
                 if s.min_votes == 0 {
-                    return Err(Error::new(ErrorKind::OutOfRange, "must be at least 1 annotator, found 0")
-                        .with_field("stop_rule.min_votes"));
+                    return Err(Error::new(
+                        ErrorKind::OutOfRange,
+                        "must be at least 1 annotator, found 0",
+                    )
+                    .with_field("stop_rule.min_votes"));
                 }
                 Some(StopRule { max_speed_mm_per_s: v, min_votes: s.min_votes })
             }
@@ -158,8 +162,11 @@ pub struct ConsensusPoint {
 /// Clusters the pooled marks of all annotators (`annotators[i]` = annotator i's frames) by
 /// chaining marks at most `tol_frames` apart. Clusters come out in time order.
 pub fn cluster_marks(annotators: &[Vec<usize>], tol_frames: f64) -> Vec<MarkCluster> {
-    let mut marks: Vec<(usize, usize)> =
-        annotators.iter().enumerate().flat_map(|(who, frames)| frames.iter().map(move |&f| (f, who))).collect();
+    let mut marks: Vec<(usize, usize)> = annotators
+        .iter()
+        .enumerate()
+        .flat_map(|(who, frames)| frames.iter().map(move |&f| (f, who)))
+        .collect();
     marks.sort_unstable();
     let mut clusters = Vec::new();
     let mut start = 0;
@@ -180,7 +187,14 @@ fn make_cluster(marks: &[(usize, usize)]) -> MarkCluster {
     let mut annotators: Vec<usize> = marks.iter().map(|m| m.1).collect();
     annotators.sort_unstable();
     annotators.dedup();
-    MarkCluster { frame, first: marks[0].0, last: marks[n - 1].0, votes: annotators.len(), n_marks: n, annotators }
+    MarkCluster {
+        frame,
+        first: marks[0].0,
+        last: marks[n - 1].0,
+        votes: annotators.len(),
+        n_marks: n,
+        annotators,
+    }
 }
 
 /// The consensus points from clusters: votes ≥ `min_votes`, or — with `stop` = (V in mm/s per
@@ -218,15 +232,21 @@ impl Consensus {
     /// larger than the number of annotators (no point could ever be kept).
     pub fn run(&self, annotators: &[Vec<usize>], motion: &Motion) -> Result<Vec<ConsensusPoint>> {
         if annotators.is_empty() {
-            return Err(Error::new(ErrorKind::EmptySequence, "consensus needs the marks of at least one annotator")
-                .with_field("annotators"));
+            return Err(Error::new(
+                ErrorKind::EmptySequence,
+                "consensus needs the marks of at least one annotator",
+            )
+            .with_field("annotators"));
         }
         let n_frames = motion.n_frames();
         for (who, marks) in annotators.iter().enumerate() {
             if let Some(&bad) = marks.iter().find(|&&f| f >= n_frames) {
                 return Err(Error::new(
                     ErrorKind::OutOfRange,
-                    format!("mark at frame {bad} is outside {} (frames 0..{n_frames})", motion.name),
+                    format!(
+                        "mark at frame {bad} is outside {} (frames 0..{n_frames})",
+                        motion.name
+                    ),
                 )
                 .with_field(format!("annotator[{who}]")));
             }
@@ -235,7 +255,11 @@ impl Consensus {
         if min_votes > annotators.len() {
             return Err(Error::new(
                 ErrorKind::InvalidParameter,
-                format!("{min_votes} votes required but only {} annotators marked {}", annotators.len(), motion.name),
+                format!(
+                    "{min_votes} votes required but only {} annotators marked {}",
+                    annotators.len(),
+                    motion.name
+                ),
             )
             .with_field("min_votes"));
         }
@@ -258,7 +282,10 @@ impl Consensus {
         let boundaries = self
             .run(annotators, motion)?
             .into_iter()
-            .map(|p| Boundary { frame: p.cluster.frame, window: Some((p.cluster.first, p.cluster.last)) })
+            .map(|p| Boundary {
+                frame: p.cluster.frame,
+                window: Some((p.cluster.first, p.cluster.last)),
+            })
             .collect();
         let annotators = annotators
             .iter()
@@ -268,7 +295,13 @@ impl Consensus {
                 a
             })
             .collect();
-        Ok(Segmentation { frame_rate: motion.frame_rate(), boundaries, segments: Vec::new(), annotators, annotator_names: Vec::new() })
+        Ok(Segmentation {
+            frame_rate: motion.frame_rate(),
+            boundaries,
+            segments: Vec::new(),
+            annotators,
+            annotator_names: Vec::new(),
+        })
     }
 }
 
@@ -290,13 +323,19 @@ mod tests {
         //  around 200: A 200, A 201, B 203 → 2 votes (A once), 3 marks, median 201.
         //  at 300:     C 300 → 1 vote.
         //  chain 400–409: D 400, C 403, B 406, A 409 (gaps of 3): one cluster spanning 9 frames.
-        let marks = vec![vec![100, 200, 201, 409], vec![102, 203, 406], vec![99, 300, 403], vec![104, 400]];
+        let marks =
+            vec![vec![100, 200, 201, 409], vec![102, 203, 406], vec![99, 300, 403], vec![104, 400]];
         let c = cluster_marks(&marks, 3.0);
         let summary: Vec<(usize, usize, usize, usize, usize)> =
             c.iter().map(|c| (c.frame, c.first, c.last, c.votes, c.n_marks)).collect();
         assert_eq!(
             summary,
-            vec![(101, 99, 104, 4, 4), (201, 200, 203, 2, 3), (300, 300, 300, 1, 1), (404, 400, 409, 4, 4)]
+            vec![
+                (101, 99, 104, 4, 4),
+                (201, 200, 203, 2, 3),
+                (300, 300, 300, 1, 1),
+                (404, 400, 409, 4, 4)
+            ]
         );
         assert_eq!(c[1].annotators, vec![0, 1]);
         // A gap of 4 > tol splits.
@@ -323,21 +362,27 @@ mod tests {
         assert_eq!(kept.len(), 1);
         assert_eq!((kept[0].cluster.frame, kept[0].kept_by), (50, KeptBy::StopRule));
         // Without the stop rule nothing has two votes.
-        assert!(rule("tolerance = { frames = 0 }\nmin_votes = 2").run(&marks, &m).unwrap().is_empty());
+        assert!(
+            rule("tolerance = { frames = 0 }\nmin_votes = 2").run(&marks, &m).unwrap().is_empty()
+        );
         // The stop rule's own vote minimum applies.
-        let strict = rule("tolerance = { frames = 0 }\nmin_votes = 3\nstop_rule = { max_speed = 50.0, min_votes = 2 }");
+        let strict = rule(
+            "tolerance = { frames = 0 }\nmin_votes = 3\nstop_rule = { max_speed = 50.0, min_votes = 2 }",
+        );
         assert!(strict.run(&marks, &m).unwrap().is_empty());
         // A marker missing everywhere near the mark: V is NaN there, which is never a stop.
-        let gone =
-            motion_from_fn(200, 100.0, 1, |i, _| if (40..60).contains(&i) { [f64::NAN; 3] } else { [x(i), 0.0, 0.0] });
+        let gone = motion_from_fn(200, 100.0, 1, |i, _| {
+            if (40..60).contains(&i) { [f64::NAN; 3] } else { [x(i), 0.0, 0.0] }
+        });
         assert!(c.run(&marks, &gone).unwrap().is_empty());
     }
 
     #[test]
     fn segmentation_carries_the_cluster_span_as_window() {
         let m = motion_from_fn(300, 120.0, 1, |_, _| [0.0; 3]);
-        let s =
-            rule("tolerance = { frames = 5 }\nmin_votes = 2").segmentation(&[vec![100, 200], vec![104]], &m).unwrap();
+        let s = rule("tolerance = { frames = 5 }\nmin_votes = 2")
+            .segmentation(&[vec![100, 200], vec![104]], &m)
+            .unwrap();
         assert_eq!(s.boundaries, vec![Boundary { frame: 102, window: Some((100, 104)) }]);
         assert!(s.segments.is_empty());
     }
@@ -350,15 +395,27 @@ mod tests {
         let e = c.run(&[], &m).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::EmptySequence);
         let e = c.run(&[vec![5], vec![100]], &m).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("annotator[1]")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("annotator[1]"))
+        );
         let e = rule("min_votes = 3").run(&[vec![5], vec![6]], &m).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, Some("min_votes")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::InvalidParameter, Some("min_votes"))
+        );
         let parse = |t: &str| {
             let v: toml::Value = toml::from_str(t).unwrap();
             motionlab_core::registry::parse_params::<ConsensusParams>(&v).and_then(|p| p.check())
         };
-        assert_eq!(parse("min_votes = 0").unwrap_err().location().field.as_deref(), Some("min_votes"));
-        assert_eq!(parse("tolerance = { seconds = -1.0 }").unwrap_err().location().field.as_deref(), Some("tolerance"));
+        assert_eq!(
+            parse("min_votes = 0").unwrap_err().location().field.as_deref(),
+            Some("min_votes")
+        );
+        assert_eq!(
+            parse("tolerance = { seconds = -1.0 }").unwrap_err().location().field.as_deref(),
+            Some("tolerance")
+        );
         let e = parse("stop_rule = { max_speed = -5.0 }").unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("stop_rule.max_speed"));
         let e = parse("stop_rule = { min_votes = 1 }").unwrap_err();
@@ -383,8 +440,10 @@ mod tests {
                 .collect();
             from_text.push(rows[..rows.len() - 1].iter().map(|b| b - 1).collect());
         }
-        let json: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(data_path("cmu86/groundtruth86.json")).unwrap()).unwrap();
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(data_path("cmu86/groundtruth86.json")).unwrap(),
+        )
+        .unwrap();
         let from_json: Vec<Vec<usize>> = json["gt"]
             .as_array()
             .unwrap()

@@ -68,7 +68,11 @@ fn with_start(frames: &[usize]) -> Vec<usize> {
 /// TCPDBench's F1 (`f_measure`, α = ½) with its precision and recall: `(f1, precision, recall)`.
 /// `annotators` holds each annotator's boundary frames separately (as [`crate::consensus`]
 /// takes them); NaN when there is no annotator.
-pub fn tcpd_f_measure(annotators: &[Vec<usize>], predictions: &[usize], margin_frames: usize) -> (f64, f64, f64) {
+pub fn tcpd_f_measure(
+    annotators: &[Vec<usize>],
+    predictions: &[usize],
+    margin_frames: usize,
+) -> (f64, f64, f64) {
     if annotators.is_empty() {
         return (f64::NAN, f64::NAN, f64::NAN);
     }
@@ -80,7 +84,8 @@ pub fn tcpd_f_measure(annotators: &[Vec<usize>], predictions: &[usize], margin_f
     union.dedup();
     let k = tks.len() as f64;
     let precision = true_positives(&union, &x, margin_frames) as f64 / x.len() as f64;
-    let recall_sum: f64 = tks.iter().map(|t| true_positives(t, &x, margin_frames) as f64 / t.len() as f64).sum();
+    let recall_sum: f64 =
+        tks.iter().map(|t| true_positives(t, &x, margin_frames) as f64 / t.len() as f64).sum();
     // Python evaluates `1 / K * sum(...)` left to right: (1/K)·Σ.
     let recall = 1.0 / k * recall_sum;
     (precision * recall / (alpha * recall + (1.0 - alpha) * precision), precision, recall)
@@ -88,7 +93,8 @@ pub fn tcpd_f_measure(annotators: &[Vec<usize>], predictions: &[usize], margin_f
 
 /// The segments `[start, end)` of frames `0..n_frames` cut at `change_points`.
 pub fn partition(change_points: &[usize], n_frames: usize) -> Vec<(usize, usize)> {
-    let mut cuts: Vec<usize> = change_points.iter().copied().filter(|&c| c > 0 && c < n_frames).collect();
+    let mut cuts: Vec<usize> =
+        change_points.iter().copied().filter(|&c| c > 0 && c < n_frames).collect();
     cuts.sort_unstable();
     cuts.dedup();
     let mut out = Vec::with_capacity(cuts.len() + 1);
@@ -125,7 +131,10 @@ pub fn covering(annotators: &[Vec<usize>], predictions: &[usize], n_frames: usiz
         return f64::NAN;
     }
     let found = partition(predictions, n_frames);
-    let cs: Vec<f64> = annotators.iter().map(|a| cover_single(&partition(a, n_frames), &found, n_frames)).collect();
+    let cs: Vec<f64> = annotators
+        .iter()
+        .map(|a| cover_single(&partition(a, n_frames), &found, n_frames))
+        .collect();
     cs.iter().sum::<f64>() / cs.len() as f64
 }
 

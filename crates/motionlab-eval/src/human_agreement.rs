@@ -5,7 +5,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalInputType, EvalInput, Evaluator, Result, Table, TimeSpan};
+use motionlab_core::{
+    Error, ErrorKind, EvalInput, EvalInputType, Evaluator, Result, Table, TimeSpan,
+};
 
 use crate::boundaries::{TruthWindow, max_matching_windows, ratios, tolerance_frames};
 use crate::boundary_metrics::{default_tolerances, tolerance_label};
@@ -76,11 +78,19 @@ impl ParamGuard for HumanAgreementParams {
     type Checked = HumanAgreement;
     fn check(self) -> Result<HumanAgreement> {
         if self.tolerances.is_empty() {
-            return Err(Error::new(ErrorKind::OutOfRange, "must list at least one tolerance").with_field("tolerances"));
+            return Err(Error::new(ErrorKind::OutOfRange, "must list at least one tolerance")
+                .with_field("tolerances"));
         }
-        let tolerances =
-            self.tolerances.into_iter().enumerate().map(|(i, t)| t.check(&format!("tolerances[{i}]"), false)).collect::<Result<_>>()?;
-        Ok(HumanAgreement { tolerances, chance: ChanceSettings::checked(self.chance_draws, self.chance_seed)? })
+        let tolerances = self
+            .tolerances
+            .into_iter()
+            .enumerate()
+            .map(|(i, t)| t.check(&format!("tolerances[{i}]"), false))
+            .collect::<Result<_>>()?;
+        Ok(HumanAgreement {
+            tolerances,
+            chance: ChanceSettings::checked(self.chance_draws, self.chance_seed)?,
+        })
     }
 }
 
@@ -98,19 +108,32 @@ pub struct Agreement {
 
 impl Agreement {
     /// `a` against `b` at `tol_frames`, chance over frames `0..n_frames`.
-    pub fn of(a: &[usize], b: &[usize], tol_frames: f64, n_frames: usize, chance: ChanceSettings, seed: u64) -> Self {
-        let around = |s: &[usize]| s.iter().map(|&f| TruthWindow::around(f, tol_frames)).collect::<Vec<_>>();
+    pub fn of(
+        a: &[usize],
+        b: &[usize],
+        tol_frames: f64,
+        n_frames: usize,
+        chance: ChanceSettings,
+        seed: u64,
+    ) -> Self {
+        let around =
+            |s: &[usize]| s.iter().map(|&f| TruthWindow::around(f, tol_frames)).collect::<Vec<_>>();
         let (wa, wb) = (around(a), around(b));
         let matched = max_matching_windows(a, &wb).len();
         let mut exact = true;
-        let mut expect = |k: usize, windows: &[TruthWindow], seed: u64| match exact_expected_matches(k, windows, 0..n_frames) {
+        let mut expect = |k: usize, windows: &[TruthWindow], seed: u64| match exact_expected_matches(
+            k,
+            windows,
+            0..n_frames,
+        ) {
             Some(e) => e,
             None => {
                 exact = false;
                 chance_counts(k, windows, 0..n_frames, chance.draws, seed).expected_matched
             }
         };
-        let expected = 0.5 * (expect(a.len(), &wb, seed) + expect(b.len(), &wa, seed ^ 0x9e37_79b9_7f4a_7c15));
+        let expected =
+            0.5 * (expect(a.len(), &wb, seed) + expect(b.len(), &wa, seed ^ 0x9e37_79b9_7f4a_7c15));
         Agreement { n_a: a.len(), n_b: b.len(), matched, expected, exact }
     }
     fn add(&mut self, o: &Agreement) {
@@ -159,7 +182,13 @@ struct PairRow {
 }
 
 impl PairRow {
-    fn new(sequence: &str, (a, b): (&str, &str), tolerance: TimeSpan, tolerance_frames: Option<f64>, g: &Agreement) -> Self {
+    fn new(
+        sequence: &str,
+        (a, b): (&str, &str),
+        tolerance: TimeSpan,
+        tolerance_frames: Option<f64>,
+        g: &Agreement,
+    ) -> Self {
         PairRow {
             sequence: sequence.into(),
             annotator_a: a.into(),
@@ -195,7 +224,15 @@ struct CeilingRow {
 }
 
 impl CeilingRow {
-    fn new(sequence: &str, method: &str, tolerance: TimeSpan, tolerance_frames: Option<f64>, n_annotators: usize, m: &Agreement, h: &Agreement) -> Self {
+    fn new(
+        sequence: &str,
+        method: &str,
+        tolerance: TimeSpan,
+        tolerance_frames: Option<f64>,
+        n_annotators: usize,
+        m: &Agreement,
+        h: &Agreement,
+    ) -> Self {
         let (f1, chance_f1, human_f1) = (m.f1(), m.chance_f1(), h.f1());
         let room = human_f1 - chance_f1;
         CeilingRow {
@@ -257,9 +294,26 @@ impl Evaluator for HumanAgreement {
                 let mut humans = Vec::new();
                 for i in 0..marks.len() {
                     for j in i + 1..marks.len() {
-                        let seed = row_seed(self.chance.seed, &seq.sequence, &format!("{}\u{0}{}", names[i], names[j]));
-                        let g = Agreement::of(&marks[i], &marks[j], tol_frames, n_frames, self.chance, seed);
-                        pairs_rows.push(PairRow::new(&seq.sequence, (&names[i], &names[j]), tol, shown_frames, &g));
+                        let seed = row_seed(
+                            self.chance.seed,
+                            &seq.sequence,
+                            &format!("{}\u{0}{}", names[i], names[j]),
+                        );
+                        let g = Agreement::of(
+                            &marks[i],
+                            &marks[j],
+                            tol_frames,
+                            n_frames,
+                            self.chance,
+                            seed,
+                        );
+                        pairs_rows.push(PairRow::new(
+                            &seq.sequence,
+                            (&names[i], &names[j]),
+                            tol,
+                            shown_frames,
+                            &g,
+                        ));
                         pool(&mut pair_pools, (names[i].clone(), names[j].clone(), ti), g);
                         humans.push(g);
                     }
@@ -271,12 +325,24 @@ impl Evaluator for HumanAgreement {
                         .iter()
                         .zip(&names)
                         .map(|(a, name)| {
-                            let seed = row_seed(self.chance.seed, &seq.sequence, &format!("{}\u{0}{name}", m.method));
+                            let seed = row_seed(
+                                self.chance.seed,
+                                &seq.sequence,
+                                &format!("{}\u{0}{name}", m.method),
+                            );
                             Agreement::of(&m.candidates, a, tol_frames, n_frames, self.chance, seed)
                         })
                         .collect();
                     let method = total(&per_annotator);
-                    ceiling_rows.push(CeilingRow::new(&seq.sequence, &m.method, tol, shown_frames, marks.len(), &method, &human));
+                    ceiling_rows.push(CeilingRow::new(
+                        &seq.sequence,
+                        &m.method,
+                        tol,
+                        shown_frames,
+                        marks.len(),
+                        &method,
+                        &human,
+                    ));
                     pool(&mut method_pools, (m.method.clone(), ti), method);
                 }
             }
@@ -294,11 +360,29 @@ impl Evaluator for HumanAgreement {
             .with_field("truth"));
         }
         for ((a, b, ti), parts) in &pair_pools {
-            pairs_rows.push(PairRow::new("pooled", (a, b), self.tolerances[*ti], None, &total(parts)));
+            pairs_rows.push(PairRow::new(
+                "pooled",
+                (a, b),
+                self.tolerances[*ti],
+                None,
+                &total(parts),
+            ));
         }
         for ((method, ti), parts) in &method_pools {
-            let human = human_pools.iter().find(|(t, _)| t == ti).map(|(_, h)| total(h)).unwrap_or_default();
-            ceiling_rows.push(CeilingRow::new("pooled", method, self.tolerances[*ti], None, most_annotators, &total(parts), &human));
+            let human = human_pools
+                .iter()
+                .find(|(t, _)| t == ti)
+                .map(|(_, h)| total(h))
+                .unwrap_or_default();
+            ceiling_rows.push(CeilingRow::new(
+                "pooled",
+                method,
+                self.tolerances[*ti],
+                None,
+                most_annotators,
+                &total(parts),
+                &human,
+            ));
         }
         Ok(vec![
             Table::from_records(
@@ -342,7 +426,13 @@ mod tests {
 
     /// 100 frames; ana marks {20, 50}, ben {22, 80}; method "m" finds {21, 50, 90}.
     fn two_annotators() -> Vec<motionlab_core::SequenceResult> {
-        let mut seqs = vec![sequence("s", 100, 100.0, Some(vec![(0, 21, "x"), (21, 100, "y")]), &[("m", &[21, 50, 90])])];
+        let mut seqs = vec![sequence(
+            "s",
+            100,
+            100.0,
+            Some(vec![(0, 21, "x"), (21, 100, "y")]),
+            &[("m", &[21, 50, 90])],
+        )];
         let truth = seqs[0].truth.as_mut().unwrap();
         truth.annotators = vec![vec![20, 50], vec![22, 80]];
         truth.annotator_names = vec!["ana".into(), "ben".into()];
@@ -355,17 +445,26 @@ mod tests {
         // Chance: 2 random frames of 100 against two disjoint windows of 11 frames, each hit
         // with probability 1 − C(89, 2)/C(100, 2), both directions alike (all windows inside
         // the motion): E = 2·(1 − 89·88/(100·99)).
-        let tables = evaluator("tolerances = [{ frames = 5 }, { frames = 30 }]").evaluate(EvalInput::segmentation(&two_annotators())).unwrap();
+        let tables = evaluator("tolerances = [{ frames = 5 }, { frames = 30 }]")
+            .evaluate(EvalInput::segmentation(&two_annotators()))
+            .unwrap();
         let t = &tables[0];
         assert_eq!(t.name, "annotator_agreement");
         assert_eq!(texts(t, "sequence"), ["s", "s", "pooled", "pooled"]);
-        assert_eq!((texts(t, "annotator_a")[0].as_str(), texts(t, "annotator_b")[0].as_str()), ("ana", "ben"));
+        assert_eq!(
+            (texts(t, "annotator_a")[0].as_str(), texts(t, "annotator_b")[0].as_str()),
+            ("ana", "ben")
+        );
         let e = 2.0 * (1.0 - (89.0 * 88.0) / (100.0 * 99.0));
         assert_eq!(f64s(t, "n_matched")[0], 1.0);
         assert_eq!(f64s(t, "f1")[0], 0.5);
         assert!((f64s(t, "chance_matched")[0] - e).abs() < 1e-12);
         assert!((f64s(t, "chance_f1")[0] - e / 2.0).abs() < 1e-12);
-        assert!((f64s(t, "kappa")[0] - (1.0 - e) / (2.0 - e)).abs() < 1e-12, "{}", f64s(t, "kappa")[0]);
+        assert!(
+            (f64s(t, "kappa")[0] - (1.0 - e) / (2.0 - e)).abs() < 1e-12,
+            "{}",
+            f64s(t, "kappa")[0]
+        );
         assert_eq!(texts(t, "chance_expectation")[0], "exact");
         // Tolerance 30: 20 ↔ 22 and 50 ↔ 80 (or 50 ↔ 22 …): both match, kappa 1. Windows of 61
         // frames overlap, so chance is the Monte Carlo mean.
@@ -381,7 +480,12 @@ mod tests {
         assert_eq!(f64s(c, "f1")[0], 0.6);
         assert_eq!(f64s(c, "human_f1")[0], 0.5);
         let row = |name: &str| f64s(c, name)[0];
-        assert!((row("fraction_of_ceiling") - (row("f1") - row("chance_f1")) / (row("human_f1") - row("chance_f1"))).abs() < 1e-15);
+        assert!(
+            (row("fraction_of_ceiling")
+                - (row("f1") - row("chance_f1")) / (row("human_f1") - row("chance_f1")))
+            .abs()
+                < 1e-15
+        );
         assert!(row("chance_f1") > 0.0 && row("chance_f1") < 0.5);
         assert_eq!(texts(c, "sequence"), ["s", "s", "pooled", "pooled"]);
         assert_eq!(f64s(c, "n_annotators"), [2.0; 4]);
@@ -408,14 +512,30 @@ mod tests {
 
     #[test]
     fn one_annotator_is_an_error_that_says_how_to_keep_several() {
-        let seqs = vec![sequence("s", 100, 100.0, Some(vec![(0, 21, "x"), (21, 100, "y")]), &[("m", &[21])])];
+        let seqs = vec![sequence(
+            "s",
+            100,
+            100.0,
+            Some(vec![(0, 21, "x"), (21, 100, "y")]),
+            &[("m", &[21])],
+        )];
         let e = evaluator("").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingKey);
         assert!(e.to_string().contains("consensus"), "{e}");
         let none = vec![sequence("s", 100, 100.0, None, &[("m", &[21])])];
-        assert_eq!(evaluator("").evaluate(EvalInput::segmentation(&none)).unwrap_err().kind(), ErrorKind::MissingKey);
-        let bad = build_evaluator("human_agreement", &toml::from_str("tolerances = []").unwrap()).err().unwrap();
+        assert_eq!(
+            evaluator("").evaluate(EvalInput::segmentation(&none)).unwrap_err().kind(),
+            ErrorKind::MissingKey
+        );
+        let bad = build_evaluator("human_agreement", &toml::from_str("tolerances = []").unwrap())
+            .err()
+            .unwrap();
         assert_eq!(bad.location().field.as_deref(), Some("tolerances"));
-        assert!(motionlab_core::registry::find("human_agreement").unwrap().doc().contains("Missing samples"));
+        assert!(
+            motionlab_core::registry::find("human_agreement")
+                .unwrap()
+                .doc()
+                .contains("Missing samples")
+        );
     }
 }

@@ -55,6 +55,8 @@ mod truth_annotators;
 pub mod truth_csv;
 pub mod truth_eaf;
 
-pub use boundaries::{BoundaryScores, MatchRule, MatchedPair, PoseRule, evaluate_boundaries, hausdorff_frames};
+pub use boundaries::{
+    BoundaryScores, MatchRule, MatchedPair, PoseRule, evaluate_boundaries, hausdorff_frames,
+};
 pub use consensus::{Consensus, ConsensusParams, ConsensusPoint, cluster_marks};
 pub use transitions::{TransitionOutcome, detect_transitions};

@@ -32,7 +32,9 @@
 use serde::{Deserialize, Serialize};
 
 /// How tied scores are ranked.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Ties {
     /// The mean of the ranks the tie spans (Demšar 2006; what Friedman and Nemenyi assume).
@@ -44,7 +46,15 @@ pub enum Ties {
 
 /// The ranks of `scores` (1 = best); `higher_is_better` says which end is best. NaN ranks last.
 pub fn rank_scores(scores: &[f64], higher_is_better: bool, ties: Ties) -> Vec<f64> {
-    let key = |v: f64| if v.is_nan() { f64::INFINITY } else if higher_is_better { -v } else { v };
+    let key = |v: f64| {
+        if v.is_nan() {
+            f64::INFINITY
+        } else if higher_is_better {
+            -v
+        } else {
+            v
+        }
+    };
     let mut order: Vec<usize> = (0..scores.len()).collect();
     order.sort_by(|&a, &b| key(scores[a]).total_cmp(&key(scores[b])));
     let mut ranks = vec![0.0; scores.len()];
@@ -91,7 +101,12 @@ pub struct RankComparison {
 
 /// Ranks `scores[series][method]` per series and compares the methods. At least two methods
 /// and one series are needed (else NaN statistics, no cliques).
-pub fn compare_methods(scores: &[Vec<f64>], higher_is_better: bool, ties: Ties, alpha: f64) -> RankComparison {
+pub fn compare_methods(
+    scores: &[Vec<f64>],
+    higher_is_better: bool,
+    ties: Ties,
+    alpha: f64,
+) -> RankComparison {
     let k = scores.first().map_or(0, Vec::len);
     let n = scores.len();
     let mut sums = vec![0.0; k];
@@ -100,7 +115,11 @@ pub fn compare_methods(scores: &[Vec<f64>], higher_is_better: bool, ties: Ties, 
     let mut tie_term = 0.0;
     for row in scores {
         let r = rank_scores(row, higher_is_better, ties);
-        let avg = if ties == Ties::Average { r.clone() } else { rank_scores(row, higher_is_better, Ties::Average) };
+        let avg = if ties == Ties::Average {
+            r.clone()
+        } else {
+            rank_scores(row, higher_is_better, Ties::Average)
+        };
         for j in 0..k {
             sums[j] += r[j];
             avg_sums[j] += avg[j];
@@ -132,7 +151,17 @@ pub fn compare_methods(scores: &[Vec<f64>], higher_is_better: bool, ties: Ties, 
     let q_alpha = if k >= 2 { nemenyi_q(k, alpha) } else { f64::NAN };
     let critical_difference = q_alpha * (kf * (kf + 1.0) / (6.0 * nf)).sqrt();
     let cliques = cliques(&mean_ranks, critical_difference);
-    RankComparison { mean_ranks, wins, n_series: n, friedman_chi2, friedman_p_value, alpha, q_alpha, critical_difference, cliques }
+    RankComparison {
+        mean_ranks,
+        wins,
+        n_series: n,
+        friedman_chi2,
+        friedman_p_value,
+        alpha,
+        q_alpha,
+        critical_difference,
+        cliques,
+    }
 }
 
 /// The best (lowest) average rank of a series.
@@ -275,14 +304,33 @@ mod tests {
     fn nemenyi_q_equals_scipys_studentized_range() {
         // scipy 1.17.1: studentized_range.ppf(1 - alpha, k, inf) / sqrt(2).
         let at_05 = [
-            1.9599639845400534, 2.343700586378409, 2.569031772546482, 2.7277743708703763, 2.8497054196100016, 2.9483200175296744,
-            3.030878449614413, 3.1017303413033805, 3.163683577053373, 3.2186536073291525, 3.268003924466142, 3.31273859335082,
-            3.3536177518523043, 3.391230283765257, 3.4260413793706097, 3.4584247073473247, 3.4886847993791976, 3.517073008691811,
+            1.9599639845400534,
+            2.343700586378409,
+            2.569031772546482,
+            2.7277743708703763,
+            2.8497054196100016,
+            2.9483200175296744,
+            3.030878449614413,
+            3.1017303413033805,
+            3.163683577053373,
+            3.2186536073291525,
+            3.268003924466142,
+            3.31273859335082,
+            3.3536177518523043,
+            3.391230283765257,
+            3.4260413793706097,
+            3.4584247073473247,
+            3.4886847993791976,
+            3.517073008691811,
             3.5437991315177815,
         ];
         for (i, q) in at_05.iter().enumerate() {
             let k = i + 2;
-            assert!((nemenyi_q(k, 0.05) - q).abs() < 1e-9, "k = {k}: {} vs {q}", nemenyi_q(k, 0.05));
+            assert!(
+                (nemenyi_q(k, 0.05) - q).abs() < 1e-9,
+                "k = {k}: {} vs {q}",
+                nemenyi_q(k, 0.05)
+            );
         }
         assert!((nemenyi_q(7, 0.10) - 2.6927321009677594).abs() < 1e-9);
         // k = 2 is the two-sided normal quantile.
@@ -304,7 +352,12 @@ mod tests {
     fn a_hand_made_comparison() {
         // Three methods on four series (higher is better). Average ranks per series:
         // [1, 2, 3], [1, 2, 3], [1.5, 1.5, 3], [2, 1, 3] → mean ranks 1.375, 1.625, 3.
-        let scores = vec![vec![0.9, 0.8, 0.1], vec![0.7, 0.6, 0.5], vec![0.4, 0.4, 0.2], vec![0.5, 0.6, 0.3]];
+        let scores = vec![
+            vec![0.9, 0.8, 0.1],
+            vec![0.7, 0.6, 0.5],
+            vec![0.4, 0.4, 0.2],
+            vec![0.5, 0.6, 0.3],
+        ];
         let c = compare_methods(&scores, true, Ties::Average, 0.05);
         assert_eq!(c.mean_ranks, [1.375, 1.625, 3.0]);
         assert_eq!(c.wins, [3, 2, 0], "the tie on series 3 is a win for both");
@@ -324,7 +377,10 @@ mod tests {
 
     #[test]
     fn tssbs_published_sheet_gives_the_notebooks_ranks() {
-        let sheet = motionlab_io::scores_csv::read_scores_csv(&motionlab_testkit::data_path("tssb/published_covering_unknown.csv")).unwrap();
+        let sheet = motionlab_io::scores_csv::read_scores_csv(&motionlab_testkit::data_path(
+            "tssb/published_covering_unknown.csv",
+        ))
+        .unwrap();
         let scores: Vec<Vec<f64>> = sheet.series.iter().map(|(_, v)| v.clone()).collect();
         // competitor_evaluation.ipynb: pandas rank(method="min"), printed to 5 decimals.
         let notebook = [4.6, 4.26667, 4.25333, 2.90667, 2.81333, 3.12, 1.46667];
@@ -337,14 +393,28 @@ mod tests {
         // Average ranks and Friedman's test as scipy computes them (rankdata, friedmanchisquare):
         // 4.62, 4.62, 5.32667, 3.89333, 3.82667, 3.86667, 1.84667; χ² 135.31631520532733.
         let avg = compare_methods(&scores, true, Ties::Average, 0.05);
-        let scipy = [4.62, 4.62, 5.326666666666667, 3.8933333333333335, 3.8266666666666667, 3.8666666666666667, 1.8466666666666667];
+        let scipy = [
+            4.62,
+            4.62,
+            5.326666666666667,
+            3.8933333333333335,
+            3.8266666666666667,
+            3.8666666666666667,
+            1.8466666666666667,
+        ];
         for (r, want) in avg.mean_ranks.iter().zip(scipy) {
             assert!((r - want).abs() < 1e-12, "{r} vs {want}");
         }
         assert!((avg.friedman_chi2 - 135.31631520532733).abs() < 1e-9, "{}", avg.friedman_chi2);
-        assert!((avg.friedman_p_value / 9.747245671207445e-27 - 1.0).abs() < 1e-6, "{}", avg.friedman_p_value);
+        assert!(
+            (avg.friedman_p_value / 9.747245671207445e-27 - 1.0).abs() < 1e-6,
+            "{}",
+            avg.friedman_p_value
+        );
         // Orange's compute_CD(ranks, 75): q = 2.948320 for k = 7 → CD = 2.94832·√(7·8/(6·75)).
-        assert!((avg.critical_difference - 2.9483200175296744 * (56.0f64 / 450.0).sqrt()).abs() < 1e-9);
+        assert!(
+            (avg.critical_difference - 2.9483200175296744 * (56.0f64 / 450.0).sqrt()).abs() < 1e-9
+        );
     }
 
     #[test]

@@ -1,10 +1,15 @@
 //! Shared input handling of the segmentation evaluators: segmentation results as input, and
 //! ground truth at the motion's own rate.
 
-use motionlab_core::{Error, ErrorKind, EvalInput, EvalInputType, Location, Result, Segmentation, SequenceResult};
+use motionlab_core::{
+    Error, ErrorKind, EvalInput, EvalInputType, Location, Result, Segmentation, SequenceResult,
+};
 
 /// The sequences of a segmentation input; any other input is a wiring error.
-pub(crate) fn segmentation_input<'a>(input: EvalInput<'a>, evaluator: &str) -> Result<&'a [SequenceResult]> {
+pub(crate) fn segmentation_input<'a>(
+    input: EvalInput<'a>,
+    evaluator: &str,
+) -> Result<&'a [SequenceResult]> {
     input.read::<Vec<SequenceResult>>(EvalInputType::segmentation(), evaluator).map(Vec::as_slice)
 }
 
@@ -62,7 +67,9 @@ pub(crate) mod fixtures {
         let truth = segments.map(|s| {
             Segmentation::from_segments(
                 rate,
-                s.into_iter().map(|(start, end, label)| Segment { start, end, label: label.into() }).collect(),
+                s.into_iter()
+                    .map(|(start, end, label)| Segment { start, end, label: label.into() })
+                    .collect(),
             )
             .unwrap()
         });

@@ -39,12 +39,18 @@ impl ScoreWithChance {
     pub fn mean<'a>(parts: impl IntoIterator<Item = &'a ScoreWithChance>) -> ScoreWithChance {
         let parts: Vec<&ScoreWithChance> = parts.into_iter().collect();
         if parts.is_empty() {
-            return ScoreWithChance { value: f64::NAN, chance: f64::NAN, p_value: f64::NAN, draws: Vec::new() };
+            return ScoreWithChance {
+                value: f64::NAN,
+                chance: f64::NAN,
+                p_value: f64::NAN,
+                draws: Vec::new(),
+            };
         }
         let n = parts.len() as f64;
         let value = parts.iter().map(|p| p.value).sum::<f64>() / n;
         let n_draws = parts.iter().map(|p| p.draws.len()).min().unwrap_or(0);
-        let draws = (0..n_draws).map(|i| parts.iter().map(|p| p.draws[i]).sum::<f64>() / n).collect();
+        let draws =
+            (0..n_draws).map(|i| parts.iter().map(|p| p.draws[i]).sum::<f64>() / n).collect();
         ScoreWithChance::of(value, draws)
     }
 }
@@ -72,16 +78,29 @@ pub struct SeriesScores {
 /// Scores `found` change points (frames, sorted and distinct) on a series of `n_frames`
 /// against each annotator's boundaries, at each margin (frames), with `chance.draws` random
 /// draws seeded by `seed`.
-pub fn score_series(annotators: &[Vec<usize>], found: &[usize], n_frames: usize, margins_frames: &[usize], chance: ChanceSettings, seed: u64) -> SeriesScores {
+pub fn score_series(
+    annotators: &[Vec<usize>],
+    found: &[usize],
+    n_frames: usize,
+    margins_frames: &[usize],
+    chance: ChanceSettings,
+    seed: u64,
+) -> SeriesScores {
     let k = found.len();
-    let draws = |metric: &dyn Fn(&[usize]) -> f64| metric_draws(k, 0..n_frames, chance.draws, seed, metric);
+    let draws =
+        |metric: &dyn Fn(&[usize]) -> f64| metric_draws(k, 0..n_frames, chance.draws, seed, metric);
     let cover = covering(annotators, found, n_frames);
     let covering = ScoreWithChance::of(cover, draws(&|c| covering(annotators, c, n_frames)));
     let f1 = margins_frames
         .iter()
         .map(|&m| {
             let (f1, precision, recall) = tcpd_f_measure(annotators, found, m);
-            F1AtMargin { margin_frames: m, precision, recall, f1: ScoreWithChance::of(f1, draws(&|c| tcpd_f_measure(annotators, c, m).0)) }
+            F1AtMargin {
+                margin_frames: m,
+                precision,
+                recall,
+                f1: ScoreWithChance::of(f1, draws(&|c| tcpd_f_measure(annotators, c, m).0)),
+            }
         })
         .collect();
     SeriesScores { n_frames, n_found: k, n_annotators: annotators.len(), covering, f1 }
@@ -99,14 +118,17 @@ mod tests {
         let settings = ChanceSettings { draws: 300, seed: 16 };
         let seed = row_seed(settings.seed, "a", "m");
         let s = score_series(&ann, &[104, 320], 600, &[5, 25], settings, seed);
-        let expected = (100.0 * (100.0 / 104.0) + 200.0 * (196.0 / 220.0) + 300.0 * (280.0 / 300.0)) / 600.0;
+        let expected =
+            (100.0 * (100.0 / 104.0) + 200.0 * (196.0 / 220.0) + 300.0 * (280.0 / 300.0)) / 600.0;
         assert!((s.covering.value - expected).abs() < 1e-12);
         assert!((s.f1[0].f1.value - 2.0 / 3.0).abs() < 1e-15, "margin 5: 0↔0, 100↔104");
         assert_eq!(s.f1[1].f1.value, 1.0, "margin 25: all three");
         // The chance columns are boundary_metrics' (same seed, same draws).
-        let (c, p) = metric_chance(2, 0..600, 300, seed, s.covering.value, |c| covering(&ann, c, 600));
+        let (c, p) =
+            metric_chance(2, 0..600, 300, seed, s.covering.value, |c| covering(&ann, c, 600));
         assert_eq!((s.covering.chance, s.covering.p_value), (c, p));
-        let (c, p) = metric_chance(2, 0..600, 300, seed, 2.0 / 3.0, |c| tcpd_f_measure(&ann, c, 5).0);
+        let (c, p) =
+            metric_chance(2, 0..600, 300, seed, 2.0 / 3.0, |c| tcpd_f_measure(&ann, c, 5).0);
         assert_eq!((s.f1[0].f1.chance, s.f1[0].f1.p_value), (c, p));
         assert_eq!(s.covering.draws.len(), 300);
     }

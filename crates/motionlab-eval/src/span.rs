@@ -32,20 +32,28 @@ pub enum Span {
 
 /// The annotated span `[first, last]` of a truth (frames), None when it annotates nothing.
 pub fn annotated_span(truth: &Segmentation) -> Option<(usize, usize)> {
-    let starts = truth.boundaries.iter().map(|b| b.frame).chain(truth.segments.iter().map(|s| s.start));
+    let starts =
+        truth.boundaries.iter().map(|b| b.frame).chain(truth.segments.iter().map(|s| s.start));
     let ends = truth.boundaries.iter().map(|b| b.frame).chain(truth.segments.iter().map(|s| s.end));
     Some((starts.min()?, ends.max()?))
 }
 
 /// The found frames counted under `span`.
-pub fn counted<'a>(found: &'a [usize], truth: &Segmentation, span: Span, tolerance_frames: f64) -> Cow<'a, [usize]> {
+pub fn counted<'a>(
+    found: &'a [usize],
+    truth: &Segmentation,
+    span: Span,
+    tolerance_frames: f64,
+) -> Cow<'a, [usize]> {
     match span {
         Span::Whole => Cow::Borrowed(found),
         Span::Annotated => match annotated_span(truth) {
             None => Cow::Owned(Vec::new()),
             Some((first, last)) => {
                 let (lo, hi) = (first as f64 - tolerance_frames, last as f64 + tolerance_frames);
-                Cow::Owned(found.iter().copied().filter(|&c| (lo..=hi).contains(&(c as f64))).collect())
+                Cow::Owned(
+                    found.iter().copied().filter(|&c| (lo..=hi).contains(&(c as f64))).collect(),
+                )
             }
         },
     }
@@ -60,7 +68,13 @@ mod tests {
     fn only_frames_within_the_annotations_and_tolerance_count() {
         let rate = FrameRate::new(100.0).unwrap();
         let b = |frame| Boundary { frame, window: None };
-        let points = Segmentation { frame_rate: rate, boundaries: vec![b(300), b(500), b(700)], segments: vec![], annotators: vec![], annotator_names: vec![] };
+        let points = Segmentation {
+            frame_rate: rate,
+            boundaries: vec![b(300), b(500), b(700)],
+            segments: vec![],
+            annotators: vec![],
+            annotator_names: vec![],
+        };
         let found = [50, 289, 290, 600, 710, 711, 900];
         assert_eq!(counted(&found, &points, Span::Whole, 10.0).as_ref(), &found);
         assert_eq!(counted(&found, &points, Span::Annotated, 10.0).as_ref(), &[290, 600, 710]);
@@ -68,13 +82,25 @@ mod tests {
         let segs = Segmentation {
             frame_rate: rate,
             boundaries: vec![b(300)],
-            segments: vec![Segment { start: 200, end: 300, label: "a".into() }, Segment { start: 300, end: 720, label: "b".into() }],
+            segments: vec![
+                Segment { start: 200, end: 300, label: "a".into() },
+                Segment { start: 300, end: 720, label: "b".into() },
+            ],
             annotators: vec![],
             annotator_names: vec![],
         };
         assert_eq!(annotated_span(&segs), Some((200, 720)));
-        assert_eq!(counted(&found, &segs, Span::Annotated, 0.0).as_ref(), &[289, 290, 600, 710, 711]);
-        let empty = Segmentation { frame_rate: rate, boundaries: vec![], segments: vec![], annotators: vec![], annotator_names: vec![] };
+        assert_eq!(
+            counted(&found, &segs, Span::Annotated, 0.0).as_ref(),
+            &[289, 290, 600, 710, 711]
+        );
+        let empty = Segmentation {
+            frame_rate: rate,
+            boundaries: vec![],
+            segments: vec![],
+            annotators: vec![],
+            annotator_names: vec![],
+        };
         assert!(counted(&found, &empty, Span::Annotated, 10.0).is_empty());
     }
 
@@ -87,7 +113,13 @@ mod tests {
         use crate::sequences::fixtures::sequence;
         use motionlab_core::registry::build_evaluator;
         use motionlab_core::{ColumnValues, EvalInput};
-        let seq = sequence("a", 1000, 100.0, Some(vec![(200, 400, "x"), (400, 600, "y")]), &[("speed", &[20, 195, 405, 950])]);
+        let seq = sequence(
+            "a",
+            1000,
+            100.0,
+            Some(vec![(200, 400, "x"), (400, 600, "y")]),
+            &[("speed", &[20, 195, 405, 950])],
+        );
         let run = |params: &str| {
             let e = build_evaluator("boundary_pr", &toml::from_str(params).unwrap()).unwrap();
             let tables = e.evaluate(EvalInput::segmentation(&vec![seq.clone()])).unwrap();
@@ -101,8 +133,13 @@ mod tests {
         };
         assert_eq!(run("tolerance = { seconds = 0.1 }"), (4.0, 1.0, 0.25, 1.0));
         assert_eq!(run("tolerance = { seconds = 0.1 }\nspan = \"whole\""), (4.0, 1.0, 0.25, 1.0));
-        assert_eq!(run("tolerance = { seconds = 0.1 }\nspan = \"annotated\""), (2.0, 1.0, 0.5, 1.0));
-        let bad = build_evaluator("boundary_pr", &toml::from_str("span = \"labelled\"").unwrap()).err().unwrap();
+        assert_eq!(
+            run("tolerance = { seconds = 0.1 }\nspan = \"annotated\""),
+            (2.0, 1.0, 0.5, 1.0)
+        );
+        let bad = build_evaluator("boundary_pr", &toml::from_str("span = \"labelled\"").unwrap())
+            .err()
+            .unwrap();
         assert!(bad.to_string().contains("annotated"), "{bad}");
     }
 }

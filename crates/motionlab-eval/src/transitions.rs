@@ -7,7 +7,8 @@ use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::{ParamGuard, closest_names};
 use motionlab_core::{
-    Error, ErrorKind, EvalInputType, EvalInput, Evaluator, Result, Segmentation, Table, TimeSpan, Transition,
+    Error, ErrorKind, EvalInput, EvalInputType, Evaluator, Result, Segmentation, Table, TimeSpan,
+    Transition,
 };
 
 use crate::boundaries::{TruthWindow, default_tolerance, nearest_frame, tolerance_frames};
@@ -103,9 +104,11 @@ impl ParamGuard for TransitionsParams {
     fn check(self) -> Result<Transitions> {
         let tolerance = self.tolerance.check("tolerance", false)?;
         if self.method.as_deref().is_some_and(|m| m.trim().is_empty()) {
-            return Err(
-                Error::new(ErrorKind::OutOfRange, "must name a method, found an empty name").with_field("method")
-            );
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "must name a method, found an empty name",
+            )
+            .with_field("method"));
         }
         Ok(Transitions { tolerance, method: self.method, use_windows: self.use_windows })
     }
@@ -145,21 +148,29 @@ impl Evaluator for Transitions {
             let method = match &self.method {
                 Some(name) => seq.methods.iter().find(|m| m.method == *name).ok_or_else(|| {
                     let close = closest_names(name, seq.methods.iter().map(|m| m.method.as_str()));
-                    let present: Vec<&str> = seq.methods.iter().map(|m| m.method.as_str()).collect();
+                    let present: Vec<&str> =
+                        seq.methods.iter().map(|m| m.method.as_str()).collect();
                     Error::new(
                         ErrorKind::UnknownName,
                         format!(
                             "no method {name:?} on {} (methods: {}{})",
                             seq.sequence,
                             present.join(", "),
-                            if close.is_empty() { String::new() } else { format!("; closest: {}", close.join(", ")) }
+                            if close.is_empty() {
+                                String::new()
+                            } else {
+                                format!("; closest: {}", close.join(", "))
+                            }
                         ),
                     )
                     .with_location(location_of(seq).field("method"))
                 })?,
                 None => seq.methods.last().ok_or_else(|| {
-                    Error::new(ErrorKind::EmptySequence, format!("no method produced candidates for {}", seq.sequence))
-                        .with_location(location_of(seq).field("method"))
+                    Error::new(
+                        ErrorKind::EmptySequence,
+                        format!("no method produced candidates for {}", seq.sequence),
+                    )
+                    .with_location(location_of(seq).field("method"))
                 })?,
             };
             let rate = seq.motion.frame_rate();
@@ -180,7 +191,11 @@ impl Evaluator for Transitions {
             }
         }
         if n_labelled == 0 {
-            return Err(nothing_to_evaluate("transitions", "ground truth with labelled segments", sequences.len()));
+            return Err(nothing_to_evaluate(
+                "transitions",
+                "ground truth with labelled segments",
+                sequences.len(),
+            ));
         }
         let table = Table::from_records(
             "table3_transitions",
@@ -217,7 +232,12 @@ mod tests {
         let seg = |start, end, label: &str| Segment { start, end, label: label.into() };
         Segmentation::from_segments(
             FrameRate::new(100.0).unwrap(),
-            vec![seg(0, 100, "toprock"), seg(100, 250, "bronx"), seg(250, 400, "entry"), seg(400, 500, "toprock")],
+            vec![
+                seg(0, 100, "toprock"),
+                seg(100, 250, "bronx"),
+                seg(250, 400, "entry"),
+                seg(400, 500, "toprock"),
+            ],
         )
         .unwrap()
     }
@@ -226,13 +246,22 @@ mod tests {
     fn each_transition_is_detected_within_the_tolerance_only() {
         // Candidates 96 (4 before 100), 262 (12 after 250), 399 (1 before 400); tol 10.
         let out = detect_transitions(&steps(), &[399, 96, 262], 10.0, false);
-        let summary: Vec<(usize, bool, Option<usize>, Option<usize>)> =
-            out.iter().map(|o| (o.transition.frame, o.detected, o.nearest, o.distance_frames)).collect();
+        let summary: Vec<(usize, bool, Option<usize>, Option<usize>)> = out
+            .iter()
+            .map(|o| (o.transition.frame, o.detected, o.nearest, o.distance_frames))
+            .collect();
         assert_eq!(
             summary,
-            vec![(100, true, Some(96), Some(4)), (250, false, Some(262), Some(12)), (400, true, Some(399), Some(1))]
+            vec![
+                (100, true, Some(96), Some(4)),
+                (250, false, Some(262), Some(12)),
+                (400, true, Some(399), Some(1))
+            ]
         );
-        assert_eq!((out[1].transition.from.as_str(), out[1].transition.to.as_str()), ("bronx", "entry"));
+        assert_eq!(
+            (out[1].transition.from.as_str(), out[1].transition.to.as_str()),
+            ("bronx", "entry")
+        );
         // Exactly at the tolerance counts.
         assert!(detect_transitions(&steps(), &[262], 12.0, false)[1].detected);
         // No candidates: nothing detected, no nearest.
@@ -251,12 +280,26 @@ mod tests {
 
     #[test]
     fn table3_uses_the_last_method_by_default_and_writes_circles_and_crosses() {
-        let segments = Some(vec![(0, 100, "toprock"), (100, 250, "bronx"), (250, 400, "entry"), (400, 500, "toprock")]);
+        let segments = Some(vec![
+            (0, 100, "toprock"),
+            (100, 250, "bronx"),
+            (250, 400, "entry"),
+            (400, 500, "toprock"),
+        ]);
         let seqs = vec![
-            sequence("A", 500, 100.0, segments.clone(), &[("speed", &[100, 250, 400]), ("fused", &[96, 262])]),
+            sequence(
+                "A",
+                500,
+                100.0,
+                segments.clone(),
+                &[("speed", &[100, 250, 400]), ("fused", &[96, 262])],
+            ),
             sequence("unlabelled", 100, 100.0, None, &[("speed", &[1]), ("fused", &[1])]),
         ];
-        let t = evaluator("tolerance = { seconds = 0.1 }").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
+        let t = evaluator("tolerance = { seconds = 0.1 }")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap()
+            .remove(0);
         assert_eq!(t.name, "table3_transitions");
         assert_eq!(cells(&t, "method"), ["fused", "fused", "fused"]);
         assert_eq!(cells(&t, "detected"), ["○", "×", "×"]);
@@ -264,17 +307,34 @@ mod tests {
         assert_eq!(cells(&t, "nearest_candidate_frame"), ["96", "262", "262"]);
         assert_eq!(cells(&t, "time_s"), ["1", "2.5", "4"]);
         let d: Vec<f64> = cells(&t, "distance_s").iter().map(|c| c.parse().unwrap()).collect();
-        assert!((d[0] - 0.04).abs() < 1e-12 && (d[1] - 0.12).abs() < 1e-12 && (d[2] - 1.38).abs() < 1e-12);
+        assert!(
+            (d[0] - 0.04).abs() < 1e-12
+                && (d[1] - 0.12).abs() < 1e-12
+                && (d[2] - 1.38).abs() < 1e-12
+        );
         // A named method.
-        let t = evaluator("method = \"speed\"").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
+        let t = evaluator("method = \"speed\"")
+            .evaluate(EvalInput::segmentation(&seqs))
+            .unwrap()
+            .remove(0);
         assert_eq!(cells(&t, "detected"), ["○", "○", "○"]);
     }
 
     #[test]
     fn unknown_method_and_unlabelled_inputs_are_errors() {
-        let seqs = vec![sequence("A", 500, 100.0, Some(vec![(0, 100, "a"), (100, 500, "b")]), &[("speed", &[100])])];
-        let e = evaluator("method = \"sped\"").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::UnknownName, Some("method")));
+        let seqs = vec![sequence(
+            "A",
+            500,
+            100.0,
+            Some(vec![(0, 100, "a"), (100, 500, "b")]),
+            &[("speed", &[100])],
+        )];
+        let e =
+            evaluator("method = \"sped\"").evaluate(EvalInput::segmentation(&seqs)).unwrap_err();
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::UnknownName, Some("method"))
+        );
         assert!(e.to_string().contains("speed"), "{e}");
         let unlabelled = vec![sequence("B", 100, 100.0, None, &[("speed", &[1])])];
         let e = evaluator("").evaluate(EvalInput::segmentation(&unlabelled)).unwrap_err();
@@ -283,6 +343,9 @@ mod tests {
         let e = build_evaluator("transitions", &v).err().unwrap();
         assert_eq!(e.location().field.as_deref(), Some("method"));
         let v: toml::Value = toml::from_str("tolerance = { seconds = -0.1 }").unwrap();
-        assert_eq!(build_evaluator("transitions", &v).err().unwrap().location().field.as_deref(), Some("tolerance"));
+        assert_eq!(
+            build_evaluator("transitions", &v).err().unwrap().location().field.as_deref(),
+            Some("tolerance")
+        );
     }
 }

@@ -30,7 +30,11 @@ pub(crate) enum Annotators {
 impl Annotators {
     /// From the readers' `annotator`/`tier` and `consensus` parameters (`field` names the
     /// former); both at once is an error.
-    pub(crate) fn from_params(name: Option<String>, consensus: Option<ConsensusParams>, field: &str) -> Result<Self> {
+    pub(crate) fn from_params(
+        name: Option<String>,
+        consensus: Option<ConsensusParams>,
+        field: &str,
+    ) -> Result<Self> {
         match (name, consensus) {
             (Some(_), Some(_)) => Err(Error::new(
                 ErrorKind::InvalidParameter,
@@ -61,7 +65,8 @@ impl Annotators {
         where_: &str,
     ) -> Result<Segmentation> {
         let (rate, n): (FrameRate, usize) = (motion.frame_rate(), motion.n_frames());
-        let names = || tracks.iter().map(|t| format!("{:?}", t.annotator)).collect::<Vec<_>>().join(", ");
+        let names =
+            || tracks.iter().map(|t| format!("{:?}", t.annotator)).collect::<Vec<_>>().join(", ");
         match self {
             Annotators::Named(name) => {
                 let Some(t) = tracks.iter().find(|t| &t.annotator == name) else {
@@ -105,7 +110,13 @@ mod tests {
         let items = frames
             .iter()
             .enumerate()
-            .map(|(i, &f)| AnnotatedItem { line: i + 2, start_field: "frame".into(), start: f, end: None, label: String::new() })
+            .map(|(i, &f)| AnnotatedItem {
+                line: i + 2,
+                start_field: "frame".into(),
+                start: f,
+                end: None,
+                label: String::new(),
+            })
             .collect();
         AnnotatorTrack { annotator: who.into(), items }
     }
@@ -114,28 +125,48 @@ mod tests {
     fn one_named_or_the_consensus_of_all() {
         let m = motion_from_fn(300, 100.0, 1, |_, _| [0.0; 3]);
         let o = Path::new("a.csv");
-        let tracks = [track("ana", &[100.0, 200.0]), track("ben", &[103.0]), track("cy", &[98.0, 250.0])];
-        let run = |a: Annotators| a.truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file").map(|s| s.frames());
+        let tracks =
+            [track("ana", &[100.0, 200.0]), track("ben", &[103.0]), track("cy", &[98.0, 250.0])];
+        let run = |a: Annotators| {
+            a.truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file")
+                .map(|s| s.frames())
+        };
         assert_eq!(run(Annotators::Named("ben".into())).unwrap(), vec![103]);
         // Default min_votes = 2 of 3, tolerance 5 frames: 98, 100, 103 chain (median 100); 200 and 250 alone.
-        let c: ConsensusParams = motionlab_core::registry::parse_params(&toml::from_str("tolerance = { frames = 5 }").unwrap()).unwrap();
+        let c: ConsensusParams = motionlab_core::registry::parse_params(
+            &toml::from_str("tolerance = { frames = 5 }").unwrap(),
+        )
+        .unwrap();
         let consensus = Annotators::from_params(None, Some(c), "annotator").unwrap();
         assert_eq!(run(consensus.clone()).unwrap(), vec![100]);
         // Each annotator's own marks stay beside the consensus (for TCPDBench's metrics).
-        let kept = consensus.truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file").unwrap();
+        let kept = consensus
+            .truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file")
+            .unwrap();
         assert_eq!(kept.annotators, vec![vec![100, 200], vec![103], vec![98, 250]]);
         assert_eq!(kept.annotator_names, vec!["ana", "ben", "cy"]);
         assert_eq!(kept.annotator_frames().len(), 3);
         // One named annotator is one annotator's truth.
-        let one = Annotators::Named("ana".into()).truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file").unwrap();
+        let one = Annotators::Named("ana".into())
+            .truth(&tracks, |v| v, EndRule::LastEndOnly, o, &m, "annotator", "the file")
+            .unwrap();
         assert!(one.annotators.is_empty());
         assert_eq!(one.annotator_frames(), vec![vec![100, 200]]);
         let e = run(Annotators::Only).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, Some("annotator")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::InvalidParameter, Some("annotator"))
+        );
         assert!(e.to_string().contains("\"ana\", \"ben\", \"cy\""), "{e}");
         let e = run(Annotators::Named("dan".into())).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
         let single = [track("", &[10.0])];
-        assert_eq!(Annotators::Only.truth(&single, |v| v, EndRule::EveryEnd, o, &m, "annotator", "x").unwrap().frames(), vec![10]);
+        assert_eq!(
+            Annotators::Only
+                .truth(&single, |v| v, EndRule::EveryEnd, o, &m, "annotator", "x")
+                .unwrap()
+                .frames(),
+            vec![10]
+        );
     }
 }

@@ -6,7 +6,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, FrameRate, GroundTruthReader, Location, Motion, Result, Segmentation};
+use motionlab_core::{
+    Error, ErrorKind, FrameRate, GroundTruthReader, Location, Motion, Result, Segmentation,
+};
 use motionlab_io::labels::annotations::EndRule;
 use motionlab_io::labels::boundaries_csv::{CsvAnnotations, CsvUnit, parse_boundaries_csv};
 
@@ -104,9 +106,16 @@ impl ParamGuard for BoundariesCsvParams {
     type Checked = BoundariesCsv;
     fn check(self) -> Result<BoundariesCsv> {
         let annotators = Annotators::from_params(self.annotator, self.consensus, "annotator")?;
-        let frame_rate = self.frame_rate_hz.map(|hz| FrameRate::new(hz).map_err(|e| e.with_field("frame_rate_hz"))).transpose()?;
+        let frame_rate = self
+            .frame_rate_hz
+            .map(|hz| FrameRate::new(hz).map_err(|e| e.with_field("frame_rate_hz")))
+            .transpose()?;
         if self.sequence.as_ref().is_some_and(|s| s.trim().is_empty()) {
-            return Err(Error::new(ErrorKind::OutOfRange, "is empty; expected a sequence named in the file").with_field("sequence"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "is empty; expected a sequence named in the file",
+            )
+            .with_field("sequence"));
         }
         Ok(BoundariesCsv {
             sequence: self.sequence,
@@ -171,7 +180,11 @@ impl GroundTruthReader for BoundariesCsv {
         let tracks = csv.tracks(&sequence);
         if tracks.is_empty() {
             let message = if csv.has_sequence {
-                format!("no row for sequence {sequence:?} (motion {}); the file has rows for {}", motion.name, csv.sequences().join(", "))
+                format!(
+                    "no row for sequence {sequence:?} (motion {}); the file has rows for {}",
+                    motion.name,
+                    csv.sequences().join(", ")
+                )
             } else {
                 format!("no rows; expected one per boundary or segment of {}", motion.name)
             };
@@ -184,21 +197,44 @@ impl GroundTruthReader for BoundariesCsv {
         let rule = EndRule::LastEndOnly;
         let where_ = format!("sequence {sequence:?}");
         if csv.unit == CsvUnit::Frames {
-            check_times_agree_with_frames(&csv, &sequence, path, rate, move |f| (f - first) * scale)?;
+            check_times_agree_with_frames(&csv, &sequence, path, rate, move |f| {
+                (f - first) * scale
+            })?;
         }
         match csv.unit {
-            CsvUnit::Seconds => self.annotators.truth(&tracks, move |s| s * rate, rule, path, motion, "annotator", &where_),
-            CsvUnit::Frames => {
-                self.annotators.truth(&tracks, move |f| (f - first) * scale, rule, path, motion, "annotator", &where_)
-            }
+            CsvUnit::Seconds => self.annotators.truth(
+                &tracks,
+                move |s| s * rate,
+                rule,
+                path,
+                motion,
+                "annotator",
+                &where_,
+            ),
+            CsvUnit::Frames => self.annotators.truth(
+                &tracks,
+                move |f| (f - first) * scale,
+                rule,
+                path,
+                motion,
+                "annotator",
+                &where_,
+            ),
         }
     }
 }
 
 /// A row giving both `frame` and `time_s` must name one instant: the two, as motion frames,
 /// within half a frame of each other.
-fn check_times_agree_with_frames(csv: &CsvAnnotations, sequence: &str, origin: &Path, rate: f64, to_frame: impl Fn(f64) -> f64) -> Result<()> {
-    let rows = csv.rows.iter().filter(|r| !csv.has_sequence || r.sequence.as_deref() == Some(sequence));
+fn check_times_agree_with_frames(
+    csv: &CsvAnnotations,
+    sequence: &str,
+    origin: &Path,
+    rate: f64,
+    to_frame: impl Fn(f64) -> f64,
+) -> Result<()> {
+    let rows =
+        csv.rows.iter().filter(|r| !csv.has_sequence || r.sequence.as_deref() == Some(sequence));
     for r in rows {
         let Some(t) = r.time_s else { continue };
         let (by_frame, by_time) = (to_frame(r.item.start), t * rate);
@@ -251,7 +287,10 @@ mod tests {
         // Another sequence by parameter; a missing one is an error listing those present.
         assert_eq!(read("sequence = \"d2\"", csv, &m).unwrap().frames(), vec![100]);
         let e = read("", csv, &motion("d3")).unwrap_err();
-        assert_eq!((e.kind(), e.location().line, e.location().field.as_deref()), (ErrorKind::EmptySequence, Some(1), Some("sequence")));
+        assert_eq!(
+            (e.kind(), e.location().line, e.location().field.as_deref()),
+            (ErrorKind::EmptySequence, Some(1), Some("sequence"))
+        );
         assert!(e.to_string().contains("the file has rows for d1, d2"), "{e}");
         // Frames with their times (as the viewer writes them): the frames are the boundaries,
         // and times more than half a frame off are refused — here frames of a 50 Hz file read
@@ -259,8 +298,14 @@ mod tests {
         let both = "sequence,frame,time_s,label,annotator\nd1,200,2,walk,ana\nd1,551,5.51,,ana\n";
         assert_eq!(read("", both, &m).unwrap().frames(), vec![200, 551]);
         let e = read("", "frame,time_s\n200,2.004\n100,2\n", &m).unwrap_err();
-        assert_eq!((e.kind(), e.location().line, e.location().field.as_deref()), (ErrorKind::Mismatch, Some(3), Some("time_s")));
-        assert_eq!(read("frame_rate_hz = 50.0", "frame,time_s\n100,2\n", &m).unwrap().frames(), vec![200]);
+        assert_eq!(
+            (e.kind(), e.location().line, e.location().field.as_deref()),
+            (ErrorKind::Mismatch, Some(3), Some("time_s"))
+        );
+        assert_eq!(
+            read("frame_rate_hz = 50.0", "frame,time_s\n100,2\n", &m).unwrap().frames(),
+            vec![200]
+        );
     }
 
     #[test]
@@ -269,7 +314,10 @@ mod tests {
         let csv = "start_frame,end_frame,label\n100,250,step\n250,400.5,turn\n500,600,step\n";
         let s = read("", csv, &m).unwrap();
         assert_eq!(s.frames(), vec![100, 250, 500, 600]);
-        assert_eq!(s.transitions().iter().map(|t| t.to.as_str()).collect::<Vec<_>>(), vec!["turn", "step"]);
+        assert_eq!(
+            s.transitions().iter().map(|t| t.to.as_str()).collect::<Vec<_>>(),
+            vec!["turn", "step"]
+        );
         assert_eq!(s.segments[1].end, 401);
     }
 
@@ -281,14 +329,23 @@ mod tests {
         assert_eq!(e.location().field.as_deref(), Some("annotator"));
         assert_eq!(read("annotator = \"ana\"", csv, &m).unwrap().frames(), vec![100, 300]);
         let s = read("consensus = { tolerance = { frames = 5 }, min_votes = 2 }", csv, &m).unwrap();
-        assert_eq!(s.boundaries, vec![motionlab_core::Boundary { frame: 102, window: Some((100, 104)) }]);
-        let e = build_ground_truth("boundaries_csv", &toml::from_str("annotator = \"a\"\nconsensus = {}").unwrap()).err().unwrap();
+        assert_eq!(
+            s.boundaries,
+            vec![motionlab_core::Boundary { frame: 102, window: Some((100, 104)) }]
+        );
+        let e = build_ground_truth(
+            "boundaries_csv",
+            &toml::from_str("annotator = \"a\"\nconsensus = {}").unwrap(),
+        )
+        .err()
+        .unwrap();
         assert_eq!(e.location().field.as_deref(), Some("consensus"));
     }
 
     #[test]
     fn rows_must_name_motion_files_beside_the_motion() {
-        let dir = std::env::temp_dir().join(format!("motionlab-truth-csv-seq-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("motionlab-truth-csv-seq-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         for f in ["take1.c3d", "take2.c3d", "notes.txt"] {
             std::fs::write(dir.join(f), b"").unwrap();
@@ -297,7 +354,10 @@ mod tests {
         m.source = Some(dir.join("take1.c3d"));
         let csv = "sequence,frame\ntake1,10\ntake2,20\ntake3,30\n";
         let e = read("", csv, &m).unwrap_err();
-        assert_eq!((e.kind(), e.location().line, e.location().field.as_deref()), (ErrorKind::UnknownName, Some(4), Some("sequence")));
+        assert_eq!(
+            (e.kind(), e.location().line, e.location().field.as_deref()),
+            (ErrorKind::UnknownName, Some(4), Some("sequence"))
+        );
         assert!(e.to_string().contains("take1, take2"), "{e}");
         assert_eq!(read("check_sequences = false", csv, &m).unwrap().frames(), vec![10]);
     }

@@ -62,10 +62,16 @@ impl ParamGuard for ElanEafParams {
     type Checked = ElanEaf;
     fn check(self) -> Result<ElanEaf> {
         if !self.offset_ms.is_finite() {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite time in ms, found {}", self.offset_ms))
-                .with_field("offset_ms"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a finite time in ms, found {}", self.offset_ms),
+            )
+            .with_field("offset_ms"));
         }
-        Ok(ElanEaf { annotators: Annotators::from_params(self.tier, self.consensus, "tier")?, offset_ms: self.offset_ms })
+        Ok(ElanEaf {
+            annotators: Annotators::from_params(self.tier, self.consensus, "tier")?,
+            offset_ms: self.offset_ms,
+        })
     }
 }
 
@@ -78,12 +84,21 @@ impl GroundTruthReader for ElanEaf {
             // A named tier may be empty: say so rather than "unknown".
             Annotators::Named(name) => match aligned.iter().find(|t| &t.id == name) {
                 Some(t) if t.track.items.is_empty() => {
-                    return Err(Error::at_line(ErrorKind::EmptySequence, path, t.line, format!("tier {name:?} has no time-aligned annotations"))
-                        .with_field("tier"));
+                    return Err(Error::at_line(
+                        ErrorKind::EmptySequence,
+                        path,
+                        t.line,
+                        format!("tier {name:?} has no time-aligned annotations"),
+                    )
+                    .with_field("tier"));
                 }
                 _ => aligned.iter().map(|t| t.track.clone()).collect(),
             },
-            _ => aligned.iter().filter(|t| !t.track.items.is_empty()).map(|t| t.track.clone()).collect(),
+            _ => aligned
+                .iter()
+                .filter(|t| !t.track.items.is_empty())
+                .map(|t| t.track.clone())
+                .collect(),
         };
         if tracks.is_empty() {
             let all: Vec<String> = tiers.iter().map(|t| format!("{:?}", t.id)).collect();
@@ -95,7 +110,15 @@ impl GroundTruthReader for ElanEaf {
         }
         let rate = motion.frame_rate().hz();
         let offset = self.offset_ms;
-        self.annotators.truth(&tracks, move |ms| (ms - offset) / 1000.0 * rate, EndRule::EveryEnd, path, motion, "tier", "the file")
+        self.annotators.truth(
+            &tracks,
+            move |ms| (ms - offset) / 1000.0 * rate,
+            EndRule::EveryEnd,
+            path,
+            motion,
+            "tier",
+            "the file",
+        )
     }
 }
 
@@ -120,17 +143,31 @@ mod tests {
         let s = read("tier = \"steps\"", "dance_steps.eaf", 1000).unwrap();
         // 4.005 s × 100 = 400.5 → 401 (halves away from zero).
         assert_eq!(s.frames(), vec![100, 250, 401, 600, 725]);
-        assert_eq!(s.segments.iter().map(|g| g.label.as_str()).collect::<Vec<_>>(), vec!["step", "turn", "step"]);
+        assert_eq!(
+            s.segments.iter().map(|g| g.label.as_str()).collect::<Vec<_>>(),
+            vec!["step", "turn", "step"]
+        );
         // Offset: the motion starts 500 ms into the video.
-        assert_eq!(read("tier = \"steps\"\noffset_ms = 500.0", "dance_steps.eaf", 1000).unwrap().frames(), vec![50, 200, 351, 550, 675]);
+        assert_eq!(
+            read("tier = \"steps\"\noffset_ms = 500.0", "dance_steps.eaf", 1000).unwrap().frames(),
+            vec![50, 200, 351, 550, 675]
+        );
         // Two tiers: a choice is needed; consensus of both within 6 frames keeps what both marked.
         let e = read("", "dance_steps.eaf", 1000).unwrap_err();
         assert!(e.to_string().contains("\"steps\", \"ben\""), "{e}");
-        let c = read("consensus = { tolerance = { frames = 6 }, min_votes = 2 }", "dance_steps.eaf", 1000).unwrap();
+        let c = read(
+            "consensus = { tolerance = { frames = 6 }, min_votes = 2 }",
+            "dance_steps.eaf",
+            1000,
+        )
+        .unwrap();
         assert_eq!(c.frames(), vec![102, 247, 601, 727]);
         // Annotations past a short motion's end.
         let e = read("tier = \"steps\"", "dance_steps.eaf", 500).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("TIME_SLOT_REF1")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("TIME_SLOT_REF1"))
+        );
         let e = read("tier = \"nope\"", "dance_steps.eaf", 1000).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
     }

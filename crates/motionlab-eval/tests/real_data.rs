@@ -7,7 +7,9 @@ use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
 use motionlab_core::registry::{build_evaluator, build_ground_truth, build_loader, default_params};
-use motionlab_core::{ColumnValues, EvalInput, Evaluator, MethodResult, Motion, Segmentation, SequenceResult, Table};
+use motionlab_core::{
+    ColumnValues, EvalInput, Evaluator, MethodResult, Motion, Segmentation, SequenceResult, Table,
+};
 use motionlab_eval::boundaries::{PoseRule, root_aligned_pose_distance};
 use motionlab_testkit::{Rng, data_path};
 // Linked for its registered loaders and ground-truth readers.
@@ -86,13 +88,16 @@ fn cmu86_table1_and_table3_from_the_real_labels() {
     assert_eq!(claim.column("fused_exceeds_all"), Some(&ColumnValues::Bool(vec![false])));
     // The annotated windows (±50 frames here) accept the window starts; one-to-one matching
     // still lets the fused list (12 frames, two per window) match only the 6 truths.
-    let windowed = evaluator("boundary_pr", "use_windows = true").evaluate(EvalInput::segmentation(&seqs)).unwrap();
+    let windowed = evaluator("boundary_pr", "use_windows = true")
+        .evaluate(EvalInput::segmentation(&seqs))
+        .unwrap();
     assert_eq!(column_f64(&windowed[0], "n_matched")[..3], [6.0, 6.0, 6.0]);
     assert_eq!(column_f64(&windowed[0], "precision")[..3], [1.0, 1.0, 0.5]);
 
     // Table 3 on the fused method: every labelled transition found; on the window starts none,
     // each 50 frames (0.4167 s) from its nearest candidate.
-    let t3 = evaluator("transitions", "").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
+    let t3 =
+        evaluator("transitions", "").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
     assert_eq!(cells(&t3, "from"), ["walk", "jump", "walk", "punch", "walk", "leg_kick"]);
     assert_eq!(cells(&t3, "to"), ["jump", "walk", "punch", "walk", "leg_kick", "punch"]);
     assert_eq!(cells(&t3, "detected"), ["○"; 6]);
@@ -116,7 +121,8 @@ fn cmu86_pose_rule_on_the_real_skeleton() {
         let (pa, pb) = (motion.frame(a), motion.frame(b));
         let mut sum = 0.0;
         for k in (0..motion.n_points()).filter(|&k| k != root) {
-            let d: Vec<f64> = (0..3).map(|c| (pa[k][c] - pb[k][c]) - (pa[root][c] - pb[root][c])).collect();
+            let d: Vec<f64> =
+                (0..3).map(|c| (pa[k][c] - pb[k][c]) - (pa[root][c] - pb[root][c])).collect();
             sum += d.iter().map(|x| x * x).sum::<f64>().sqrt();
         }
         let expected = sum / (motion.n_points() - 1) as f64;
@@ -126,7 +132,8 @@ fn cmu86_pose_rule_on_the_real_skeleton() {
     // Candidates 30 frames (0.25 s) after each boundary: outside the 10-frame tolerance.
     let late: Vec<usize> = frames.iter().map(|f| f + 30).collect();
     let pose = PoseRule::new(&motion, "root", 1.0, None).unwrap();
-    let distances: Vec<f64> = frames.iter().zip(&late).map(|(&b, &l)| pose.distance_mm(b, l).unwrap()).collect();
+    let distances: Vec<f64> =
+        frames.iter().zip(&late).map(|(&b, &l)| pose.distance_mm(b, l).unwrap()).collect();
     // A real body moves in 0.25 s: every distance is positive and below a body length.
     assert!(distances.iter().all(|&d| d > 1.0 && d < 1000.0), "{distances:?}");
     let largest = distances.iter().copied().fold(0.0, f64::max);
@@ -134,15 +141,23 @@ fn cmu86_pose_rule_on_the_real_skeleton() {
     let mut s = seq.clone();
     s.methods = vec![MethodResult { method: "late".into(), candidates: late }];
     let matched = |params: &str| -> f64 {
-        let t = evaluator("boundary_pr", params).evaluate(EvalInput::segmentation(&vec![s.clone()])).unwrap();
+        let t = evaluator("boundary_pr", params)
+            .evaluate(EvalInput::segmentation(&vec![s.clone()]))
+            .unwrap();
         column_f64(&t[0], "n_matched_by_pose")[0]
     };
     assert_eq!(matched(""), 0.0);
     assert_eq!(matched(&format!("pose_mm = {}", largest * 1.001)), 6.0);
     assert_eq!(matched(&format!("pose_mm = {}", smallest * 0.999)), 0.0);
     // The pose rule's time limit: 0.25 s apart is inside 0.3 s, outside 0.2 s.
-    assert_eq!(matched(&format!("pose_mm = {}\npose_max_gap = {{ seconds = 0.3 }}", largest * 1.001)), 6.0);
-    assert_eq!(matched(&format!("pose_mm = {}\npose_max_gap = {{ seconds = 0.2 }}", largest * 1.001)), 0.0);
+    assert_eq!(
+        matched(&format!("pose_mm = {}\npose_max_gap = {{ seconds = 0.3 }}", largest * 1.001)),
+        6.0
+    );
+    assert_eq!(
+        matched(&format!("pose_mm = {}\npose_max_gap = {{ seconds = 0.2 }}", largest * 1.001)),
+        0.0
+    );
 }
 
 #[test]
@@ -151,7 +166,12 @@ fn mocap6_pooled_over_three_sequences() {
     let mut n_truth = 0;
     for name in ["13_29", "13_30", "13_31"] {
         let motion = load(&format!("mocap6/amc/{name}.amc.gz"));
-        let truth = truth("mocap6_labels", "", &data_path(&format!("mocap6/truelabels/{name}.txt")), &motion);
+        let truth = truth(
+            "mocap6_labels",
+            "",
+            &data_path(&format!("mocap6/truelabels/{name}.txt")),
+            &motion,
+        );
         n_truth += truth.boundaries.len();
         // Block labels are 12 frames (0.1 s) coarse: shift by 6 frames (half a block, inside
         // the 10-frame default tolerance) and by 12 (a whole block, outside it).
@@ -179,7 +199,8 @@ fn mocap6_pooled_over_three_sequences() {
     assert_eq!(column_f64(t1, "recall")[6..], [0.0, 1.0]);
     assert_eq!(cells(&tables[2], "fused_exceeds_all"), ["true"]);
     // Table 3 has one row per labelled transition of the three sequences.
-    let t3 = evaluator("transitions", "").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
+    let t3 =
+        evaluator("transitions", "").evaluate(EvalInput::segmentation(&seqs)).unwrap().remove(0);
     assert_eq!(t3.n_rows(), n_truth);
     assert!(cells(&t3, "detected").iter().all(|d| d == "○"));
 }
@@ -189,14 +210,18 @@ fn mocap6_pooled_over_three_sequences() {
 /// rule reads V, which skips missing markers.
 #[test]
 fn walk1_missing_samples_in_the_pose_and_stop_rules() {
-    let walk = build_loader("qualisys_tsv", &default_params()).unwrap().load(&data_path("mct/walk1.tsv.gz")).unwrap();
+    let walk = build_loader("qualisys_tsv", &default_params())
+        .unwrap()
+        .load(&data_path("mct/walk1.tsv.gz"))
+        .unwrap();
     assert_eq!(walk.missing_count(), 27);
     let head_fr = walk.point_index("Head_FR").unwrap();
     let sternum = walk.point_index("Sternum").unwrap();
     assert!(walk.is_missing(200, head_fr) && !walk.is_missing(150, head_fr));
     // Independent computation over the 26 markers that are neither the root nor missing.
     let (a, b) = (200, 150);
-    let others: Vec<usize> = (0..walk.n_points()).filter(|&k| k != sternum && k != head_fr).collect();
+    let others: Vec<usize> =
+        (0..walk.n_points()).filter(|&k| k != sternum && k != head_fr).collect();
     assert_eq!(others.len(), 26);
     let expected = others
         .iter()
@@ -229,8 +254,9 @@ fn walk1_missing_samples_in_the_pose_and_stop_rules() {
     };
     let by_pose = |root: &str| {
         let params = format!("pose_mm = {}\nroot = \"{root}\"", expected * 1.01);
-        let t =
-            evaluator("boundary_pr", &params).evaluate(EvalInput::segmentation(&vec![seq.clone()])).unwrap();
+        let t = evaluator("boundary_pr", &params)
+            .evaluate(EvalInput::segmentation(&vec![seq.clone()]))
+            .unwrap();
         column_f64(&t[0], "n_matched_by_pose")[0]
     };
     assert_eq!(by_pose("Sternum"), 1.0);
@@ -242,10 +268,15 @@ fn walk1_missing_samples_in_the_pose_and_stop_rules() {
     assert!(v[199..210].iter().all(|x| x.is_finite()));
     let slowest = v[199..=209].iter().copied().fold(f64::INFINITY, f64::min);
     let rule = |max_speed: f64| {
-        let text = format!("tolerance = {{ frames = 5 }}\nmin_votes = 2\nstop_rule = {{ max_speed = {max_speed} }}");
+        let text = format!(
+            "tolerance = {{ frames = 5 }}\nmin_votes = 2\nstop_rule = {{ max_speed = {max_speed} }}"
+        );
         let v: toml::Value = toml::from_str(&text).unwrap();
         use motionlab_core::registry::ParamGuard;
-        motionlab_core::registry::parse_params::<motionlab_eval::ConsensusParams>(&v).unwrap().check().unwrap()
+        motionlab_core::registry::parse_params::<motionlab_eval::ConsensusParams>(&v)
+            .unwrap()
+            .check()
+            .unwrap()
     };
     let marks = vec![vec![204], vec![]];
     assert_eq!(rule(slowest).run(&marks, &walk).unwrap().len(), 1);

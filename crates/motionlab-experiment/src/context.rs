@@ -9,11 +9,14 @@ use std::sync::{Arc, Mutex};
 use motionlab_cache::{Key, KeyBuilder};
 
 use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, GroundTruthReader, Loader, Location, Motion, Preprocessor, Result, Segmentation};
+use motionlab_core::{
+    Error, ErrorKind, GroundTruthReader, Loader, Location, Motion, Preprocessor, Result,
+    Segmentation,
+};
 
 use crate::run_cache::{Origin, RunCache, StageUse};
 use crate::spec::{Cut, DatasetSpec, ExperimentFile, StageSpec};
-use crate::toml_paths::{line_of, KeyPath};
+use crate::toml_paths::{KeyPath, line_of};
 
 /// The experiment file as read.
 #[derive(Clone, Debug)]
@@ -29,7 +32,12 @@ impl Source {
         let text = String::from_utf8(bytes).map_err(|e| {
             let at = e.utf8_error().valid_up_to();
             let line = e.as_bytes()[..at].iter().filter(|b| **b == b'\n').count() + 1;
-            Error::at_line(ErrorKind::Syntax, path, line, format!("invalid UTF-8 at byte {at}; expected a TOML text file"))
+            Error::at_line(
+                ErrorKind::Syntax,
+                path,
+                line,
+                format!("invalid UTF-8 at byte {at}; expected a TOML text file"),
+            )
         })?;
         Ok(Source { path: path.to_path_buf(), text })
     }
@@ -57,7 +65,10 @@ impl Source {
                     None => p,
                 },
                 // Not a key path (cannot happen for paths written in code): name it as text.
-                Err(_) => return Error::new(kind, msg).with_location(Location::file(&self.path).field(text)),
+                Err(_) => {
+                    return Error::new(kind, msg)
+                        .with_location(Location::file(&self.path).field(text));
+                }
             },
         };
         let resolved = path.resolve(doc).unwrap_or_else(|_| path.clone());
@@ -176,7 +187,12 @@ pub struct Datasets {
 
 impl Datasets {
     /// `preprocess` are built from `preprocess_specs`, in order.
-    pub fn new(datasets: Vec<BuiltDataset>, preprocess: Vec<Box<dyn Preprocessor>>, preprocess_specs: Vec<StageSpec>, cache: Arc<RunCache>) -> Self {
+    pub fn new(
+        datasets: Vec<BuiltDataset>,
+        preprocess: Vec<Box<dyn Preprocessor>>,
+        preprocess_specs: Vec<StageSpec>,
+        cache: Arc<RunCache>,
+    ) -> Self {
         Datasets { datasets, preprocess, preprocess_specs, cache, log: Mutex::default() }
     }
     /// The uses logged so far (and clears the log).
@@ -195,27 +211,53 @@ impl Datasets {
     fn recipe(&self, dataset: usize, file: usize, with_folder: bool) -> String {
         let d = &self.datasets[dataset];
         let path = &d.files[file];
-        let place = if with_folder { path.to_string_lossy().into_owned() } else { path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default() };
+        let place = if with_folder {
+            path.to_string_lossy().into_owned()
+        } else {
+            path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+        };
         let stage = |s: &StageSpec| format!("{} {}", s.kind, s.plugin_params());
-        let gt = d.spec.ground_truth.as_ref().map(|g| format!("{} {:?}", stage(g), d.ground_truth_path(file).map(|p| if with_folder { p } else { p.file_name().map(PathBuf::from).unwrap_or_default() })));
-        let pre: Vec<String> = d.spec.preprocess.iter().chain(&self.preprocess_specs).map(stage).collect();
-        format!("file {place}\nname {}\nloader {}\ncut {:?}\ntruth {gt:?}\npreprocess {pre:?}", d.sequence_name(file), stage(&d.spec.loader), d.spec.cut)
+        let gt = d.spec.ground_truth.as_ref().map(|g| {
+            format!(
+                "{} {:?}",
+                stage(g),
+                d.ground_truth_path(file).map(|p| if with_folder {
+                    p
+                } else {
+                    p.file_name().map(PathBuf::from).unwrap_or_default()
+                })
+            )
+        });
+        let pre: Vec<String> =
+            d.spec.preprocess.iter().chain(&self.preprocess_specs).map(stage).collect();
+        format!(
+            "file {place}\nname {}\nloader {}\ncut {:?}\ntruth {gt:?}\npreprocess {pre:?}",
+            d.sequence_name(file),
+            stage(&d.spec.loader),
+            d.spec.cut
+        )
     }
     /// Loads file `file` of dataset `dataset` (loader → cut → ground truth → dataset
     /// preprocessors → experiment preprocessors), once per run: later requests — from any
     /// combination with the same recipe — share it ([`crate::run_cache`]).
     pub fn load(&self, dataset: usize, file: usize) -> Result<LoadedItem> {
-        let recipe = KeyBuilder::new("recipe").part("recipe", self.recipe(dataset, file, true).as_bytes()).finish();
+        let recipe = KeyBuilder::new("recipe")
+            .part("recipe", self.recipe(dataset, file, true).as_bytes())
+            .finish();
         let content_key = || {
             let d = &self.datasets[dataset];
-            let mut k = KeyBuilder::new("motion").part("recipe", self.recipe(dataset, file, false).as_bytes()).part("file", &self.cache.file_sha256(&d.files[file])?);
+            let mut k = KeyBuilder::new("motion")
+                .part("recipe", self.recipe(dataset, file, false).as_bytes())
+                .part("file", &self.cache.file_sha256(&d.files[file])?);
             if let Some(gt) = d.ground_truth_path(file) {
                 k = k.part("truth", &self.cache.file_sha256(&gt)?);
             }
             Ok(k.finish())
         };
-        let (mut item, origin) = self.cache.get_or_load(&recipe, content_key, || self.load_uncached(dataset, file))?;
-        self.cache.note_repairs(&self.datasets[dataset].files[file], &item.motion.load_notes.repairs);
+        let (mut item, origin) =
+            self.cache.get_or_load(&recipe, content_key, || self.load_uncached(dataset, file))?;
+        self.cache
+            .note_repairs(&self.datasets[dataset].files[file], &item.motion.load_notes.repairs);
         if origin == Origin::Disk {
             // The entry is content-addressed: the same bytes may have been read from elsewhere.
             let mut m = (*item.motion).clone();
@@ -257,9 +299,10 @@ impl Datasets {
         logged: &[(usize, usize)],
         compute: impl FnOnce() -> Result<motionlab_core::Evaluation>,
     ) -> Result<motionlab_core::Evaluation> {
-        let key = inputs.iter().try_fold(KeyBuilder::new("evaluation").part("params", params.as_bytes()), |k, (input, bytes)| {
-            input.as_ref().map(|i| k.upstream("input", i).part("reads", bytes))
-        });
+        let key = inputs.iter().try_fold(
+            KeyBuilder::new("evaluation").part("params", params.as_bytes()),
+            |k, (input, bytes)| input.as_ref().map(|i| k.upstream("input", i).part("reads", bytes)),
+        );
         let (v, origin) = self.cache.evaluation(key.map(KeyBuilder::finish), compute)?;
         for &(d, f) in logged {
             self.record(d, f, stage, origin);
@@ -275,14 +318,21 @@ impl Datasets {
             let rate = motion.frame_rate();
             let (a, b) = match cut {
                 Cut::Frames([a, b]) => (a, b),
-                Cut::Seconds([a, b]) => (rate.seconds_to_frames(motionlab_core::Seconds(a)).round() as usize, rate.seconds_to_frames(motionlab_core::Seconds(b)).round() as usize),
+                Cut::Seconds([a, b]) => (
+                    rate.seconds_to_frames(motionlab_core::Seconds(a)).round() as usize,
+                    rate.seconds_to_frames(motionlab_core::Seconds(b)).round() as usize,
+                ),
             };
-            motion = motion.slice_frames(a, b).map_err(|e| e.in_file(path).with_field(format!("dataset[{dataset}].cut")))?;
+            motion = motion
+                .slice_frames(a, b)
+                .map_err(|e| e.in_file(path).with_field(format!("dataset[{dataset}].cut")))?;
         }
         // Ground truth is read against the motion as loaded (and cut), before preprocessors
         // that may add points but never change timing.
         let truth = match (&d.ground_truth, d.ground_truth_path(file)) {
-            (Some((reader, _)), Some(gt_path)) => Some(reader.read(&gt_path, &motion).map_err(|e| e.in_file(&gt_path))?),
+            (Some((reader, _)), Some(gt_path)) => {
+                Some(reader.read(&gt_path, &motion).map_err(|e| e.in_file(&gt_path))?)
+            }
             _ => None,
         };
         // What the loader noted stays with the motion (a preprocessor may build a new one),
@@ -311,7 +361,11 @@ pub fn build_stage<T: ?Sized>(
     builder(&spec.kind, &spec.plugin_params()).map_err(|e| {
         if e.kind() == ErrorKind::UnknownPlugin {
             // An unknown name is the `type` key's fault, whatever field the registry named.
-            source.locate(Error::new(e.kind(), e.message().to_string()), path.key("type"), &combo.doc)
+            source.locate(
+                Error::new(e.kind(), e.message().to_string()),
+                path.key("type"),
+                &combo.doc,
+            )
         } else {
             source.locate(e, path, &combo.doc)
         }
@@ -320,7 +374,11 @@ pub fn build_stage<T: ?Sized>(
 
 /// Deserialises a table of the document found at `root` (a workflow section, or the whole
 /// document at the empty path), with errors located at `root.<field>` and its line.
-pub fn deserialize_section<T: serde::de::DeserializeOwned>(source: &Source, doc: &toml::Table, value: toml::Value, root: &KeyPath) -> Result<T> {
+pub fn deserialize_section<T: serde::de::DeserializeOwned>(
+    source: &Source,
+    doc: &toml::Table,
+    value: toml::Value,
+    root: &KeyPath,
+) -> Result<T> {
     registry::parse_params::<T>(&value).map_err(|e| source.locate(e, root, doc))
 }
-

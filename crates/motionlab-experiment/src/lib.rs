@@ -24,9 +24,14 @@ pub mod spec;
 pub mod toml_paths;
 pub mod workflow;
 
+pub use context::{
+    At, BuiltDataset, Combo, Datasets, LoadedItem, Source, build_stage, deserialize_section,
+};
 pub use run_cache::{Origin, RunCache};
-pub use context::{build_stage, deserialize_section, At, BuiltDataset, Combo, Datasets, LoadedItem, Source};
-pub use workflow::{build_named_stages, BuildContext, ComboOutput, ItemData, ItemOutput, Locator, Output, WorkItem, Workflow, WorkflowEntry, WorkflowPlugin};
+pub use workflow::{
+    BuildContext, ComboOutput, ItemData, ItemOutput, Locator, Output, WorkItem, Workflow,
+    WorkflowEntry, WorkflowPlugin, build_named_stages,
+};
 
 // Re-exported for `register_workflow!`.
 pub use inventory;

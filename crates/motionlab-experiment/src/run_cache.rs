@@ -29,8 +29,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
-pub use motionlab_cache::{hex, Key};
 use motionlab_cache::{Cache, KeyBuilder};
+pub use motionlab_cache::{Key, hex};
 use motionlab_core::{Analysis, Error, Evaluation, Motion, Result};
 
 use crate::context::LoadedItem;
@@ -80,7 +80,10 @@ pub struct RunCache {
 
 impl Default for RunCache {
     fn default() -> Self {
-        let mb = std::env::var("MOTIONLAB_MEMORY_BUDGET_MB").ok().and_then(|v| v.trim().parse::<usize>().ok()).unwrap_or(DEFAULT_BUDGET_MB);
+        let mb = std::env::var("MOTIONLAB_MEMORY_BUDGET_MB")
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .unwrap_or(DEFAULT_BUDGET_MB);
         RunCache::with_budget(mb.saturating_mul(1 << 20))
     }
 }
@@ -155,7 +158,11 @@ impl RunCache {
             let mut t = self.table.lock().map_err(|_| poisoned())?;
             t.tick += 1;
             let tick = t.tick;
-            let slot = t.slots.entry(*recipe).or_insert_with(|| Slot { cell: Arc::default(), last_use: tick, bytes: 0 });
+            let slot = t.slots.entry(*recipe).or_insert_with(|| Slot {
+                cell: Arc::default(),
+                last_use: tick,
+                bytes: 0,
+            });
             slot.last_use = tick;
             Arc::clone(&slot.cell)
         };
@@ -170,16 +177,27 @@ impl RunCache {
             None => None,
         };
         let from_disk = match (&disk, &key) {
-            (Some(c), Some(k)) => c.get("motion", k).and_then(|bytes| motionlab_cache::motion::decode(&bytes).ok()),
+            (Some(c), Some(k)) => {
+                c.get("motion", k).and_then(|bytes| motionlab_cache::motion::decode(&bytes).ok())
+            }
             _ => None,
         };
         let (mut item, origin) = match from_disk {
-            Some((motion, truth)) => (LoadedItem { name: motion.name.clone(), motion: Arc::new(motion), truth, key: None }, Origin::Disk),
+            Some((motion, truth)) => (
+                LoadedItem {
+                    name: motion.name.clone(),
+                    motion: Arc::new(motion),
+                    truth,
+                    key: None,
+                },
+                Origin::Disk,
+            ),
             None => {
                 self.loads.fetch_add(1, Ordering::Relaxed);
                 let item = load()?;
                 if let (Some(c), Some(k)) = (&disk, &key)
-                    && let Ok(bytes) = motionlab_cache::motion::encode(&item.motion, item.truth.as_ref())
+                    && let Ok(bytes) =
+                        motionlab_cache::motion::encode(&item.motion, item.truth.as_ref())
                 {
                     // A cache that cannot be written only costs time.
                     let _ = c.put("motion", k, &bytes);
@@ -209,7 +227,15 @@ impl RunCache {
             t.bytes = t.bytes.saturating_sub(old) + bytes;
         }
         while t.bytes > self.budget_bytes {
-            let Some(oldest) = t.slots.iter().filter(|(k, s)| *k != recipe && s.bytes > 0).min_by_key(|(_, s)| s.last_use).map(|(k, _)| *k) else { break };
+            let Some(oldest) = t
+                .slots
+                .iter()
+                .filter(|(k, s)| *k != recipe && s.bytes > 0)
+                .min_by_key(|(_, s)| s.last_use)
+                .map(|(k, _)| *k)
+            else {
+                break;
+            };
             if let Some(s) = t.slots.remove(&oldest) {
                 t.bytes = t.bytes.saturating_sub(s.bytes);
             }
@@ -217,7 +243,12 @@ impl RunCache {
     }
 
     /// A stage output from disk under `key`, else computed (and stored).
-    pub(crate) fn stage<T: serde::Serialize + serde::de::DeserializeOwned>(&self, kind: &str, key: Option<Key>, compute: impl FnOnce() -> Result<T>) -> Result<(T, Origin)> {
+    pub(crate) fn stage<T: serde::Serialize + serde::de::DeserializeOwned>(
+        &self,
+        kind: &str,
+        key: Option<Key>,
+        compute: impl FnOnce() -> Result<T>,
+    ) -> Result<(T, Origin)> {
         let disk = self.disk();
         let (Some(c), Some(k)) = (disk, key) else { return Ok((compute()?, Origin::Computed)) };
         if let Some(v) = c.get(kind, &k).and_then(|b| rmp_serde::from_slice::<T>(&b).ok()) {
@@ -235,11 +266,17 @@ impl RunCache {
     /// An evaluation from disk under `key`, else computed (and stored when its analysis, if
     /// any, can be encoded). The tables are one entry (`evaluation`), the analysis — its type
     /// name and bytes, or none — another under the same key (`analysis`).
-    pub(crate) fn evaluation(&self, key: Option<Key>, compute: impl FnOnce() -> Result<Evaluation>) -> Result<(Evaluation, Origin)> {
+    pub(crate) fn evaluation(
+        &self,
+        key: Option<Key>,
+        compute: impl FnOnce() -> Result<Evaluation>,
+    ) -> Result<(Evaluation, Origin)> {
         let disk = self.disk();
         let (Some(c), Some(k)) = (disk, key) else { return Ok((compute()?, Origin::Computed)) };
-        if let Some(tables) = c.get("evaluation", &k).and_then(|b| motionlab_cache::table::decode(&b).ok())
-            && let Some(analysis) = c.get("analysis", &k).and_then(|b| rmp_serde::from_slice::<StoredAnalysis>(&b).ok())
+        if let Some(tables) =
+            c.get("evaluation", &k).and_then(|b| motionlab_cache::table::decode(&b).ok())
+            && let Some(analysis) =
+                c.get("analysis", &k).and_then(|b| rmp_serde::from_slice::<StoredAnalysis>(&b).ok())
         {
             let analysis = analysis.map(|(type_name, bytes)| Analysis::restored(type_name, bytes));
             return Ok((Evaluation { tables, analysis }, Origin::Disk));
@@ -276,5 +313,8 @@ fn poisoned() -> Error {
 
 /// Bytes a motion holds (positions, mask, channel values).
 fn motion_bytes(m: &Motion) -> usize {
-    m.positions().len() * 25 + m.skeleton.as_ref().map_or(0, |s| s.channel_values().len() * 8) + m.channels().values().len() * 8 + 4096
+    m.positions().len() * 25
+        + m.skeleton.as_ref().map_or(0, |s| s.channel_values().len() * 8)
+        + m.channels().values().len() * 8
+        + 4096
 }

@@ -16,7 +16,10 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
-use motionlab_core::{Channels, DataKind, Error, ErrorKind, FeatureCache, FeatureExtractor, Motion, Result, Segmenter, SegmenterOutput};
+use motionlab_core::{
+    Channels, DataKind, Error, ErrorKind, FeatureCache, FeatureExtractor, Motion, Result,
+    Segmenter, SegmenterOutput,
+};
 
 use crate::context::{build_stage, deserialize_section};
 use crate::spec::StageSpec;
@@ -98,12 +101,20 @@ impl FeatureChannels {
     pub fn of(&self, motion: &Motion, cache: &FeatureCache) -> Result<Motion> {
         let mut traces = Vec::new();
         for (name, x) in &self.extractors {
-            traces.extend(x.extract(motion, cache).map_err(|e| e.under_field(format!("input.features {name}")))?.traces);
+            traces.extend(
+                x.extract(motion, cache)
+                    .map_err(|e| e.under_field(format!("input.features {name}")))?
+                    .traces,
+            );
         }
         if self.fill == FeatureFill::Linear {
             for t in &mut traces {
                 if !fill_linear(&mut t.values) {
-                    return Err(Error::new(ErrorKind::MissingData, format!("feature {:?} has no defined sample in {}", t.name, motion.name)).with_field("input.features"));
+                    return Err(Error::new(
+                        ErrorKind::MissingData,
+                        format!("feature {:?} has no defined sample in {}", t.name, motion.name),
+                    )
+                    .with_field("input.features"));
                 }
             }
         }
@@ -135,35 +146,71 @@ impl NamedSegmenter {
 /// points and refuses `input`; one that reads channels takes a channel file's as they are, and
 /// on positions needs `input` (the features that become its channels). Errors point at the
 /// file, line and key.
-pub fn build_segmenters(cx: &BuildContext<'_>, specs: &[StageSpec], at: &KeyPath) -> Result<Vec<NamedSegmenter>> {
+pub fn build_segmenters(
+    cx: &BuildContext<'_>,
+    specs: &[StageSpec],
+    at: &KeyPath,
+) -> Result<Vec<NamedSegmenter>> {
     let (source, combo) = (cx.source, cx.combo);
     let mut out: Vec<NamedSegmenter> = Vec::new();
     for (k, spec) in specs.iter().enumerate() {
         let here = at.index(k);
         let name = spec.display_name();
         if out.iter().any(|s| s.name == name) {
-            return Err(cx.locate(Error::new(ErrorKind::DuplicateName, format!("two segmenters are named {name:?}; give one a `name = \"…\"`")), here));
+            return Err(cx.locate(
+                Error::new(
+                    ErrorKind::DuplicateName,
+                    format!("two segmenters are named {name:?}; give one a `name = \"…\"`"),
+                ),
+                here,
+            ));
         }
         let stage = build_stage(source, combo, spec, &here, registry::build_segmenter)?;
         let input = match spec.channel_input() {
             None => None,
-            Some(value) => Some(deserialize_section::<ChannelInput>(source, &combo.doc, value.clone(), &here.key("input"))?),
+            Some(value) => Some(deserialize_section::<ChannelInput>(
+                source,
+                &combo.doc,
+                value.clone(),
+                &here.key("input"),
+            )?),
         };
-        let gives: Vec<(usize, DataKind, &str)> = cx.data.datasets.iter().map(|d| (d.index, d.loader.gives(), d.spec.loader.kind.as_str())).collect();
-        let refuse = |msg: String, key: KeyPath| Err(cx.locate(Error::new(ErrorKind::InvalidParameter, msg), key));
+        let gives: Vec<(usize, DataKind, &str)> = cx
+            .data
+            .datasets
+            .iter()
+            .map(|d| (d.index, d.loader.gives(), d.spec.loader.kind.as_str()))
+            .collect();
+        let refuse = |msg: String, key: KeyPath| {
+            Err(cx.locate(Error::new(ErrorKind::InvalidParameter, msg), key))
+        };
         match (stage.consumes(), &input) {
             (DataKind::Points, Some(_)) => {
-                return refuse(format!("{} reads marker or joint positions, not channels: `input` is for segmenters that read channels", spec.kind), here.key("input"));
+                return refuse(
+                    format!(
+                        "{} reads marker or joint positions, not channels: `input` is for segmenters that read channels",
+                        spec.kind
+                    ),
+                    here.key("input"),
+                );
             }
             (DataKind::Points, None) => {
                 if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
-                    return refuse(format!("{} reads marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels only", spec.kind), here.key("type"));
+                    return refuse(
+                        format!(
+                            "{} reads marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels only",
+                            spec.kind
+                        ),
+                        here.key("type"),
+                    );
                 }
             }
             (DataKind::Channels, Some(_)) => {
                 if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
                     return refuse(
-                        format!("`input` computes channels from marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels already: remove `input`"),
+                        format!(
+                            "`input` computes channels from marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels already: remove `input`"
+                        ),
                         here.key("input"),
                     );
                 }
@@ -189,10 +236,27 @@ pub fn build_segmenters(cx: &BuildContext<'_>, specs: &[StageSpec], at: &KeyPath
                     .features
                     .iter()
                     .enumerate()
-                    .map(|(j, f)| Ok((f.display_name(), build_stage(source, combo, f, &features.index(j), registry::build_feature_extractor)?)))
+                    .map(|(j, f)| {
+                        Ok((
+                            f.display_name(),
+                            build_stage(
+                                source,
+                                combo,
+                                f,
+                                &features.index(j),
+                                registry::build_feature_extractor,
+                            )?,
+                        ))
+                    })
                     .collect::<Result<Vec<_>>>()?;
                 if extractors.is_empty() {
-                    return Err(cx.locate(Error::new(ErrorKind::MissingKey, "lists no feature extractor; expected at least one"), features));
+                    return Err(cx.locate(
+                        Error::new(
+                            ErrorKind::MissingKey,
+                            "lists no feature extractor; expected at least one",
+                        ),
+                        features,
+                    ));
                 }
                 Some(FeatureChannels { extractors, channels: i.channels, fill: i.fill })
             }

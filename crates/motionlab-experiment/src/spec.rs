@@ -23,7 +23,6 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-
 /// `{ type = "name", …params }` — a plugin and its parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StageSpec {
@@ -42,7 +41,8 @@ impl StageSpec {
     /// (`add_centroid`'s `name`).
     pub fn plugin_params(&self) -> toml::Value {
         let mut p = self.params.clone();
-        let params = motionlab_core::registry::find(&self.kind).map(|e| e.params()).unwrap_or_default();
+        let params =
+            motionlab_core::registry::find(&self.kind).map(|e| e.params()).unwrap_or_default();
         for engine_key in ["name", "input"] {
             if !params.iter().any(|d| d.name == engine_key) {
                 p.remove(engine_key);
@@ -53,7 +53,8 @@ impl StageSpec {
     /// The `input` key of a segmenter that reads channels (see [`crate::segmenters`]), unless
     /// the plugin has an `input` parameter of its own.
     pub fn channel_input(&self) -> Option<&toml::Value> {
-        let own = motionlab_core::registry::find(&self.kind).is_ok_and(|e| e.params().iter().any(|d| d.name == "input"));
+        let own = motionlab_core::registry::find(&self.kind)
+            .is_ok_and(|e| e.params().iter().any(|d| d.name == "input"));
         if own { None } else { self.params.get("input") }
     }
     /// Display name: the `name` key when given, else the plugin type.
@@ -206,7 +207,8 @@ pub struct ExperimentFile {
 }
 
 /// The top-level keys [`ExperimentFile`] holds; every other top-level key is a workflow section.
-pub const FIXED_KEYS: [&str; 6] = ["experiment", "dataset", "preprocess", "evaluate", "sweep", "published"];
+pub const FIXED_KEYS: [&str; 6] =
+    ["experiment", "dataset", "preprocess", "evaluate", "sweep", "published"];
 
 impl ExperimentFile {
     /// The top-level keys of a document that are not fixed keys: its workflow sections.
@@ -215,7 +217,10 @@ impl ExperimentFile {
     }
     /// The document without its workflow sections: what deserialises as an `ExperimentFile`.
     pub fn fixed_part(doc: &toml::Table) -> toml::Table {
-        doc.iter().filter(|(k, _)| FIXED_KEYS.contains(&k.as_str())).map(|(k, v)| (k.clone(), v.clone())).collect()
+        doc.iter()
+            .filter(|(k, _)| FIXED_KEYS.contains(&k.as_str()))
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect()
     }
 }
 

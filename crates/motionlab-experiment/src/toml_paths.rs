@@ -23,7 +23,8 @@ pub struct KeyPath(pub Vec<Seg>);
 
 impl KeyPath {
     pub fn parse(text: &str) -> Result<Self> {
-        let bad = |why: &str| Error::new(ErrorKind::Syntax, format!("bad key path {text:?}: {why}"));
+        let bad =
+            |why: &str| Error::new(ErrorKind::Syntax, format!("bad key path {text:?}: {why}"));
         let mut segs = Vec::new();
         for part in text.split('.') {
             let (key, mut rest) = match part.find('[') {
@@ -80,7 +81,13 @@ impl KeyPath {
                 (Seg::Index(i), Some(toml::Value::Array(a))) => a.get(*i).cloned(),
                 (Seg::Named(n), Some(toml::Value::Array(a))) => {
                     let i = find_named(a, n).ok_or_else(|| {
-                        Error::new(ErrorKind::UnknownName, format!("no array element named {n:?} (by `name` or `type`) at {}", KeyPath(out.clone())))
+                        Error::new(
+                            ErrorKind::UnknownName,
+                            format!(
+                                "no array element named {n:?} (by `name` or `type`) at {}",
+                                KeyPath(out.clone())
+                            ),
+                        )
                     })?;
                     out.push(Seg::Index(i));
                     cur = a.get(i).cloned();
@@ -97,7 +104,9 @@ impl KeyPath {
 
 fn find_named(a: &[toml::Value], name: &str) -> Option<usize> {
     let by = |key: &str| {
-        a.iter().position(|v| v.as_table().and_then(|t| t.get(key)).and_then(|n| n.as_str()) == Some(name))
+        a.iter().position(|v| {
+            v.as_table().and_then(|t| t.get(key)).and_then(|n| n.as_str()) == Some(name)
+        })
     };
     by("name").or_else(|| by("type"))
 }
@@ -136,14 +145,19 @@ impl From<&serde_path_to_error::Path> for KeyPath {
 pub fn set_path(doc: &mut toml::Table, path: &KeyPath, value: toml::Value) -> Result<()> {
     let path = path.resolve(doc)?;
     let mut root = toml::Value::Table(std::mem::take(doc));
-    let result = set_in(&mut root, &path.0, value).map_err(|why| Error::new(ErrorKind::UnknownKey, format!("cannot set {path}: {why}")));
+    let result = set_in(&mut root, &path.0, value)
+        .map_err(|why| Error::new(ErrorKind::UnknownKey, format!("cannot set {path}: {why}")));
     if let toml::Value::Table(t) = root {
         *doc = t;
     }
     result
 }
 
-fn set_in(cur: &mut toml::Value, segs: &[Seg], value: toml::Value) -> std::result::Result<(), String> {
+fn set_in(
+    cur: &mut toml::Value,
+    segs: &[Seg],
+    value: toml::Value,
+) -> std::result::Result<(), String> {
     let Some((seg, rest)) = segs.split_first() else { return Err("empty path".into()) };
     let type_name = cur.type_str();
     let slot = match (seg, cur) {
@@ -156,7 +170,8 @@ fn set_in(cur: &mut toml::Value, segs: &[Seg], value: toml::Value) -> std::resul
         }
         (Seg::Index(i), toml::Value::Array(a)) => {
             let n = a.len();
-            let slot = a.get_mut(*i).ok_or_else(|| format!("index {i} out of range (array has {n})"))?;
+            let slot =
+                a.get_mut(*i).ok_or_else(|| format!("index {i} out of range (array has {n})"))?;
             if rest.is_empty() {
                 *slot = value;
                 return Ok(());
@@ -171,9 +186,12 @@ fn set_in(cur: &mut toml::Value, segs: &[Seg], value: toml::Value) -> std::resul
 /// Parses a command-line override `a.b.c=value`: the value as a TOML value (`1`, `0.5`,
 /// `true`, `"x"`, `[1, 2]`, `{ seconds = 0.1 }`), or as a bare string when it is not TOML.
 pub fn parse_override(text: &str) -> Result<(KeyPath, toml::Value)> {
-    let (k, v) = text
-        .split_once('=')
-        .ok_or_else(|| Error::new(ErrorKind::Syntax, format!("override {text:?} is not of the form key.path=value")))?;
+    let (k, v) = text.split_once('=').ok_or_else(|| {
+        Error::new(
+            ErrorKind::Syntax,
+            format!("override {text:?} is not of the form key.path=value"),
+        )
+    })?;
     let path = KeyPath::parse(k.trim())?;
     let v = v.trim();
     let value = toml::from_str::<toml::Table>(&format!("v = {v}"))
@@ -188,7 +206,8 @@ pub fn parse_override(text: &str) -> Result<(KeyPath, toml::Value)> {
 pub fn line_of(src: &str, path: &KeyPath) -> Option<usize> {
     use toml::de::{DeTable, DeValue};
     let doc = DeTable::parse(src).ok()?;
-    let line = |offset: usize| src[..offset.min(src.len())].bytes().filter(|b| *b == b'\n').count() + 1;
+    let line =
+        |offset: usize| src[..offset.min(src.len())].bytes().filter(|b| *b == b'\n').count() + 1;
     let mut best: Option<usize> = None;
     let mut table: &DeTable<'_> = doc.get_ref();
     let mut value: Option<&toml::Spanned<DeValue<'_>>> = None;
@@ -198,7 +217,9 @@ pub fn line_of(src: &str, path: &KeyPath) -> Option<usize> {
                 if let Some(DeValue::Table(t)) = value.map(|v| v.get_ref()) {
                     table = t;
                 }
-                let Some((key, v)) = table.iter().find(|(key, _)| key.get_ref() == k) else { break };
+                let Some((key, v)) = table.iter().find(|(key, _)| key.get_ref() == k) else {
+                    break;
+                };
                 best = Some(line(key.span().start));
                 value = Some(v);
             }
@@ -246,7 +267,10 @@ c_min = 0.2
     #[test]
     fn named_elements_resolve_by_name_then_type() {
         let doc: toml::Table = toml::from_str(DOC).unwrap();
-        let p = KeyPath::parse("segmentation.segmenter[direction_change].c_min").unwrap().resolve(&doc).unwrap();
+        let p = KeyPath::parse("segmentation.segmenter[direction_change].c_min")
+            .unwrap()
+            .resolve(&doc)
+            .unwrap();
         assert_eq!(p.to_string(), "segmentation.segmenter[1].c_min");
         assert!(KeyPath::parse("segmentation.segmenter[nope]").unwrap().resolve(&doc).is_err());
     }

@@ -22,12 +22,12 @@
 use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 
-use motionlab_core::registry::{self, closest_names, schema_doc, schema_params, ParamDoc};
+use motionlab_core::registry::{self, ParamDoc, closest_names, schema_doc, schema_params};
 use motionlab_core::{Error, ErrorKind, EvalInputType, Evaluator, Result, Table};
 use motionlab_figure::Figure;
 
-use crate::context::{build_stage, deserialize_section, Combo, Datasets, Source};
-use crate::spec::{ExperimentFile, StageSpec, FIXED_KEYS};
+use crate::context::{Combo, Datasets, Source, build_stage, deserialize_section};
+use crate::spec::{ExperimentFile, FIXED_KEYS, StageSpec};
 use crate::toml_paths::KeyPath;
 
 /// One unit of work.
@@ -46,13 +46,20 @@ pub struct ItemData(pub Vec<u8>);
 
 impl ItemData {
     pub fn encode<T: serde::Serialize>(value: &T) -> Result<Self> {
-        rmp_serde::to_vec_named(value)
-            .map(ItemData)
-            .map_err(|e| motionlab_core::Error::new(motionlab_core::ErrorKind::Report, format!("cannot encode an item result: {e}")))
+        rmp_serde::to_vec_named(value).map(ItemData).map_err(|e| {
+            motionlab_core::Error::new(
+                motionlab_core::ErrorKind::Report,
+                format!("cannot encode an item result: {e}"),
+            )
+        })
     }
     pub fn decode<T: serde::de::DeserializeOwned>(&self) -> Result<T> {
-        rmp_serde::from_slice(&self.0)
-            .map_err(|e| motionlab_core::Error::new(motionlab_core::ErrorKind::Mismatch, format!("cannot decode an item result: {e}")))
+        rmp_serde::from_slice(&self.0).map_err(|e| {
+            motionlab_core::Error::new(
+                motionlab_core::ErrorKind::Mismatch,
+                format!("cannot decode an item result: {e}"),
+            )
+        })
     }
 }
 
@@ -138,7 +145,12 @@ pub trait Workflow: Send + Sync {
     /// Per-item work. Must be deterministic: sharded and single-machine runs are compared.
     fn run_item(&self, item: &WorkItem, data: &Datasets, draw_figures: bool) -> Result<ItemOutput>;
     /// All items of one combination → tables and figures.
-    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, draw_figures: bool) -> Result<Output>;
+    fn finish(
+        &self,
+        items: &[(WorkItem, ItemData)],
+        data: &Datasets,
+        draw_figures: bool,
+    ) -> Result<Output>;
     /// Tables and figures across sweep combinations (called once, even without a sweep).
     fn summarize(&self, _combos: &[ComboOutput<'_>]) -> Result<Output> {
         Ok(Output::default())
@@ -146,7 +158,11 @@ pub trait Workflow: Send + Sync {
 }
 
 /// Builds `[[evaluate]]` stages, checking each reads this workflow's results (`produces`).
-pub fn build_evaluators(source: &Source, combo: &Combo, produces: EvalInputType) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
+pub fn build_evaluators(
+    source: &Source,
+    combo: &Combo,
+    produces: EvalInputType,
+) -> Result<Vec<(String, Box<dyn Evaluator>)>> {
     let root = KeyPath::parse("evaluate")?;
     combo
         .file
@@ -159,7 +175,12 @@ pub fn build_evaluators(source: &Source, combo: &Combo, produces: EvalInputType)
                 return Err(source.locate(
                     Error::new(
                         ErrorKind::InvalidParameter,
-                        format!("evaluator {:?} evaluates {}, but this experiment produces {}", s.kind, e.input_type().name, produces.name),
+                        format!(
+                            "evaluator {:?} evaluates {}, but this experiment produces {}",
+                            s.kind,
+                            e.input_type().name,
+                            produces.name
+                        ),
                     ),
                     root.index(k).key("type"),
                     &combo.doc,
@@ -188,7 +209,10 @@ pub fn build_named_stages<T: ?Sized>(
         if stages.iter().any(|(n, _)| *n == name) {
             let key = if spec.params.contains_key("name") { "name" } else { "type" };
             return Err(cx.locate(
-                Error::new(ErrorKind::DuplicateName, format!("two {what} are named {name:?}; give one a `name = \"…\"`")),
+                Error::new(
+                    ErrorKind::DuplicateName,
+                    format!("two {what} are named {name:?}; give one a `name = \"…\"`"),
+                ),
                 at.index(k).key(key),
             ));
         }
@@ -217,7 +241,9 @@ pub fn default_items(data: &Datasets) -> Vec<WorkItem> {
 
 /// A file-name-safe version of a name.
 pub fn sanitize(name: &str) -> String {
-    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
+    name.chars()
+        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .collect()
 }
 
 /// What a workflow is built from: the experiment, one combination, its datasets (plugins
@@ -304,7 +330,8 @@ impl WorkflowEntry {
 /// section (errors at `<section>.<key>` and its line), then builds.
 pub fn build_entry<W: WorkflowPlugin>(cx: &BuildContext<'_>) -> Result<Box<dyn Workflow>> {
     let name = cx.root.to_string();
-    let value = cx.combo.doc.get(&name).cloned().unwrap_or_else(|| toml::Value::Table(toml::Table::new()));
+    let value =
+        cx.combo.doc.get(&name).cloned().unwrap_or_else(|| toml::Value::Table(toml::Table::new()));
     let section: W::Section = deserialize_section(cx.source, &cx.combo.doc, value, &cx.root)?;
     Ok(Box::new(W::build(section, cx)?))
 }
@@ -356,7 +383,14 @@ pub fn workflow_section(source: &Source, doc: &toml::Table) -> Result<&'static W
             None => {
                 let pool = all.iter().map(|w| w.name).chain(FIXED_KEYS);
                 let close = closest_names(n, pool);
-                let hint = if close.is_empty() { String::new() } else { format!("; did you mean {}?", close.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(" or ")) };
+                let hint = if close.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; did you mean {}?",
+                        close.iter().map(|c| format!("`{c}`")).collect::<Vec<_>>().join(" or ")
+                    )
+                };
                 return Err(source.locate(
                     Error::new(ErrorKind::UnknownKey, format!("unknown section `{n}`: expected a workflow section ({}) or one of {}{hint}", sections(), FIXED_KEYS.join(", "))),
                     KeyPath::default().key(n),
@@ -367,17 +401,29 @@ pub fn workflow_section(source: &Source, doc: &toml::Table) -> Result<&'static W
     }
     match found.as_slice() {
         [one] => Ok(one),
-        [] => Err(Error::new(ErrorKind::MissingKey, format!("expected one workflow section: {}", sections())).with_location(motionlab_core::Location::file(&source.path))),
+        [] => Err(Error::new(
+            ErrorKind::MissingKey,
+            format!("expected one workflow section: {}", sections()),
+        )
+        .with_location(motionlab_core::Location::file(&source.path))),
         many => Err(Error::new(
             ErrorKind::InvalidParameter,
-            format!("expected one workflow section, found {}", many.iter().map(|w| format!("[{}]", w.name)).collect::<Vec<_>>().join(", ")),
+            format!(
+                "expected one workflow section, found {}",
+                many.iter().map(|w| format!("[{}]", w.name)).collect::<Vec<_>>().join(", ")
+            ),
         )
         .with_location(motionlab_core::Location::file(&source.path))),
     }
 }
 
 /// Builds the workflow of a combination (validating every workflow-specific plugin).
-pub fn build(entry: &WorkflowEntry, source: &Source, combo: &Combo, data: &Datasets) -> Result<Box<dyn Workflow>> {
+pub fn build(
+    entry: &WorkflowEntry,
+    source: &Source,
+    combo: &Combo,
+    data: &Datasets,
+) -> Result<Box<dyn Workflow>> {
     let root = KeyPath::parse(entry.name)?;
     (entry.build)(&BuildContext { source, combo, data, root })
 }
@@ -407,7 +453,9 @@ extractors = [
     /// A stage builder that accepts any type but `broken` (a stage of one `String`: its type).
     fn build_text(kind: &str, _params: &toml::Value) -> Result<Box<String>> {
         if kind == "broken" {
-            return Err(Error::new(ErrorKind::InvalidParameter, "a broken stage").with_field("level"));
+            return Err(
+                Error::new(ErrorKind::InvalidParameter, "a broken stage").with_field("level")
+            );
         }
         Ok(Box::new(kind.to_string()))
     }
@@ -418,10 +466,17 @@ extractors = [
         let text = edit(EXPERIMENT);
         let source = Source { path: "x/named.toml".into(), text: text.clone() };
         let doc: toml::Table = toml::from_str(&text).unwrap();
-        let file: ExperimentFile = toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into().unwrap();
-        let combo = Combo { index: 0, sweep: None, focus: None, params: vec![], doc: doc.clone(), file };
+        let file: ExperimentFile =
+            toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into().unwrap();
+        let combo =
+            Combo { index: 0, sweep: None, focus: None, params: vec![], doc: doc.clone(), file };
         let data = Datasets::new(vec![], vec![], vec![], Arc::new(RunCache::with_budget(0)));
-        let cx = BuildContext { source: &source, combo: &combo, data: &data, root: KeyPath::parse("stats").unwrap() };
+        let cx = BuildContext {
+            source: &source,
+            combo: &combo,
+            data: &data,
+            root: KeyPath::parse("stats").unwrap(),
+        };
         let specs: Vec<StageSpec> = doc["stats"]["extractors"].clone().try_into().unwrap();
         build_named_stages(&cx, &specs, &cx.root.key("extractors"), "extractors", build_text)
             .map(|v| v.into_iter().map(|(name, stage)| format!("{name}={stage}")).collect())
@@ -430,22 +485,43 @@ extractors = [
 
     #[test]
     fn named_stages_keep_their_order_and_names() {
-        assert_eq!(built(str::to_string).unwrap(), ["speed=speed", "fast=speed", "curvature=curvature"]);
+        assert_eq!(
+            built(str::to_string).unwrap(),
+            ["speed=speed", "fast=speed", "curvature=curvature"]
+        );
     }
 
     #[test]
     fn a_repeated_name_is_located_at_the_second_stages_key() {
         // Two stages of one type, neither named: the second one's `type`, on its line.
-        let err = built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "speed" }"#)).unwrap_err();
-        assert!(err.starts_with("x/named.toml:12: stats.extractors[2].type: two extractors are named \"speed\""), "{err}");
+        let err =
+            built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "speed" }"#)).unwrap_err();
+        assert!(
+            err.starts_with(
+                "x/named.toml:12: stats.extractors[2].type: two extractors are named \"speed\""
+            ),
+            "{err}"
+        );
         // A `name` that repeats another stage's: its `name` key.
-        let err = built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "curvature", name = "fast" }"#)).unwrap_err();
-        assert!(err.starts_with("x/named.toml:12: stats.extractors[2].name: two extractors are named \"fast\""), "{err}");
+        let err = built(|t| {
+            t.replace(r#"{ type = "curvature" }"#, r#"{ type = "curvature", name = "fast" }"#)
+        })
+        .unwrap_err();
+        assert!(
+            err.starts_with(
+                "x/named.toml:12: stats.extractors[2].name: two extractors are named \"fast\""
+            ),
+            "{err}"
+        );
     }
 
     #[test]
     fn a_stage_error_is_located_at_its_element() {
-        let err = built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "broken" }"#)).unwrap_err();
-        assert!(err.starts_with("x/named.toml:12: stats.extractors[2].level: a broken stage"), "{err}");
+        let err = built(|t| t.replace(r#"{ type = "curvature" }"#, r#"{ type = "broken" }"#))
+            .unwrap_err();
+        assert!(
+            err.starts_with("x/named.toml:12: stats.extractors[2].level: a broken stage"),
+            "{err}"
+        );
     }
 }

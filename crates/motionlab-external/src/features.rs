@@ -58,7 +58,15 @@ pub struct ExternalFeatures {
 impl ParamGuard for ExternalFeaturesParams {
     type Checked = ExternalFeatures;
     fn check(self) -> Result<ExternalFeatures> {
-        Ok(ExternalFeatures { invocation: Invocation::check("external_features", self.command, self.timeout_s, self.max_output_mb, self.params)? })
+        Ok(ExternalFeatures {
+            invocation: Invocation::check(
+                "external_features",
+                self.command,
+                self.timeout_s,
+                self.max_output_mb,
+                self.params,
+            )?,
+        })
     }
 }
 

@@ -10,7 +10,12 @@ use motionlab_core::Point3;
 
 /// Writes `positions` (frame-major, `n_frames × n_points` points) as a `<f8` array of shape
 /// `(n_frames, n_points, 3)`. NaN values are written as they are.
-pub fn write_positions(out: &mut impl Write, positions: &[Point3], n_frames: usize, n_points: usize) -> io::Result<()> {
+pub fn write_positions(
+    out: &mut impl Write,
+    positions: &[Point3],
+    n_frames: usize,
+    n_points: usize,
+) -> io::Result<()> {
     if positions.len() != n_frames * n_points {
         return Err(io::Error::new(
             io::ErrorKind::InvalidInput,
@@ -30,13 +35,16 @@ pub fn write_positions(out: &mut impl Write, positions: &[Point3], n_frames: usi
 fn header(shape: &[usize]) -> io::Result<Vec<u8>> {
     let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
     // A one-element tuple needs its trailing comma in Python: `(5,)`.
-    let tuple = if dims.len() == 1 { format!("({},)", dims[0]) } else { format!("({})", dims.join(", ")) };
+    let tuple =
+        if dims.len() == 1 { format!("({},)", dims[0]) } else { format!("({})", dims.join(", ")) };
     let mut dict = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {tuple}, }}");
     const PREAMBLE: usize = 10; // magic (6) + version (2) + header length (2)
     let unpadded = PREAMBLE + dict.len() + 1;
     dict.push_str(&" ".repeat((64 - unpadded % 64) % 64));
     dict.push('\n');
-    let len = u16::try_from(dict.len()).map_err(|_| io::Error::new(io::ErrorKind::InvalidInput, "npy header longer than 65535 bytes"))?;
+    let len = u16::try_from(dict.len()).map_err(|_| {
+        io::Error::new(io::ErrorKind::InvalidInput, "npy header longer than 65535 bytes")
+    })?;
     let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
     bytes.extend_from_slice(&len.to_le_bytes());
     bytes.extend_from_slice(dict.as_bytes());
@@ -56,9 +64,15 @@ mod tests {
         let len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
         assert_eq!((10 + len) % 64, 0);
         let text = std::str::from_utf8(&bytes[10..10 + len]).unwrap();
-        assert_eq!(text.trim_end(), "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 1, 3), }");
+        assert_eq!(
+            text.trim_end(),
+            "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 1, 3), }"
+        );
         assert!(text.ends_with('\n'));
-        let values: Vec<f64> = bytes[10 + len..].chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect();
+        let values: Vec<f64> = bytes[10 + len..]
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect();
         assert_eq!(values.len(), 6);
         assert_eq!(values[..4], [1.0, 2.0, 3.0, 4.0]);
         assert!(values[4].is_nan() && values[5] == 6.0);

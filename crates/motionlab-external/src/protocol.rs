@@ -7,7 +7,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
-use motionlab_core::{Axis, ErrorKind, FeatureSet, LabelTrace, Motion, PointKind, SegmenterOutput, Threshold, Trace};
+use motionlab_core::{
+    Axis, ErrorKind, FeatureSet, LabelTrace, Motion, PointKind, SegmenterOutput, Threshold, Trace,
+};
 
 /// The protocol version written to `meta.json` (`"protocol": 1`).
 pub const PROTOCOL_VERSION: u32 = 1;
@@ -63,7 +65,13 @@ pub struct PositionsMeta {
 }
 
 impl<'a> Meta<'a> {
-    pub fn new(plugin: &'a str, expects: &'a str, command: &'a [String], params: &'a Map<String, Value>, motion: &'a Motion) -> Self {
+    pub fn new(
+        plugin: &'a str,
+        expects: &'a str,
+        command: &'a [String],
+        params: &'a Map<String, Value>,
+        motion: &'a Motion,
+    ) -> Self {
         let (f, m) = (motion.n_frames(), motion.n_points());
         Meta {
             protocol: PROTOCOL_VERSION,
@@ -97,7 +105,12 @@ impl<'a> Meta<'a> {
 /// Writes `positions.npy` and `meta.json` into `dir`.
 pub fn write_exchange(dir: &Path, meta: &Meta<'_>, motion: &Motion) -> std::io::Result<()> {
     let mut npy = BufWriter::new(std::fs::File::create(dir.join(POSITIONS_FILE))?);
-    crate::npy::write_positions(&mut npy, motion.positions(), motion.n_frames(), motion.n_points())?;
+    crate::npy::write_positions(
+        &mut npy,
+        motion.positions(),
+        motion.n_frames(),
+        motion.n_points(),
+    )?;
     npy.flush()?;
     let json = serde_json::to_vec_pretty(meta).map_err(std::io::Error::other)?;
     std::fs::write(dir.join(META_FILE), json)
@@ -157,7 +170,10 @@ pub struct FeaturesReply {
 pub fn parse_reply<T: serde::de::DeserializeOwned>(stdout: &[u8]) -> Result<T, ReplyError> {
     let text = String::from_utf8_lossy(stdout);
     if text.trim().is_empty() {
-        return Err((ErrorKind::Syntax, "printed nothing on stdout; expected one JSON object (protocol 1)".into()));
+        return Err((
+            ErrorKind::Syntax,
+            "printed nothing on stdout; expected one JSON object (protocol 1)".into(),
+        ));
     }
     serde_json::from_str(&text).map_err(|e| {
         use serde_json::error::Category;
@@ -174,35 +190,66 @@ pub fn parse_reply<T: serde::de::DeserializeOwned>(stdout: &[u8]) -> Result<T, R
 }
 
 /// Checks a segmenter's reply against a motion of `n_frames` frames and converts it.
-pub fn segmenter_output(reply: SegmenterReply, n_frames: usize) -> Result<SegmenterOutput, ReplyError> {
+pub fn segmenter_output(
+    reply: SegmenterReply,
+    n_frames: usize,
+) -> Result<SegmenterOutput, ReplyError> {
     check_frames("candidates", &reply.candidates, n_frames)?;
     check_frames("flagged_frames", &reply.flagged_frames, n_frames)?;
     let traces = traces(reply.traces, n_frames)?;
     let mut thresholds = Vec::with_capacity(reply.thresholds.len());
     for t in reply.thresholds {
         if !t.value.is_finite() {
-            return Err((ErrorKind::NonFinite, format!("threshold {:?} has value {}, expected a finite number", t.name, t.value)));
+            return Err((
+                ErrorKind::NonFinite,
+                format!("threshold {:?} has value {}, expected a finite number", t.name, t.value),
+            ));
         }
         if !traces.iter().any(|tr| tr.name == t.trace) {
             let names: Vec<&str> = traces.iter().map(|tr| tr.name.as_str()).collect();
-            return Err((ErrorKind::UnknownName, format!("threshold {:?} names trace {:?}, but the returned traces are {names:?}", t.name, t.trace)));
+            return Err((
+                ErrorKind::UnknownName,
+                format!(
+                    "threshold {:?} names trace {:?}, but the returned traces are {names:?}",
+                    t.name, t.trace
+                ),
+            ));
         }
         thresholds.push(Threshold { name: t.name, trace: t.trace, value: t.value });
     }
-    Ok(SegmenterOutput { candidates: reply.candidates, traces, thresholds, flagged_frames: reply.flagged_frames })
+    Ok(SegmenterOutput {
+        candidates: reply.candidates,
+        traces,
+        thresholds,
+        flagged_frames: reply.flagged_frames,
+    })
 }
 
 /// Checks a feature extractor's reply against a motion of `n_frames` frames and converts it.
 pub fn feature_set(reply: FeaturesReply, n_frames: usize) -> Result<FeatureSet, ReplyError> {
     if reply.traces.is_empty() && reply.labels.is_empty() {
-        return Err((ErrorKind::EmptySequence, "returned no trace and no label; expected at least one".into()));
+        return Err((
+            ErrorKind::EmptySequence,
+            "returned no trace and no label; expected at least one".into(),
+        ));
     }
     let traces = traces(reply.traces, n_frames)?;
     let mut labels: Vec<LabelTrace> = Vec::with_capacity(reply.labels.len());
     for l in reply.labels {
-        check_name("label", &l.name, labels.iter().map(|x| x.name.as_str()).chain(traces.iter().map(|t| t.name.as_str())))?;
+        check_name(
+            "label",
+            &l.name,
+            labels.iter().map(|x| x.name.as_str()).chain(traces.iter().map(|t| t.name.as_str())),
+        )?;
         if l.values.len() != n_frames {
-            return Err((ErrorKind::WrongValueCount, format!("label {:?} has {} values, expected one per frame ({n_frames})", l.name, l.values.len())));
+            return Err((
+                ErrorKind::WrongValueCount,
+                format!(
+                    "label {:?} has {} values, expected one per frame ({n_frames})",
+                    l.name,
+                    l.values.len()
+                ),
+            ));
         }
         labels.push(LabelTrace { name: l.name, values: l.values });
     }
@@ -213,20 +260,40 @@ pub fn feature_set(reply: FeaturesReply, n_frames: usize) -> Result<FeatureSet, 
 fn check_frames(what: &str, frames: &[usize], n_frames: usize) -> Result<(), ReplyError> {
     if let Some((i, &f)) = frames.iter().enumerate().find(|&(_, &f)| f >= n_frames) {
         let last = n_frames.saturating_sub(1);
-        return Err((ErrorKind::OutOfRange, format!("{what}[{i}] = {f} is out of range: the motion has {n_frames} frames (0–{last})")));
+        return Err((
+            ErrorKind::OutOfRange,
+            format!(
+                "{what}[{i}] = {f} is out of range: the motion has {n_frames} frames (0–{last})"
+            ),
+        ));
     }
     if let Some(i) = frames.windows(2).position(|w| w[0] >= w[1]) {
         let (a, b) = (frames[i], frames[i + 1]);
         let why = if a == b { "repeated" } else { "not ascending" };
-        return Err((ErrorKind::OutOfRange, format!("{what} must be ascending without repeats: {what}[{}] = {b} follows {a} ({why})", i + 1)));
+        return Err((
+            ErrorKind::OutOfRange,
+            format!(
+                "{what} must be ascending without repeats: {what}[{}] = {b} follows {a} ({why})",
+                i + 1
+            ),
+        ));
     }
     Ok(())
 }
 
 /// Trace names become table columns: non-empty, letters, digits and `_`, unique.
-fn check_name<'a>(what: &str, name: &str, taken: impl IntoIterator<Item = &'a str>) -> Result<(), ReplyError> {
+fn check_name<'a>(
+    what: &str,
+    name: &str,
+    taken: impl IntoIterator<Item = &'a str>,
+) -> Result<(), ReplyError> {
     if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-        return Err((ErrorKind::Syntax, format!("{what} name {name:?} must be non-empty ASCII letters, digits and _ (it becomes a table column)")));
+        return Err((
+            ErrorKind::Syntax,
+            format!(
+                "{what} name {name:?} must be non-empty ASCII letters, digits and _ (it becomes a table column)"
+            ),
+        ));
     }
     if taken.into_iter().any(|t| t == name) {
         return Err((ErrorKind::DuplicateName, format!("{what} name {name:?} is returned twice")));
@@ -239,7 +306,14 @@ fn traces(replies: Vec<TraceReply>, n_frames: usize) -> Result<Vec<Trace>, Reply
     for t in replies {
         check_name("trace", &t.name, out.iter().map(|x| x.name.as_str()))?;
         if t.values.len() != n_frames {
-            return Err((ErrorKind::WrongValueCount, format!("trace {:?} has {} values, expected one per frame ({n_frames})", t.name, t.values.len())));
+            return Err((
+                ErrorKind::WrongValueCount,
+                format!(
+                    "trace {:?} has {} values, expected one per frame ({n_frames})",
+                    t.name,
+                    t.values.len()
+                ),
+            ));
         }
         let values = t.values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect();
         out.push(Trace::new(t.name, t.unit, values));
@@ -274,10 +348,18 @@ mod tests {
             (r#"{"candidates": [1, 2"#, ErrorKind::Syntax, "line 1 column"),
             (r#"{"candidates": [1.5]}"#, ErrorKind::WrongType, "floating point `1.5`"),
             (r#"{"candidates": [-1]}"#, ErrorKind::WrongType, "integer `-1`"),
-            (r#"{"candidates": [4]}"#, ErrorKind::OutOfRange, "candidates[0] = 4 is out of range: the motion has 4 frames (0–3)"),
+            (
+                r#"{"candidates": [4]}"#,
+                ErrorKind::OutOfRange,
+                "candidates[0] = 4 is out of range: the motion has 4 frames (0–3)",
+            ),
             (r#"{"candidates": [2, 1]}"#, ErrorKind::OutOfRange, "not ascending"),
             (r#"{"candidates": [2, 2]}"#, ErrorKind::OutOfRange, "repeated"),
-            (r#"{"candidates": [], "traces": [{"name": "V", "values": [NaN, 1, 2, 3]}]}"#, ErrorKind::Syntax, "write null"),
+            (
+                r#"{"candidates": [], "traces": [{"name": "V", "values": [NaN, 1, 2, 3]}]}"#,
+                ErrorKind::Syntax,
+                "write null",
+            ),
             (r#"{"candidate": [1]}"#, ErrorKind::WrongType, "unknown field `candidate`"),
         ];
         for (json, kind, needle) in cases {
@@ -285,18 +367,36 @@ mod tests {
             assert_eq!(k, kind, "{json}: {msg}");
             assert!(msg.contains(needle), "{json}: {msg}");
         }
-        let (k, msg) = seg(r#"{"candidates": [], "traces": [{"name": "V", "values": [1, 2]}]}"#, 4).unwrap_err();
-        assert_eq!((k, msg.as_str()), (ErrorKind::WrongValueCount, "trace \"V\" has 2 values, expected one per frame (4)"));
-        let (k, _) = seg(r#"{"candidates": [], "thresholds": [{"name": "t", "trace": "W", "value": 1}]}"#, 4).unwrap_err();
+        let (k, msg) = seg(r#"{"candidates": [], "traces": [{"name": "V", "values": [1, 2]}]}"#, 4)
+            .unwrap_err();
+        assert_eq!(
+            (k, msg.as_str()),
+            (ErrorKind::WrongValueCount, "trace \"V\" has 2 values, expected one per frame (4)")
+        );
+        let (k, _) = seg(
+            r#"{"candidates": [], "thresholds": [{"name": "t", "trace": "W", "value": 1}]}"#,
+            4,
+        )
+        .unwrap_err();
         assert_eq!(k, ErrorKind::UnknownName);
     }
 
     #[test]
     fn feature_replies_need_one_trace_or_label_of_full_length() {
-        let ok = feature_set(parse_reply(br#"{"labels": [{"name": "side", "values": ["l", "r"]}]}"#).unwrap(), 2).unwrap();
+        let ok = feature_set(
+            parse_reply(br#"{"labels": [{"name": "side", "values": ["l", "r"]}]}"#).unwrap(),
+            2,
+        )
+        .unwrap();
         assert_eq!(ok.labels[0].values, vec!["l", "r"]);
-        assert_eq!(feature_set(parse_reply(b"{}").unwrap(), 2).unwrap_err().0, ErrorKind::EmptySequence);
+        assert_eq!(
+            feature_set(parse_reply(b"{}").unwrap(), 2).unwrap_err().0,
+            ErrorKind::EmptySequence
+        );
         let dup = br#"{"traces": [{"name": "a", "values": [1, 2]}], "labels": [{"name": "a", "values": ["x", "y"]}]}"#;
-        assert_eq!(feature_set(parse_reply(dup).unwrap(), 2).unwrap_err().0, ErrorKind::DuplicateName);
+        assert_eq!(
+            feature_set(parse_reply(dup).unwrap(), 2).unwrap_err().0,
+            ErrorKind::DuplicateName
+        );
     }
 }

@@ -5,12 +5,12 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
 use serde_json::{Map, Value};
 
-use motionlab_core::{programs, Error, ErrorKind, Motion, Result};
+use motionlab_core::{Error, ErrorKind, Motion, Result, programs};
 
 use crate::protocol::{self, Meta, ReplyError};
 
@@ -40,22 +40,54 @@ pub struct Invocation {
 
 impl Invocation {
     /// Validates the parameters shared by the external plugins (errors name the field).
-    pub fn check(plugin: &'static str, command: Vec<String>, timeout_s: f64, max_output_mb: u64, params: Map<String, Value>) -> Result<Self> {
+    pub fn check(
+        plugin: &'static str,
+        command: Vec<String>,
+        timeout_s: f64,
+        max_output_mb: u64,
+        params: Map<String, Value>,
+    ) -> Result<Self> {
         let Some(program) = command.first().filter(|p| !p.is_empty()) else {
-            return Err(Error::new(ErrorKind::MissingKey, "command must name a program: command = [\"python3\", \"my_segmenter.py\"]").with_field("command"));
+            return Err(Error::new(
+                ErrorKind::MissingKey,
+                "command must name a program: command = [\"python3\", \"my_segmenter.py\"]",
+            )
+            .with_field("command"));
         };
         if find_program(program).is_none() {
-            let cwd = std::env::current_dir().map(|d| d.display().to_string()).unwrap_or_else(|_| "?".into());
-            let where_ = if program.contains('/') { format!("relative to the current directory {cwd}") } else { "on PATH".to_string() };
-            return Err(Error::new(ErrorKind::Io, format!("program {program:?} not found {where_}")).with_field("command"));
+            let cwd = std::env::current_dir()
+                .map(|d| d.display().to_string())
+                .unwrap_or_else(|_| "?".into());
+            let where_ = if program.contains('/') {
+                format!("relative to the current directory {cwd}")
+            } else {
+                "on PATH".to_string()
+            };
+            return Err(Error::new(
+                ErrorKind::Io,
+                format!("program {program:?} not found {where_}"),
+            )
+            .with_field("command"));
         }
         // One day at most: longer is surely a unit mistake (ms for s), and `Duration` must hold it.
-        let timeout = Duration::try_from_secs_f64(timeout_s).ok().filter(|t| !t.is_zero() && t.as_secs() <= 86_400).ok_or_else(|| {
-            Error::new(ErrorKind::OutOfRange, format!("must be a number of seconds in (0, 86400], found {timeout_s}")).with_field("timeout_s")
-        })?;
-        let max_output_bytes = max_output_mb.checked_mul(1 << 20).filter(|&b| b > 0).ok_or_else(|| {
-            Error::new(ErrorKind::OutOfRange, format!("must be a whole number of MiB from 1, found {max_output_mb}")).with_field("max_output_mb")
-        })?;
+        let timeout = Duration::try_from_secs_f64(timeout_s)
+            .ok()
+            .filter(|t| !t.is_zero() && t.as_secs() <= 86_400)
+            .ok_or_else(|| {
+                Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("must be a number of seconds in (0, 86400], found {timeout_s}"),
+                )
+                .with_field("timeout_s")
+            })?;
+        let max_output_bytes =
+            max_output_mb.checked_mul(1 << 20).filter(|&b| b > 0).ok_or_else(|| {
+                Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("must be a whole number of MiB from 1, found {max_output_mb}"),
+                )
+                .with_field("max_output_mb")
+            })?;
         Ok(Invocation { plugin, command, timeout, max_output_bytes, params })
     }
 
@@ -76,7 +108,12 @@ impl Invocation {
 
     /// One call of the protocol: runs the program on `motion`, parses its stdout as `R` and
     /// checks and converts it with `convert` (given the motion's frame count).
-    pub fn call<R: serde::de::DeserializeOwned, T>(&self, motion: &Motion, expects: &str, convert: fn(R, usize) -> Result<T, ReplyError>) -> Result<T> {
+    pub fn call<R: serde::de::DeserializeOwned, T>(
+        &self,
+        motion: &Motion,
+        expects: &str,
+        convert: fn(R, usize) -> Result<T, ReplyError>,
+    ) -> Result<T> {
         let stdout = self.exchange(motion, expects)?;
         let reply: R = protocol::parse_reply(&stdout).map_err(|e| self.reply_error(e))?;
         convert(reply, motion.n_frames()).map_err(|e| self.reply_error(e))
@@ -84,13 +121,17 @@ impl Invocation {
 
     /// Writes the motion to a fresh folder, runs the program on it and returns its stdout.
     fn exchange(&self, motion: &Motion, expects: &str) -> Result<Vec<u8>> {
-        let dir = tempfile::Builder::new()
-            .prefix("motionlab-external-")
-            .tempdir()
-            .map_err(|e| self.error(ErrorKind::Io, format!("cannot create the exchange folder: {e}")))?;
+        let dir =
+            tempfile::Builder::new().prefix("motionlab-external-").tempdir().map_err(|e| {
+                self.error(ErrorKind::Io, format!("cannot create the exchange folder: {e}"))
+            })?;
         let meta = Meta::new(self.plugin, expects, &self.command, &self.params, motion);
-        protocol::write_exchange(dir.path(), &meta, motion)
-            .map_err(|e| self.error(ErrorKind::Io, format!("cannot write the motion to {}: {e}", dir.path().display())))?;
+        protocol::write_exchange(dir.path(), &meta, motion).map_err(|e| {
+            self.error(
+                ErrorKind::Io,
+                format!("cannot write the motion to {}: {e}", dir.path().display()),
+            )
+        })?;
         self.run(dir.path())
     }
 
@@ -105,7 +146,11 @@ impl Invocation {
             ));
         }
         let mut cmd = Command::new(&self.command[0]);
-        cmd.args(&self.command[1..]).arg(dir).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped());
+        cmd.args(&self.command[1..])
+            .arg(dir)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
         #[cfg(unix)]
         {
             // Its own process group, so a timeout also kills what a wrapper script started.
@@ -118,29 +163,41 @@ impl Invocation {
             // file beyond max_output_mb — in the exchange folder or anywhere else.
             unsafe {
                 cmd.pre_exec(move || {
-                    use rustix::process::{getrlimit, setrlimit, Resource, Rlimit};
-                    let hard = getrlimit(Resource::Fsize).maximum.map_or(max_file, |h| h.min(max_file));
-                    setrlimit(Resource::Fsize, Rlimit { current: Some(hard), maximum: Some(hard) }).map_err(std::io::Error::from)
+                    use rustix::process::{Resource, Rlimit, getrlimit, setrlimit};
+                    let hard =
+                        getrlimit(Resource::Fsize).maximum.map_or(max_file, |h| h.min(max_file));
+                    setrlimit(Resource::Fsize, Rlimit { current: Some(hard), maximum: Some(hard) })
+                        .map_err(std::io::Error::from)
                 });
             }
         }
         let mut child = cmd.spawn().map_err(|e| {
             let why = match e.kind() {
-                std::io::ErrorKind::NotFound => "not found (on PATH, or relative to the current directory)".to_string(),
-                std::io::ErrorKind::PermissionDenied => "not executable (permission denied)".to_string(),
+                std::io::ErrorKind::NotFound => {
+                    "not found (on PATH, or relative to the current directory)".to_string()
+                }
+                std::io::ErrorKind::PermissionDenied => {
+                    "not executable (permission denied)".to_string()
+                }
                 _ => e.to_string(),
             };
             self.error(ErrorKind::Io, format!("cannot start the program: {why}"))
         })?;
         let started = Instant::now();
         let overflow = Arc::new(AtomicBool::new(false));
-        let stdout = read_in_background(child.stdout.take(), Keep::AtMost(self.max_output_bytes, Arc::clone(&overflow)));
+        let stdout = read_in_background(
+            child.stdout.take(),
+            Keep::AtMost(self.max_output_bytes, Arc::clone(&overflow)),
+        );
         let stderr = read_in_background(child.stderr.take(), Keep::Last(STDERR_KEPT_BYTES));
         let deadline = started + self.timeout;
         let too_much = || {
             self.error(
                 ErrorKind::TooLarge,
-                format!("printed more than {} on stdout (max_output_mb) and was killed", motionlab_core::limits::describe_limit(self.max_output_bytes)),
+                format!(
+                    "printed more than {} on stdout (max_output_mb) and was killed",
+                    motionlab_core::limits::describe_limit(self.max_output_bytes)
+                ),
             )
         };
         let status = match wait_until(&mut child, deadline, &overflow) {
@@ -151,7 +208,13 @@ impl Invocation {
             }
             Ok(None) => {
                 kill(&mut child);
-                return Err(self.error(ErrorKind::Io, format!("timed out after {} s (timeout_s) and was killed", self.timeout.as_secs_f64())));
+                return Err(self.error(
+                    ErrorKind::Io,
+                    format!(
+                        "timed out after {} s (timeout_s) and was killed",
+                        self.timeout.as_secs_f64()
+                    ),
+                ));
             }
             Err(e) => {
                 kill(&mut child);
@@ -160,7 +223,10 @@ impl Invocation {
         };
         // A process the program left behind may still hold the pipes: wait no longer than the timeout.
         let remaining = deadline.saturating_duration_since(Instant::now());
-        let (Ok(out), Ok(err)) = (stdout.recv_timeout(remaining), stderr.recv_timeout(POLL.max(deadline.saturating_duration_since(Instant::now())))) else {
+        let (Ok(out), Ok(err)) = (
+            stdout.recv_timeout(remaining),
+            stderr.recv_timeout(POLL.max(deadline.saturating_duration_since(Instant::now()))),
+        ) else {
             kill(&mut child);
             return Err(self.error(ErrorKind::Io, "exited, but a process it started still held its output open at the timeout (killed)"));
         };
@@ -194,7 +260,10 @@ enum Keep {
 }
 
 /// Reads a pipe on a thread; the channel delivers the bytes kept.
-fn read_in_background(pipe: Option<impl Read + Send + 'static>, keep: Keep) -> mpsc::Receiver<Vec<u8>> {
+fn read_in_background(
+    pipe: Option<impl Read + Send + 'static>,
+    keep: Keep,
+) -> mpsc::Receiver<Vec<u8>> {
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {
         let mut bytes = Vec::new();
@@ -236,7 +305,11 @@ fn read_in_background(pipe: Option<impl Read + Send + 'static>, keep: Keep) -> m
 }
 
 /// The exit status once the child exits, or `None` at the deadline or as soon as `stop` is raised.
-fn wait_until(child: &mut Child, deadline: Instant, stop: &AtomicBool) -> std::io::Result<Option<ExitStatus>> {
+fn wait_until(
+    child: &mut Child,
+    deadline: Instant,
+    stop: &AtomicBool,
+) -> std::io::Result<Option<ExitStatus>> {
     loop {
         if let Some(status) = child.try_wait()? {
             return Ok(Some(status));
@@ -284,7 +357,16 @@ fn stderr_tail(stderr: &[u8]) -> String {
         return "stderr was empty".into();
     }
     let tail = &lines[lines.len().saturating_sub(STDERR_LINES)..];
-    let clipped: Vec<String> = tail.iter().map(|l| if l.chars().count() > 200 { format!("{}…", l.chars().take(200).collect::<String>()) } else { l.to_string() }).collect();
+    let clipped: Vec<String> = tail
+        .iter()
+        .map(|l| {
+            if l.chars().count() > 200 {
+                format!("{}…", l.chars().take(200).collect::<String>())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
     format!("last lines of stderr: {}", clipped.join(" | "))
 }
 
@@ -311,7 +393,14 @@ mod tests {
 
     #[test]
     fn command_line_quotes_what_needs_it() {
-        let inv = Invocation::check("external", vec!["sh".into(), "-c".into(), "exit 1".into()], 1.0, 1, Map::new()).unwrap();
+        let inv = Invocation::check(
+            "external",
+            vec!["sh".into(), "-c".into(), "exit 1".into()],
+            1.0,
+            1,
+            Map::new(),
+        )
+        .unwrap();
         assert_eq!(inv.command_line(), "sh -c \"exit 1\"");
         let e = Invocation::check("external", vec!["sh".into()], 0.0, 1, Map::new()).unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("timeout_s"));

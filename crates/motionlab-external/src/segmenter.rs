@@ -78,7 +78,15 @@ pub struct ExternalSegmenter {
 impl ParamGuard for ExternalSegmenterParams {
     type Checked = ExternalSegmenter;
     fn check(self) -> Result<ExternalSegmenter> {
-        Ok(ExternalSegmenter { invocation: Invocation::check("external", self.command, self.timeout_s, self.max_output_mb, self.params)? })
+        Ok(ExternalSegmenter {
+            invocation: Invocation::check(
+                "external",
+                self.command,
+                self.timeout_s,
+                self.max_output_mb,
+                self.params,
+            )?,
+        })
     }
 }
 

@@ -9,8 +9,10 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use motionlab_core::registry::{build_feature_extractor, build_loader, build_segmenter, default_params};
-use motionlab_core::{programs, ErrorKind, FeatureCache, Motion, Result, SegmenterOutput};
+use motionlab_core::registry::{
+    build_feature_extractor, build_loader, build_segmenter, default_params,
+};
+use motionlab_core::{ErrorKind, FeatureCache, Motion, Result, SegmenterOutput, programs};
 use motionlab_testkit::{data_path, motion_from_fn, repo_root};
 
 // Link the plugin crates whose registrations the tests look up.
@@ -38,7 +40,9 @@ fn external_unallowed(command: &[&str], extra: &str, motion: &Motion) -> Result<
 }
 
 fn small_motion() -> Motion {
-    motion_from_fn(10, 100.0, 2, |i, k| if (i, k) == (4, 1) { [f64::NAN; 3] } else { [i as f64 * (k + 1) as f64, 0.5, -1.0] })
+    motion_from_fn(10, 100.0, 2, |i, k| {
+        if (i, k) == (4, 1) { [f64::NAN; 3] } else { [i as f64 * (k + 1) as f64, 0.5, -1.0] }
+    })
 }
 
 fn load(loader: &str, file: &str) -> Motion {
@@ -50,7 +54,9 @@ fn test_python(test: &str) -> Option<PathBuf> {
     match std::env::var_os("MOTIONLAB_TEST_PYTHON") {
         Some(p) if !p.is_empty() => Some(PathBuf::from(p)),
         _ => {
-            println!("SKIPPED {test}: set MOTIONLAB_TEST_PYTHON to a python with numpy (examples/external-segmenter/setup_venv.sh prints one)");
+            println!(
+                "SKIPPED {test}: set MOTIONLAB_TEST_PYTHON to a python with numpy (examples/external-segmenter/setup_venv.sh prints one)"
+            );
             None
         }
     }
@@ -65,19 +71,38 @@ fn python_speed_minima_equals_the_built_in() {
         // The defaults (v_low 0.3 × p90 after 0.2 s smoothing): 93 candidates on 86_01.
         ("asf_amc", "cmu86/86_01.amc.gz", "", 50),
         // A dance is never slow for long: a threshold of 0.15 × p90 of V finds one minimum.
-        ("qualisys_tsv", "mct/dance1.tsv.gz", "v_low = { fraction_of_p90 = 0.15 }\nsmoothing = { seconds = 0.0 }", 1),
+        (
+            "qualisys_tsv",
+            "mct/dance1.tsv.gz",
+            "v_low = { fraction_of_p90 = 0.15 }\nsmoothing = { seconds = 0.0 }",
+            1,
+        ),
         ("qualisys_tsv", "mct/dance1.tsv.gz", "v_low = { fraction_of_p90 = 0.5 }", 50),
         // The other code paths: smoothing, an absolute threshold, real gaps (walk1: 27 of them).
-        ("qualisys_tsv", "mct/dance1.tsv.gz", "smoothing = { seconds = 0.05 }\nv_low = { mm_per_s = 400.0 }", 10),
+        (
+            "qualisys_tsv",
+            "mct/dance1.tsv.gz",
+            "smoothing = { seconds = 0.05 }\nv_low = { mm_per_s = 400.0 }",
+            10,
+        ),
         ("asf_amc", "cmu86/86_01.amc.gz", "smoothing = { frames = 6 }", 50),
-        ("qualisys_tsv", "mct/walk1.tsv.gz", "v_low = { fraction_of_p90 = 0.5 }\nsmoothing = { frames = 3 }", 5),
+        (
+            "qualisys_tsv",
+            "mct/walk1.tsv.gz",
+            "v_low = { fraction_of_p90 = 0.5 }\nsmoothing = { frames = 3 }",
+            5,
+        ),
     ];
     for (loader, file, params, fewest) in cases {
         let motion = load(loader, file);
-        let built_in = build_segmenter("speed_minima", &toml_table(params)).unwrap().segment(&motion, &FeatureCache::new()).unwrap();
+        let built_in = build_segmenter("speed_minima", &toml_table(params))
+            .unwrap()
+            .segment(&motion, &FeatureCache::new())
+            .unwrap();
         let inline = params.replace('\n', ", ");
         let extra = format!("params = {{ {inline} }}");
-        let ext = external(&[python.to_str().unwrap(), script.to_str().unwrap()], &extra, &motion).unwrap();
+        let ext = external(&[python.to_str().unwrap(), script.to_str().unwrap()], &extra, &motion)
+            .unwrap();
         println!(
             "{file} [{inline}]: built-in {} candidates, external {} candidates ({} frames, {} missing samples)",
             built_in.candidates.len(),
@@ -85,15 +110,25 @@ fn python_speed_minima_equals_the_built_in() {
             motion.n_frames(),
             motion.missing_count()
         );
-        assert!(built_in.candidates.len() >= fewest, "{file} [{params}]: too few candidates to be a test");
+        assert!(
+            built_in.candidates.len() >= fewest,
+            "{file} [{params}]: too few candidates to be a test"
+        );
         assert_eq!(ext.candidates, built_in.candidates, "{file} [{params}]");
         // The trace behind them too: same NaN frames, same values to the last bit.
         let (a, b) = (&ext.traces[0].values, &built_in.traces[0].values);
         assert_eq!(a.len(), b.len());
         for (i, (x, y)) in a.iter().zip(b).enumerate() {
-            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{file}: V[{i}] = {x} vs {y}");
+            assert!(
+                x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()),
+                "{file}: V[{i}] = {x} vs {y}"
+            );
         }
-        assert_eq!(ext.thresholds[0].value.to_bits(), built_in.thresholds[0].value.to_bits(), "{file}: v_low");
+        assert_eq!(
+            ext.thresholds[0].value.to_bits(),
+            built_in.thresholds[0].value.to_bits(),
+            "{file}: v_low"
+        );
     }
 }
 
@@ -139,13 +174,41 @@ fn a_crash_is_reported_with_the_exit_status_and_the_end_of_stderr() {
 fn malformed_and_invalid_output_are_one_error_each() {
     let motion = small_motion(); // 10 frames
     let cases: [(&str, ErrorKind, &str); 7] = [
-        (r#"{"candidates": [1, 2"#, ErrorKind::Syntax, "stdout is not the expected JSON: EOF while parsing a list at line 2 column 0"),
-        (r#"{"candidates": [1, 2.5]}"#, ErrorKind::WrongType, "invalid type: floating point `2.5`, expected usize at line 1 column 22"),
-        (r#"{"candidates": [3, 10]}"#, ErrorKind::OutOfRange, "candidates[1] = 10 is out of range: the motion has 10 frames (0–9)"),
-        (r#"{"candidates": [5, 3]}"#, ErrorKind::OutOfRange, "candidates[1] = 3 follows 5 (not ascending)"),
-        (r#"{"candidates": [3, 3]}"#, ErrorKind::OutOfRange, "candidates[1] = 3 follows 3 (repeated)"),
-        (r#"{"candidates": [], "traces": [{"name": "V", "unit": "mm/s", "values": [1, 2, 3]}]}"#, ErrorKind::WrongValueCount, "trace \"V\" has 3 values, expected one per frame (10)"),
-        (r#"{"candidates": [], "traces": [{"name": "V", "values": [NaN, 1, 1, 1, 1, 1, 1, 1, 1, 1]}]}"#, ErrorKind::Syntax, "write null for a missing value"),
+        (
+            r#"{"candidates": [1, 2"#,
+            ErrorKind::Syntax,
+            "stdout is not the expected JSON: EOF while parsing a list at line 2 column 0",
+        ),
+        (
+            r#"{"candidates": [1, 2.5]}"#,
+            ErrorKind::WrongType,
+            "invalid type: floating point `2.5`, expected usize at line 1 column 22",
+        ),
+        (
+            r#"{"candidates": [3, 10]}"#,
+            ErrorKind::OutOfRange,
+            "candidates[1] = 10 is out of range: the motion has 10 frames (0–9)",
+        ),
+        (
+            r#"{"candidates": [5, 3]}"#,
+            ErrorKind::OutOfRange,
+            "candidates[1] = 3 follows 5 (not ascending)",
+        ),
+        (
+            r#"{"candidates": [3, 3]}"#,
+            ErrorKind::OutOfRange,
+            "candidates[1] = 3 follows 3 (repeated)",
+        ),
+        (
+            r#"{"candidates": [], "traces": [{"name": "V", "unit": "mm/s", "values": [1, 2, 3]}]}"#,
+            ErrorKind::WrongValueCount,
+            "trace \"V\" has 3 values, expected one per frame (10)",
+        ),
+        (
+            r#"{"candidates": [], "traces": [{"name": "V", "values": [NaN, 1, 1, 1, 1, 1, 1, 1, 1, 1]}]}"#,
+            ErrorKind::Syntax,
+            "write null for a missing value",
+        ),
     ];
     for (reply, kind, needle) in cases {
         let script = format!("printf '%s\\n' '{reply}'");
@@ -164,17 +227,25 @@ fn malformed_and_invalid_output_are_one_error_each() {
 
 #[test]
 fn a_missing_program_fails_at_validation_naming_the_field() {
-    let e = build_segmenter("external", &toml_table("command = [\"no-such-program-motionlab\"]")).err().unwrap();
+    let e = build_segmenter("external", &toml_table("command = [\"no-such-program-motionlab\"]"))
+        .err()
+        .unwrap();
     assert_eq!(e.kind(), ErrorKind::Io);
     assert_eq!(e.location().field.as_deref(), Some("command"));
-    assert!(e.to_string().contains("program \"no-such-program-motionlab\" not found on PATH"), "{e}");
-    let e = build_segmenter("external", &toml_table("command = [\"./no/such/script.py\"]")).err().unwrap();
+    assert!(
+        e.to_string().contains("program \"no-such-program-motionlab\" not found on PATH"),
+        "{e}"
+    );
+    let e = build_segmenter("external", &toml_table("command = [\"./no/such/script.py\"]"))
+        .err()
+        .unwrap();
     assert!(e.to_string().contains("not found relative to the current directory"), "{e}");
     // Found but not executable: refused when started.
     let readme = repo_root().join("README.md");
     let e = external(&[readme.to_str().unwrap()], "", &small_motion()).unwrap_err();
     assert!(e.to_string().contains("cannot start the program: not executable"), "{e}");
-    let e = build_segmenter("external", &toml_table("command = [\"sh\"]\ntimeout = 5")).err().unwrap();
+    let e =
+        build_segmenter("external", &toml_table("command = [\"sh\"]\ntimeout = 5")).err().unwrap();
     assert_eq!(e.kind(), ErrorKind::UnknownKey);
 }
 
@@ -208,7 +279,11 @@ print(json.dumps(out))
 "#;
 
 fn python3() -> Option<&'static str> {
-    let found = std::process::Command::new("python3").arg("-c").arg("pass").status().is_ok_and(|s| s.success());
+    let found = std::process::Command::new("python3")
+        .arg("-c")
+        .arg("pass")
+        .status()
+        .is_ok_and(|s| s.success());
     if !found {
         println!("SKIPPED protocol probe: no python3 on PATH");
     }
@@ -237,12 +312,27 @@ fn external_features_become_a_feature_set() {
     ] {
         programs::allow([["sh".to_string(), "-c".to_string(), script.to_string()].as_slice()]);
     }
-    let params = toml_table(r#"command = ["sh", "-c", "printf '%s' '{\"traces\": [{\"name\": \"one\", \"unit\": \"\", \"values\": [1,1,1,1,1,1,1,1,1,1]}], \"labels\": [{\"name\": \"dir\", \"values\": [\"a\",\"a\",\"a\",\"a\",\"a\",\"b\",\"b\",\"b\",\"b\",\"b\"]}]}'"]"#);
-    let set = build_feature_extractor("external_features", &params).unwrap().extract(&small_motion(), &FeatureCache::new()).unwrap();
+    let params = toml_table(
+        r#"command = ["sh", "-c", "printf '%s' '{\"traces\": [{\"name\": \"one\", \"unit\": \"\", \"values\": [1,1,1,1,1,1,1,1,1,1]}], \"labels\": [{\"name\": \"dir\", \"values\": [\"a\",\"a\",\"a\",\"a\",\"a\",\"b\",\"b\",\"b\",\"b\",\"b\"]}]}'"]"#,
+    );
+    let set = build_feature_extractor("external_features", &params)
+        .unwrap()
+        .extract(&small_motion(), &FeatureCache::new())
+        .unwrap();
     assert_eq!(set.traces[0].values, vec![1.0; 10]);
     assert_eq!(set.labels[0].values[5], "b");
-    let e = build_feature_extractor("external_features", &toml_table("command = [\"sh\", \"-c\", \"echo '{}'\"]")).unwrap().extract(&small_motion(), &FeatureCache::new()).unwrap_err();
-    assert!(e.to_string().starts_with("external_features `sh -c \"echo '{}'\"`: returned no trace and no label"), "{e}");
+    let e = build_feature_extractor(
+        "external_features",
+        &toml_table("command = [\"sh\", \"-c\", \"echo '{}'\"]"),
+    )
+    .unwrap()
+    .extract(&small_motion(), &FeatureCache::new())
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("external_features `sh -c \"echo '{}'\"`: returned no trace and no label"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -252,13 +342,20 @@ fn a_command_nobody_allowed_is_never_started() {
     let script = format!("touch {} && echo '{{\"candidates\": []}}'", marker.display());
     let e = external_unallowed(&["sh", "-c", &script], "", &small_motion()).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::NotAllowed);
-    assert!(e.to_string().starts_with("external `sh -c \"touch ") && e.to_string().contains("not started"), "{e}");
+    assert!(
+        e.to_string().starts_with("external `sh -c \"touch ")
+            && e.to_string().contains("not started"),
+        "{e}"
+    );
     assert!(!marker.exists(), "the program ran");
     // Allowed, the same command line runs; one more argument is another command line.
     let out = external(&["sh", "-c", &script], "", &small_motion()).unwrap();
     assert!(out.candidates.is_empty() && marker.exists());
     std::fs::remove_file(&marker).unwrap();
-    assert_eq!(external_unallowed(&["sh", "-c", &script, "x"], "", &small_motion()).unwrap_err().kind(), ErrorKind::NotAllowed);
+    assert_eq!(
+        external_unallowed(&["sh", "-c", &script, "x"], "", &small_motion()).unwrap_err().kind(),
+        ErrorKind::NotAllowed
+    );
     assert!(!marker.exists());
 }
 
@@ -266,20 +363,38 @@ fn a_command_nobody_allowed_is_never_started() {
 fn a_program_that_prints_without_end_is_stopped_at_max_output_mb() {
     let started = Instant::now();
     // `yes` writes forever: stdout is read up to 1 MiB, then the program is killed.
-    let e = external(&["sh", "-c", "yes 12345"], "max_output_mb = 1\ntimeout_s = 60", &small_motion()).unwrap_err();
+    let e =
+        external(&["sh", "-c", "yes 12345"], "max_output_mb = 1\ntimeout_s = 60", &small_motion())
+            .unwrap_err();
     assert!(started.elapsed() < Duration::from_secs(20), "took {:?}", started.elapsed());
     assert_eq!(e.kind(), ErrorKind::TooLarge, "{e}");
-    assert!(e.to_string().contains("printed more than 1 MiB on stdout (max_output_mb) and was killed"), "{e}");
+    assert!(
+        e.to_string().contains("printed more than 1 MiB on stdout (max_output_mb) and was killed"),
+        "{e}"
+    );
     // 50 MB on stderr is read and dropped (the end kept for messages): no block, no failure.
     let flood = "head -c 50000000 /dev/zero | tr '\\0' e >&2; echo '{\"candidates\": [3]}'";
-    assert_eq!(external(&["sh", "-c", flood], "max_output_mb = 1", &small_motion()).unwrap().candidates, vec![3]);
+    assert_eq!(
+        external(&["sh", "-c", flood], "max_output_mb = 1", &small_motion()).unwrap().candidates,
+        vec![3]
+    );
 }
 
 #[test]
 fn a_program_that_writes_a_huge_file_is_stopped_at_max_output_mb() {
     // The program itself (exec) writes 3 MB into the exchange folder: the kernel stops it at
     // 1 MiB (RLIMIT_FSIZE, SIGXFSZ), and the error says why.
-    let e = external(&["sh", "-c", "exec head -c 3000000 /dev/zero > \"$0/huge.npy\""], "max_output_mb = 1", &small_motion()).unwrap_err();
+    let e = external(
+        &["sh", "-c", "exec head -c 3000000 /dev/zero > \"$0/huge.npy\""],
+        "max_output_mb = 1",
+        &small_motion(),
+    )
+    .unwrap_err();
     assert_eq!(e.kind(), ErrorKind::Io, "{e}");
-    assert!(e.to_string().contains("was killed by signal 25 (SIGXFSZ: it wrote a file larger than 1 MiB, max_output_mb)"), "{e}");
+    assert!(
+        e.to_string().contains(
+            "was killed by signal 25 (SIGXFSZ: it wrote a file larger than 1 MiB, max_output_mb)"
+        ),
+        "{e}"
+    );
 }

@@ -34,8 +34,14 @@ fn damaged_dance() -> Motion {
 
 fn bench_method(bencher: Bencher, method: GapFillMethod) {
     let motion = damaged_dance();
-    let stage =
-        FillGapsParams { max_gap: TimeSpan::Seconds(0.2), method, support: 4, edges: EdgeFill::Leave }.check().unwrap();
+    let stage = FillGapsParams {
+        max_gap: TimeSpan::Seconds(0.2),
+        method,
+        support: 4,
+        edges: EdgeFill::Leave,
+    }
+    .check()
+    .unwrap();
     bencher
         .counter(ItemsCount::new(motion.n_frames() * motion.n_points()))
         .bench(|| stage.fill(black_box(&motion)).len());

@@ -30,12 +30,22 @@ static FRAMES: LazyLock<Vec<Vec<Vec<Point3>>>> = LazyLock::new(|| {
         .map(|t| {
             let path = data(t);
             let m = if t.contains(".amc") {
-                motionlab_io::asf_amc::load_asf_amc(&path, &data("cmu86/86.asf"), FrameRate::new(120.0).unwrap())
+                motionlab_io::asf_amc::load_asf_amc(
+                    &path,
+                    &data("cmu86/86.asf"),
+                    FrameRate::new(120.0).unwrap(),
+                )
             } else {
-                motionlab_io::qualisys_tsv::parse_qualisys_tsv(&motionlab_io::read::read_text(&path).unwrap(), &path, Axis::Z)
+                motionlab_io::qualisys_tsv::parse_qualisys_tsv(
+                    &motionlab_io::read::read_text(&path).unwrap(),
+                    &path,
+                    Axis::Z,
+                )
             }
             .expect("shipped take loads");
-            (0..m.n_frames()).map(|i| m.frame(i).iter().copied().filter(|p| p[0].is_finite()).collect()).collect()
+            (0..m.n_frames())
+                .map(|i| m.frame(i).iter().copied().filter(|p| p[0].is_finite()).collect())
+                .collect()
         })
         .collect()
 });
@@ -48,7 +58,9 @@ fn frames(take: &str) -> &'static [Vec<Point3>] {
 fn builder(bencher: Bencher, take: &str) {
     let f = frames(take);
     let mut b = HullBuilder::new();
-    bencher.counter(ItemsCount::new(f.len())).bench_local(|| f.iter().map(|p| b.volume(p).volume_mm3).sum::<f64>());
+    bencher
+        .counter(ItemsCount::new(f.len()))
+        .bench_local(|| f.iter().map(|p| b.volume(p).volume_mm3).sum::<f64>());
 }
 
 #[divan::bench(args = TAKES)]
@@ -75,9 +87,15 @@ fn tracker_without_repairs(bencher: Bencher, take: &str) {
 
 #[divan::bench(args = TAKES, sample_count = 10)]
 fn parry(bencher: Bencher, take: &str) {
-    let f: Vec<Vec<parry3d_f64::math::Vector>> =
-        frames(take).iter().map(|fr| fr.iter().map(|p| parry3d_f64::math::Vector::new(p[0], p[1], p[2])).collect()).collect();
+    let f: Vec<Vec<parry3d_f64::math::Vector>> = frames(take)
+        .iter()
+        .map(|fr| fr.iter().map(|p| parry3d_f64::math::Vector::new(p[0], p[1], p[2])).collect())
+        .collect();
     bencher.counter(ItemsCount::new(f.len())).bench_local(|| {
-        f.iter().map(|p| parry3d_f64::transformation::try_convex_hull(p).map(|(v, _)| v.len()).unwrap_or(0)).sum::<usize>()
+        f.iter()
+            .map(|p| {
+                parry3d_f64::transformation::try_convex_hull(p).map(|(v, _)| v.len()).unwrap_or(0)
+            })
+            .sum::<usize>()
     });
 }

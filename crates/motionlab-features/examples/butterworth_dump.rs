@@ -13,7 +13,9 @@ use motionlab_io::qualisys_tsv::QualisysTsvParams;
 use serde_json::{Value, json};
 
 fn column(m: &Motion, k: usize, c: usize) -> Vec<Value> {
-    (0..m.n_frames()).map(|i| if m.is_missing(i, k) { Value::Null } else { json!(m.position(i, k)[c]) }).collect()
+    (0..m.n_frames())
+        .map(|i| if m.is_missing(i, k) { Value::Null } else { json!(m.position(i, k)[c]) })
+        .collect()
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -5,7 +5,6 @@
 //!
 //! `cargo run --release -p motionlab-features --example gap_fill_accuracy`
 
-
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Loader, Motion, Preprocessor, TimeSpan};
 use motionlab_features::gap_fill::{EdgeFill, FillGapsParams, GapFillMethod};
@@ -34,7 +33,9 @@ fn inject(motion: &Motion, len: usize, period: usize) -> (Motion, Vec<(usize, us
 
 fn main() -> motionlab_core::Result<()> {
     let loader = QualisysTsvParams { up_axis: motionlab_core::Axis::Z }.check()?;
-    println!("| recording | gap (frames @ 60 Hz) | gap (s) | method | RMS error (mm) | 95th pct (mm) | max (mm) |");
+    println!(
+        "| recording | gap (frames @ 60 Hz) | gap (s) | method | RMS error (mm) | 95th pct (mm) | max (mm) |"
+    );
     println!("|---|---:|---:|---|---:|---:|---:|");
     for name in ["walk2", "dance1", "dance2"] {
         let motion = loader.load(&motionlab_testkit::data_path(&format!("mct/{name}.tsv.gz")))?;
@@ -54,7 +55,8 @@ fn main() -> motionlab_core::Result<()> {
                     .iter()
                     .map(|&(f, k)| {
                         let (a, b) = (filled.position(f, k), motion.position(f, k));
-                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                            .sqrt()
                     })
                     .collect();
                 errors.sort_by(f64::total_cmp);

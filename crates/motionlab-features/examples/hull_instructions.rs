@@ -17,7 +17,11 @@ use motionlab_features::hull::HullTracker;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/cmu86");
-    let motion = motionlab_io::asf_amc::load_asf_amc(&dir.join("86_01.amc.gz"), &dir.join("86.asf"), FrameRate::new(120.0)?)?;
+    let motion = motionlab_io::asf_amc::load_asf_amc(
+        &dir.join("86_01.amc.gz"),
+        &dir.join("86.asf"),
+        FrameRate::new(120.0)?,
+    )?;
     let passes: usize = std::env::args().nth(1).map(|s| s.parse()).transpose()?.unwrap_or(10);
     let mut tracker = HullTracker::new();
     let mut sum = 0.0;
@@ -27,6 +31,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             sum += tracker.frame(motion.frame(i)).volume_mm3;
         }
     }
-    println!("{passes} passes over {} frames: Σ volume = {sum} mm³, {:?}", motion.n_frames(), tracker.stats());
+    println!(
+        "{passes} passes over {} frames: Σ volume = {sum} mm³, {:?}",
+        motion.n_frames(),
+        tracker.stats()
+    );
     Ok(())
 }

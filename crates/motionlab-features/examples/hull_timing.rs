@@ -23,7 +23,10 @@ use motionlab_features::hull::{HullBuilder, HullTracker};
 fn load(path: &Path) -> motionlab_core::Result<Motion> {
     let name = path.to_string_lossy();
     if name.ends_with(".amc") || name.ends_with(".amc.gz") {
-        let asf = motionlab_io::asf_amc::asf_candidates(path).into_iter().find(|p| p.exists()).unwrap_or_default();
+        let asf = motionlab_io::asf_amc::asf_candidates(path)
+            .into_iter()
+            .find(|p| p.exists())
+            .unwrap_or_default();
         motionlab_io::asf_amc::load_asf_amc(path, &asf, FrameRate::new(120.0)?)
     } else {
         let text = motionlab_io::read::read_text(path)?;
@@ -34,7 +37,12 @@ fn load(path: &Path) -> motionlab_core::Result<Motion> {
 /// CPU time of this thread (ns) from Linux's scheduler statistics: unlike wall time it does not
 /// grow when other processes compete for the cores. None elsewhere (then wall time is used).
 fn thread_cpu_ns() -> Option<u64> {
-    std::fs::read_to_string("/proc/thread-self/schedstat").ok()?.split_whitespace().next()?.parse().ok()
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
 }
 
 /// Median time per frame (µs) of `pass` over the whole sequence, repeated for ~`budget_s` of wall
@@ -69,11 +77,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let motion = load(&PathBuf::from(input))?;
     let (f, m) = (motion.n_frames(), motion.n_points());
     let frames: Vec<Vec<Point3>> = (0..f).map(|i| motion.frame(i).to_vec()).collect();
-    let valid: Vec<Vec<Point3>> =
-        frames.iter().map(|fr| fr.iter().copied().filter(|p| p.iter().all(|c| c.is_finite())).collect()).collect();
+    let valid: Vec<Vec<Point3>> = frames
+        .iter()
+        .map(|fr| fr.iter().copied().filter(|p| p.iter().all(|c| c.is_finite())).collect())
+        .collect();
 
     let mut builder = HullBuilder::new();
-    let scratch_us = time_per_frame(f, 2.0, || valid.iter().map(|p| builder.volume(p).volume_mm3).sum());
+    let scratch_us =
+        time_per_frame(f, 2.0, || valid.iter().map(|p| builder.volume(p).volume_mm3).sum());
     let mut tracker = HullTracker::new();
     let tracker_us = time_per_frame(f, 2.0, || {
         tracker.reset();
@@ -85,11 +96,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     if let [_, points_out, volumes_out] = &args[..] {
         let mut bytes = Vec::with_capacity((2 + f * m * 3) * 8);
-        for v in [f as f64, m as f64].into_iter().chain(frames.iter().flatten().flatten().copied()) {
+        for v in [f as f64, m as f64].into_iter().chain(frames.iter().flatten().flatten().copied())
+        {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
         std::fs::write(points_out, bytes)?;
-        std::fs::write(volumes_out, volumes.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())?;
+        std::fs::write(
+            volumes_out,
+            volumes.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>(),
+        )?;
     }
     println!(
         "{{\"file\": {input:?}, \"frames\": {f}, \"points\": {m}, \"scratch_us_per_frame\": {scratch_us:.4}, \

@@ -76,11 +76,18 @@ impl ParamGuard for ButterworthParams {
     type Checked = Butterworth;
     fn check(self) -> Result<Butterworth> {
         if !(1..=8).contains(&self.order) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be 1 to 8, found {}", self.order)).with_field("order"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be 1 to 8, found {}", self.order),
+            )
+            .with_field("order"));
         }
         if !(self.cutoff_hz.is_finite() && self.cutoff_hz > 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite frequency > 0 Hz, found {}", self.cutoff_hz))
-                .with_field("cutoff_hz"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a finite frequency > 0 Hz, found {}", self.cutoff_hz),
+            )
+            .with_field("cutoff_hz"));
         }
         Ok(Butterworth { order: self.order, cutoff_hz: self.cutoff_hz })
     }
@@ -109,7 +116,8 @@ pub fn butter_lowpass(order: usize, wn: f64) -> TransferFunction {
     let digital: Vec<Complex<f64>> = poles.iter().map(|&p| (four + p) / (four - p)).collect();
     let denominator: Complex<f64> = poles.iter().map(|&p| four - p).product();
     let gain = warped.powi(order as i32) * (Complex::new(1.0, 0.0) / denominator).re;
-    let b: Vec<f64> = poly(&vec![Complex::new(-1.0, 0.0); order]).iter().map(|c| gain * c.re).collect();
+    let b: Vec<f64> =
+        poly(&vec![Complex::new(-1.0, 0.0); order]).iter().map(|c| gain * c.re).collect();
     let a: Vec<f64> = poly(&digital).iter().map(|c| c.re).collect();
     TransferFunction { b, a }
 }
@@ -134,7 +142,13 @@ fn lfilter_zi(tf: &TransferFunction) -> Vec<f64> {
     let (a, b) = (&tf.a, &tf.b);
     // I − companion(a)ᵀ, companion's first row −a[1:] and ones below the diagonal.
     let m = DMatrix::from_fn(n - 1, n - 1, |i, j| {
-        let companion_t = if j == 0 { -a[i + 1] } else if i + 1 == j { 1.0 } else { 0.0 };
+        let companion_t = if j == 0 {
+            -a[i + 1]
+        } else if i + 1 == j {
+            1.0
+        } else {
+            0.0
+        };
         f64::from(u8::from(i == j)) - companion_t
     });
     let rhs = DVector::from_fn(n - 1, |i, _| b[i + 1] - a[i + 1] * b[0]);
@@ -188,7 +202,10 @@ impl Butterworth {
         if self.cutoff_hz >= nyquist {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
-                format!("must be below half the frame rate ({nyquist} Hz at {rate_hz} Hz), found {} Hz", self.cutoff_hz),
+                format!(
+                    "must be below half the frame rate ({nyquist} Hz at {rate_hz} Hz), found {} Hz",
+                    self.cutoff_hz
+                ),
             )
             .with_field("cutoff_hz"));
         }
@@ -200,7 +217,10 @@ impl Preprocessor for Butterworth {
     fn apply(&self, mut motion: Motion) -> Result<Motion> {
         let tf = self.design(motion.frame_rate().hz())?;
         let (f, m) = (motion.n_frames(), motion.n_points());
-        let missing: Vec<bool> = (0..f).flat_map(|i| (0..m).map(move |k| (i, k))).map(|(i, k)| motion.is_missing(i, k)).collect();
+        let missing: Vec<bool> = (0..f)
+            .flat_map(|i| (0..m).map(move |k| (i, k)))
+            .map(|(i, k)| motion.is_missing(i, k))
+            .collect();
         let positions = motion.positions_mut();
         for k in 0..m {
             let mut i = 0;
@@ -250,8 +270,20 @@ mod tests {
             assert!((x - y).abs() < 1e-15, "{tf:?}");
         }
         let tf = butter_lowpass(4, 0.25);
-        let b = [0.010209480791203138, 0.04083792316481255, 0.061256884747218826, 0.04083792316481255, 0.010209480791203138];
-        let a = [1.0, -1.9684277869385185, 1.7358607092088867, -0.7244708295073626, 0.12038959989624451];
+        let b = [
+            0.010209480791203138,
+            0.04083792316481255,
+            0.061256884747218826,
+            0.04083792316481255,
+            0.010209480791203138,
+        ];
+        let a = [
+            1.0,
+            -1.9684277869385185,
+            1.7358607092088867,
+            -0.7244708295073626,
+            0.12038959989624451,
+        ];
         for (x, y) in tf.b.iter().zip(b).chain(tf.a.iter().zip(a)) {
             assert!((x - y).abs() < 1e-14, "{tf:?}");
         }
@@ -268,7 +300,8 @@ mod tests {
         // bend as scipy's do: scipy.signal.filtfilt(*butter(3, 0.2), 3 + 0.5·arange(50)).
         let line: Vec<f64> = (0..50).map(|i| 3.0 + 0.5 * i as f64).collect();
         let y = filtfilt(&tf, &line).unwrap();
-        for (i, want) in [(0, 3.0004953993396835), (25, 15.49998568835868), (49, 27.47635007868804)] {
+        for (i, want) in [(0, 3.0004953993396835), (25, 15.49998568835868), (49, 27.47635007868804)]
+        {
             assert!((y[i] - want).abs() < 1e-12 * want, "{i}: {} vs {want}", y[i]);
         }
         assert_eq!(filtfilt(&tf, &line[..12]), None, "3·(order + 1) = 12 samples are too few");
@@ -290,7 +323,8 @@ mod tests {
             assert!((out.position(i, 0)[0] - m.position(i, 0)[0]).abs() < 0.2, "frame {i}");
         }
         let peak = (200..1000).map(|i| out.position(i, 1)[0].abs()).fold(0.0, f64::max);
-        let ratio = (std::f64::consts::PI * 30.0 / 120.0).tan() / (std::f64::consts::PI * 6.0 / 120.0).tan();
+        let ratio = (std::f64::consts::PI * 30.0 / 120.0).tan()
+            / (std::f64::consts::PI * 6.0 / 120.0).tan();
         let expected = 100.0 / (1.0 + ratio.powi(4));
         assert!((peak - expected).abs() < 0.02 * expected, "{peak} vs {expected}");
     }
@@ -306,7 +340,8 @@ mod tests {
             (_, 0..9) => [i as f64 * i as f64, 1.0, 2.0],
             _ => [f64::NAN; 3],
         });
-        let out = build_preprocessor("butterworth", &default_params()).unwrap().apply(m.clone()).unwrap();
+        let out =
+            build_preprocessor("butterworth", &default_params()).unwrap().apply(m.clone()).unwrap();
         assert!((40..45).all(|i| out.is_missing(i, 0)) && (9..100).all(|i| out.is_missing(i, 1)));
         // The constant run after the gap is untouched by the level before it.
         assert!((45..100).all(|i| (out.position(i, 0)[0] - 500.0).abs() < 1e-9));
@@ -319,7 +354,9 @@ mod tests {
     fn parameters_are_checked_naming_the_field() {
         let field = |t: &str| {
             let v: toml::Value = toml::from_str(t).unwrap();
-            build_preprocessor("butterworth", &v).err().map(|e| e.location().field.clone().unwrap_or_default())
+            build_preprocessor("butterworth", &v)
+                .err()
+                .map(|e| e.location().field.clone().unwrap_or_default())
         };
         assert_eq!(field("order = 0").as_deref(), Some("order"));
         assert_eq!(field("order = 9").as_deref(), Some("order"));
@@ -328,6 +365,9 @@ mod tests {
         // Cutoff at or above Nyquist fails when the rate is known.
         let m = motion_from_fn(100, 10.0, 1, |_, _| [0.0; 3]);
         let e = Butterworth { order: 2, cutoff_hz: 6.0 }.apply(m).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("cutoff_hz")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("cutoff_hz"))
+        );
     }
 }

@@ -14,7 +14,10 @@
 use std::sync::Arc;
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Axis, Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, Motion, Result, TimeSpan, Trace};
+use motionlab_core::{
+    Axis, Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, Motion, Result, TimeSpan,
+    Trace,
+};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -57,14 +60,23 @@ pub struct CurvatureSpec {
 
 impl CurvatureSpec {
     /// Checks `lag > 0` and `min_leg_mm ≥ 0` (errors name the field).
-    pub fn new(root: String, lag: TimeSpan, min_leg_mm: f64, up_axis: Option<Axis>) -> Result<Self> {
+    pub fn new(
+        root: String,
+        lag: TimeSpan,
+        min_leg_mm: f64,
+        up_axis: Option<Axis>,
+    ) -> Result<Self> {
         let lag = lag.check("lag", true)?;
         if !(min_leg_mm.is_finite() && min_leg_mm >= 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite length >= 0 mm, found {min_leg_mm}"))
-                .with_field("min_leg_mm"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a finite length >= 0 mm, found {min_leg_mm}"),
+            )
+            .with_field("min_leg_mm"));
         }
         if root.is_empty() {
-            return Err(Error::new(ErrorKind::InvalidParameter, "must name a marker or joint").with_field("root"));
+            return Err(Error::new(ErrorKind::InvalidParameter, "must name a marker or joint")
+                .with_field("root"));
         }
         Ok(CurvatureSpec { root, lag, min_leg_mm, up_axis })
     }
@@ -80,7 +92,9 @@ impl CurvatureSpec {
         let up = self.up_axis.unwrap_or(motion.up_axis());
         let lag = self.lag_frames(motion);
         let key = format!("root_curvature/{}/{lag}/{}/{up}", self.root, self.min_leg_mm);
-        cache.get_or_compute(&key, || Ok(k_cosine(&horizontal_path(motion, root, up), lag, self.min_leg_mm)))
+        cache.get_or_compute(&key, || {
+            Ok(k_cosine(&horizontal_path(motion, root, up), lag, self.min_leg_mm))
+        })
     }
 }
 
@@ -179,7 +193,10 @@ mod tests {
         }
         // Straight parts, more than L from any corner: exactly −1.
         for (i, v) in c.iter().enumerate() {
-            let near_corner = corners.iter().chain(std::iter::once(&q.len())).any(|&k| i + lag >= k && i <= k + lag);
+            let near_corner = corners
+                .iter()
+                .chain(std::iter::once(&q.len()))
+                .any(|&k| i + lag >= k && i <= k + lag);
             if i >= lag && i + lag < q.len() && !near_corner {
                 assert!((v + 1.0).abs() < 1e-12, "frame {i}: C = {v}");
             }
@@ -215,7 +232,8 @@ mod tests {
     fn plugin_uses_the_named_root_and_the_floor_plane() {
         // Root walks a right-angle turn in x/y while bobbing in z (up): z must not matter.
         let m = named_motion(61, 120.0, &["hip", "root"], |i, k| {
-            let (x, y) = if i <= 30 { (20.0 * i as f64, 0.0) } else { (600.0, 20.0 * (i - 30) as f64) };
+            let (x, y) =
+                if i <= 30 { (20.0 * i as f64, 0.0) } else { (600.0, 20.0 * (i - 30) as f64) };
             if k == 0 { [0.0; 3] } else { [x, y, 1000.0 + 300.0 * (i as f64).sin()] }
         });
         let params: toml::Value = toml::from_str("lag = { frames = 15 }").unwrap();
@@ -224,10 +242,18 @@ mod tests {
         let c = &out.traces[0].values;
         assert_eq!(c.len(), 61);
         assert!(c[30].abs() < 1e-12, "right angle at the turn: {}", c[30]);
-        assert!((c[15] + 1.0).abs() < 1e-12 && (c[45] + 1.0).abs() < 1e-12, "straight legs: {} {}", c[15], c[45]);
+        assert!(
+            (c[15] + 1.0).abs() < 1e-12 && (c[45] + 1.0).abs() < 1e-12,
+            "straight legs: {} {}",
+            c[15],
+            c[45]
+        );
         // The root lives in "root"; "hip" stays at the origin (would give NaN everywhere).
         let bad: toml::Value = toml::from_str("root = \"pelvis\"").unwrap();
-        let e = build_feature_extractor("root_curvature", &bad).unwrap().extract(&m, &FeatureCache::new()).unwrap_err();
+        let e = build_feature_extractor("root_curvature", &bad)
+            .unwrap()
+            .extract(&m, &FeatureCache::new())
+            .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
         let neg: toml::Value = toml::from_str("min_leg_mm = -1.0").unwrap();
         let e = build_feature_extractor("root_curvature", &neg).err().unwrap();

@@ -6,13 +6,12 @@
 //! vertical trajectory when a file has no events (BVH, AMC, TSV). Both are small enough that no
 //! crate is warranted (the only gait-event crates are Python: gaitpy, pyomeca).
 
-
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::{GaitCycle, GaitCycleDetector};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Location, Motion, Result, TimeSpan};
-use crate::{GaitCycle, GaitCycleDetector};
 
 use crate::signal::percentile;
 
@@ -113,13 +112,23 @@ impl Default for C3dEventsParams {
 impl ParamGuard for C3dEventsParams {
     type Checked = C3dEventsParams;
     fn check(self) -> Result<Self> {
-        for (field, v) in [("strike_label", &self.strike_label), ("left_context", &self.left_context), ("right_context", &self.right_context)] {
+        for (field, v) in [
+            ("strike_label", &self.strike_label),
+            ("left_context", &self.left_context),
+            ("right_context", &self.right_context),
+        ] {
             if v.trim().is_empty() {
-                return Err(Error::new(ErrorKind::InvalidParameter, "must not be empty").with_field(field));
+                return Err(
+                    Error::new(ErrorKind::InvalidParameter, "must not be empty").with_field(field)
+                );
             }
         }
         if self.left_context.trim().eq_ignore_ascii_case(self.right_context.trim()) {
-            return Err(Error::new(ErrorKind::InvalidParameter, "left and right contexts must differ").with_field("right_context"));
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                "left and right contexts must differ",
+            )
+            .with_field("right_context"));
         }
         Ok(self)
     }
@@ -145,7 +154,9 @@ impl GaitCycleDetector for C3dEventsParams {
             let mut strikes: Vec<f64> = motion
                 .events
                 .iter()
-                .filter(|e| self.is_strike(&e.label) && e.context.trim().eq_ignore_ascii_case(contexts[k]))
+                .filter(|e| {
+                    self.is_strike(&e.label) && e.context.trim().eq_ignore_ascii_case(contexts[k])
+                })
                 .map(|e| e.frame)
                 // Rounded to a recorded frame, so a cycle never ends after the last frame.
                 .filter(|f| f.is_finite() && f.round() >= 0.0 && f.round() <= last)
@@ -153,7 +164,11 @@ impl GaitCycleDetector for C3dEventsParams {
             cycles.extend(cycles_from_strikes(&mut strikes, side));
         }
         if cycles.is_empty() {
-            let found: Vec<String> = motion.events.iter().map(|e| format!("{}/{}", e.label.trim(), e.context.trim())).collect();
+            let found: Vec<String> = motion
+                .events
+                .iter()
+                .map(|e| format!("{}/{}", e.label.trim(), e.context.trim()))
+                .collect();
             return Err(Error::new(
                 ErrorKind::MissingData,
                 format!(
@@ -174,7 +189,12 @@ impl GaitCycleDetector for C3dEventsParams {
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::GaitCycleDetector, C3dEventsParams, "c3d_events", kind = "gait_cycle_detector");
+motionlab_core::register_custom_plugin!(
+    crate::GaitCycleDetector,
+    C3dEventsParams,
+    "c3d_events",
+    kind = "gait_cycle_detector"
+);
 
 // ---------------------------------------------------------------------------------------------
 // From the heel marker's height
@@ -295,7 +315,11 @@ impl ParamGuard for HeelHeightParams {
             if v.is_finite() && v > 0.0 && v < 1.0 {
                 Ok(())
             } else {
-                Err(Error::new(ErrorKind::OutOfRange, format!("must be a fraction in (0, 1), found {v}")).with_field(field))
+                Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("must be a fraction in (0, 1), found {v}"),
+                )
+                .with_field(field))
             }
         };
         fraction("contact_fraction", self.contact_fraction)?;
@@ -303,16 +327,26 @@ impl ParamGuard for HeelHeightParams {
         if self.contact_fraction >= self.swing_fraction {
             return Err(Error::new(
                 ErrorKind::InvalidParameter,
-                format!("contact_fraction ({}) must be below swing_fraction ({})", self.contact_fraction, self.swing_fraction),
+                format!(
+                    "contact_fraction ({}) must be below swing_fraction ({})",
+                    self.contact_fraction, self.swing_fraction
+                ),
             )
             .with_field("contact_fraction"));
         }
         if !(self.min_rise_mm.is_finite() && self.min_rise_mm >= 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be >= 0 mm, found {}", self.min_rise_mm)).with_field("min_rise_mm"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be >= 0 mm, found {}", self.min_rise_mm),
+            )
+            .with_field("min_rise_mm"));
         }
         if !(self.strike_speed_mm_per_s.is_finite() && self.strike_speed_mm_per_s > 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be > 0 mm/s, found {}", self.strike_speed_mm_per_s))
-                .with_field("strike_speed_mm_per_s"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be > 0 mm/s, found {}", self.strike_speed_mm_per_s),
+            )
+            .with_field("strike_speed_mm_per_s"));
         }
         if let Some(s) = self.smoothing {
             s.check("smoothing", false)?;
@@ -333,7 +367,10 @@ fn moving_average(x: &[f64], window: usize) -> Vec<f64> {
                 return f64::NAN;
             }
             let (lo, hi) = (i.saturating_sub(half), (i + half + 1).min(x.len()));
-            let (sum, n) = x[lo..hi].iter().filter(|v| v.is_finite()).fold((0.0, 0.0), |(s, n), v| (s + v, n + 1.0));
+            let (sum, n) = x[lo..hi]
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold((0.0, 0.0), |(s, n), v| (s + v, n + 1.0));
             sum / n
         })
         .collect()
@@ -362,7 +399,11 @@ pub struct StrikeLevels {
 /// Foot strikes in a heel trajectory by the rule of [`HeelHeightParams`]: `height[i]` (mm) and
 /// the horizontal speed `speed[i]` (mm/s, NaN where undefined; only read with a speed rule).
 /// `None` when the heel never rises `min_rise_mm` above its floor.
-pub fn heel_strikes(height: &[f64], speed: &[f64], levels: &StrikeLevels) -> Option<Vec<HeelStrike>> {
+pub fn heel_strikes(
+    height: &[f64],
+    speed: &[f64],
+    levels: &StrikeLevels,
+) -> Option<Vec<HeelStrike>> {
     let floor = percentile(height, 5.0)?;
     let top = percentile(height, 95.0)?;
     if top - floor < levels.min_rise_mm || top <= floor {
@@ -396,7 +437,10 @@ pub fn heel_strikes(height: &[f64], speed: &[f64], levels: &StrikeLevels) -> Opt
         if !landing && swings > 0 && a > contact && contact >= b {
             match levels.strike_speed_mm_per_s {
                 None => {
-                    strikes.push(HeelStrike { frame: (i - 1) as f64 + (a - contact) / (a - b), swings_since_previous: swings });
+                    strikes.push(HeelStrike {
+                        frame: (i - 1) as f64 + (a - contact) / (a - b),
+                        swings_since_previous: swings,
+                    });
                     swings = 0;
                     continue;
                 }
@@ -408,7 +452,11 @@ pub fn heel_strikes(height: &[f64], speed: &[f64], levels: &StrikeLevels) -> Opt
             && speed[i] <= gate
         {
             let prev = speed[i - 1];
-            let frame = if prev.is_finite() && prev > gate { (i - 1) as f64 + (prev - gate) / (prev - speed[i]) } else { i as f64 };
+            let frame = if prev.is_finite() && prev > gate {
+                (i - 1) as f64 + (prev - gate) / (prev - speed[i])
+            } else {
+                i as f64
+            };
             strikes.push(HeelStrike { frame, swings_since_previous: swings });
             swings = 0;
             landing = false;
@@ -456,12 +504,15 @@ impl GaitCycleDetector for HeelHeightParams {
             contact_fraction: self.contact_fraction,
             swing_fraction: self.swing_fraction,
             min_rise_mm: self.min_rise_mm,
-            strike_speed_mm_per_s: (self.rule == StrikeRule::HeightThenSpeed).then_some(self.strike_speed_mm_per_s),
+            strike_speed_mm_per_s: (self.rule == StrikeRule::HeightThenSpeed)
+                .then_some(self.strike_speed_mm_per_s),
         };
         let mut cycles = Vec::new();
         let mut flat = Vec::new();
         for &(side, k) in self.side.sides() {
-            let point = motion.point_index(heels[k]).map_err(|e| e.under_field(if k == 0 { "left_heel" } else { "right_heel" }))?;
+            let point = motion
+                .point_index(heels[k])
+                .map_err(|e| e.under_field(if k == 0 { "left_heel" } else { "right_heel" }))?;
             let height: Vec<f64> = motion.trajectory(point).map(|p| motion.height(p)).collect();
             let speed = moving_average(&horizontal_speed(motion, point), window);
             match heel_strikes(&moving_average(&height, window), &speed, &levels) {
@@ -473,17 +524,29 @@ impl GaitCycleDetector for HeelHeightParams {
             let why = if flat.is_empty() {
                 "fewer than two foot strikes per foot".to_string()
             } else {
-                format!("heel {} never rises {} mm above its floor", flat.join(" and "), self.min_rise_mm)
+                format!(
+                    "heel {} never rises {} mm above its floor",
+                    flat.join(" and "),
+                    self.min_rise_mm
+                )
             };
-            return Err(Error::new(ErrorKind::MissingData, format!("{}: no gait cycle found ({why}); expected a walk", motion.name))
-                .with_location(location_of(motion)));
+            return Err(Error::new(
+                ErrorKind::MissingData,
+                format!("{}: no gait cycle found ({why}); expected a walk", motion.name),
+            )
+            .with_location(location_of(motion)));
         }
         sort_cycles(&mut cycles);
         Ok(cycles)
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::GaitCycleDetector, HeelHeightParams, "heel_height", kind = "gait_cycle_detector");
+motionlab_core::register_custom_plugin!(
+    crate::GaitCycleDetector,
+    HeelHeightParams,
+    "heel_height",
+    kind = "gait_cycle_detector"
+);
 
 #[cfg(test)]
 mod tests {
@@ -522,20 +585,31 @@ mod tests {
                 GaitCycle { start: 52, end: 149, side: "Left".into() },
             ]
         );
-        let left = C3dEventsParams { side: CycleSide::Left, ..Default::default() }.cycles(&m).unwrap();
+        let left =
+            C3dEventsParams { side: CycleSide::Left, ..Default::default() }.cycles(&m).unwrap();
         assert_eq!(left.len(), 1);
         assert_eq!(left[0].side, "Left");
         // "Foot Strikes" or "Foot Strike A" are other labels.
         let p = C3dEventsParams::default();
-        assert!(p.is_strike(" foot strike12 ") && !p.is_strike("Foot Strikes") && !p.is_strike("Foot Strike A"));
+        assert!(
+            p.is_strike(" foot strike12 ")
+                && !p.is_strike("Foot Strikes")
+                && !p.is_strike("Foot Strike A")
+        );
     }
 
     #[test]
     fn no_events_is_an_error_that_points_to_heel_height() {
-        let m = walk_with_events(vec![event("Foot Strike", "Left", 10.0), event("Foot Off", "Left", 30.0)]);
+        let m = walk_with_events(vec![
+            event("Foot Strike", "Left", 10.0),
+            event("Foot Off", "Left", 30.0),
+        ]);
         let e = C3dEventsParams::default().cycles(&m).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingData);
-        assert!(e.to_string().contains("heel_height") && e.to_string().contains("Foot Off/Left"), "{e}");
+        assert!(
+            e.to_string().contains("heel_height") && e.to_string().contains("Foot Off/Left"),
+            "{e}"
+        );
     }
 
     /// Phase in [0, 1) of frame `i` for strikes every `period` frames at frames `phase + k·period`.
@@ -567,7 +641,9 @@ mod tests {
                 x
             })
             .collect();
-        named_motion(n, 100.0, &["L_FCC", "R_FCC"], |i, k| [x[k][i], 0.0, heel_height(phase_of(i, period, phases[k]))])
+        named_motion(n, 100.0, &["L_FCC", "R_FCC"], |i, k| {
+            [x[k][i], 0.0, heel_height(phase_of(i, period, phases[k]))]
+        })
     }
 
     #[test]
@@ -578,8 +654,13 @@ mod tests {
         let m = heel_walk(n, period, [10, 3]);
         let c = HeelHeightParams::default().cycles(&m).unwrap();
         let expect = |side: &str, first: usize| {
-            let got: Vec<(usize, usize)> = c.iter().filter(|c| c.side == side).map(|c| (c.start, c.end)).collect();
-            assert_eq!(got, vec![(first, first + period), (first + period, first + 2 * period)], "{side}: {c:?}");
+            let got: Vec<(usize, usize)> =
+                c.iter().filter(|c| c.side == side).map(|c| (c.start, c.end)).collect();
+            assert_eq!(
+                got,
+                vec![(first, first + period), (first + period, first + 2 * period)],
+                "{side}: {c:?}"
+            );
         };
         expect("Left", 10);
         expect("Right", 3);
@@ -590,12 +671,19 @@ mod tests {
         let contact = floor + 0.05 * (top - floor);
         let down = (1..n).find(|&i| h[i - 1] > contact && h[i] <= contact).unwrap();
         assert!(down + 3 < 10, "{down}");
-        let height_only = HeelHeightParams { rule: StrikeRule::Height, ..Default::default() }.cycles(&m).unwrap();
+        let height_only =
+            HeelHeightParams { rule: StrikeRule::Height, ..Default::default() }.cycles(&m).unwrap();
         let left: Vec<&GaitCycle> = height_only.iter().filter(|c| c.side == "Left").collect();
         assert_eq!(left.len(), 2, "{height_only:?}");
-        assert!(left[0].start.abs_diff(down) <= 1 && left[1].start.abs_diff(down + period) <= 1, "{left:?} vs {down}");
+        assert!(
+            left[0].start.abs_diff(down) <= 1 && left[1].start.abs_diff(down + period) <= 1,
+            "{left:?} vs {down}"
+        );
         // Height alone cannot see the right foot's first strike (the heel starts low).
-        assert!(height_only.iter().filter(|c| c.side == "Right").all(|c| c.start > 50), "{height_only:?}");
+        assert!(
+            height_only.iter().filter(|c| c.side == "Right").all(|c| c.start > 50),
+            "{height_only:?}"
+        );
     }
 
     #[test]
@@ -608,18 +696,30 @@ mod tests {
             gap.positions_mut()[i * 2 + k] = [f64::NAN; 3];
         }
         gap.refresh_missing();
-        assert_eq!(HeelHeightParams::default().cycles(&good).unwrap().iter().filter(|c| c.side == "Left").count(), 2);
+        assert_eq!(
+            HeelHeightParams::default()
+                .cycles(&good)
+                .unwrap()
+                .iter()
+                .filter(|c| c.side == "Left")
+                .count(),
+            2
+        );
         let c = HeelHeightParams::default().cycles(&gap).unwrap();
         assert!(c.iter().all(|c| c.side == "Right"), "{c:?}");
     }
 
     #[test]
     fn a_flat_heel_is_not_a_walk() {
-        let m = named_motion(50, 100.0, &["L_FCC", "R_FCC"], |i, _| [i as f64, 0.0, 20.0 + (i % 3) as f64]);
+        let m = named_motion(50, 100.0, &["L_FCC", "R_FCC"], |i, _| {
+            [i as f64, 0.0, 20.0 + (i % 3) as f64]
+        });
         let e = HeelHeightParams::default().cycles(&m).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingData);
         assert!(e.to_string().contains("never rises"), "{e}");
-        let e = HeelHeightParams { left_heel: "LHEE".into(), ..Default::default() }.cycles(&m).unwrap_err();
+        let e = HeelHeightParams { left_heel: "LHEE".into(), ..Default::default() }
+            .cycles(&m)
+            .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
         assert_eq!(e.location().field.as_deref(), Some("left_heel.LHEE"));
     }
@@ -633,6 +733,9 @@ mod tests {
         assert!(build_gait_cycle_detector("heel_height", &t).is_ok());
         let t: toml::Value = toml::from_str("left_context = \"Right\"").unwrap();
         assert!(build_gait_cycle_detector("c3d_events", &t).is_err());
-        assert!(build_gait_cycle_detector("c3d_events", &motionlab_core::registry::default_params()).is_ok());
+        assert!(
+            build_gait_cycle_detector("c3d_events", &motionlab_core::registry::default_params())
+                .is_ok()
+        );
     }
 }

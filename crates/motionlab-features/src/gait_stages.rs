@@ -11,8 +11,16 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::build_custom;
 use motionlab_core::{Error, ErrorKind, FrameRate, Motion, Result};
 
-motionlab_core::declare_stage_kind!("gait_cycle_detector", label = "gait-cycle detector", list_order = 54);
-motionlab_core::declare_stage_kind!("waveform_analyzer", label = "waveform analyzer", list_order = 55);
+motionlab_core::declare_stage_kind!(
+    "gait_cycle_detector",
+    label = "gait-cycle detector",
+    list_order = 54
+);
+motionlab_core::declare_stage_kind!(
+    "waveform_analyzer",
+    label = "waveform analyzer",
+    list_order = 55
+);
 
 /// One gait cycle: same-side foot strike to the next foot strike, frames `start..end`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -39,9 +47,15 @@ impl AngleCurves {
     }
     pub fn channel_index(&self, name: &str) -> Result<usize> {
         self.channels.iter().position(|c| c == name).ok_or_else(|| {
-            let close = motionlab_core::registry::closest_names(name, self.channels.iter().map(String::as_str));
-            Error::new(ErrorKind::UnknownName, format!("no angle channel {name:?} (closest: {})", close.join(", ")))
-                .with_field(name)
+            let close = motionlab_core::registry::closest_names(
+                name,
+                self.channels.iter().map(String::as_str),
+            );
+            Error::new(
+                ErrorKind::UnknownName,
+                format!("no angle channel {name:?} (closest: {})", close.join(", ")),
+            )
+            .with_field(name)
         })
     }
 }
@@ -69,11 +83,17 @@ pub trait WaveformAnalyzer: Send + Sync {
 }
 
 /// Builds a gait-cycle detector by name from its TOML table (without the `type` key).
-pub fn build_gait_cycle_detector(name: &str, params: &motionlab_core::toml::Value) -> Result<Box<dyn GaitCycleDetector>> {
+pub fn build_gait_cycle_detector(
+    name: &str,
+    params: &motionlab_core::toml::Value,
+) -> Result<Box<dyn GaitCycleDetector>> {
     build_custom::<dyn GaitCycleDetector>("gait_cycle_detector", name, params)
 }
 
 /// Builds a waveform analyzer by name from its TOML table (without the `type` key).
-pub fn build_waveform_analyzer(name: &str, params: &motionlab_core::toml::Value) -> Result<Box<dyn WaveformAnalyzer>> {
+pub fn build_waveform_analyzer(
+    name: &str,
+    params: &motionlab_core::toml::Value,
+) -> Result<Box<dyn WaveformAnalyzer>> {
     build_custom::<dyn WaveformAnalyzer>("waveform_analyzer", name, params)
 }

@@ -103,7 +103,10 @@ impl ParamGuard for FillGapsParams {
         if self.support < 2 {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
-                format!("must be at least 2 samples per side (1 would make the cubic a line), found {}", self.support),
+                format!(
+                    "must be at least 2 samples per side (1 would make the cubic a line), found {}",
+                    self.support
+                ),
             )
             .with_field("support"));
         }
@@ -325,14 +328,24 @@ mod tests {
     use motionlab_testkit::{Rng, motion_from_fn};
 
     fn stage(method: GapFillMethod, max_gap_frames: f64) -> FillGaps {
-        FillGapsParams { max_gap: TimeSpan::Frames(max_gap_frames), method, support: 4, edges: EdgeFill::Leave }
-            .check()
-            .unwrap()
+        FillGapsParams {
+            max_gap: TimeSpan::Frames(max_gap_frames),
+            method,
+            support: 4,
+            edges: EdgeFill::Leave,
+        }
+        .check()
+        .unwrap()
     }
 
     /// A one-marker motion following `f` with the listed frames missing.
     fn with_gaps(n: usize, gaps: &[usize], f: impl Fn(f64) -> Point3) -> Motion {
-        motion_from_fn(n, 100.0, 1, |i, _| if gaps.contains(&i) { [f64::NAN; 3] } else { f(i as f64) })
+        motion_from_fn(
+            n,
+            100.0,
+            1,
+            |i, _| if gaps.contains(&i) { [f64::NAN; 3] } else { f(i as f64) },
+        )
     }
 
     #[test]
@@ -345,7 +358,10 @@ mod tests {
             for &f in &gaps {
                 let (got, want) = (out.position(f, 0), line(f as f64));
                 for c in 0..3 {
-                    assert!((got[c] - want[c]).abs() < 1e-9, "{method:?} frame {f}: {got:?} vs {want:?}");
+                    assert!(
+                        (got[c] - want[c]).abs() < 1e-9,
+                        "{method:?} frame {f}: {got:?} vs {want:?}"
+                    );
                 }
             }
         }
@@ -353,11 +369,14 @@ mod tests {
 
     #[test]
     fn a_cubic_trajectory_is_restored_exactly_by_the_spline_not_by_the_line() {
-        let cubic = |t: f64| [0.02 * t * t * t - 0.5 * t * t + 3.0 * t + 7.0, 0.001 * t * t * t, -t * t];
+        let cubic =
+            |t: f64| [0.02 * t * t * t - 0.5 * t * t + 3.0 * t + 7.0, 0.001 * t * t * t, -t * t];
         // Gap 8..12 plus a one-frame gap inside the right support.
         let gaps = [8, 9, 10, 11, 14];
-        let cubic_fill = stage(GapFillMethod::Cubic, 5.0).apply(with_gaps(25, &gaps, cubic)).unwrap();
-        let linear_fill = stage(GapFillMethod::Linear, 5.0).apply(with_gaps(25, &gaps, cubic)).unwrap();
+        let cubic_fill =
+            stage(GapFillMethod::Cubic, 5.0).apply(with_gaps(25, &gaps, cubic)).unwrap();
+        let linear_fill =
+            stage(GapFillMethod::Linear, 5.0).apply(with_gaps(25, &gaps, cubic)).unwrap();
         let mut linear_error: f64 = 0.0;
         for &f in &gaps {
             let want = cubic(f as f64);
@@ -383,7 +402,21 @@ mod tests {
         // Present frames 0 1 3 4 | gap 5–7 | 8 9 11 12 (2 and 10 are one-frame gaps, stepped
         // over). Reference: scipy.interpolate.CubicSpline(x, y) (not-a-knot), scipy 1.17.1:
         //   x = [0,1,3,4,8,9,11,12], y = [10, 12.5, 11, 15, 30, 28, 35, 33] → at 5, 6, 7.
-        let values = [10.0, 12.5, f64::NAN, 11.0, 15.0, f64::NAN, f64::NAN, f64::NAN, 30.0, 28.0, f64::NAN, 35.0, 33.0];
+        let values = [
+            10.0,
+            12.5,
+            f64::NAN,
+            11.0,
+            15.0,
+            f64::NAN,
+            f64::NAN,
+            f64::NAN,
+            30.0,
+            28.0,
+            f64::NAN,
+            35.0,
+            33.0,
+        ];
         let m = motion_from_fn(13, 100.0, 1, |i, _| [values[i], 0.0, 0.0]);
         let out = stage(GapFillMethod::Cubic, 3.0).fill(&m);
         let scipy = [20.695430280116042, 26.08010335917313, 29.67472475864365];
@@ -419,7 +452,10 @@ mod tests {
                 let e = 1e-6;
                 let left = (s.at(knot) - s.at(knot - e)) / e;
                 let right = (s.at(knot + e) - s.at(knot)) / e;
-                assert!((left - right).abs() < 1e-3 * (1.0 + left.abs()), "slope jump at knot {i}: {left} vs {right}");
+                assert!(
+                    (left - right).abs() < 1e-3 * (1.0 + left.abs()),
+                    "slope jump at knot {i}: {left} vs {right}"
+                );
             }
         }
     }
@@ -427,13 +463,17 @@ mod tests {
     #[test]
     fn gaps_longer_than_max_gap_stay_missing() {
         // Gaps of 3 (frames 4–6) and 4 (frames 10–13) frames; max_gap 3 frames.
-        let out =
-            stage(GapFillMethod::Cubic, 3.0).apply(with_gaps(20, &[4, 5, 6, 10, 11, 12, 13], |t| [t, t, t])).unwrap();
+        let out = stage(GapFillMethod::Cubic, 3.0)
+            .apply(with_gaps(20, &[4, 5, 6, 10, 11, 12, 13], |t| [t, t, t]))
+            .unwrap();
         assert_eq!(out.missing_count(), 4);
         assert!((10..14).all(|f| out.is_missing(f, 0) && out.position(f, 0)[0].is_nan()));
         assert!((4..7).all(|f| !out.is_missing(f, 0)));
         // In seconds: 0.03 s at 100 Hz is 3 frames (not lost to 2.9999…).
-        let secs = FillGapsParams { max_gap: TimeSpan::Seconds(0.03), ..FillGapsParams::default_for_tests() };
+        let secs = FillGapsParams {
+            max_gap: TimeSpan::Seconds(0.03),
+            ..FillGapsParams::default_for_tests()
+        };
         let out = secs.check().unwrap().apply(with_gaps(20, &[4, 5, 6], |t| [t, t, t])).unwrap();
         assert_eq!(out.missing_count(), 0);
     }
@@ -444,8 +484,13 @@ mod tests {
         // only; the long gap's far side (0–2) must not be used. The trajectory jumps by 1000 mm
         // inside the long gap, so using frames 0–2 would pull the fill far off the line.
         let f = |t: f64| if t < 5.0 { [1000.0 + t, 0.0, 0.0] } else { [t, 0.0, 0.0] };
-        let out = stage(GapFillMethod::Cubic, 3.0).fill(&with_gaps(20, &[3, 4, 5, 6, 7, 8, 10, 11], f));
-        assert!((out[10][0] - 10.0).abs() < 1e-9 && (out[11][0] - 11.0).abs() < 1e-9, "{:?}", &out[9..13]);
+        let out =
+            stage(GapFillMethod::Cubic, 3.0).fill(&with_gaps(20, &[3, 4, 5, 6, 7, 8, 10, 11], f));
+        assert!(
+            (out[10][0] - 10.0).abs() < 1e-9 && (out[11][0] - 11.0).abs() < 1e-9,
+            "{:?}",
+            &out[9..13]
+        );
         assert!(out[5][0].is_nan());
     }
 
@@ -455,7 +500,11 @@ mod tests {
             if k == 1 || !(2..=7).contains(&i) { [f64::NAN; 3] } else { [i as f64, 0.0, 0.0] }
         });
         let left = stage(GapFillMethod::Cubic, 5.0).apply(m.clone()).unwrap();
-        assert_eq!(left.missing_count(), m.missing_count(), "ends untouched, empty marker untouched");
+        assert_eq!(
+            left.missing_count(),
+            m.missing_count(),
+            "ends untouched, empty marker untouched"
+        );
         let hold = FillGapsParams {
             edges: EdgeFill::Hold,
             max_gap: TimeSpan::Frames(5.0),
@@ -484,14 +533,17 @@ mod tests {
         for p in entry.params() {
             assert!(!p.description.is_empty() && p.default.is_some(), "{p:?}");
         }
-        let problems: Vec<String> =
-            motionlab_core::registry::check_registry().into_iter().filter(|p| p.contains("\"fill_gaps\"")).collect();
+        let problems: Vec<String> = motionlab_core::registry::check_registry()
+            .into_iter()
+            .filter(|p| p.contains("\"fill_gaps\""))
+            .collect();
         assert!(problems.is_empty(), "{problems:?}");
     }
 
     #[test]
     fn registered_with_validated_parameters() {
-        let v: toml::Value = toml::from_str("max_gap = { frames = 12 }\nmethod = \"linear\"").unwrap();
+        let v: toml::Value =
+            toml::from_str("max_gap = { frames = 12 }\nmethod = \"linear\"").unwrap();
         assert!(build_preprocessor("fill_gaps", &v).is_ok());
         let field = |t: &str| {
             let v: toml::Value = toml::from_str(t).unwrap();
@@ -499,7 +551,10 @@ mod tests {
                 .err()
                 .map(|e| (e.kind(), e.location().field.clone().unwrap_or_default()))
         };
-        assert_eq!(field("max_gap = { frames = 0 }"), Some((ErrorKind::OutOfRange, "max_gap".into())));
+        assert_eq!(
+            field("max_gap = { frames = 0 }"),
+            Some((ErrorKind::OutOfRange, "max_gap".into()))
+        );
         assert_eq!(field("support = 1"), Some((ErrorKind::OutOfRange, "support".into())));
         assert_eq!(field("method = \"spline\"").map(|f| f.0), Some(ErrorKind::WrongType));
         assert_eq!(field("max_gaps = { frames = 3 }").map(|f| f.0), Some(ErrorKind::UnknownKey));
@@ -513,7 +568,9 @@ mod tests {
     fn load_tsv(name: &str) -> Motion {
         use motionlab_core::Loader;
         let loader =
-            motionlab_io::qualisys_tsv::QualisysTsvParams { up_axis: motionlab_core::Axis::Z }.check().unwrap();
+            motionlab_io::qualisys_tsv::QualisysTsvParams { up_axis: motionlab_core::Axis::Z }
+                .check()
+                .unwrap();
         loader.load(&motionlab_testkit::data_path(&format!("mct/{name}.tsv.gz"))).unwrap()
     }
 
@@ -529,7 +586,8 @@ mod tests {
         assert_eq!(walk.missing_count(), 27);
         let head_fr = walk.point_index("Head_FR").unwrap();
         let shoulder_r = walk.point_index("Shoulder_R").unwrap();
-        let filled = FillGapsParams::default_for_tests().check().unwrap().apply(walk.clone()).unwrap();
+        let filled =
+            FillGapsParams::default_for_tests().check().unwrap().apply(walk.clone()).unwrap();
         assert_eq!(filled.missing_count(), 16);
         assert!((199..210).all(|f| !filled.is_missing(f, head_fr)));
         assert!((304..320).all(|f| filled.is_missing(f, shoulder_r)));
@@ -548,13 +606,21 @@ mod tests {
             recorded.sort_by(f64::total_cmp);
             let median = recorded[recorded.len() / 2];
             let worst = (199..210)
-                .map(|f| (distance(filled.position(f, head_fr), filled.position(f, o)) - median).abs())
+                .map(|f| {
+                    (distance(filled.position(f, head_fr), filled.position(f, o)) - median).abs()
+                })
                 .fold(0.0, f64::max);
             // Measured: ≤ 0.65 mm, while the recorded distances spread over 2.5–16.6 mm.
-            assert!(worst < 3.0, "{other}: filled Head_FR is {worst} mm off its rigid distance {median}");
+            assert!(
+                worst < 3.0,
+                "{other}: filled Head_FR is {worst} mm off its rigid distance {median}"
+            );
         }
         // A longer max_gap fills everything.
-        let all = FillGapsParams { max_gap: TimeSpan::Seconds(0.3), ..FillGapsParams::default_for_tests() };
+        let all = FillGapsParams {
+            max_gap: TimeSpan::Seconds(0.3),
+            ..FillGapsParams::default_for_tests()
+        };
         assert_eq!(all.check().unwrap().apply(walk).unwrap().missing_count(), 0);
     }
 
@@ -585,8 +651,10 @@ mod tests {
             let p = FillGapsParams { method, ..FillGapsParams::default_for_tests() };
             let filled = p.check().unwrap().apply(damaged.clone()).unwrap();
             assert_eq!(filled.missing_count(), 0);
-            let sum: f64 =
-                removed.iter().map(|&(f, k)| distance(filled.position(f, k), walk.position(f, k)).powi(2)).sum();
+            let sum: f64 = removed
+                .iter()
+                .map(|&(f, k)| distance(filled.position(f, k), walk.position(f, k)).powi(2))
+                .sum();
             (sum / removed.len() as f64).sqrt()
         };
         let (cubic, linear) = (rms(GapFillMethod::Cubic), rms(GapFillMethod::Linear));

@@ -20,16 +20,18 @@
 //! (1983) that the ISB recommends for hip, knee and ankle: flexion about the proximal Z,
 //! ab/adduction about the floating X, axial rotation about the distal Y.
 
-
 use std::sync::Arc;
 
 use nalgebra::{Matrix3, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::registry::ParamGuard;
-use motionlab_core::{ChannelKind, Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, FrameRate, Location, Motion, Result, SkeletonMotion, Trace};
 use crate::AngleCurves;
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{
+    ChannelKind, Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, FrameRate, Location,
+    Motion, Result, SkeletonMotion, Trace,
+};
 
 // ---------------------------------------------------------------------------------------------
 // Cardan angles
@@ -51,8 +53,14 @@ pub enum CardanSequence {
 }
 
 impl CardanSequence {
-    pub const ALL: [CardanSequence; 6] =
-        [CardanSequence::Zxy, CardanSequence::Zyx, CardanSequence::Xyz, CardanSequence::Xzy, CardanSequence::Yxz, CardanSequence::Yzx];
+    pub const ALL: [CardanSequence; 6] = [
+        CardanSequence::Zxy,
+        CardanSequence::Zyx,
+        CardanSequence::Xyz,
+        CardanSequence::Xzy,
+        CardanSequence::Yxz,
+        CardanSequence::Yzx,
+    ];
 
     /// Axis indices (0 = X, 1 = Y, 2 = Z) in composition order.
     pub fn axes(self) -> [usize; 3] {
@@ -85,7 +93,9 @@ fn elementary(axis: usize, radians: f64) -> Matrix3<f64> {
 /// `R = R_a1(θ1) · R_a2(θ2) · R_a3(θ3)` from angles in degrees, in sequence order.
 pub fn rotation_from_cardan(sequence: CardanSequence, angles_deg: [f64; 3]) -> Matrix3<f64> {
     let [a, b, c] = sequence.axes();
-    elementary(a, angles_deg[0].to_radians()) * elementary(b, angles_deg[1].to_radians()) * elementary(c, angles_deg[2].to_radians())
+    elementary(a, angles_deg[0].to_radians())
+        * elementary(b, angles_deg[1].to_radians())
+        * elementary(c, angles_deg[2].to_radians())
 }
 
 /// Below this `|cos θ2|` the first and third axes are aligned (gimbal lock): only `θ1 ± θ3` is
@@ -371,16 +381,23 @@ impl ParamGuard for IsbJointAnglesParams {
     type Checked = IsbJointAngles;
     fn check(self) -> Result<IsbJointAngles> {
         if self.joints.is_empty() {
-            return Err(Error::new(ErrorKind::InvalidParameter, "needs at least one joint").with_field("joints"));
+            return Err(Error::new(ErrorKind::InvalidParameter, "needs at least one joint")
+                .with_field("joints"));
         }
         let mut joints = Vec::new();
         for j in self.joints {
             if joints.contains(&j) {
-                return Err(Error::new(ErrorKind::InvalidParameter, format!("joint {j:?} is listed twice")).with_field("joints"));
+                return Err(Error::new(
+                    ErrorKind::InvalidParameter,
+                    format!("joint {j:?} is listed twice"),
+                )
+                .with_field("joints"));
             }
             joints.push(j);
         }
-        if !(self.shoulder_centre_drop.is_finite() && (0.0..=1.0).contains(&self.shoulder_centre_drop)) {
+        if !(self.shoulder_centre_drop.is_finite()
+            && (0.0..=1.0).contains(&self.shoulder_centre_drop))
+        {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
                 format!("must be a fraction in [0, 1], found {}", self.shoulder_centre_drop),
@@ -388,7 +405,11 @@ impl ParamGuard for IsbJointAnglesParams {
             .with_field("shoulder_centre_drop"));
         }
         if self.left_prefix == self.right_prefix {
-            return Err(Error::new(ErrorKind::InvalidParameter, "left and right prefixes must differ").with_field("right_prefix"));
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                "left and right prefixes must differ",
+            )
+            .with_field("right_prefix"));
         }
         Ok(IsbJointAngles {
             joints,
@@ -520,7 +541,12 @@ impl Segment {
 
 /// Marker labels (without side prefix) a segment frame reads: `(name, sided)`.
 fn segment_markers(seg: Segment) -> Vec<(Mk, Option<Side>)> {
-    let pelvis = vec![(Mk::Ias, Some(Side::Left)), (Mk::Ias, Some(Side::Right)), (Mk::Ips, Some(Side::Left)), (Mk::Ips, Some(Side::Right))];
+    let pelvis = vec![
+        (Mk::Ias, Some(Side::Left)),
+        (Mk::Ias, Some(Side::Right)),
+        (Mk::Ips, Some(Side::Left)),
+        (Mk::Ips, Some(Side::Right)),
+    ];
     let thorax = vec![(Mk::Cv7, None), (Mk::Tv10, None), (Mk::Sxs, None), (Mk::Sjn, None)];
     let sided = |s: Side, names: &[Mk]| names.iter().map(|n| (*n, Some(s))).collect::<Vec<_>>();
     match seg {
@@ -530,7 +556,12 @@ fn segment_markers(seg: Segment) -> Vec<(Mk, Option<Side>)> {
         Segment::Thigh(s) => [pelvis, sided(s, &[Mk::Fle, Mk::Fme])].concat(),
         Segment::Shank(s) => sided(s, &[Mk::Fle, Mk::Fme, Mk::Fal, Mk::Tam]),
         Segment::Foot(s) => sided(s, &[Mk::Fcc, Mk::Fm1, Mk::Fm2, Mk::Fm5]),
-        Segment::UpperArm(s) => [thorax, vec![(Mk::Sae, Some(Side::Left)), (Mk::Sae, Some(Side::Right))], sided(s, &[Mk::Hle, Mk::Hme])].concat(),
+        Segment::UpperArm(s) => [
+            thorax,
+            vec![(Mk::Sae, Some(Side::Left)), (Mk::Sae, Some(Side::Right))],
+            sided(s, &[Mk::Hle, Mk::Hme]),
+        ]
+        .concat(),
         Segment::Forearm(s) => sided(s, &[Mk::Hle, Mk::Hme, Mk::Rsp, Mk::Uhe]),
         Segment::Hand(s) => sided(s, &[Mk::Rsp, Mk::Uhe, Mk::Hm2, Mk::Hm5]),
     }
@@ -552,7 +583,12 @@ fn joint_defs(joint: JointName) -> Vec<JointDef> {
         channels: axes.map(|a| format!("{name}.{a}")),
         signs,
     };
-    let bilateral = |name: &str, axes: [&str; 3], sign_z: f64, sign_x_right: f64, sign_y_right: f64, seg: fn(Side) -> (Segment, Segment)| {
+    let bilateral = |name: &str,
+                     axes: [&str; 3],
+                     sign_z: f64,
+                     sign_x_right: f64,
+                     sign_y_right: f64,
+                     seg: fn(Side) -> (Segment, Segment)| {
         [Side::Left, Side::Right]
             .into_iter()
             .map(|s| {
@@ -568,21 +604,59 @@ fn joint_defs(joint: JointName) -> Vec<JointDef> {
             .collect::<Vec<_>>()
     };
     match joint {
-        JointName::Pelvis => vec![midline("pelvis", ["tilt", "obliquity", "rotation"], [-1.0, 1.0, 1.0], Segment::Lab, Segment::Pelvis)],
-        JointName::Thorax => vec![midline("thorax", ["tilt", "obliquity", "rotation"], [-1.0, 1.0, 1.0], Segment::Lab, Segment::Thorax)],
+        JointName::Pelvis => vec![midline(
+            "pelvis",
+            ["tilt", "obliquity", "rotation"],
+            [-1.0, 1.0, 1.0],
+            Segment::Lab,
+            Segment::Pelvis,
+        )],
+        JointName::Thorax => vec![midline(
+            "thorax",
+            ["tilt", "obliquity", "rotation"],
+            [-1.0, 1.0, 1.0],
+            Segment::Lab,
+            Segment::Thorax,
+        )],
         JointName::Lumbar => {
-            vec![midline("lumbar", ["flexion", "lateral_bending", "rotation"], [-1.0, 1.0, 1.0], Segment::Pelvis, Segment::Thorax)]
+            vec![midline(
+                "lumbar",
+                ["flexion", "lateral_bending", "rotation"],
+                [-1.0, 1.0, 1.0],
+                Segment::Pelvis,
+                Segment::Thorax,
+            )]
         }
-        JointName::Hip => bilateral("hip", ["flexion", "abduction", "rotation"], 1.0, -1.0, 1.0, |s| (Segment::Pelvis, Segment::Thigh(s))),
-        JointName::Knee => bilateral("knee", ["flexion", "abduction", "rotation"], -1.0, -1.0, 1.0, |s| (Segment::Thigh(s), Segment::Shank(s))),
-        JointName::Ankle => bilateral("ankle", ["flexion", "inversion", "rotation"], 1.0, 1.0, 1.0, |s| (Segment::Shank(s), Segment::Foot(s))),
+        JointName::Hip => {
+            bilateral("hip", ["flexion", "abduction", "rotation"], 1.0, -1.0, 1.0, |s| {
+                (Segment::Pelvis, Segment::Thigh(s))
+            })
+        }
+        JointName::Knee => {
+            bilateral("knee", ["flexion", "abduction", "rotation"], -1.0, -1.0, 1.0, |s| {
+                (Segment::Thigh(s), Segment::Shank(s))
+            })
+        }
+        JointName::Ankle => {
+            bilateral("ankle", ["flexion", "inversion", "rotation"], 1.0, 1.0, 1.0, |s| {
+                (Segment::Shank(s), Segment::Foot(s))
+            })
+        }
         JointName::Shoulder => {
-            bilateral("shoulder", ["flexion", "abduction", "rotation"], 1.0, -1.0, 1.0, |s| (Segment::Thorax, Segment::UpperArm(s)))
+            bilateral("shoulder", ["flexion", "abduction", "rotation"], 1.0, -1.0, 1.0, |s| {
+                (Segment::Thorax, Segment::UpperArm(s))
+            })
         }
         JointName::Elbow => {
-            bilateral("elbow", ["flexion", "abduction", "pronation"], 1.0, -1.0, 1.0, |s| (Segment::UpperArm(s), Segment::Forearm(s)))
+            bilateral("elbow", ["flexion", "abduction", "pronation"], 1.0, -1.0, 1.0, |s| {
+                (Segment::UpperArm(s), Segment::Forearm(s))
+            })
         }
-        JointName::Wrist => bilateral("wrist", ["flexion", "abduction", "rotation"], 1.0, -1.0, 1.0, |s| (Segment::Forearm(s), Segment::Hand(s))),
+        JointName::Wrist => {
+            bilateral("wrist", ["flexion", "abduction", "rotation"], 1.0, -1.0, 1.0, |s| {
+                (Segment::Forearm(s), Segment::Hand(s))
+            })
+        }
     }
 }
 
@@ -625,14 +699,18 @@ impl IsbJointAngles {
         let defs: Vec<JointDef> = self.joints.iter().flat_map(|j| joint_defs(*j)).collect();
         // Resolve every label the requested joints need, naming the joint when one is absent.
         let mut index: Vec<Option<usize>> = vec![None; Mk::COUNT * 3];
-        for (joint, def) in self.joints.iter().flat_map(|j| joint_defs(*j).into_iter().map(move |d| (*j, d))) {
+        for (joint, def) in
+            self.joints.iter().flat_map(|j| joint_defs(*j).into_iter().map(move |d| (*j, d)))
+        {
             for seg in [def.proximal, def.distal] {
                 for (name, side) in segment_markers(seg) {
                     if index[name.slot(side)].is_some() {
                         continue;
                     }
                     let label = self.label(name, side);
-                    if self.absent_markers == AbsentMarkers::Nan && !motion.point_names().contains(&label) {
+                    if self.absent_markers == AbsentMarkers::Nan
+                        && !motion.point_names().contains(&label)
+                    {
                         continue; // every frame that needs it is then undefined
                     }
                     let k = motion.point_index(&label).map_err(|e| {
@@ -653,14 +731,26 @@ impl IsbJointAngles {
         // The output is channel-major; the loop runs over frames and writes one column of it.
         #[allow(clippy::needless_range_loop)]
         for f in 0..n {
-            let markers = FrameMarkers { positions: motion.frame(f), missing: motion.frame_missing(f), index: &index };
+            let markers = FrameMarkers {
+                positions: motion.frame(f),
+                missing: motion.frame_missing(f),
+                index: &index,
+            };
             // Each segment frame is built once per frame, whatever number of joints use it.
             let mut cache: [Option<Option<Matrix3<f64>>>; Segment::COUNT] = [None; Segment::COUNT];
             for (d, def) in defs.iter().enumerate() {
                 let mut frame_of = |seg: Segment| -> Option<Matrix3<f64>> {
-                    *cache[seg.id()].get_or_insert_with(|| if seg == Segment::Lab { Some(lab) } else { self.segment_frame(seg, &markers) })
+                    *cache[seg.id()].get_or_insert_with(|| {
+                        if seg == Segment::Lab {
+                            Some(lab)
+                        } else {
+                            self.segment_frame(seg, &markers)
+                        }
+                    })
                 };
-                let (Some(p), Some(q)) = (frame_of(def.proximal), frame_of(def.distal)) else { continue };
+                let (Some(p), Some(q)) = (frame_of(def.proximal), frame_of(def.distal)) else {
+                    continue;
+                };
                 let angles = angles_by_axis(&(p.transpose() * q), self.sequence);
                 for a in 0..3 {
                     values[d * 3 + a][f] = def.signs[a] * angles[a];
@@ -681,14 +771,21 @@ impl IsbJointAngles {
     fn hip_centre(&self, m: &FrameMarkers, side: Side) -> Option<V3> {
         let (r, origin, pw, pd) = self.pelvis(m)?;
         let local = match self.hip_centre {
-            HipCentre::Harrington2007 => V3::new(-0.24 * pd - 9.9, -0.30 * pw - 10.9, side.sign() * (0.33 * pw + 7.3)),
+            HipCentre::Harrington2007 => {
+                V3::new(-0.24 * pd - 9.9, -0.30 * pw - 10.9, side.sign() * (0.33 * pw + 7.3))
+            }
             HipCentre::Bell1990 => V3::new(-0.19 * pw, -0.30 * pw, side.sign() * 0.36 * pw),
         };
         Some(origin + r * local)
     }
 
     fn thorax(&self, m: &FrameMarkers) -> Option<Matrix3<f64>> {
-        let (c7, t10, sxs, sjn) = (m.get(Mk::Cv7, None)?, m.get(Mk::Tv10, None)?, m.get(Mk::Sxs, None)?, m.get(Mk::Sjn, None)?);
+        let (c7, t10, sxs, sjn) = (
+            m.get(Mk::Cv7, None)?,
+            m.get(Mk::Tv10, None)?,
+            m.get(Mk::Sxs, None)?,
+            m.get(Mk::Sjn, None)?,
+        );
         frame_from_y_x(mid(sjn, c7) - mid(sxs, t10), sjn - c7)
     }
 
@@ -702,27 +799,32 @@ impl IsbJointAngles {
                 frame_from_y_z(self.hip_centre(m, s)? - mid(fle, fme), (fle - fme) * s.sign())
             }
             Segment::Shank(s) => {
-                let (fle, fme, fal, tam) = (m.s(s, Mk::Fle)?, m.s(s, Mk::Fme)?, m.s(s, Mk::Fal)?, m.s(s, Mk::Tam)?);
+                let (fle, fme, fal, tam) =
+                    (m.s(s, Mk::Fle)?, m.s(s, Mk::Fme)?, m.s(s, Mk::Fal)?, m.s(s, Mk::Tam)?);
                 frame_from_y_z(mid(fle, fme) - mid(fal, tam), (fal - tam) * s.sign())
             }
             Segment::Foot(s) => {
-                let (fcc, fm1, fm2, fm5) = (m.s(s, Mk::Fcc)?, m.s(s, Mk::Fm1)?, m.s(s, Mk::Fm2)?, m.s(s, Mk::Fm5)?);
+                let (fcc, fm1, fm2, fm5) =
+                    (m.s(s, Mk::Fcc)?, m.s(s, Mk::Fm1)?, m.s(s, Mk::Fm2)?, m.s(s, Mk::Fm5)?);
                 frame_from_x_z(fm2 - fcc, (fm5 - fm1) * s.sign())
             }
             Segment::UpperArm(s) => {
                 let thorax = self.thorax(m)?;
                 let (lsae, rsae) = (m.s(Side::Left, Mk::Sae)?, m.s(Side::Right, Mk::Sae)?);
                 let sae = if s == Side::Left { lsae } else { rsae };
-                let gh = sae - thorax.column(1) * (self.shoulder_centre_drop * (rsae - lsae).norm());
+                let gh =
+                    sae - thorax.column(1) * (self.shoulder_centre_drop * (rsae - lsae).norm());
                 let (hle, hme) = (m.s(s, Mk::Hle)?, m.s(s, Mk::Hme)?);
                 frame_from_y_z(gh - mid(hle, hme), (hle - hme) * s.sign())
             }
             Segment::Forearm(s) => {
-                let (hle, hme, rsp, uhe) = (m.s(s, Mk::Hle)?, m.s(s, Mk::Hme)?, m.s(s, Mk::Rsp)?, m.s(s, Mk::Uhe)?);
+                let (hle, hme, rsp, uhe) =
+                    (m.s(s, Mk::Hle)?, m.s(s, Mk::Hme)?, m.s(s, Mk::Rsp)?, m.s(s, Mk::Uhe)?);
                 frame_from_y_z(mid(hle, hme) - uhe, (rsp - uhe) * s.sign())
             }
             Segment::Hand(s) => {
-                let (rsp, uhe, hm2, hm5) = (m.s(s, Mk::Rsp)?, m.s(s, Mk::Uhe)?, m.s(s, Mk::Hm2)?, m.s(s, Mk::Hm5)?);
+                let (rsp, uhe, hm2, hm5) =
+                    (m.s(s, Mk::Rsp)?, m.s(s, Mk::Uhe)?, m.s(s, Mk::Hm2)?, m.s(s, Mk::Hm5)?);
                 frame_from_y_z(mid(rsp, uhe) - mid(hm2, hm5), (hm2 - hm5) * s.sign())
             }
         }
@@ -740,8 +842,13 @@ pub fn progression_frame(motion: &Motion) -> Matrix3<f64> {
     let mut up = V3::zeros();
     up[up_index] = 1.0;
     let centroid = |f: usize| -> Option<V3> {
-        let pts: Vec<V3> =
-            motion.frame(f).iter().zip(motion.frame_missing(f)).filter(|(_, m)| !**m).map(|(p, _)| V3::from(*p)).collect();
+        let pts: Vec<V3> = motion
+            .frame(f)
+            .iter()
+            .zip(motion.frame_missing(f))
+            .filter(|(_, m)| !**m)
+            .map(|(p, _)| V3::from(*p))
+            .collect();
         (!pts.is_empty()).then(|| pts.iter().sum::<V3>() / pts.len() as f64)
     };
     let first = (0..motion.n_frames()).find_map(centroid);
@@ -755,7 +862,11 @@ pub fn progression_frame(motion: &Motion) -> Matrix3<f64> {
         (Some(a), Some(b)) => {
             let d = b - a;
             let horizontal = d - up * d.dot(&up);
-            if horizontal.norm() >= MIN_PROGRESSION_MM { horizontal / horizontal.norm() } else { fallback }
+            if horizontal.norm() >= MIN_PROGRESSION_MM {
+                horizontal / horizontal.norm()
+            } else {
+                fallback
+            }
         }
         _ => fallback,
     };
@@ -788,27 +899,47 @@ motionlab_core::register_plugin!(FeatureExtractor, IsbJointAnglesParams, "isb_jo
 /// Angle curves as feature traces named `<channel>_deg` with unit `deg`.
 pub fn features_from_angle_curves(curves: &AngleCurves) -> FeatureSet {
     FeatureSet {
-        traces: curves.channels.iter().zip(&curves.values).map(|(c, v)| Trace::new(format!("{c}_deg"), "deg", v.clone())).collect(),
+        traces: curves
+            .channels
+            .iter()
+            .zip(&curves.values)
+            .map(|(c, v)| Trace::new(format!("{c}_deg"), "deg", v.clone()))
+            .collect(),
         labels: Vec::new(),
     }
 }
 
 /// The inverse of [`features_from_angle_curves`]: every trace with unit `deg` becomes a channel
 /// (its `_deg` suffix removed). Fails when there is none or their lengths differ.
-pub fn angle_curves_from_features(features: &FeatureSet, frame_rate: FrameRate) -> Result<AngleCurves> {
+pub fn angle_curves_from_features(
+    features: &FeatureSet,
+    frame_rate: FrameRate,
+) -> Result<AngleCurves> {
     let degree: Vec<&Trace> = features.traces.iter().filter(|t| t.unit == "deg").collect();
     let Some(first) = degree.first() else {
-        return Err(Error::new(ErrorKind::EmptySequence, "the feature set holds no trace in degrees (unit \"deg\"); expected joint angles"));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "the feature set holds no trace in degrees (unit \"deg\"); expected joint angles",
+        ));
     };
     if let Some(t) = degree.iter().find(|t| t.values.len() != first.values.len()) {
         return Err(Error::new(
             ErrorKind::WrongValueCount,
-            format!("angle trace {:?} has {} frames, {:?} has {}", t.name, t.values.len(), first.name, first.values.len()),
+            format!(
+                "angle trace {:?} has {} frames, {:?} has {}",
+                t.name,
+                t.values.len(),
+                first.name,
+                first.values.len()
+            ),
         ));
     }
     Ok(AngleCurves {
         frame_rate,
-        channels: degree.iter().map(|t| t.name.strip_suffix("_deg").unwrap_or(&t.name).to_string()).collect(),
+        channels: degree
+            .iter()
+            .map(|t| t.name.strip_suffix("_deg").unwrap_or(&t.name).to_string())
+            .collect(),
         values: degree.iter().map(|t| t.values.clone()).collect(),
     })
 }
@@ -829,7 +960,11 @@ pub enum ChannelNaming {
 /// The rotation channels of a skeleton motion as angle curves (degrees): for BVH and AMC the
 /// joint channels themselves are the angles (Osafune et al. used them directly). Translation
 /// channels are left out. `naming` picks `LeftKnee.Xrotation` or `lfemur.rx` spelling.
-pub fn skeleton_angle_curves(skeleton: &SkeletonMotion, frame_rate: FrameRate, naming: ChannelNaming) -> Result<AngleCurves> {
+pub fn skeleton_angle_curves(
+    skeleton: &SkeletonMotion,
+    frame_rate: FrameRate,
+    naming: ChannelNaming,
+) -> Result<AngleCurves> {
     let bvh = naming == ChannelNaming::Bvh;
     let mut channels = Vec::new();
     let mut values = Vec::new();
@@ -845,7 +980,10 @@ pub fn skeleton_angle_curves(skeleton: &SkeletonMotion, frame_rate: FrameRate, n
         }
     }
     if channels.is_empty() {
-        return Err(Error::new(ErrorKind::EmptySequence, "the skeleton has no rotation channel; expected joint rotations"));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "the skeleton has no rotation channel; expected joint rotations",
+        ));
     }
     Ok(AngleCurves { frame_rate, channels, values })
 }
@@ -897,14 +1035,18 @@ impl FeatureExtractor for SkeletonJointAnglesParams {
     }
 }
 
-motionlab_core::register_plugin!(FeatureExtractor, SkeletonJointAnglesParams, "skeleton_joint_angles");
+motionlab_core::register_plugin!(
+    FeatureExtractor,
+    SkeletonJointAnglesParams,
+    "skeleton_joint_angles"
+);
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use motionlab_core::registry::{build_feature_extractor, parse_params};
     use motionlab_core::{Axis, Joint, PointKind, Skeleton};
-    use motionlab_testkit::{named_motion, Rng};
+    use motionlab_testkit::{Rng, named_motion};
 
     fn max_abs_diff(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
         (a - b).abs().max()
@@ -915,7 +1057,11 @@ mod tests {
         let mut rng = Rng::new(7);
         for seq in CardanSequence::ALL {
             for _ in 0..500 {
-                let angles = [rng.uniform() * 358.0 - 179.0, rng.uniform() * 178.0 - 89.0, rng.uniform() * 358.0 - 179.0];
+                let angles = [
+                    rng.uniform() * 358.0 - 179.0,
+                    rng.uniform() * 178.0 - 89.0,
+                    rng.uniform() * 358.0 - 179.0,
+                ];
                 let back = cardan_angles(&rotation_from_cardan(seq, angles), seq);
                 for k in 0..3 {
                     assert!((back[k] - angles[k]).abs() < 1e-9, "{seq:?} {angles:?} -> {back:?}");
@@ -942,7 +1088,10 @@ mod tests {
                 let back = cardan_angles(&r, seq);
                 assert_eq!(back[2], 0.0, "{seq:?}");
                 assert!((back[1] - t2).abs() < 1e-6, "{seq:?} {back:?}");
-                assert!(max_abs_diff(&rotation_from_cardan(seq, back), &r) < 1e-12, "{seq:?} {back:?}");
+                assert!(
+                    max_abs_diff(&rotation_from_cardan(seq, back), &r) < 1e-12,
+                    "{seq:?} {back:?}"
+                );
             }
         }
     }
@@ -953,7 +1102,11 @@ mod tests {
         // sequence, computed independently.
         let mut rng = Rng::new(11);
         for _ in 0..200 {
-            let r = nalgebra::Rotation3::from_euler_angles(rng.uniform() * 6.0 - 3.0, rng.uniform() * 3.0 - 1.5, rng.uniform() * 6.0 - 3.0);
+            let r = nalgebra::Rotation3::from_euler_angles(
+                rng.uniform() * 6.0 - 3.0,
+                rng.uniform() * 3.0 - 1.5,
+                rng.uniform() * 6.0 - 3.0,
+            );
             let (roll, pitch, yaw) = r.euler_angles();
             let ours = cardan_angles(r.matrix(), CardanSequence::Zyx);
             assert!((ours[0] - yaw.to_degrees()).abs() < 1e-9);
@@ -989,7 +1142,9 @@ mod tests {
     fn isb_marker_names() -> Vec<String> {
         let mut v = Vec::new();
         for s in ["L_", "R_"] {
-            for m in ["IAS", "IPS", "FTC", "SIA", "SRS", "SAA", "SAE"].iter().chain(&LEG).chain(&ARM) {
+            for m in
+                ["IAS", "IPS", "FTC", "SIA", "SRS", "SAA", "SAE"].iter().chain(&LEG).chain(&ARM)
+            {
                 v.push(format!("{s}{m}"));
             }
         }
@@ -1013,7 +1168,16 @@ mod tests {
 
     fn neutral() -> Pose {
         let i = Matrix3::identity();
-        Pose { hip: [i; 2], knee: [i; 2], ankle: [i; 2], shoulder: [i; 2], elbow: [i; 2], wrist: [i; 2], lumbar: i, body: i }
+        Pose {
+            hip: [i; 2],
+            knee: [i; 2],
+            ankle: [i; 2],
+            shoulder: [i; 2],
+            elbow: [i; 2],
+            wrist: [i; 2],
+            lumbar: i,
+            body: i,
+        }
     }
 
     /// Marker position (mm, ISB axes, origin mid-ASIS) of a pose in which, when neutral, every
@@ -1096,7 +1260,8 @@ mod tests {
         let names = isb_marker_names();
         let refs: Vec<&str> = names.iter().map(String::as_str).collect();
         named_motion(poses.len(), 100.0, &refs, |f, k| {
-            let q = to_lab() * poses[f].body * marker_isb(refs[k], &poses[f]) + V3::new(10.0 * f as f64, 500.0, 900.0);
+            let q = to_lab() * poses[f].body * marker_isb(refs[k], &poses[f])
+                + V3::new(10.0 * f as f64, 500.0, 900.0);
             [q.x, q.y, q.z]
         })
     }
@@ -1132,17 +1297,51 @@ mod tests {
             for k in 0..3 {
                 let ch = format!("{joint}.{}", names[k]);
                 let got = c.values[c.channel_index(&ch).unwrap()][7];
-                assert!((got - signs[k] * a[k]).abs() < 1e-9, "{ch}: {got}, expected {}", signs[k] * a[k]);
+                assert!(
+                    (got - signs[k] * a[k]).abs() < 1e-9,
+                    "{ch}: {got}, expected {}",
+                    signs[k] * a[k]
+                );
             }
         };
         for side in ["_l", "_r"] {
             // Signs from the table in the params docs (left side mirrored, so equal to right).
-            expect(&format!("hip{side}"), ["flexion", "abduction", "rotation"], [1.0, -1.0, 1.0], hip);
-            expect(&format!("knee{side}"), ["flexion", "abduction", "rotation"], [-1.0, -1.0, 1.0], knee);
-            expect(&format!("ankle{side}"), ["flexion", "inversion", "rotation"], [1.0, 1.0, 1.0], ankle);
-            expect(&format!("shoulder{side}"), ["flexion", "abduction", "rotation"], [1.0, -1.0, 1.0], shoulder);
-            expect(&format!("elbow{side}"), ["flexion", "abduction", "pronation"], [1.0, -1.0, 1.0], elbow);
-            expect(&format!("wrist{side}"), ["flexion", "abduction", "rotation"], [1.0, -1.0, 1.0], wrist);
+            expect(
+                &format!("hip{side}"),
+                ["flexion", "abduction", "rotation"],
+                [1.0, -1.0, 1.0],
+                hip,
+            );
+            expect(
+                &format!("knee{side}"),
+                ["flexion", "abduction", "rotation"],
+                [-1.0, -1.0, 1.0],
+                knee,
+            );
+            expect(
+                &format!("ankle{side}"),
+                ["flexion", "inversion", "rotation"],
+                [1.0, 1.0, 1.0],
+                ankle,
+            );
+            expect(
+                &format!("shoulder{side}"),
+                ["flexion", "abduction", "rotation"],
+                [1.0, -1.0, 1.0],
+                shoulder,
+            );
+            expect(
+                &format!("elbow{side}"),
+                ["flexion", "abduction", "pronation"],
+                [1.0, -1.0, 1.0],
+                elbow,
+            );
+            expect(
+                &format!("wrist{side}"),
+                ["flexion", "abduction", "rotation"],
+                [1.0, -1.0, 1.0],
+                wrist,
+            );
         }
         expect("lumbar", ["flexion", "lateral_bending", "rotation"], [-1.0, 1.0, 1.0], lumbar);
         // Segments relative to the lab see the whole-body rotation (the thorax also the lumbar one).
@@ -1157,7 +1356,9 @@ mod tests {
         }
         // Bell et al.'s hip centre is 2.7 mm more anterior and 10.9 mm higher than Harrington's
         // here, so the same markers tilt the thigh back by atan(2.7 / 410.9).
-        let bell = IsbJointAnglesParams { hip_centre: HipCentre::Bell1990, ..Default::default() }.check().unwrap();
+        let bell = IsbJointAnglesParams { hip_centre: HipCentre::Bell1990, ..Default::default() }
+            .check()
+            .unwrap();
         let b = bell.angle_curves(&body_motion(&[neutral(); 30])).unwrap();
         let flexion = b.values[b.channel_index("hip_r.flexion").unwrap()][0];
         assert!((flexion + 2.7f64.atan2(410.9).to_degrees()).abs() < 1e-3, "{flexion}");
@@ -1177,7 +1378,9 @@ mod tests {
             assert!(at(ch, 5).is_nan(), "{ch}");
             assert!(at(ch, 4).is_finite() && at(ch, 6).is_finite(), "{ch}");
         }
-        for ch in ["hip_r.flexion", "knee_l.flexion", "ankle_l.flexion", "pelvis.tilt", "elbow_r.flexion"] {
+        for ch in
+            ["hip_r.flexion", "knee_l.flexion", "ankle_l.flexion", "pelvis.tilt", "elbow_r.flexion"]
+        {
             assert!(at(ch, 5).is_finite(), "{ch}");
         }
     }
@@ -1185,15 +1388,23 @@ mod tests {
     #[test]
     fn an_absent_label_is_an_error_unless_its_joint_is_skipped() {
         let names = ["L_IAS", "R_IAS", "L_IPS", "R_IPS"];
-        let m = named_motion(3, 100.0, &names, |_, k| [k as f64 * 10.0, (k % 2) as f64 * 30.0, 900.0 + k as f64]);
+        let m = named_motion(3, 100.0, &names, |_, k| {
+            [k as f64 * 10.0, (k % 2) as f64 * 30.0, 900.0 + k as f64]
+        });
         let e = IsbJointAnglesParams::default().check().unwrap().angle_curves(&m).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
         assert!(e.to_string().contains("CV7") || e.to_string().contains("FLE"), "{e}");
-        let only_pelvis = IsbJointAnglesParams { joints: vec![JointName::Pelvis], ..Default::default() }.check().unwrap();
+        let only_pelvis =
+            IsbJointAnglesParams { joints: vec![JointName::Pelvis], ..Default::default() }
+                .check()
+                .unwrap();
         let c = only_pelvis.angle_curves(&m).unwrap();
         assert_eq!(c.channels, ["pelvis.tilt", "pelvis.obliquity", "pelvis.rotation"]);
         // With absent_markers = "nan" every joint is computed where it can be: only the pelvis.
-        let lenient = IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }.check().unwrap();
+        let lenient =
+            IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }
+                .check()
+                .unwrap();
         let c = lenient.angle_curves(&m).unwrap();
         assert_eq!(c.channels.len(), 45);
         for (ch, v) in c.channels.iter().zip(&c.values) {
@@ -1203,14 +1414,25 @@ mod tests {
 
     #[test]
     fn params_are_validated_and_registered() {
-        let e = IsbJointAnglesParams { shoulder_centre_drop: 1.5, ..Default::default() }.check().unwrap_err();
+        let e = IsbJointAnglesParams { shoulder_centre_drop: 1.5, ..Default::default() }
+            .check()
+            .unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("shoulder_centre_drop"));
-        let e = IsbJointAnglesParams { joints: vec![JointName::Hip, JointName::Hip], ..Default::default() }.check().unwrap_err();
+        let e = IsbJointAnglesParams {
+            joints: vec![JointName::Hip, JointName::Hip],
+            ..Default::default()
+        }
+        .check()
+        .unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("joints"));
-        let t: toml::Value = toml::from_str("joints = [\"hip\", \"knee\"]\nsequence = \"zyx\"").unwrap();
+        let t: toml::Value =
+            toml::from_str("joints = [\"hip\", \"knee\"]\nsequence = \"zyx\"").unwrap();
         assert!(build_feature_extractor("isb_joint_angles", &t).is_ok());
         let t: toml::Value = toml::from_str("joint = [\"hip\"]").unwrap();
-        assert_eq!(parse_params::<IsbJointAnglesParams>(&t).unwrap_err().kind(), ErrorKind::UnknownKey);
+        assert_eq!(
+            parse_params::<IsbJointAnglesParams>(&t).unwrap_err().kind(),
+            ErrorKind::UnknownKey
+        );
         assert_eq!(IsbJointAnglesParams::default().check().unwrap().channel_names().len(), 45);
     }
 
@@ -1227,25 +1449,75 @@ mod tests {
         assert_eq!(back.channels, curves.channels);
         assert_eq!(back.values[0], curves.values[0]);
         assert!(back.values[1][1].is_nan());
-        assert_eq!(angle_curves_from_features(&FeatureSet::default(), curves.frame_rate).unwrap_err().kind(), ErrorKind::EmptySequence);
+        assert_eq!(
+            angle_curves_from_features(&FeatureSet::default(), curves.frame_rate)
+                .unwrap_err()
+                .kind(),
+            ErrorKind::EmptySequence
+        );
     }
 
     #[test]
     fn skeleton_channels_are_the_angles() {
         use motionlab_core::ChannelKind::{Rotation, Translation};
-        let root = Joint::new("Hips", None, [0.0; 3], vec![Translation(Axis::X), Translation(Axis::Y), Translation(Axis::Z), Rotation(Axis::Z), Rotation(Axis::X), Rotation(Axis::Y)]);
-        let knee = Joint::new("LeftKnee", Some(0), [0.0, -400.0, 0.0], vec![Rotation(Axis::Z), Rotation(Axis::X), Rotation(Axis::Y)]);
-        let sk = SkeletonMotion::new(Skeleton { joints: vec![root, knee] }, (0..18).map(|v| v as f64).collect()).unwrap();
+        let root = Joint::new(
+            "Hips",
+            None,
+            [0.0; 3],
+            vec![
+                Translation(Axis::X),
+                Translation(Axis::Y),
+                Translation(Axis::Z),
+                Rotation(Axis::Z),
+                Rotation(Axis::X),
+                Rotation(Axis::Y),
+            ],
+        );
+        let knee = Joint::new(
+            "LeftKnee",
+            Some(0),
+            [0.0, -400.0, 0.0],
+            vec![Rotation(Axis::Z), Rotation(Axis::X), Rotation(Axis::Y)],
+        );
+        let sk = SkeletonMotion::new(
+            Skeleton { joints: vec![root, knee] },
+            (0..18).map(|v| v as f64).collect(),
+        )
+        .unwrap();
         let rate = FrameRate::new(120.0).unwrap();
         let c = skeleton_angle_curves(&sk, rate, ChannelNaming::Bvh).unwrap();
-        assert_eq!(c.channels, ["Hips.Zrotation", "Hips.Xrotation", "Hips.Yrotation", "LeftKnee.Zrotation", "LeftKnee.Xrotation", "LeftKnee.Yrotation"]);
+        assert_eq!(
+            c.channels,
+            [
+                "Hips.Zrotation",
+                "Hips.Xrotation",
+                "Hips.Yrotation",
+                "LeftKnee.Zrotation",
+                "LeftKnee.Xrotation",
+                "LeftKnee.Yrotation"
+            ]
+        );
         assert_eq!(c.values[4], vec![7.0, 16.0]); // channel 7 of frames 0 and 1
         let c = skeleton_angle_curves(&sk, rate, ChannelNaming::Short).unwrap();
         assert_eq!(c.channels[3], "LeftKnee.rz");
-        let mut m = Motion::new("walk", rate, Axis::Y, PointKind::Joint, vec!["Hips".into(), "LeftKnee".into()], vec![[0.0; 3]; 4]).unwrap();
-        assert_eq!(motion_angle_curves(&m, ChannelNaming::Auto).unwrap_err().kind(), ErrorKind::MissingData);
+        let mut m = Motion::new(
+            "walk",
+            rate,
+            Axis::Y,
+            PointKind::Joint,
+            vec!["Hips".into(), "LeftKnee".into()],
+            vec![[0.0; 3]; 4],
+        )
+        .unwrap();
+        assert_eq!(
+            motion_angle_curves(&m, ChannelNaming::Auto).unwrap_err().kind(),
+            ErrorKind::MissingData
+        );
         m.skeleton = Some(sk);
         m.format = "bvh".into();
-        assert_eq!(motion_angle_curves(&m, ChannelNaming::Auto).unwrap().channels[0], "Hips.Zrotation");
+        assert_eq!(
+            motion_angle_curves(&m, ChannelNaming::Auto).unwrap().channels[0],
+            "Hips.Zrotation"
+        );
     }
 }

@@ -8,18 +8,21 @@
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
 pub const PLUGIN_COUNT: usize = 11;
 
-pub mod signal;
-pub mod smoothing;
-pub mod speed;
-pub mod joint_angles;
+pub mod butterworth;
+pub mod curvature;
 pub mod gait_cycles;
 pub mod gait_stages;
-pub mod waveform;
-pub mod curvature;
-pub mod hull;
-pub mod virtual_markers;
 pub mod gap_fill;
-pub mod butterworth;
+pub mod hull;
+pub mod joint_angles;
+pub mod signal;
 mod simd;
+pub mod smoothing;
+pub mod speed;
+pub mod virtual_markers;
+pub mod waveform;
 
-pub use gait_stages::{build_gait_cycle_detector, build_waveform_analyzer, AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters};
+pub use gait_stages::{
+    AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters,
+    build_gait_cycle_detector, build_waveform_analyzer,
+};

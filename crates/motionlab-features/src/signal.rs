@@ -81,7 +81,19 @@ mod tests {
 
     #[test]
     fn total_order_keys_sort_as_total_cmp_and_round_trip() {
-        let v = [f64::NEG_INFINITY, -1e300, -1.5, -5e-324, -0.0, 0.0, 5e-324, 1e-310, 2.0, 1e300, f64::INFINITY];
+        let v = [
+            f64::NEG_INFINITY,
+            -1e300,
+            -1.5,
+            -5e-324,
+            -0.0,
+            0.0,
+            5e-324,
+            1e-310,
+            2.0,
+            1e300,
+            f64::INFINITY,
+        ];
         for w in v.windows(2) {
             assert_eq!(w[0].total_cmp(&w[1]), std::cmp::Ordering::Less);
             assert!(total_order_key(w[0]) < total_order_key(w[1]), "{} {}", w[0], w[1]);

@@ -39,7 +39,13 @@ mod tests {
 
     #[test]
     fn moving_average_keeps_a_line_and_skips_gaps() {
-        let m = motion_from_fn(5, 10.0, 1, |i, _| if i == 2 { [f64::NAN; 3] } else { [i as f64, 0.0, 0.0] });
+        let m =
+            motion_from_fn(
+                5,
+                10.0,
+                1,
+                |i, _| if i == 2 { [f64::NAN; 3] } else { [i as f64, 0.0, 0.0] },
+            );
         let s = moving_average_positions(&m, 3);
         assert_eq!(s[0][0], 0.5); // (0 + 1) / 2 at the edge
         assert_eq!(s[1][0], 0.5); // frame 2 is missing: (0 + 1) / 2

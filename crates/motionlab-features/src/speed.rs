@@ -7,9 +7,11 @@
 //! when taking the maximum; `V[i]` is NaN only when no marker is valid at both frames.
 
 use motionlab_core::registry::ParamGuard;
+use motionlab_core::{
+    FeatureCache, FeatureExtractor, FeatureSet, LabelTrace, Motion, Result, TimeSpan, Trace,
+};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
-use motionlab_core::{FeatureCache, FeatureExtractor, FeatureSet, LabelTrace, Motion, Result, TimeSpan, Trace};
 
 use crate::smoothing::moving_average_positions;
 
@@ -112,14 +114,26 @@ fn speed_row_avx2(a: &[f64], b: &[f64], fps: f64, row: &mut [f64]) -> f64 {
         let (a, b) = (&a[12 * j..12 * j + 12], &b[12 * j..12 * j + 12]);
         // SAFETY: `a` and `b` have 12 elements: three unaligned 32-byte loads each.
         let sq = |k: usize| unsafe {
-            let d = _mm256_sub_pd(_mm256_loadu_pd(b[4 * k..].as_ptr()), _mm256_loadu_pd(a[4 * k..].as_ptr()));
+            let d = _mm256_sub_pd(
+                _mm256_loadu_pd(b[4 * k..].as_ptr()),
+                _mm256_loadu_pd(a[4 * k..].as_ptr()),
+            );
             _mm256_mul_pd(d, d)
         };
         let (s0, s1, s2) = (sq(0), sq(1), sq(2));
         // s0 = x0 y0 z0 x1, s1 = y1 z1 x2 y2, s2 = z2 x3 y3 z3 (squares).
-        let x = _mm256_permute4x64_pd::<0b01_10_11_00>(_mm256_blend_pd::<0b0010>(_mm256_blend_pd::<0b0100>(s0, s1), s2));
-        let y = _mm256_permute_pd::<0b0101>(_mm256_blend_pd::<0b0100>(_mm256_blend_pd::<0b1001>(s0, s1), s2));
-        let z = _mm256_permute4x64_pd::<0b11_00_01_10>(_mm256_blend_pd::<0b1001>(_mm256_blend_pd::<0b0010>(s0, s1), s2));
+        let x = _mm256_permute4x64_pd::<0b01_10_11_00>(_mm256_blend_pd::<0b0010>(
+            _mm256_blend_pd::<0b0100>(s0, s1),
+            s2,
+        ));
+        let y = _mm256_permute_pd::<0b0101>(_mm256_blend_pd::<0b0100>(
+            _mm256_blend_pd::<0b1001>(s0, s1),
+            s2,
+        ));
+        let z = _mm256_permute4x64_pd::<0b11_00_01_10>(_mm256_blend_pd::<0b1001>(
+            _mm256_blend_pd::<0b0010>(s0, s1),
+            s2,
+        ));
         let v = _mm256_mul_pd(_mm256_sqrt_pd(_mm256_add_pd(_mm256_add_pd(x, y), z)), rate);
         // SAFETY: `row[4j..4j+4]` exists (unaligned 32-byte store).
         unsafe { _mm256_storeu_pd(row[4 * j..4 * j + 4].as_mut_ptr(), v) };
@@ -141,7 +155,9 @@ pub fn cached_marker_speeds(
     cache: &FeatureCache,
     smoothing_frames: usize,
 ) -> Result<std::sync::Arc<MarkerSpeeds>> {
-    cache.get_or_compute(&format!("marker_speeds/smooth={smoothing_frames}"), || Ok(marker_speeds(motion, smoothing_frames)))
+    cache.get_or_compute(&format!("marker_speeds/smooth={smoothing_frames}"), || {
+        Ok(marker_speeds(motion, smoothing_frames))
+    })
 }
 
 /// Per-frame speed of every marker and the fastest-marker speed V (mm/s), with the name of the
@@ -187,7 +203,11 @@ impl FeatureExtractor for MarkerSpeedParams {
         }
         let labels = vec![LabelTrace {
             name: "fastest_marker".into(),
-            values: s.fastest_marker.iter().map(|k| k.map(|k| names[k].clone()).unwrap_or_default()).collect(),
+            values: s
+                .fastest_marker
+                .iter()
+                .map(|k| k.map(|k| names[k].clone()).unwrap_or_default())
+                .collect(),
         }];
         Ok(FeatureSet { traces, labels })
     }
@@ -203,7 +223,13 @@ mod tests {
     #[test]
     fn speed_of_uniform_motion_is_distance_times_rate() {
         // Marker 0 moves 2 mm per frame along x at 50 Hz = 100 mm/s; marker 1 is still.
-        let m = motion_from_fn(5, 50.0, 2, |i, k| if k == 0 { [2.0 * i as f64, 0.0, 0.0] } else { [0.0; 3] });
+        let m =
+            motion_from_fn(
+                5,
+                50.0,
+                2,
+                |i, k| if k == 0 { [2.0 * i as f64, 0.0, 0.0] } else { [0.0; 3] },
+            );
         let s = marker_speeds(&m, 0);
         for i in 0..4 {
             assert!((s.fastest[i] - 100.0).abs() < 1e-12);
@@ -260,11 +286,24 @@ mod tests {
     fn simd_and_portable_speeds_are_bitwise_equal_on_a_real_take() {
         let path = motionlab_testkit::data_path("cmu86/86_01.amc.gz");
         let asf = motionlab_testkit::data_path("cmu86/86.asf");
-        let m = motionlab_io::asf_amc::load_asf_amc(&path, &asf, motionlab_core::FrameRate::new(120.0).unwrap()).unwrap();
+        let m = motionlab_io::asf_amc::load_asf_amc(
+            &path,
+            &asf,
+            motionlab_core::FrameRate::new(120.0).unwrap(),
+        )
+        .unwrap();
         // 38 joints: nine groups of four and a remainder of two; with a missing sample.
         let mut positions = m.positions().to_vec();
         positions[100 * 38 + 5] = [f64::NAN; 3];
-        let m = Motion::new(m.name.clone(), m.frame_rate(), m.up_axis(), m.point_kind(), m.point_names().to_vec(), positions).unwrap();
+        let m = Motion::new(
+            m.name.clone(),
+            m.frame_rate(),
+            m.up_axis(),
+            m.point_kind(),
+            m.point_names().to_vec(),
+            positions,
+        )
+        .unwrap();
         let fast = marker_speeds(&m, 0);
         FORCE_PORTABLE.with(|f| f.set(true));
         let slow = marker_speeds(&m, 0);

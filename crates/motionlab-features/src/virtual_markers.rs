@@ -50,15 +50,20 @@ impl ParamGuard for AddCentroidParams {
     type Checked = AddCentroid;
     fn check(self) -> Result<AddCentroid> {
         if self.name.trim().is_empty() {
-            return Err(Error::new(ErrorKind::InvalidParameter, "must be a non-empty marker name").with_field("name"));
+            return Err(Error::new(ErrorKind::InvalidParameter, "must be a non-empty marker name")
+                .with_field("name"));
         }
         if self.markers.is_empty() {
-            return Err(Error::new(ErrorKind::InvalidParameter, "must list at least one marker").with_field("markers"));
+            return Err(Error::new(ErrorKind::InvalidParameter, "must list at least one marker")
+                .with_field("markers"));
         }
         for (i, m) in self.markers.iter().enumerate() {
             if self.markers[..i].contains(m) {
-                return Err(Error::new(ErrorKind::DuplicateName, format!("marker {m:?} is listed twice"))
-                    .with_field("markers"));
+                return Err(Error::new(
+                    ErrorKind::DuplicateName,
+                    format!("marker {m:?} is listed twice"),
+                )
+                .with_field("markers"));
             }
         }
         Ok(AddCentroid { name: self.name, markers: self.markers, missing_if: self.missing_if })
@@ -68,8 +73,11 @@ impl ParamGuard for AddCentroidParams {
 impl AddCentroid {
     /// The centroid trajectory (NaN where missing) of the listed markers.
     pub fn centroid(&self, motion: &Motion) -> Result<Vec<Point3>> {
-        let idx: Vec<usize> =
-            self.markers.iter().map(|n| motion.point_index(n).map_err(|e| e.under_field("markers"))).collect::<Result<_>>()?;
+        let idx: Vec<usize> = self
+            .markers
+            .iter()
+            .map(|n| motion.point_index(n).map_err(|e| e.under_field("markers")))
+            .collect::<Result<_>>()?;
         Ok((0..motion.n_frames())
             .map(|i| {
                 let (mut acc, mut n) = ([0.0; 3], 0usize);
@@ -100,7 +108,10 @@ impl Preprocessor for AddCentroid {
         if motion.point_names().contains(&self.name) {
             return Err(Error::new(
                 ErrorKind::DuplicateName,
-                format!("{} already has a point named {:?}; choose another name", motion.name, self.name),
+                format!(
+                    "{} already has a point named {:?}; choose another name",
+                    motion.name, self.name
+                ),
             )
             .with_field("name"));
         }
@@ -113,7 +124,14 @@ impl Preprocessor for AddCentroid {
             positions.extend_from_slice(motion.frame(i));
             positions.push(c);
         }
-        let mut out = Motion::new(motion.name.clone(), motion.frame_rate(), motion.up_axis(), motion.point_kind(), names, positions)?;
+        let mut out = Motion::new(
+            motion.name.clone(),
+            motion.frame_rate(),
+            motion.up_axis(),
+            motion.point_kind(),
+            names,
+            positions,
+        )?;
         // The skeleton's points stay first and in order, so its indices remain valid.
         out.source = motion.source;
         out.format = motion.format;
@@ -148,7 +166,10 @@ mod tests {
     }
 
     fn params(extra: &str) -> toml::Value {
-        toml::from_str(&format!("name = \"root\"\nmarkers = [\"Hip_FL\", \"Hip_FR\", \"Hip_BL\", \"Hip_BR\"]\n{extra}")).unwrap()
+        toml::from_str(&format!(
+            "name = \"root\"\nmarkers = [\"Hip_FL\", \"Hip_FR\", \"Hip_BL\", \"Hip_BR\"]\n{extra}"
+        ))
+        .unwrap()
     }
 
     #[test]
@@ -166,7 +187,10 @@ mod tests {
 
     #[test]
     fn missing_if_all_averages_the_valid_markers() {
-        let m = build_preprocessor("add_centroid", &params("missing_if = \"all\"")).unwrap().apply(hips()).unwrap();
+        let m = build_preprocessor("add_centroid", &params("missing_if = \"all\""))
+            .unwrap()
+            .apply(hips())
+            .unwrap();
         let p = m.position(1, 5);
         // Mean of (110, 50), (110, −50), (−90, 50): (130/3, 50/3).
         assert!((p[0] - 130.0 / 3.0).abs() < 1e-12 && (p[1] - 50.0 / 3.0).abs() < 1e-12, "{p:?}");
@@ -175,12 +199,18 @@ mod tests {
 
     #[test]
     fn bad_names_are_reported_with_their_field() {
-        let e = build_preprocessor("add_centroid", &params("")).unwrap().apply(hips().select_points(&["Head"]).unwrap()).unwrap_err();
+        let e = build_preprocessor("add_centroid", &params(""))
+            .unwrap()
+            .apply(hips().select_points(&["Head"]).unwrap())
+            .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
         assert!(e.location().field.as_deref().unwrap_or("").starts_with("markers"), "{e}");
         let taken: toml::Value = toml::from_str("name = \"Head\"\nmarkers = [\"Hip_FL\"]").unwrap();
         let e = build_preprocessor("add_centroid", &taken).unwrap().apply(hips()).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::DuplicateName, Some("name")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::DuplicateName, Some("name"))
+        );
         let empty: toml::Value = toml::from_str("name = \"r\"\nmarkers = []").unwrap();
         let e = build_preprocessor("add_centroid", &empty).err().unwrap();
         assert_eq!(e.location().field.as_deref(), Some("markers"));

@@ -5,13 +5,12 @@
 //! Written by hand: a mean, a linear resampling and one DFT bin — a signal-processing crate
 //! would add a dependency for three loops.
 
-
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::{AngleCurves, GaitCycle, WaveformAnalyzer, WaveformParameters};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Result};
-use crate::{AngleCurves, GaitCycle, WaveformAnalyzer, WaveformParameters};
 
 /// How the amplitude of a channel is measured on its mean gait cycle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
@@ -61,7 +60,10 @@ fn default_points() -> usize {
 
 impl Default for WaveformParametersParams {
     fn default() -> Self {
-        WaveformParametersParams { amplitude: AmplitudeDefinition::default(), points: default_points() }
+        WaveformParametersParams {
+            amplitude: AmplitudeDefinition::default(),
+            points: default_points(),
+        }
     }
 }
 
@@ -76,8 +78,11 @@ impl ParamGuard for WaveformParametersParams {
     type Checked = WaveformParametersStage;
     fn check(self) -> Result<WaveformParametersStage> {
         if !(3..=100_000).contains(&self.points) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be between 3 and 100000 samples, found {}", self.points))
-                .with_field("points"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be between 3 and 100000 samples, found {}", self.points),
+            )
+            .with_field("points"));
         }
         Ok(WaveformParametersStage { amplitude: self.amplitude, points: self.points })
     }
@@ -117,7 +122,9 @@ pub fn cycle_mean(values: &[f64], start: usize, end: usize) -> Option<f64> {
 pub fn cycle_amplitude(mean_cycle: &[f64], definition: AmplitudeDefinition) -> f64 {
     match definition {
         AmplitudeDefinition::HalfPeakToPeak => {
-            let (lo, hi) = mean_cycle.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+            let (lo, hi) = mean_cycle
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
             (hi - lo) / 2.0
         }
         AmplitudeDefinition::FirstHarmonic => {
@@ -139,9 +146,12 @@ pub fn cycle_amplitude(mean_cycle: &[f64], definition: AmplitudeDefinition) -> f
 /// Point-by-point mean of the time-normalised spans `(start, end)` (fractional frames) that are
 /// complete (no NaN); `None` when none is.
 pub fn mean_cycle_between(values: &[f64], spans: &[(f64, f64)], points: usize) -> Option<Vec<f64>> {
-    let normalised: Vec<Vec<f64>> = spans.iter().filter_map(|&(a, b)| time_normalise(values, a, b, points)).collect();
+    let normalised: Vec<Vec<f64>> =
+        spans.iter().filter_map(|&(a, b)| time_normalise(values, a, b, points)).collect();
     let n = normalised.len();
-    (n > 0).then(|| (0..points).map(|k| normalised.iter().map(|c| c[k]).sum::<f64>() / n as f64).collect())
+    (n > 0).then(|| {
+        (0..points).map(|k| normalised.iter().map(|c| c[k]).sum::<f64>() / n as f64).collect()
+    })
 }
 
 /// Point-by-point mean of the time-normalised cycles (all complete) of one side; `None` when
@@ -177,7 +187,10 @@ pub fn cycles_by_side(cycles: &[GaitCycle]) -> Vec<(&str, Vec<&GaitCycle>)> {
 /// Checks cycles against a walk of `n_frames` frames.
 pub fn check_cycles(cycles: &[GaitCycle], n_frames: usize) -> Result<()> {
     if cycles.is_empty() {
-        return Err(Error::new(ErrorKind::EmptySequence, "no gait cycle to analyse; expected at least one from a gait-cycle detector"));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "no gait cycle to analyse; expected at least one from a gait-cycle detector",
+        ));
     }
     for (i, c) in cycles.iter().enumerate() {
         if c.end <= c.start || c.end >= n_frames {
@@ -205,7 +218,11 @@ impl WaveformParametersStage {
             .filter_map(|(_, group)| mean_gait_cycle(values, group, self.points))
             .map(|m| cycle_amplitude(&m, self.amplitude))
             .collect();
-        let amplitude = if amplitudes.is_empty() { f64::NAN } else { amplitudes.iter().sum::<f64>() / amplitudes.len() as f64 };
+        let amplitude = if amplitudes.is_empty() {
+            f64::NAN
+        } else {
+            amplitudes.iter().sum::<f64>() / amplitudes.len() as f64
+        };
         (dc, amplitude)
     }
 }
@@ -213,12 +230,18 @@ impl WaveformParametersStage {
 impl WaveformAnalyzer for WaveformParametersStage {
     fn parameters(&self, curves: &AngleCurves, cycles: &[GaitCycle]) -> Result<WaveformParameters> {
         let n = curves.n_frames();
-        if let Some((c, v)) = curves.channels.iter().zip(&curves.values).find(|(_, v)| v.len() != n) {
-            return Err(Error::new(ErrorKind::WrongValueCount, format!("channel {c:?} has {} frames, the first channel {n}", v.len())));
+        if let Some((c, v)) = curves.channels.iter().zip(&curves.values).find(|(_, v)| v.len() != n)
+        {
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!("channel {c:?} has {} frames, the first channel {n}", v.len()),
+            ));
         }
         check_cycles(cycles, n)?;
-        let mean_frames = cycles.iter().map(|c| (c.end - c.start) as f64).sum::<f64>() / cycles.len() as f64;
-        let (dc, amplitude) = curves.values.iter().map(|v| self.channel_parameters(v, cycles)).unzip();
+        let mean_frames =
+            cycles.iter().map(|c| (c.end - c.start) as f64).sum::<f64>() / cycles.len() as f64;
+        let (dc, amplitude) =
+            curves.values.iter().map(|v| self.channel_parameters(v, cycles)).unzip();
         Ok(WaveformParameters {
             channels: curves.channels.clone(),
             dc,
@@ -228,7 +251,12 @@ impl WaveformAnalyzer for WaveformParametersStage {
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::WaveformAnalyzer, WaveformParametersParams, "waveform_parameters", kind = "waveform_analyzer");
+motionlab_core::register_custom_plugin!(
+    crate::WaveformAnalyzer,
+    WaveformParametersParams,
+    "waveform_parameters",
+    kind = "waveform_analyzer"
+);
 
 #[cfg(test)]
 mod tests {
@@ -255,9 +283,18 @@ mod tests {
         // peak (25) and trough (75), so half peak-to-peak is exact too.
         let x: Vec<f64> = (0..301).map(|n| 12.5 + 30.0 * (TAU * n as f64 / 100.0).sin()).collect();
         let c = curves(100.0, vec![x]);
-        let cycles = [cycle(0, 100, "Left"), cycle(100, 200, "Left"), cycle(50, 150, "Right"), cycle(150, 250, "Right")];
+        let cycles = [
+            cycle(0, 100, "Left"),
+            cycle(100, 200, "Left"),
+            cycle(50, 150, "Right"),
+            cycle(150, 250, "Right"),
+        ];
         for def in [AmplitudeDefinition::HalfPeakToPeak, AmplitudeDefinition::FirstHarmonic] {
-            let p = WaveformParametersParams { amplitude: def, points: 101 }.check().unwrap().parameters(&c, &cycles).unwrap();
+            let p = WaveformParametersParams { amplitude: def, points: 101 }
+                .check()
+                .unwrap()
+                .parameters(&c, &cycles)
+                .unwrap();
             assert!((p.dc[0] - 12.5).abs() < 1e-12, "{def:?} {}", p.dc[0]);
             assert!((p.amplitude[0] - 30.0).abs() < 1e-12, "{def:?} {}", p.amplitude[0]);
             assert!((p.frequency_hz - 1.0).abs() < 1e-15);
@@ -266,17 +303,25 @@ mod tests {
 
     #[test]
     fn first_harmonic_ignores_the_second_harmonic_that_half_peak_to_peak_sees() {
-        let x: Vec<f64> =
-            (0..201).map(|n| 5.0 + 20.0 * (TAU * n as f64 / 100.0).cos() + 8.0 * (2.0 * TAU * n as f64 / 100.0).cos()).collect();
+        let x: Vec<f64> = (0..201)
+            .map(|n| {
+                5.0 + 20.0 * (TAU * n as f64 / 100.0).cos()
+                    + 8.0 * (2.0 * TAU * n as f64 / 100.0).cos()
+            })
+            .collect();
         let c = curves(50.0, vec![x]);
         let cycles = [cycle(0, 100, "Left"), cycle(100, 200, "Left")];
-        let fh = WaveformParametersParams { amplitude: AmplitudeDefinition::FirstHarmonic, points: 101 }.check().unwrap();
+        let fh =
+            WaveformParametersParams { amplitude: AmplitudeDefinition::FirstHarmonic, points: 101 }
+                .check()
+                .unwrap();
         let p = fh.parameters(&c, &cycles).unwrap();
         assert!((p.amplitude[0] - 20.0).abs() < 1e-12);
         assert!((p.frequency_hz - 0.5).abs() < 1e-15);
         // Half peak-to-peak of 20cos θ + 8cos 2θ = 16c² + 20c − 8 (c = cos θ): max 28 at c = 1,
         // min −14.25 at c = −0.625 (between samples) → (28 + 14.25) / 2 = 21.125.
-        let hp = WaveformParametersParams::default().check().unwrap().parameters(&c, &cycles).unwrap();
+        let hp =
+            WaveformParametersParams::default().check().unwrap().parameters(&c, &cycles).unwrap();
         assert!((hp.amplitude[0] - 21.125).abs() < 0.01, "{}", hp.amplitude[0]);
     }
 
@@ -285,14 +330,19 @@ mod tests {
         // Independent: the plain mean of frames start..end, averaged over cycles, by hand.
         let x: Vec<f64> = vec![1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
         let c = curves(10.0, vec![x]);
-        let p = WaveformParametersParams::default().check().unwrap().parameters(&c, &[cycle(0, 3, "Left"), cycle(3, 6, "Left")]).unwrap();
+        let p = WaveformParametersParams::default()
+            .check()
+            .unwrap()
+            .parameters(&c, &[cycle(0, 3, "Left"), cycle(3, 6, "Left")])
+            .unwrap();
         assert_eq!(p.dc[0], ((1.0 + 2.0 + 4.0) / 3.0 + (8.0 + 16.0 + 32.0) / 3.0) / 2.0);
         assert!((p.frequency_hz - 10.0 / 3.0).abs() < 1e-15);
     }
 
     #[test]
     fn a_cycle_with_missing_samples_is_left_out_for_that_channel_only() {
-        let mut x: Vec<f64> = (0..201).map(|n| 3.0 + 10.0 * (TAU * n as f64 / 100.0).sin()).collect();
+        let mut x: Vec<f64> =
+            (0..201).map(|n| 3.0 + 10.0 * (TAU * n as f64 / 100.0).sin()).collect();
         let y = x.clone();
         x[130] = f64::NAN;
         let c = curves(100.0, vec![x, y]);
@@ -313,9 +363,20 @@ mod tests {
         let c = curves(100.0, vec![vec![0.0; 50]]);
         let stage = WaveformParametersParams::default().check().unwrap();
         assert_eq!(stage.parameters(&c, &[]).unwrap_err().kind(), ErrorKind::EmptySequence);
-        assert_eq!(stage.parameters(&c, &[cycle(10, 50, "Left")]).unwrap_err().kind(), ErrorKind::OutOfRange);
+        assert_eq!(
+            stage.parameters(&c, &[cycle(10, 50, "Left")]).unwrap_err().kind(),
+            ErrorKind::OutOfRange
+        );
         let t: toml::Value = toml::from_str("points = 2").unwrap();
-        assert_eq!(build_waveform_analyzer("waveform_parameters", &t).err().unwrap().location().field.as_deref(), Some("points"));
+        assert_eq!(
+            build_waveform_analyzer("waveform_parameters", &t)
+                .err()
+                .unwrap()
+                .location()
+                .field
+                .as_deref(),
+            Some("points")
+        );
         let t: toml::Value = toml::from_str("amplitude = \"first_harmonic\"").unwrap();
         assert!(build_waveform_analyzer("waveform_parameters", &t).is_ok());
     }

@@ -7,17 +7,17 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use divan::counter::ItemsCount;
-use divan::{black_box, Bencher};
-use motionlab_core::registry::ParamGuard;
+use divan::{Bencher, black_box};
 use motionlab_core::Motion;
-use motionlab_features::{GaitCycleDetector, WaveformAnalyzer};
-use motionlab_gait::WalkSynthesizer;
+use motionlab_core::registry::ParamGuard;
 use motionlab_features::gait_cycles::{C3dEventsParams, HeelHeightParams};
 use motionlab_features::joint_angles::{AbsentMarkers, IsbJointAngles, IsbJointAnglesParams};
 use motionlab_features::waveform::WaveformParametersParams;
+use motionlab_features::{GaitCycleDetector, WaveformAnalyzer};
+use motionlab_gait::WalkSynthesizer;
 use motionlab_gait::change_rates::ChangeRatesParams;
 use motionlab_gait::loso::leave_one_subject_out;
-use motionlab_gait::study::{study_of, AnalysedWalk, SubjectWalk, Walk};
+use motionlab_gait::study::{AnalysedWalk, SubjectWalk, Walk, study_of};
 use motionlab_gait::synthesis::{FeatureChannelControl, Interpolation};
 
 fn main() {
@@ -25,7 +25,9 @@ fn main() {
 }
 
 fn angles() -> IsbJointAngles {
-    IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }.check().unwrap()
+    IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }
+        .check()
+        .unwrap()
 }
 
 /// Every Schreiber & Moissenet trial (36 × ~170 frames × 52 markers).
@@ -42,7 +44,14 @@ fn motions() -> &'static [Motion] {
         paths.sort();
         paths
             .iter()
-            .map(|p| motionlab_io::c3d::parse_c3d(&motionlab_io::read::read_bytes(p).unwrap(), p, &Default::default()).unwrap())
+            .map(|p| {
+                motionlab_io::c3d::parse_c3d(
+                    &motionlab_io::read::read_bytes(p).unwrap(),
+                    p,
+                    &Default::default(),
+                )
+                .unwrap()
+            })
             .collect()
     })
 }
@@ -50,7 +59,11 @@ fn motions() -> &'static [Motion] {
 fn walks() -> &'static [SubjectWalk] {
     static W: OnceLock<Vec<SubjectWalk>> = OnceLock::new();
     W.get_or_init(|| {
-        let (a, d, w) = (angles(), C3dEventsParams::default(), WaveformParametersParams::default().check().unwrap());
+        let (a, d, w) = (
+            angles(),
+            C3dEventsParams::default(),
+            WaveformParametersParams::default().check().unwrap(),
+        );
         motions()
             .iter()
             .map(|m| {
@@ -76,20 +89,32 @@ fn total_frames() -> usize {
 #[divan::bench]
 fn isb_joint_angles_36_trials(bencher: Bencher) {
     let (a, m) = (angles(), motions());
-    bencher.counter(ItemsCount::new(total_frames())).bench(|| m.iter().map(|m| a.angle_curves(black_box(m)).unwrap().values.len()).sum::<usize>());
+    bencher.counter(ItemsCount::new(total_frames())).bench(|| {
+        m.iter().map(|m| a.angle_curves(black_box(m)).unwrap().values.len()).sum::<usize>()
+    });
 }
 
 #[divan::bench]
 fn heel_height_cycles_36_trials(bencher: Bencher) {
     let (d, m) = (HeelHeightParams::default().check().unwrap(), motions());
-    bencher.counter(ItemsCount::new(total_frames())).bench(|| m.iter().map(|m| d.cycles(black_box(m)).unwrap().len()).sum::<usize>());
+    bencher
+        .counter(ItemsCount::new(total_frames()))
+        .bench(|| m.iter().map(|m| d.cycles(black_box(m)).unwrap().len()).sum::<usize>());
 }
 
 #[divan::bench]
 fn waveform_parameters_36_trials(bencher: Bencher) {
     let (w, walks) = (WaveformParametersParams::default().check().unwrap(), walks());
     bencher.counter(ItemsCount::new(total_frames())).bench(|| {
-        walks.iter().map(|s| w.parameters(black_box(&s.analysed.walk.curves), &s.analysed.walk.cycles).unwrap().dc.len()).sum::<usize>()
+        walks
+            .iter()
+            .map(|s| {
+                w.parameters(black_box(&s.analysed.walk.curves), &s.analysed.walk.cycles)
+                    .unwrap()
+                    .dc
+                    .len()
+            })
+            .sum::<usize>()
     });
 }
 
@@ -104,13 +129,28 @@ fn change_rates_18_subjects(bencher: Bencher) {
 #[divan::bench(args = [Interpolation::Linear, Interpolation::Cubic])]
 fn feature_channel_control_36_trials(bencher: Bencher, interpolation: Interpolation) {
     let walks = walks();
-    let changes = ChangeRatesParams::default().check().unwrap().analyse(&study_of("C4", walks)).unwrap().conditions[0].walk_changes();
+    let changes = ChangeRatesParams::default()
+        .check()
+        .unwrap()
+        .analyse(&study_of("C4", walks))
+        .unwrap()
+        .conditions[0]
+        .walk_changes();
     let stage = FeatureChannelControl { interpolation, ..Default::default() };
     bencher.counter(ItemsCount::new(total_frames())).bench(|| {
         walks
             .iter()
             .filter(|w| w.analysed.parameters.dc.iter().all(|v| v.is_finite()))
-            .map(|w| stage.synthesize(black_box(&w.analysed.walk.curves), &w.analysed.walk.cycles, &changes).unwrap().n_frames())
+            .map(|w| {
+                stage
+                    .synthesize(
+                        black_box(&w.analysed.walk.curves),
+                        &w.analysed.walk.cycles,
+                        &changes,
+                    )
+                    .unwrap()
+                    .n_frames()
+            })
             .sum::<usize>()
     });
 }
@@ -119,5 +159,17 @@ fn feature_channel_control_36_trials(bencher: Bencher, interpolation: Interpolat
 #[divan::bench(sample_count = 20)]
 fn leave_one_subject_out_18(bencher: Bencher) {
     let (walks, rates) = (walks(), ChangeRatesParams::default().check().unwrap());
-    bencher.bench(|| leave_one_subject_out(black_box(walks), "C4", "C5", &rates, &FeatureChannelControl::default(), 101).unwrap().subjects.len());
+    bencher.bench(|| {
+        leave_one_subject_out(
+            black_box(walks),
+            "C4",
+            "C5",
+            &rates,
+            &FeatureChannelControl::default(),
+            101,
+        )
+        .unwrap()
+        .subjects
+        .len()
+    });
 }

@@ -17,24 +17,34 @@ use std::path::{Path, PathBuf};
 
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{ColumnValues, Evaluator, Table};
-use motionlab_features::{GaitCycleDetector, WaveformAnalyzer};
 use motionlab_features::gait_cycles::{C3dEventsParams, HeelHeightParams};
 use motionlab_features::joint_angles::{AbsentMarkers, IsbJointAnglesParams};
 use motionlab_features::waveform::WaveformParametersParams;
+use motionlab_features::{GaitCycleDetector, WaveformAnalyzer};
 use motionlab_gait::change_rates::ChangeRatesParams;
 use motionlab_gait::loso::leave_one_subject_out;
-use motionlab_gait::study::{study_of, AnalysedWalk, SubjectWalk, Walk};
-use motionlab_gait::synthesis::{skeleton_rotation_channels, FeatureChannelControl, FeatureChannelControlParams};
+use motionlab_gait::study::{AnalysedWalk, SubjectWalk, Walk, study_of};
+use motionlab_gait::synthesis::{
+    FeatureChannelControl, FeatureChannelControlParams, skeleton_rotation_channels,
+};
 
 fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 /// Writes a table as CSV; floats with Rust's shortest round-trip formatting (`NaN` for NaN).
 fn write_csv(table: &Table, dir: &Path) -> std::io::Result<PathBuf> {
     let path = dir.join(format!("{}.csv", table.name));
     let mut out = std::io::BufWriter::new(std::fs::File::create(&path)?);
-    writeln!(out, "{}", table.columns.iter().map(|c| csv_field(&c.name)).collect::<Vec<_>>().join(","))?;
+    writeln!(
+        out,
+        "{}",
+        table.columns.iter().map(|c| csv_field(&c.name)).collect::<Vec<_>>().join(",")
+    )?;
     for row in 0..table.n_rows() {
         let cells: Vec<String> = table
             .columns
@@ -50,10 +60,14 @@ fn write_csv(table: &Table, dir: &Path) -> std::io::Result<PathBuf> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let out_dir = std::env::args().nth(1).map(PathBuf::from).unwrap_or_else(|| motionlab_testkit::repo_root().join("target/osafune"));
+    let out_dir = std::env::args()
+        .nth(1)
+        .map(PathBuf::from)
+        .unwrap_or_else(|| motionlab_testkit::repo_root().join("target/osafune"));
     std::fs::create_dir_all(&out_dir)?;
 
-    let angles = IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }.check()?;
+    let angles = IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }
+        .check()?;
     let analyzer = WaveformParametersParams::default().check()?;
     let detector = C3dEventsParams::default().check()?;
     let root = motionlab_testkit::data_path("schreiber2019");
@@ -67,13 +81,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut walks = Vec::new();
     for p in &paths {
         let bytes = motionlab_io::read::read_bytes(p)?;
-        let motion = motionlab_io::c3d::parse_c3d(&bytes, p, &motionlab_io::c3d::C3dOptions::default())?;
+        let motion =
+            motionlab_io::c3d::parse_c3d(&bytes, p, &motionlab_io::c3d::C3dOptions::default())?;
         let mut parts = motion.name.split('_');
-        let (subject, condition) = (parts.next().unwrap_or_default().to_string(), parts.next().unwrap_or_default().to_string());
+        let (subject, condition) = (
+            parts.next().unwrap_or_default().to_string(),
+            parts.next().unwrap_or_default().to_string(),
+        );
         let curves = angles.angle_curves(&motion)?;
         let cycles = detector.cycles(&motion)?;
         let parameters = analyzer.parameters(&curves, &cycles)?;
-        walks.push(SubjectWalk { subject, condition, analysed: AnalysedWalk { walk: Walk { curves, cycles }, parameters } });
+        walks.push(SubjectWalk {
+            subject,
+            condition,
+            analysed: AnalysedWalk { walk: Walk { curves, cycles }, parameters },
+        });
     }
     let study = study_of("C4", &walks);
     let rates = ChangeRatesParams::default().check()?;
@@ -83,15 +105,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let analysis = rates.analyse(&study)?;
     let fast = analysis.condition("C5")?;
-    println!("\nFast vs normal (C5 vs C4), {} subjects; frequency K: μ {:.1} %, σ {:.1} %, CV {:.1} %", fast.subjects.len(), fast.frequency_mean_pct, fast.frequency_sd_pct, fast.frequency_cv_pct);
+    println!(
+        "\nFast vs normal (C5 vs C4), {} subjects; frequency K: μ {:.1} %, σ {:.1} %, CV {:.1} %",
+        fast.subjects.len(),
+        fast.frequency_mean_pct,
+        fast.frequency_sd_pct,
+        fast.frequency_cv_pct
+    );
     for component in ["dc", "amplitude"] {
         println!("{component}: feature channels (|CV| <= {} %)", rates.max_abs_cv_pct);
         for s in fast.summary.iter().filter(|s| s.feature && s.component.name() == component) {
-            println!("  {:24} mean {:7.1} %  sd {:7.1} %  CV {:7.1} %  (n = {}, excluded {})", s.channel, s.mean_pct, s.sd_pct, s.cv_pct, s.n_subjects, s.n_excluded);
+            println!(
+                "  {:24} mean {:7.1} %  sd {:7.1} %  CV {:7.1} %  (n = {}, excluded {})",
+                s.channel, s.mean_pct, s.sd_pct, s.cv_pct, s.n_subjects, s.n_excluded
+            );
         }
     }
 
-    let loso = leave_one_subject_out(&walks, "C4", "C5", &rates, &FeatureChannelControl::default(), 101)?;
+    let loso =
+        leave_one_subject_out(&walks, "C4", "C5", &rates, &FeatureChannelControl::default(), 101)?;
     for table in loso.tables()? {
         println!("wrote {}", write_csv(&table, &out_dir)?.display());
     }
@@ -114,11 +146,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Control of a skeleton walk: CMU 131_01 with the fast change rates on its leg joints.
     let bvh = motionlab_testkit::data_path("cmu131/131_01.bvh.gz");
     let text = motionlab_io::read::read_text(&bvh)?;
-    let data = motionlab_io::bvh::parse_bvh_channels(&text, &bvh, &motionlab_io::bvh::BvhOptions::default())?;
+    let data = motionlab_io::bvh::parse_bvh_channels(
+        &text,
+        &bvh,
+        &motionlab_io::bvh::BvhOptions::default(),
+    )?;
     let motion = motionlab_io::bvh::bvh_motion(data.clone(), &bvh, motionlab_core::Axis::Y)?;
-    let cycles = HeelHeightParams { left_heel: "LeftAnkle".into(), right_heel: "RightAnkle".into(), ..Default::default() }
-        .check()?
-        .cycles(&motion)?;
+    let cycles = HeelHeightParams {
+        left_heel: "LeftAnkle".into(),
+        right_heel: "RightAnkle".into(),
+        ..Default::default()
+    }
+    .check()?
+    .cycles(&motion)?;
     let map = [
         ("hip_l.flexion", "LeftHip.Xrotation"),
         ("hip_r.flexion", "RightHip.Xrotation"),
@@ -134,13 +174,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     .check()?;
     let changes = fast.walk_changes();
     for p in control.plan(&skeleton_rotation_channels(&data.motion.skeleton), &changes)? {
-        println!("131_01: {} ← {}: DC × {:.3}, amplitude × {:.3}", p.channel, p.source, p.dc_factor, p.amplitude_factor);
+        println!(
+            "131_01: {} ← {}: DC × {:.3}, amplitude × {:.3}",
+            p.channel, p.source, p.dc_factor, p.amplitude_factor
+        );
     }
-    let synthesized = control.synthesize_skeleton(&data.motion, data.frame_rate, &cycles, &changes)?;
+    let synthesized =
+        control.synthesize_skeleton(&data.motion, data.frame_rate, &cycles, &changes)?;
     let out = out_dir.join("131_01_fast.bvh");
     let mut file = std::io::BufWriter::new(std::fs::File::create(&out)?);
     motionlab_io::bvh::write_bvh(&synthesized, data.frame_rate, data.length_unit, &mut file)?;
-    println!("wrote {} ({} → {} frames, frequency × {:.3})", out.display(), data.motion.n_frames(), synthesized.n_frames(), 1.0 + changes.frequency_percent / 100.0);
+    println!(
+        "wrote {} ({} → {} frames, frequency × {:.3})",
+        out.display(),
+        data.motion.n_frames(),
+        synthesized.n_frames(),
+        1.0 + changes.frequency_percent / 100.0
+    );
     Ok(())
 }
-

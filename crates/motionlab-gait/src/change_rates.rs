@@ -6,9 +6,11 @@ use std::collections::BTreeMap;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Analysis, Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, Result, Table};
 use crate::{GaitStudy, GaitTrial, WalkChanges};
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{
+    Analysis, Error, ErrorKind, EvalInput, EvalInputType, Evaluation, Evaluator, Result, Table,
+};
 
 /// Change rates of every channel from the normal walk to each other condition, their mean,
 /// population s.d. and coefficient of variation over subjects, and the feature channels
@@ -95,16 +97,28 @@ impl ParamGuard for ChangeRatesParams {
             if v.is_finite() && v >= 0.0 {
                 Ok(v)
             } else {
-                Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite number >= 0, found {v}")).with_field(field))
+                Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("must be a finite number >= 0, found {v}"),
+                )
+                .with_field(field))
             }
         };
         if self.min_subjects == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "must be at least 1").with_field("min_subjects"));
+            return Err(
+                Error::new(ErrorKind::OutOfRange, "must be at least 1").with_field("min_subjects")
+            );
         }
         Ok(ChangeRates {
             max_abs_cv_pct: non_negative("max_abs_cv_pct", self.max_abs_cv_pct)?,
-            min_abs_normal_dc_deg: non_negative("min_abs_normal_dc_deg", self.min_abs_normal_dc_deg)?,
-            min_normal_amplitude_deg: non_negative("min_normal_amplitude_deg", self.min_normal_amplitude_deg)?,
+            min_abs_normal_dc_deg: non_negative(
+                "min_abs_normal_dc_deg",
+                self.min_abs_normal_dc_deg,
+            )?,
+            min_normal_amplitude_deg: non_negative(
+                "min_normal_amplitude_deg",
+                self.min_normal_amplitude_deg,
+            )?,
             min_subjects: self.min_subjects,
         })
     }
@@ -218,7 +232,8 @@ impl ConditionChanges {
     /// The changes to apply to a normal walk to make this condition: μ of every feature
     /// channel (DC and amplitude separately) and μ of the frequency (Osafune et al. §4).
     pub fn walk_changes(&self) -> WalkChanges {
-        let mut w = WalkChanges { frequency_percent: self.frequency_mean_pct, ..Default::default() };
+        let mut w =
+            WalkChanges { frequency_percent: self.frequency_mean_pct, ..Default::default() };
         for s in self.summary.iter().filter(|s| s.feature) {
             let map = match s.component {
                 Component::Dc => &mut w.dc_percent,
@@ -250,7 +265,13 @@ impl StudyChanges {
     pub fn condition(&self, name: &str) -> Result<&ConditionChanges> {
         self.conditions.iter().find(|c| c.condition == name).ok_or_else(|| {
             let have: Vec<&str> = self.conditions.iter().map(|c| c.condition.as_str()).collect();
-            Error::new(ErrorKind::UnknownName, format!("no condition {name:?} besides the normal {:?} (have: {have:?})", self.normal_condition))
+            Error::new(
+                ErrorKind::UnknownName,
+                format!(
+                    "no condition {name:?} besides the normal {:?} (have: {have:?})",
+                    self.normal_condition
+                ),
+            )
         })
     }
 }
@@ -283,12 +304,18 @@ pub fn check_study(study: &GaitStudy) -> Result<()> {
         }
     }
     if !study.trials.iter().any(|t| t.condition == study.normal_condition) {
-        return Err(Error::new(ErrorKind::EmptySequence, format!("no trial in the normal condition {:?}", study.normal_condition)));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            format!("no trial in the normal condition {:?}", study.normal_condition),
+        ));
     }
     if !study.trials.iter().any(|t| t.condition != study.normal_condition) {
         return Err(Error::new(
             ErrorKind::EmptySequence,
-            format!("every trial is in the normal condition {:?}; change rates need another condition", study.normal_condition),
+            format!(
+                "every trial is in the normal condition {:?}; change rates need another condition",
+                study.normal_condition
+            ),
         ));
     }
     Ok(())
@@ -337,7 +364,13 @@ impl ChangeRates {
                     .trials
                     .iter()
                     .filter(|t| t.condition == *g)
-                    .filter_map(|n| study.trials.iter().find(|t| t.condition == x && t.subject == n.subject).map(|c| (n, c)))
+                    .filter_map(|n| {
+                        study
+                            .trials
+                            .iter()
+                            .find(|t| t.condition == x && t.subject == n.subject)
+                            .map(|c| (n, c))
+                    })
                     .collect();
                 self.analyse_condition(x, &pairs, &channels)
             })
@@ -345,7 +378,12 @@ impl ChangeRates {
         Ok(StudyChanges { normal_condition: g.clone(), conditions: out })
     }
 
-    fn analyse_condition(&self, condition: &str, pairs: &[(&GaitTrial, &GaitTrial)], channels: &[&str]) -> ConditionChanges {
+    fn analyse_condition(
+        &self,
+        condition: &str,
+        pairs: &[(&GaitTrial, &GaitTrial)],
+        channels: &[&str],
+    ) -> ConditionChanges {
         let mut changes = Vec::new();
         let mut summary = Vec::new();
         for component in [Component::Dc, Component::Amplitude] {
@@ -353,7 +391,10 @@ impl ChangeRates {
                 let mut k = Vec::new();
                 let mut n_excluded = 0;
                 for (normal, changed) in pairs {
-                    let (gv, xv) = (value_of(normal, channel, component), value_of(changed, channel, component));
+                    let (gv, xv) = (
+                        value_of(normal, channel, component),
+                        value_of(changed, channel, component),
+                    );
                     let excluded = if !(gv.is_finite() && xv.is_finite()) {
                         Some(Exclusion::Missing)
                     } else if self.near_zero(component, gv) {
@@ -500,14 +541,26 @@ impl ChangeRates {
             }));
         }
         Ok(vec![
-            Table::from_records("gait_parameters", "Waveform parameters per subject, condition and channel", &parameters)?,
-            Table::from_records("change_rates", "Change rates K per subject (Osafune et al. eq. 1)", &per_subject)?,
+            Table::from_records(
+                "gait_parameters",
+                "Waveform parameters per subject, condition and channel",
+                &parameters,
+            )?,
+            Table::from_records(
+                "change_rates",
+                "Change rates K per subject (Osafune et al. eq. 1)",
+                &per_subject,
+            )?,
             Table::from_records(
                 "change_rate_summary",
                 "Mean, s.d. and CV of K per channel (Osafune et al. Tables 1-3; feature = |CV| within the threshold)",
                 &summary,
             )?,
-            Table::from_records("frequency_changes", "Gait frequency change K_j per subject (Osafune et al. §2.4)", &frequency)?,
+            Table::from_records(
+                "frequency_changes",
+                "Gait frequency change K_j per subject (Osafune et al. §2.4)",
+                &frequency,
+            )?,
         ])
     }
 }
@@ -574,7 +627,10 @@ impl Evaluator for ChangeRates {
         let study: &GaitStudy = input.read(crate::gait_study(), "change_rates")?;
         let changes = self.analyse(study)?;
         let tables = self.tables_of(study, &changes)?;
-        Ok(Evaluation { tables, analysis: Some(Analysis::new(ChangeRateAnalysis { rates: self.clone(), changes })) })
+        Ok(Evaluation {
+            tables,
+            analysis: Some(Analysis::new(ChangeRateAnalysis { rates: self.clone(), changes })),
+        })
     }
     fn analysis_type(&self) -> Option<std::any::TypeId> {
         Some(std::any::TypeId::of::<ChangeRateAnalysis>())
@@ -614,10 +670,16 @@ pub fn feature_channels(changes: &ConditionChanges) -> BTreeMap<&'static str, Ve
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::build_evaluator;
     use motionlab_core::ColumnValues;
+    use motionlab_core::registry::build_evaluator;
 
-    fn trial(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64; 2], f: f64) -> crate::stages::GaitTrial {
+    fn trial(
+        subject: &str,
+        condition: &str,
+        dc: [f64; 2],
+        amplitude: [f64; 2],
+        f: f64,
+    ) -> crate::stages::GaitTrial {
         crate::stages::GaitTrial::hand_made(subject, condition, dc, amplitude, f)
     }
 
@@ -645,7 +707,9 @@ mod tests {
     fn cv_on_a_hand_made_table_equals_the_hand_computation() {
         let a = rates(2).analyse(&study()).unwrap();
         let fast = a.condition("fast").unwrap();
-        let find = |ch: &str, comp: Component| fast.summary.iter().find(|s| s.channel == ch && s.component == comp).unwrap();
+        let find = |ch: &str, comp: Component| {
+            fast.summary.iter().find(|s| s.channel == ch && s.component == comp).unwrap()
+        };
         // Knee DC: K = 20, 10, 30 → μ = 20, σ = √((0 + 100 + 100)/3) = 8.1650, CV = 40.825 %.
         let knee = find("knee_l.flexion", Component::Dc);
         assert!((knee.mean_pct - 20.0).abs() < 1e-12);
@@ -658,7 +722,13 @@ mod tests {
         assert_eq!((hip.n_subjects, hip.n_excluded), (2, 1));
         assert!((hip.mean_pct + 2.5).abs() < 1e-12 && (hip.sd_pct - 22.5).abs() < 1e-12);
         assert!((hip.cv_pct + 900.0).abs() < 1e-9 && !hip.feature);
-        let s1 = fast.changes.iter().find(|c| c.subject == "s1" && c.channel == "hip_l.rotation" && c.component == Component::Dc).unwrap();
+        let s1 = fast
+            .changes
+            .iter()
+            .find(|c| {
+                c.subject == "s1" && c.channel == "hip_l.rotation" && c.component == Component::Dc
+            })
+            .unwrap();
         assert_eq!((s1.k_pct, s1.excluded), (None, Some(Exclusion::NormalNearZero)));
         // Hip amplitude: s3's normal 1° < 2° (near zero) and its fast value is NaN: the NaN
         // is reported first (missing). K = 20, 25 → μ 22.5, σ 2.5, CV 11.11 %.
@@ -680,7 +750,11 @@ mod tests {
     fn too_few_subjects_is_no_feature_whatever_the_cv() {
         let a = rates(3).analyse(&study()).unwrap();
         let fast = a.condition("fast").unwrap();
-        let hipa = fast.summary.iter().find(|s| s.channel == "hip_l.rotation" && s.component == Component::Amplitude).unwrap();
+        let hipa = fast
+            .summary
+            .iter()
+            .find(|s| s.channel == "hip_l.rotation" && s.component == Component::Amplitude)
+            .unwrap();
         assert!(!hipa.feature);
         assert_eq!(hipa.note, "too_few_subjects");
     }
@@ -692,10 +766,17 @@ mod tests {
         s.trials.push(trial("s1", "slow", [16.0, 1.0], [27.0, 4.0], 0.8));
         s.trials.push(trial("s2", "slow", [9.0, -9.0], [20.0, 3.0], 0.6));
         let a = rates(1).analyse(&s).unwrap();
-        assert_eq!(a.conditions.iter().map(|c| c.condition.as_str()).collect::<Vec<_>>(), ["fast", "slow"]);
+        assert_eq!(
+            a.conditions.iter().map(|c| c.condition.as_str()).collect::<Vec<_>>(),
+            ["fast", "slow"]
+        );
         let slow = a.condition("slow").unwrap();
         assert_eq!(slow.subjects, ["s1", "s2"]);
-        let knee = slow.summary.iter().find(|s| s.channel == "knee_l.flexion" && s.component == Component::Dc).unwrap();
+        let knee = slow
+            .summary
+            .iter()
+            .find(|s| s.channel == "knee_l.flexion" && s.component == Component::Dc)
+            .unwrap();
         assert!((knee.mean_pct - (-20.0 - 10.0) / 2.0).abs() < 1e-12);
     }
 
@@ -703,18 +784,38 @@ mod tests {
     fn tables_have_the_documented_columns() {
         let t = rates(2).tables(&study()).unwrap();
         let names: Vec<&str> = t.iter().map(|t| t.name.as_str()).collect();
-        assert_eq!(names, ["gait_parameters", "change_rates", "change_rate_summary", "frequency_changes"]);
+        assert_eq!(
+            names,
+            ["gait_parameters", "change_rates", "change_rate_summary", "frequency_changes"]
+        );
         let cols = |i: usize| t[i].columns.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
-        assert_eq!(cols(0), ["subject", "condition", "channel", "dc_deg", "amplitude_deg", "frequency_hz"]);
+        assert_eq!(
+            cols(0),
+            ["subject", "condition", "channel", "dc_deg", "amplitude_deg", "frequency_hz"]
+        );
         assert_eq!(t[0].n_rows(), 12);
         assert_eq!(
             cols(2),
-            ["normal_condition", "condition", "channel", "component", "mean_pct", "sd_pct", "cv_pct", "feature", "n_subjects", "n_excluded", "note"]
+            [
+                "normal_condition",
+                "condition",
+                "channel",
+                "component",
+                "mean_pct",
+                "sd_pct",
+                "cv_pct",
+                "feature",
+                "n_subjects",
+                "n_excluded",
+                "note"
+            ]
         );
         // 2 channels × 2 components + the frequency row.
         assert_eq!(t[2].n_rows(), 5);
         match t[1].column("reason") {
-            Some(ColumnValues::Str(v)) => assert!(v.iter().any(|r| r.as_deref() == Some("normal_near_zero"))),
+            Some(ColumnValues::Str(v)) => {
+                assert!(v.iter().any(|r| r.as_deref() == Some("normal_near_zero")))
+            }
             other => panic!("{other:?}"),
         }
     }
@@ -724,14 +825,27 @@ mod tests {
         let mut s = study();
         s.trials.push(trial("s1", "fast", [1.0, 1.0], [1.0, 1.0], 1.0));
         assert_eq!(rates(1).analyse(&s).unwrap_err().kind(), ErrorKind::DuplicateName);
-        let only_normal = GaitStudy { normal_condition: "normal".into(), trials: study().trials[..3].to_vec() };
+        let only_normal =
+            GaitStudy { normal_condition: "normal".into(), trials: study().trials[..3].to_vec() };
         assert_eq!(rates(1).analyse(&only_normal).unwrap_err().kind(), ErrorKind::EmptySequence);
         let t: toml::Value = toml::from_str("min_subjects = 0").unwrap();
-        assert_eq!(build_evaluator("change_rates", &t).err().unwrap().location().field.as_deref(), Some("min_subjects"));
+        assert_eq!(
+            build_evaluator("change_rates", &t).err().unwrap().location().field.as_deref(),
+            Some("min_subjects")
+        );
         let t: toml::Value = toml::from_str("max_abs_cv_pct = -1.0").unwrap();
-        assert_eq!(build_evaluator("change_rates", &t).err().unwrap().location().field.as_deref(), Some("max_abs_cv_pct"));
-        let e = build_evaluator("change_rates", &motionlab_core::registry::default_params()).unwrap();
+        assert_eq!(
+            build_evaluator("change_rates", &t).err().unwrap().location().field.as_deref(),
+            Some("max_abs_cv_pct")
+        );
+        let e =
+            build_evaluator("change_rates", &motionlab_core::registry::default_params()).unwrap();
         assert_eq!(e.input_type(), crate::gait_study());
-        assert_eq!(e.evaluate(EvalInput::new(&Vec::<motionlab_match::MatchingResult>::new())).unwrap_err().kind(), ErrorKind::Mismatch);
+        assert_eq!(
+            e.evaluate(EvalInput::new(&Vec::<motionlab_match::MatchingResult>::new()))
+                .unwrap_err()
+                .kind(),
+            ErrorKind::Mismatch
+        );
     }
 }

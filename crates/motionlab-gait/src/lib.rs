@@ -26,4 +26,6 @@ pub mod stages;
 pub mod study;
 pub mod synthesis;
 
-pub use stages::{build_walk_synthesizer, gait_study, GaitStudy, GaitTrial, WalkChanges, WalkSynthesizer};
+pub use stages::{
+    GaitStudy, GaitTrial, WalkChanges, WalkSynthesizer, build_walk_synthesizer, gait_study,
+};

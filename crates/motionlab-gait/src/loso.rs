@@ -27,13 +27,13 @@
 
 use serde::Serialize;
 
-use motionlab_core::{Error, ErrorKind, Result, Table};
 use crate::{WalkChanges, WalkSynthesizer};
+use motionlab_core::{Error, ErrorKind, Result, Table};
 use motionlab_features::waveform::{cycles_by_side, mean_cycle_between};
 use motionlab_match::dp::dtw_full_1d;
 
 use crate::change_rates::ChangeRates;
-use crate::study::{study_of, SubjectWalk, Walk};
+use crate::study::{SubjectWalk, Walk, study_of};
 use crate::synthesis::speed_factor;
 
 /// One channel of one held-out subject.
@@ -104,17 +104,29 @@ impl LosoResult {
         Ok(vec![
             Table::from_records(
                 "loso_subjects",
-                format!("Leave-one-subject-out: synthesised vs unchanged normal walk against the recorded {} walk, per subject", self.target_condition),
+                format!(
+                    "Leave-one-subject-out: synthesised vs unchanged normal walk against the recorded {} walk, per subject",
+                    self.target_condition
+                ),
                 &subjects,
             )?,
-            Table::from_records("loso_channels", "Leave-one-subject-out errors per subject and channel", &self.channels)?,
-            Table::from_records("loso_channel_means", "Leave-one-subject-out errors per channel, mean over subjects", &self.channel_means)?,
+            Table::from_records(
+                "loso_channels",
+                "Leave-one-subject-out errors per subject and channel",
+                &self.channels,
+            )?,
+            Table::from_records(
+                "loso_channel_means",
+                "Leave-one-subject-out errors per channel, mean over subjects",
+                &self.channel_means,
+            )?,
         ])
     }
 }
 
 fn mean_finite(v: impl IntoIterator<Item = f64>) -> f64 {
-    let (s, n) = v.into_iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    let (s, n) =
+        v.into_iter().filter(|x| x.is_finite()).fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
     if n == 0 { f64::NAN } else { s / n as f64 }
 }
 
@@ -124,7 +136,8 @@ fn side_cycles(values: &[f64], walk: &Walk, scale: f64, points: usize) -> Vec<(S
     cycles_by_side(&walk.cycles)
         .into_iter()
         .filter_map(|(side, group)| {
-            let spans: Vec<(f64, f64)> = group.iter().map(|c| (c.start as f64 / scale, c.end as f64 / scale)).collect();
+            let spans: Vec<(f64, f64)> =
+                group.iter().map(|c| (c.start as f64 / scale, c.end as f64 / scale)).collect();
             mean_cycle_between(values, &spans, points).map(|m| (side.to_string(), m))
         })
         .collect()
@@ -158,7 +171,11 @@ pub fn leave_one_subject_out(
     points: usize,
 ) -> Result<LosoResult> {
     if points < 2 {
-        return Err(Error::new(ErrorKind::OutOfRange, format!("points must be at least 2, found {points}")).with_field("points"));
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("points must be at least 2, found {points}"),
+        )
+        .with_field("points"));
     }
     let mut subjects: Vec<&str> = Vec::new();
     for w in walks {
@@ -176,15 +193,21 @@ pub fn leave_one_subject_out(
             skipped.push(subject.to_string());
             continue;
         };
-        let others: Vec<SubjectWalk> = walks.iter().filter(|w| w.subject != subject).cloned().collect();
+        let others: Vec<SubjectWalk> =
+            walks.iter().filter(|w| w.subject != subject).cloned().collect();
         let analysis = rates.analyse(&study_of(normal, &others)).map_err(|e| {
-            Error::new(e.kind(), format!("estimating change rates without subject {subject:?}: {}", e.message()))
+            Error::new(
+                e.kind(),
+                format!("estimating change rates without subject {subject:?}: {}", e.message()),
+            )
         })?;
         let mut changes = analysis.condition(target)?.walk_changes();
         // A feature channel this subject lacks (NaN parameters: absent markers, no complete
         // cycle) cannot be changed; it is left out of this subject's synthesis.
         let p = &nw.analysed.parameters;
-        let defined = |ch: &String, values: &[f64]| p.channels.iter().position(|c| c == ch).is_some_and(|i| values[i].is_finite());
+        let defined = |ch: &String, values: &[f64]| {
+            p.channels.iter().position(|c| c == ch).is_some_and(|i| values[i].is_finite())
+        };
         changes.dc_percent.retain(|ch, _| defined(ch, &p.dc));
         changes.amplitude_percent.retain(|ch, _| defined(ch, &p.amplitude));
         let s = speed_factor(&changes)?;
@@ -203,7 +226,10 @@ pub fn leave_one_subject_out(
             if !(rms_synth_deg.is_finite() && rms_normal_deg.is_finite()) {
                 continue;
             }
-            let controlled = match (changes.dc_percent.contains_key(name), changes.amplitude_percent.contains_key(name)) {
+            let controlled = match (
+                changes.dc_percent.contains_key(name),
+                changes.amplitude_percent.contains_key(name),
+            ) {
                 (true, true) => "dc+amplitude",
                 (true, false) => "dc",
                 (false, true) => "amplitude",
@@ -219,7 +245,8 @@ pub fn leave_one_subject_out(
                 dtw_normal_deg,
             });
         }
-        let controlled: Vec<&LosoChannelRecord> = records.iter().filter(|r| r.controlled != "none").collect();
+        let controlled: Vec<&LosoChannelRecord> =
+            records.iter().filter(|r| r.controlled != "none").collect();
         per_subject.push(LosoSubjectRecord {
             subject: subject.to_string(),
             n_channels: records.len(),
@@ -240,7 +267,9 @@ pub fn leave_one_subject_out(
     if per_subject.is_empty() {
         return Err(Error::new(
             ErrorKind::EmptySequence,
-            format!("no subject has walks in both {normal:?} and {target:?}; leave-one-subject-out needs at least one"),
+            format!(
+                "no subject has walks in both {normal:?} and {target:?}; leave-one-subject-out needs at least one"
+            ),
         ));
     }
     let avg = |f: fn(&LosoSubjectRecord) -> f64| mean_finite(per_subject.iter().map(f));
@@ -267,7 +296,8 @@ pub fn leave_one_subject_out(
     let channel_means = channel_names
         .iter()
         .map(|name| {
-            let rs: Vec<&LosoChannelRecord> = channels.iter().filter(|r| r.channel == *name).collect();
+            let rs: Vec<&LosoChannelRecord> =
+                channels.iter().filter(|r| r.channel == *name).collect();
             LosoChannelMean {
                 channel: name.to_string(),
                 n_subjects: rs.len(),
@@ -279,7 +309,15 @@ pub fn leave_one_subject_out(
             }
         })
         .collect();
-    Ok(LosoResult { target_condition: target.to_string(), channels, subjects: per_subject, channel_means, mean, changes: used_changes, skipped })
+    Ok(LosoResult {
+        target_condition: target.to_string(),
+        channels,
+        subjects: per_subject,
+        channel_means,
+        mean,
+        changes: used_changes,
+        skipped,
+    })
 }
 
 #[cfg(test)]
@@ -288,22 +326,38 @@ mod tests {
     use crate::change_rates::ChangeRatesParams;
     use crate::study::AnalysedWalk;
     use crate::synthesis::FeatureChannelControl;
-    use motionlab_core::registry::ParamGuard;
     use motionlab_core::FrameRate;
-    use motionlab_features::{AngleCurves, GaitCycle, WaveformAnalyzer};
+    use motionlab_core::registry::ParamGuard;
     use motionlab_features::waveform::WaveformParametersParams;
+    use motionlab_features::{AngleCurves, GaitCycle, WaveformAnalyzer};
     use std::f64::consts::TAU;
 
     /// A two-channel walk: `knee` with DC `dc` and amplitude `amp`, `hip` a fixed waveform,
     /// `period` frames per cycle, three left cycles.
     fn walk(subject: &str, condition: &str, dc: f64, amp: f64, period: usize) -> SubjectWalk {
         let n = 3 * period + 5;
-        let knee: Vec<f64> = (0..n).map(|i| dc + amp * (TAU * i as f64 / period as f64).sin()).collect();
-        let hip: Vec<f64> = (0..n).map(|i| 10.0 + 20.0 * (TAU * i as f64 / period as f64).cos()).collect();
-        let curves = AngleCurves { frame_rate: FrameRate::new(100.0).unwrap(), channels: vec!["knee".into(), "hip".into()], values: vec![knee, hip] };
-        let cycles: Vec<GaitCycle> = (0..3).map(|k| GaitCycle { start: k * period, end: (k + 1) * period, side: "Left".into() }).collect();
-        let parameters = WaveformParametersParams::default().check().unwrap().parameters(&curves, &cycles).unwrap();
-        SubjectWalk { subject: subject.into(), condition: condition.into(), analysed: AnalysedWalk { walk: Walk { curves, cycles }, parameters } }
+        let knee: Vec<f64> =
+            (0..n).map(|i| dc + amp * (TAU * i as f64 / period as f64).sin()).collect();
+        let hip: Vec<f64> =
+            (0..n).map(|i| 10.0 + 20.0 * (TAU * i as f64 / period as f64).cos()).collect();
+        let curves = AngleCurves {
+            frame_rate: FrameRate::new(100.0).unwrap(),
+            channels: vec!["knee".into(), "hip".into()],
+            values: vec![knee, hip],
+        };
+        let cycles: Vec<GaitCycle> = (0..3)
+            .map(|k| GaitCycle { start: k * period, end: (k + 1) * period, side: "Left".into() })
+            .collect();
+        let parameters = WaveformParametersParams::default()
+            .check()
+            .unwrap()
+            .parameters(&curves, &cycles)
+            .unwrap();
+        SubjectWalk {
+            subject: subject.into(),
+            condition: condition.into(),
+            analysed: AnalysedWalk { walk: Walk { curves, cycles }, parameters },
+        }
     }
 
     #[test]
@@ -318,7 +372,15 @@ mod tests {
             walks.push(walk(s, "fast", dc * 1.2, amp * 0.8, 96));
         }
         let rates = ChangeRatesParams::default().check().unwrap();
-        let r = leave_one_subject_out(&walks, "normal", "fast", &rates, &FeatureChannelControl::default(), 101).unwrap();
+        let r = leave_one_subject_out(
+            &walks,
+            "normal",
+            "fast",
+            &rates,
+            &FeatureChannelControl::default(),
+            101,
+        )
+        .unwrap();
         assert_eq!(r.subjects.len(), 6);
         for (subject, c) in &r.changes {
             assert!((c.dc_percent["knee"] - 20.0).abs() < 1e-9, "{subject}");
@@ -329,7 +391,10 @@ mod tests {
             assert_eq!(rec.controlled, "dc+amplitude");
             assert!(rec.rms_synth_deg < 0.05, "{rec:?}");
             assert!(rec.rms_normal_deg > 3.0, "{rec:?}");
-            assert!(rec.dtw_synth_deg <= rec.rms_synth_deg + 1e-12 && rec.dtw_normal_deg > 1.0, "{rec:?}");
+            assert!(
+                rec.dtw_synth_deg <= rec.rms_synth_deg + 1e-12 && rec.dtw_normal_deg > 1.0,
+                "{rec:?}"
+            );
         }
         // The hip never changes: both errors are only the time normalisation's interpolation.
         for rec in r.channels.iter().filter(|c| c.channel == "hip") {
@@ -352,8 +417,17 @@ mod tests {
         }
         walks.push(walk("x", "normal", 20.0, 30.0, 100));
         walks.push(walk("x", "fast", 40.0, 30.0, 100));
-        let rates = ChangeRatesParams { max_abs_cv_pct: 1000.0, ..Default::default() }.check().unwrap();
-        let r = leave_one_subject_out(&walks, "normal", "fast", &rates, &FeatureChannelControl::default(), 101).unwrap();
+        let rates =
+            ChangeRatesParams { max_abs_cv_pct: 1000.0, ..Default::default() }.check().unwrap();
+        let r = leave_one_subject_out(
+            &walks,
+            "normal",
+            "fast",
+            &rates,
+            &FeatureChannelControl::default(),
+            101,
+        )
+        .unwrap();
         let x = &r.changes.iter().find(|(s, _)| s == "x").unwrap().1;
         assert!((x.dc_percent["knee"] - 10.0).abs() < 1e-9);
         let a = &r.changes.iter().find(|(s, _)| s == "a").unwrap().1;
@@ -364,7 +438,15 @@ mod tests {
     fn subjects_missing_a_condition_are_skipped_and_none_left_is_an_error() {
         let walks = vec![walk("a", "normal", 20.0, 30.0, 100), walk("b", "fast", 20.0, 30.0, 100)];
         let rates = ChangeRatesParams { min_subjects: 1, ..Default::default() }.check().unwrap();
-        let e = leave_one_subject_out(&walks, "normal", "fast", &rates, &FeatureChannelControl::default(), 101).unwrap_err();
+        let e = leave_one_subject_out(
+            &walks,
+            "normal",
+            "fast",
+            &rates,
+            &FeatureChannelControl::default(),
+            101,
+        )
+        .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::EmptySequence);
     }
 }

@@ -14,7 +14,11 @@ use motionlab_core::registry::build_custom;
 use motionlab_core::{EvalInputType, Result};
 use motionlab_features::gait_stages::{AngleCurves, GaitCycle, WaveformParameters};
 
-motionlab_core::declare_stage_kind!("walk_synthesizer", label = "walk synthesizer", list_order = 56);
+motionlab_core::declare_stage_kind!(
+    "walk_synthesizer",
+    label = "walk synthesizer",
+    list_order = 56
+);
 
 /// Change rates to apply to a walk: only the listed channels change (Osafune et al. §4).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -44,11 +48,19 @@ pub struct GaitStudy {
 
 /// Produces a changed walk from a recorded one.
 pub trait WalkSynthesizer: Send + Sync {
-    fn synthesize(&self, walk: &AngleCurves, cycles: &[GaitCycle], changes: &WalkChanges) -> Result<AngleCurves>;
+    fn synthesize(
+        &self,
+        walk: &AngleCurves,
+        cycles: &[GaitCycle],
+        changes: &WalkChanges,
+    ) -> Result<AngleCurves>;
 }
 
 /// Builds a walk synthesizer by name from its TOML table (without the `type` key).
-pub fn build_walk_synthesizer(name: &str, params: &motionlab_core::toml::Value) -> Result<Box<dyn WalkSynthesizer>> {
+pub fn build_walk_synthesizer(
+    name: &str,
+    params: &motionlab_core::toml::Value,
+) -> Result<Box<dyn WalkSynthesizer>> {
     build_custom::<dyn WalkSynthesizer>("walk_synthesizer", name, params)
 }
 
@@ -61,7 +73,13 @@ impl GaitTrial {
     /// A hand-made trial with two channels, `knee_l.flexion` and `hip_l.rotation`, with the
     /// given DC and amplitude (degrees) of each and the gait frequency (Hz): hand-made studies
     /// for the change-rate tests.
-    pub fn hand_made(subject: &str, condition: &str, dc: [f64; 2], amplitude: [f64; 2], frequency_hz: f64) -> GaitTrial {
+    pub fn hand_made(
+        subject: &str,
+        condition: &str,
+        dc: [f64; 2],
+        amplitude: [f64; 2],
+        frequency_hz: f64,
+    ) -> GaitTrial {
         GaitTrial {
             subject: subject.into(),
             condition: condition.into(),

@@ -1,10 +1,12 @@
 //! One walk through the analysis stages: angles → gait cycles → waveform parameters, and the
 //! gait study assembled from many such walks (what an experiment workflow runs per file).
 
-use motionlab_core::{FeatureCache, FeatureExtractor, Motion, Result};
-use motionlab_features::{AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters};
 use crate::{GaitStudy, GaitTrial};
+use motionlab_core::{FeatureCache, FeatureExtractor, Motion, Result};
 use motionlab_features::joint_angles::angle_curves_from_features;
+use motionlab_features::{
+    AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters,
+};
 
 /// A walk's angle curves and its gait cycles.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +52,11 @@ pub fn study_of(normal_condition: &str, walks: &[SubjectWalk]) -> GaitStudy {
         normal_condition: normal_condition.to_string(),
         trials: walks
             .iter()
-            .map(|w| GaitTrial { subject: w.subject.clone(), condition: w.condition.clone(), parameters: w.analysed.parameters.clone() })
+            .map(|w| GaitTrial {
+                subject: w.subject.clone(),
+                condition: w.condition.clone(),
+                parameters: w.analysed.parameters.clone(),
+            })
             .collect(),
     }
 }

@@ -11,11 +11,11 @@ use std::collections::BTreeMap;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::{WalkChanges, WalkSynthesizer};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{ChannelKind, Error, ErrorKind, FrameRate, Result, Skeleton, SkeletonMotion};
-use motionlab_features::{AngleCurves, GaitCycle};
-use crate::{WalkChanges, WalkSynthesizer};
 use motionlab_features::waveform::{channel_dc, check_cycles};
+use motionlab_features::{AngleCurves, GaitCycle};
 
 /// How the walk is resampled in time.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
@@ -77,13 +77,24 @@ impl ParamGuard for FeatureChannelControlParams {
         let mut targets = std::collections::HashSet::new();
         for (from, to) in &self.channel_map {
             if from.trim().is_empty() || to.trim().is_empty() {
-                return Err(Error::new(ErrorKind::InvalidParameter, "channel names must not be empty").with_field(format!("channel_map.{from}")));
+                return Err(Error::new(
+                    ErrorKind::InvalidParameter,
+                    "channel names must not be empty",
+                )
+                .with_field(format!("channel_map.{from}")));
             }
             if !targets.insert(to.as_str()) {
-                return Err(Error::new(ErrorKind::InvalidParameter, format!("two channels map to {to:?}")).with_field(format!("channel_map.{from}")));
+                return Err(Error::new(
+                    ErrorKind::InvalidParameter,
+                    format!("two channels map to {to:?}"),
+                )
+                .with_field(format!("channel_map.{from}")));
             }
         }
-        Ok(FeatureChannelControl { interpolation: self.interpolation, channel_map: self.channel_map })
+        Ok(FeatureChannelControl {
+            interpolation: self.interpolation,
+            channel_map: self.channel_map,
+        })
     }
 }
 
@@ -103,8 +114,11 @@ fn factor(field: &str, channel: &str, pct: f64) -> Result<f64> {
     if pct.is_finite() && f > 0.0 {
         Ok(f)
     } else {
-        Err(Error::new(ErrorKind::OutOfRange, format!("a change of {pct} % would make the factor 1 + μ/100 = {f}; it must be > 0"))
-            .with_field(format!("{field}.{channel}")))
+        Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("a change of {pct} % would make the factor 1 + μ/100 = {f}; it must be > 0"),
+        )
+        .with_field(format!("{field}.{channel}")))
     }
 }
 
@@ -179,7 +193,11 @@ pub fn resample(x: &[f64], s: f64, interpolation: Interpolation) -> Vec<f64> {
 fn walk_dc(values: &[f64], cycles: &[GaitCycle]) -> f64 {
     if cycles.is_empty() {
         let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
-        return if finite.is_empty() { f64::NAN } else { finite.iter().sum::<f64>() / finite.len() as f64 };
+        return if finite.is_empty() {
+            f64::NAN
+        } else {
+            finite.iter().sum::<f64>() / finite.len() as f64
+        };
     }
     channel_dc(values, cycles)
 }
@@ -187,7 +205,11 @@ fn walk_dc(values: &[f64], cycles: &[GaitCycle]) -> f64 {
 impl FeatureChannelControl {
     /// Which walk channels change and by what factors; fails on an unknown channel (without a
     /// map) or a factor ≤ 0.
-    pub fn plan(&self, walk_channels: &[String], changes: &WalkChanges) -> Result<Vec<AppliedChange>> {
+    pub fn plan(
+        &self,
+        walk_channels: &[String],
+        changes: &WalkChanges,
+    ) -> Result<Vec<AppliedChange>> {
         let mut planned: BTreeMap<String, AppliedChange> = BTreeMap::new();
         let listed = changes.dc_percent.keys().chain(changes.amplitude_percent.keys());
         for source in listed {
@@ -200,9 +222,20 @@ impl FeatureChannelControl {
                 }
             };
             if !walk_channels.contains(&target) {
-                let what = if self.channel_map.is_empty() { "changed channel" } else { "channel_map target" };
-                return Err(Error::new(ErrorKind::UnknownName, format!("{what} {target:?} is not a channel of the walk"))
-                    .with_field(if self.channel_map.is_empty() { target.clone() } else { format!("channel_map.{source}") }));
+                let what = if self.channel_map.is_empty() {
+                    "changed channel"
+                } else {
+                    "channel_map target"
+                };
+                return Err(Error::new(
+                    ErrorKind::UnknownName,
+                    format!("{what} {target:?} is not a channel of the walk"),
+                )
+                .with_field(if self.channel_map.is_empty() {
+                    target.clone()
+                } else {
+                    format!("channel_map.{source}")
+                }));
             }
             if planned.contains_key(&target) {
                 continue;
@@ -223,7 +256,13 @@ impl FeatureChannelControl {
     }
 
     /// Applies the DC/amplitude change (if any) and the time factor to one channel.
-    fn channel(&self, values: &[f64], change: Option<&AppliedChange>, cycles: &[GaitCycle], s: f64) -> Result<Vec<f64>> {
+    fn channel(
+        &self,
+        values: &[f64],
+        change: Option<&AppliedChange>,
+        cycles: &[GaitCycle],
+        s: f64,
+    ) -> Result<Vec<f64>> {
         let unwrapped = unwrap_degrees(values);
         let x = unwrapped.as_deref().unwrap_or(values);
         let changed: Option<Vec<f64>> = match change {
@@ -278,19 +317,28 @@ impl FeatureChannelControl {
             columns.push(column);
         }
         let n_out = columns.first().map(Vec::len).unwrap_or(0);
-        let frame_major: Vec<f64> = (0..n_out).flat_map(|f| columns.iter().map(move |c| c[f])).collect();
+        let frame_major: Vec<f64> =
+            (0..n_out).flat_map(|f| columns.iter().map(move |c| c[f])).collect();
         SkeletonMotion::new(motion.skeleton.clone(), frame_major)
     }
 }
 
 impl WalkSynthesizer for FeatureChannelControl {
-    fn synthesize(&self, walk: &AngleCurves, cycles: &[GaitCycle], changes: &WalkChanges) -> Result<AngleCurves> {
+    fn synthesize(
+        &self,
+        walk: &AngleCurves,
+        cycles: &[GaitCycle],
+        changes: &WalkChanges,
+    ) -> Result<AngleCurves> {
         let n = walk.n_frames();
         if n == 0 {
             return Err(Error::new(ErrorKind::EmptySequence, "the walk to change has no frames"));
         }
         if let Some((c, v)) = walk.channels.iter().zip(&walk.values).find(|(_, v)| v.len() != n) {
-            return Err(Error::new(ErrorKind::WrongValueCount, format!("channel {c:?} has {} frames, the first channel {n}", v.len())));
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!("channel {c:?} has {} frames, the first channel {n}", v.len()),
+            ));
         }
         if !cycles.is_empty() {
             check_cycles(cycles, n)?;
@@ -307,14 +355,23 @@ impl WalkSynthesizer for FeatureChannelControl {
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::WalkSynthesizer, FeatureChannelControlParams, "feature_channel_control", kind = "walk_synthesizer");
+motionlab_core::register_custom_plugin!(
+    crate::WalkSynthesizer,
+    FeatureChannelControlParams,
+    "feature_channel_control",
+    kind = "walk_synthesizer"
+);
 
 /// Every channel of a skeleton in BVH spelling, with whether it is a rotation.
 fn bvh_channel_names(skeleton: &Skeleton) -> Vec<(String, bool)> {
     skeleton
         .joints
         .iter()
-        .flat_map(|j| j.channels.iter().map(move |c| (format!("{}.{}", j.name, c.bvh_name()), matches!(c, ChannelKind::Rotation(_)))))
+        .flat_map(|j| {
+            j.channels.iter().map(move |c| {
+                (format!("{}.{}", j.name, c.bvh_name()), matches!(c, ChannelKind::Rotation(_)))
+            })
+        })
         .collect()
 }
 
@@ -335,16 +392,26 @@ mod tests {
 
     fn walk(period: usize, cycles: usize, rate: f64) -> AngleCurves {
         let n = period * cycles + 1;
-        let ch = |dc: f64, a: f64, phase: f64| (0..n).map(|i| dc + a * (TAU * i as f64 / period as f64 + phase).sin()).collect::<Vec<_>>();
+        let ch = |dc: f64, a: f64, phase: f64| {
+            (0..n)
+                .map(|i| dc + a * (TAU * i as f64 / period as f64 + phase).sin())
+                .collect::<Vec<_>>()
+        };
         AngleCurves {
             frame_rate: FrameRate::new(rate).unwrap(),
-            channels: vec!["knee_l.flexion".into(), "hip_l.flexion".into(), "pelvis.rotation".into()],
+            channels: vec![
+                "knee_l.flexion".into(),
+                "hip_l.flexion".into(),
+                "pelvis.rotation".into(),
+            ],
             values: vec![ch(20.0, 30.0, 0.0), ch(10.0, 25.0, 1.0), ch(-3.0, 4.0, 2.0)],
         }
     }
 
     fn cycles(period: usize, count: usize) -> Vec<GaitCycle> {
-        (0..count).map(|k| GaitCycle { start: k * period, end: (k + 1) * period, side: "Left".into() }).collect()
+        (0..count)
+            .map(|k| GaitCycle { start: k * period, end: (k + 1) * period, side: "Left".into() })
+            .collect()
     }
 
     fn changes(dc: &[(&str, f64)], amplitude: &[(&str, f64)], f: f64) -> WalkChanges {
@@ -360,9 +427,14 @@ mod tests {
         let mut w = walk(100, 3, 100.0);
         // A wrapping channel and a missing sample must survive too.
         w.channels.push("Hips.Yrotation".into());
-        w.values.push((0..301).map(|i| ((i as f64 * 3.0 + 170.0 + 180.0) % 360.0) - 180.0).collect());
+        w.values
+            .push((0..301).map(|i| ((i as f64 * 3.0 + 170.0 + 180.0) % 360.0) - 180.0).collect());
         w.values[1][7] = f64::NAN;
-        let z = changes(&[("knee_l.flexion", 0.0), ("Hips.Yrotation", 0.0)], &[("hip_l.flexion", 0.0)], 0.0);
+        let z = changes(
+            &[("knee_l.flexion", 0.0), ("Hips.Yrotation", 0.0)],
+            &[("hip_l.flexion", 0.0)],
+            0.0,
+        );
         for interpolation in [Interpolation::Linear, Interpolation::Cubic] {
             let stage = FeatureChannelControl { interpolation, ..Default::default() };
             let out = stage.synthesize(&w, &cycles(100, 3), &z).unwrap();
@@ -381,7 +453,11 @@ mod tests {
         // 120 frames per cycle at 120 Hz; +100 % frequency → 60 frames per cycle, every output
         // frame an input frame, so the measured rates are exact.
         let w = walk(120, 3, 120.0);
-        let c = changes(&[("knee_l.flexion", 25.0)], &[("knee_l.flexion", -40.0), ("hip_l.flexion", 10.0)], 100.0);
+        let c = changes(
+            &[("knee_l.flexion", 25.0)],
+            &[("knee_l.flexion", -40.0), ("hip_l.flexion", 10.0)],
+            100.0,
+        );
         let out = FeatureChannelControl::default().synthesize(&w, &cycles(120, 3), &c).unwrap();
         assert_eq!(out.n_frames(), 181);
         let rate = |a: f64, b: f64| (b - a) / a * 100.0;
@@ -389,12 +465,20 @@ mod tests {
             let analyzer = WaveformParametersParams { amplitude: def, points: 61 }.check().unwrap();
             let before = analyzer.parameters(&w, &cycles(120, 3)).unwrap();
             let after = analyzer.parameters(&out, &cycles(60, 3)).unwrap();
-            assert!((rate(before.dc[0], after.dc[0]) - 25.0).abs() < 1e-9, "{def:?} {} -> {}", before.dc[0], after.dc[0]);
+            assert!(
+                (rate(before.dc[0], after.dc[0]) - 25.0).abs() < 1e-9,
+                "{def:?} {} -> {}",
+                before.dc[0],
+                after.dc[0]
+            );
             assert!((rate(before.amplitude[0], after.amplitude[0]) + 40.0).abs() < 1e-9, "{def:?}");
             assert!(rate(before.dc[1], after.dc[1]).abs() < 1e-9);
             assert!((rate(before.amplitude[1], after.amplitude[1]) - 10.0).abs() < 1e-9);
             // The unlisted channel is only resampled.
-            assert!((after.dc[2] - before.dc[2]).abs() < 1e-12 && (after.amplitude[2] - before.amplitude[2]).abs() < 1e-12);
+            assert!(
+                (after.dc[2] - before.dc[2]).abs() < 1e-12
+                    && (after.amplitude[2] - before.amplitude[2]).abs() < 1e-12
+            );
             assert!((rate(before.frequency_hz, after.frequency_hz) - 100.0).abs() < 1e-12);
         }
         // A non-integer factor (+50 %) keeps the DC exact (linear interpolation of a full period
@@ -410,7 +494,10 @@ mod tests {
     fn resampling_hits_input_frames_and_interpolates_between() {
         let x = [0.0, 10.0, 20.0, 30.0, 40.0];
         assert_eq!(resample(&x, 2.0, Interpolation::Linear), vec![0.0, 20.0, 40.0]);
-        assert_eq!(resample(&x, 0.5, Interpolation::Linear), vec![0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0]);
+        assert_eq!(
+            resample(&x, 0.5, Interpolation::Linear),
+            vec![0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0]
+        );
         // Catmull–Rom reproduces a straight line (away from the clamped ends) and a cubic's samples.
         let c = resample(&x, 0.5, Interpolation::Cubic);
         assert!((c[3] - 15.0).abs() < 1e-12 && (c[5] - 25.0).abs() < 1e-12);
@@ -418,8 +505,14 @@ mod tests {
 
     #[test]
     fn wrapped_angles_are_interpolated_the_short_way() {
-        let w = AngleCurves { frame_rate: FrameRate::new(10.0).unwrap(), channels: vec!["yaw".into()], values: vec![vec![170.0, 178.0, -174.0, -166.0]] };
-        let out = FeatureChannelControl::default().synthesize(&w, &[], &changes(&[], &[], -50.0)).unwrap();
+        let w = AngleCurves {
+            frame_rate: FrameRate::new(10.0).unwrap(),
+            channels: vec!["yaw".into()],
+            values: vec![vec![170.0, 178.0, -174.0, -166.0]],
+        };
+        let out = FeatureChannelControl::default()
+            .synthesize(&w, &[], &changes(&[], &[], -50.0))
+            .unwrap();
         // s = 0.5: midpoints. 178 → −174 crosses ±180 by 8°: the midpoint is −178, not 2.
         assert_eq!(out.values[0].len(), 7);
         assert!((out.values[0][3] + 178.0).abs() < 1e-12, "{:?}", out.values[0]);
@@ -429,16 +522,27 @@ mod tests {
     fn maps_select_channels_and_bad_changes_are_errors() {
         let w = walk(100, 2, 100.0);
         let stage = FeatureChannelControl::default();
-        let e = stage.synthesize(&w, &cycles(100, 2), &changes(&[("ankle_l.flexion", 5.0)], &[], 0.0)).unwrap_err();
+        let e = stage
+            .synthesize(&w, &cycles(100, 2), &changes(&[("ankle_l.flexion", 5.0)], &[], 0.0))
+            .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
-        let e = stage.synthesize(&w, &cycles(100, 2), &changes(&[], &[("knee_l.flexion", -100.0)], 0.0)).unwrap_err();
+        let e = stage
+            .synthesize(&w, &cycles(100, 2), &changes(&[], &[("knee_l.flexion", -100.0)], 0.0))
+            .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::OutOfRange);
         assert_eq!(e.location().field.as_deref(), Some("amplitude_percent.knee_l.flexion"));
         assert!(stage.synthesize(&w, &cycles(100, 2), &changes(&[], &[], -100.0)).is_err());
         // With a map, only mapped channels change; unmapped changes are dropped.
-        let t: toml::Value = toml::from_str("[channel_map]\n\"knee_marker\" = \"knee_l.flexion\"").unwrap();
+        let t: toml::Value =
+            toml::from_str("[channel_map]\n\"knee_marker\" = \"knee_l.flexion\"").unwrap();
         let mapped = build_walk_synthesizer("feature_channel_control", &t).unwrap();
-        let out = mapped.synthesize(&w, &cycles(100, 2), &changes(&[("knee_marker", 10.0), ("elsewhere", 50.0)], &[], 0.0)).unwrap();
+        let out = mapped
+            .synthesize(
+                &w,
+                &cycles(100, 2),
+                &changes(&[("knee_marker", 10.0), ("elsewhere", 50.0)], &[], 0.0),
+            )
+            .unwrap();
         assert!((out.values[0][0] - (w.values[0][0] + 0.1 * 20.0)).abs() < 1e-9); // DC 20 → 22
         assert_eq!(out.values[1], w.values[1]);
         let t: toml::Value = toml::from_str("[channel_map]\na = \"x\"\nb = \"x\"").unwrap();
@@ -448,14 +552,41 @@ mod tests {
     #[test]
     fn skeleton_motion_is_changed_and_resampled() {
         use motionlab_core::ChannelKind::{Rotation, Translation};
-        let root = Joint::new("Hips", None, [0.0; 3], vec![Translation(Axis::X), Translation(Axis::Y), Translation(Axis::Z), Rotation(Axis::Z), Rotation(Axis::X), Rotation(Axis::Y)]);
-        let knee = Joint::new("LeftLeg", Some(0), [0.0, -400.0, 0.0], vec![Rotation(Axis::Z), Rotation(Axis::X), Rotation(Axis::Y)]);
+        let root = Joint::new(
+            "Hips",
+            None,
+            [0.0; 3],
+            vec![
+                Translation(Axis::X),
+                Translation(Axis::Y),
+                Translation(Axis::Z),
+                Rotation(Axis::Z),
+                Rotation(Axis::X),
+                Rotation(Axis::Y),
+            ],
+        );
+        let knee = Joint::new(
+            "LeftLeg",
+            Some(0),
+            [0.0, -400.0, 0.0],
+            vec![Rotation(Axis::Z), Rotation(Axis::X), Rotation(Axis::Y)],
+        );
         let skeleton = motionlab_core::Skeleton { joints: vec![root, knee] };
         let n = 201;
         let values: Vec<f64> = (0..n)
             .flat_map(|i| {
                 let t = i as f64;
-                [10.0 * t, 900.0, 0.0, 0.0, 0.0, 0.0, 0.0, 20.0 + 30.0 * (TAU * t / 100.0).sin(), 0.0]
+                [
+                    10.0 * t,
+                    900.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    20.0 + 30.0 * (TAU * t / 100.0).sin(),
+                    0.0,
+                ]
             })
             .collect();
         let sk = SkeletonMotion::new(skeleton, values).unwrap();
@@ -466,7 +597,12 @@ mod tests {
         .check()
         .unwrap();
         let out = stage
-            .synthesize_skeleton(&sk, FrameRate::new(100.0).unwrap(), &cycles(100, 2), &changes(&[("knee_l.flexion", 50.0)], &[], 100.0))
+            .synthesize_skeleton(
+                &sk,
+                FrameRate::new(100.0).unwrap(),
+                &cycles(100, 2),
+                &changes(&[("knee_l.flexion", 50.0)], &[], 100.0),
+            )
             .unwrap();
         assert_eq!(out.n_frames(), 101);
         // Root x advances 20 mm per output frame (twice as fast); the knee's DC moved 20 → 30.

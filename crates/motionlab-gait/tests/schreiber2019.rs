@@ -5,17 +5,17 @@
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use motionlab_core::registry::ParamGuard;
 use motionlab_core::Motion;
-use motionlab_features::{AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer};
+use motionlab_core::registry::ParamGuard;
 use motionlab_features::gait_cycles::{C3dEventsParams, HeelHeightParams};
 use motionlab_features::joint_angles::{AbsentMarkers, IsbJointAnglesParams};
 use motionlab_features::waveform::WaveformParametersParams;
+use motionlab_features::{AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer};
 use motionlab_gait::change_rates::{ChangeRatesParams, Component};
 use motionlab_gait::loso::leave_one_subject_out;
-use motionlab_gait::study::{study_of, AnalysedWalk, SubjectWalk, Walk};
+use motionlab_gait::study::{AnalysedWalk, SubjectWalk, Walk, study_of};
 use motionlab_gait::synthesis::FeatureChannelControl;
-use motionlab_io::c3d::{parse_c3d, C3dOptions};
+use motionlab_io::c3d::{C3dOptions, parse_c3d};
 
 struct Trial {
     file: String,
@@ -40,15 +40,20 @@ fn trials() -> &'static [Trial] {
         paths.sort();
         // Two subjects were recorded without the medial knee and ankle markers: their hip, knee
         // and ankle channels are NaN (and excluded, flagged, from the change rates).
-        let angles = IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }.check().unwrap();
+        let angles =
+            IsbJointAnglesParams { absent_markers: AbsentMarkers::Nan, ..Default::default() }
+                .check()
+                .unwrap();
         paths
             .iter()
             .map(|p| {
                 let bytes = motionlab_io::read::read_bytes(p).unwrap();
                 let motion = parse_c3d(&bytes, p, &C3dOptions::default()).unwrap();
-                let file = p.file_name().unwrap().to_string_lossy().trim_end_matches(".gz").to_string();
+                let file =
+                    p.file_name().unwrap().to_string_lossy().trim_end_matches(".gz").to_string();
                 let mut parts = file.split('_');
-                let (subject, condition) = (parts.next().unwrap().to_string(), parts.next().unwrap().to_string());
+                let (subject, condition) =
+                    (parts.next().unwrap().to_string(), parts.next().unwrap().to_string());
                 let events = C3dEventsParams::default().cycles(&motion).unwrap();
                 let curves = angles.angle_curves(&motion).unwrap();
                 Trial { file, subject, condition, motion, events, curves }
@@ -59,7 +64,8 @@ fn trials() -> &'static [Trial] {
 
 /// `file -> (strideL, strideR)` in seconds, parsed from SOURCE.txt.
 fn source_strides() -> Vec<(String, f64, f64, f64)> {
-    let text = std::fs::read_to_string(motionlab_testkit::data_path("schreiber2019/SOURCE.txt")).unwrap();
+    let text =
+        std::fs::read_to_string(motionlab_testkit::data_path("schreiber2019/SOURCE.txt")).unwrap();
     text.lines()
         .filter_map(|l| {
             let mut it = l.split_whitespace();
@@ -67,7 +73,9 @@ fn source_strides() -> Vec<(String, f64, f64, f64)> {
             if !file.ends_with(".c3d") {
                 return None;
             }
-            let num = |s: &str, key: &str| s.strip_prefix(key).map(|v| v.trim_end_matches('s').parse::<f64>().unwrap());
+            let num = |s: &str, key: &str| {
+                s.strip_prefix(key).map(|v| v.trim_end_matches('s').parse::<f64>().unwrap())
+            };
             let l = num(it.next()?, "strideL=")?;
             let r = num(it.next()?, "strideR=")?;
             let cadence = num(it.next()?, "cadence=")?;
@@ -83,13 +91,20 @@ fn event_cycles_match_the_stride_times_in_source_txt() {
     assert_eq!(trials().len(), 36);
     let mut checked = 0;
     for t in trials() {
-        let (_, l, r, _) = strides.iter().find(|s| s.0 == t.file).unwrap_or_else(|| panic!("{} not in SOURCE.txt", t.file));
+        let (_, l, r, _) = strides
+            .iter()
+            .find(|s| s.0 == t.file)
+            .unwrap_or_else(|| panic!("{} not in SOURCE.txt", t.file));
         for (side, listed) in [("Left", l), ("Right", r)] {
             let cycles: Vec<&GaitCycle> = t.events.iter().filter(|c| c.side == side).collect();
             assert_eq!(cycles.len(), 1, "{} {side}: {cycles:?}", t.file);
             let frames = (cycles[0].end - cycles[0].start) as f64;
             let listed_frames = listed * t.motion.frame_rate().hz();
-            assert!((frames - listed_frames).abs() <= 1.0, "{} {side}: {frames} frames vs {listed} s", t.file);
+            assert!(
+                (frames - listed_frames).abs() <= 1.0,
+                "{} {side}: {frames} frames vs {listed} s",
+                t.file
+            );
             checked += 1;
         }
     }
@@ -99,24 +114,36 @@ fn event_cycles_match_the_stride_times_in_source_txt() {
 #[test]
 fn heel_detector_agrees_with_the_events() {
     let heel = HeelHeightParams::default().check().unwrap();
-    let (mut strikes, mut within1, mut within2, mut within3, mut cycles_found, mut durations_within2) = (0, 0, 0, 0, 0, 0);
+    let (
+        mut strikes,
+        mut within1,
+        mut within2,
+        mut within3,
+        mut cycles_found,
+        mut durations_within2,
+    ) = (0, 0, 0, 0, 0, 0);
     let mut offsets = Vec::new();
     let mut worst_duration = 0usize;
     for t in trials() {
         let found = heel.cycles(&t.motion).unwrap();
         for e in &t.events {
             // Both strikes of each event cycle against the heel detector's strikes of that foot.
-            let heel_strikes: Vec<usize> = found.iter().filter(|c| c.side == e.side).flat_map(|c| [c.start, c.end]).collect();
+            let heel_strikes: Vec<usize> =
+                found.iter().filter(|c| c.side == e.side).flat_map(|c| [c.start, c.end]).collect();
             for s in [e.start, e.end] {
                 strikes += 1;
-                if let Some(d) = heel_strikes.iter().map(|h| *h as i64 - s as i64).min_by_key(|d| d.abs()) {
+                if let Some(d) =
+                    heel_strikes.iter().map(|h| *h as i64 - s as i64).min_by_key(|d| d.abs())
+                {
                     offsets.push(d);
                     within1 += usize::from(d.abs() <= 1);
                     within2 += usize::from(d.abs() <= 2);
                     within3 += usize::from(d.abs() <= 3);
                 }
             }
-            if let Some(h) = found.iter().find(|h| h.side == e.side && h.start.abs_diff(e.start) <= 5) {
+            if let Some(h) =
+                found.iter().find(|h| h.side == e.side && h.start.abs_diff(e.start) <= 5)
+            {
                 cycles_found += 1;
                 let dd = (h.end - h.start).abs_diff(e.end - e.start);
                 worst_duration = worst_duration.max(dd);
@@ -133,7 +160,10 @@ fn heel_detector_agrees_with_the_events() {
     assert_eq!(strikes, 144);
     assert!(within2 >= 120, "{within2}");
     assert!(median.abs() <= 1);
-    assert!(cycles_found >= 66 && durations_within2 * 10 >= cycles_found * 9, "{cycles_found} {durations_within2}");
+    assert!(
+        cycles_found >= 66 && durations_within2 * 10 >= cycles_found * 9,
+        "{cycles_found} {durations_within2}"
+    );
 }
 
 fn at(curves: &AngleCurves, channel: &str, frame: usize) -> f64 {
@@ -148,7 +178,12 @@ fn joint_angles_of_real_walks_have_the_textbook_shape() {
         let no_medial = t.motion.point_index("L_FME").is_err();
         for (ch, v) in t.curves.channels.iter().zip(&t.curves.values) {
             let lower_limb = ["hip_", "knee_", "ankle_"].iter().any(|j| ch.starts_with(j));
-            assert_eq!(v.iter().all(|x| x.is_finite()), !(no_medial && lower_limb), "{} {ch}", t.file);
+            assert_eq!(
+                v.iter().all(|x| x.is_finite()),
+                !(no_medial && lower_limb),
+                "{} {ch}",
+                t.file
+            );
         }
         if no_medial {
             continue;
@@ -158,8 +193,12 @@ fn joint_angles_of_real_walks_have_the_textbook_shape() {
             let s = if e.side == "Left" { "l" } else { "r" };
             let other = t.events.iter().find(|c| c.side != e.side).unwrap();
             let n = e.end - e.start;
-            let knee: Vec<f64> = (e.start..=e.end).map(|f| at(&t.curves, &format!("knee_{s}.flexion"), f)).collect();
-            let (peak_at, peak) = knee.iter().enumerate().fold((0, f64::MIN), |b, (i, v)| if *v > b.1 { (i, *v) } else { b });
+            let knee: Vec<f64> =
+                (e.start..=e.end).map(|f| at(&t.curves, &format!("knee_{s}.flexion"), f)).collect();
+            let (peak_at, peak) = knee
+                .iter()
+                .enumerate()
+                .fold((0, f64::MIN), |b, (i, v)| if *v > b.1 { (i, *v) } else { b });
             // Knee: peak flexion 45–80° in swing (60–85 % of the cycle), nearly straight at strike.
             assert!((45.0..80.0).contains(&peak), "{} knee_{s} peak {peak}", t.file);
             let phase = peak_at as f64 / n as f64;
@@ -168,15 +207,26 @@ fn joint_angles_of_real_walks_have_the_textbook_shape() {
             // Hip: flexed at this foot's strike, extended half a cycle later (the other foot's strike).
             let hip = |f: usize| at(&t.curves, &format!("hip_{s}.flexion"), f);
             let opposite = if other.start > e.start { other.start } else { other.end };
-            assert!(hip(e.start) - hip(opposite) > 20.0, "{} hip_{s}: {} at strike vs {} at the other's", t.file, hip(e.start), hip(opposite));
+            assert!(
+                hip(e.start) - hip(opposite) > 20.0,
+                "{} hip_{s}: {} at strike vs {} at the other's",
+                t.file,
+                hip(e.start),
+                hip(opposite)
+            );
             // Ankle: dorsiflexes through mid-stance (10–50 %), then plantarflexes at push-off (50–75 %).
             let ankle = |from: f64, to: f64| -> Vec<f64> {
-                let (a, b) = (e.start + (from * n as f64) as usize, e.start + (to * n as f64) as usize);
+                let (a, b) =
+                    (e.start + (from * n as f64) as usize, e.start + (to * n as f64) as usize);
                 (a..=b).map(|f| at(&t.curves, &format!("ankle_{s}.flexion"), f)).collect()
             };
             let stance_max = ankle(0.1, 0.5).into_iter().fold(f64::MIN, f64::max);
             let push_off_min = ankle(0.5, 0.75).into_iter().fold(f64::MAX, f64::min);
-            assert!(stance_max - push_off_min > 10.0, "{} ankle_{s}: {stance_max} then {push_off_min}", t.file);
+            assert!(
+                stance_max - push_off_min > 10.0,
+                "{} ankle_{s}: {stance_max} then {push_off_min}",
+                t.file
+            );
         }
     }
     assert_eq!(checked, 32);
@@ -188,7 +238,10 @@ fn analysed(t: &Trial) -> SubjectWalk {
     SubjectWalk {
         subject: t.subject.clone(),
         condition: t.condition.clone(),
-        analysed: AnalysedWalk { walk: Walk { curves: t.curves.clone(), cycles: t.events.clone() }, parameters },
+        analysed: AnalysedWalk {
+            walk: Walk { curves: t.curves.clone(), cycles: t.events.clone() },
+            parameters,
+        },
     }
 }
 
@@ -201,18 +254,32 @@ fn frequency_change_rates_equal_those_of_the_listed_cadences() {
     let fast = analysis.condition("C5").unwrap();
     assert_eq!(fast.subjects.len(), 18);
     let strides = source_strides();
-    let cadence = |subject: &str, cond: &str| strides.iter().find(|s| s.0.starts_with(&format!("{subject}_{cond}_"))).unwrap().3;
+    let cadence = |subject: &str, cond: &str| {
+        strides.iter().find(|s| s.0.starts_with(&format!("{subject}_{cond}_"))).unwrap().3
+    };
     for f in &fast.frequency {
-        let k_source = (cadence(&f.subject, "C5") - cadence(&f.subject, "C4")) / cadence(&f.subject, "C4") * 100.0;
+        let k_source = (cadence(&f.subject, "C5") - cadence(&f.subject, "C4"))
+            / cadence(&f.subject, "C4")
+            * 100.0;
         assert!(f.k_pct > 0.0, "{}: fast walking is not faster", f.subject);
-        assert!((f.k_pct - k_source).abs() < 0.3, "{}: K_f {} vs {k_source} from the cadences", f.subject, f.k_pct);
+        assert!(
+            (f.k_pct - k_source).abs() < 0.3,
+            "{}: K_f {} vs {k_source} from the cadences",
+            f.subject,
+            f.k_pct
+        );
     }
     // Biomechanics: faster walking swings the hips and elbows more, on average.
-    let mean = |ch: &str, c: Component| fast.summary.iter().find(|s| s.channel == ch && s.component == c).unwrap().mean_pct;
+    let mean = |ch: &str, c: Component| {
+        fast.summary.iter().find(|s| s.channel == ch && s.component == c).unwrap().mean_pct
+    };
     for ch in ["hip_l.flexion", "hip_r.flexion", "elbow_l.flexion", "elbow_r.flexion"] {
         assert!(mean(ch, Component::Amplitude) > 0.0, "{ch}: {}", mean(ch, Component::Amplitude));
     }
-    println!("fast vs normal: frequency μ {:.1} %, σ {:.1} %", fast.frequency_mean_pct, fast.frequency_sd_pct);
+    println!(
+        "fast vs normal: frequency μ {:.1} %, σ {:.1} %",
+        fast.frequency_mean_pct, fast.frequency_sd_pct
+    );
     for s in fast.summary.iter().filter(|s| s.feature) {
         println!(
             "  feature {:24} {:9} μ {:7.1} σ {:7.1} CV {:7.1}  n {:2} excl {}",
@@ -231,9 +298,13 @@ fn frequency_change_rates_equal_those_of_the_listed_cadences() {
 fn leave_one_subject_out_on_real_walks() {
     let walks: Vec<SubjectWalk> = trials().iter().map(analysed).collect();
     let rates = ChangeRatesParams::default().check().unwrap();
-    let r = leave_one_subject_out(&walks, "C4", "C5", &rates, &FeatureChannelControl::default(), 101).unwrap();
+    let r =
+        leave_one_subject_out(&walks, "C4", "C5", &rates, &FeatureChannelControl::default(), 101)
+            .unwrap();
     assert_eq!(r.subjects.len(), 18);
-    println!("subject   n_ctrl  rms_synth rms_normal | ctrl: synth normal | dtw_synth dtw_normal | f_norm f_synth f_rec");
+    println!(
+        "subject   n_ctrl  rms_synth rms_normal | ctrl: synth normal | dtw_synth dtw_normal | f_norm f_synth f_rec"
+    );
     for s in r.subjects.iter().chain([&r.mean]) {
         println!(
             "{:8} {:6} {:9.2} {:10.2} | {:11.2} {:6.2} | {:9.2} {:10.2} | {:6.3} {:7.3} {:5.3}",
@@ -249,13 +320,17 @@ fn leave_one_subject_out_on_real_walks() {
             s.frequency_synth_hz,
             s.frequency_recorded_hz
         );
-        assert!(s.rms_synth_deg.is_finite() && s.rms_normal_deg.is_finite() && s.dtw_synth_deg.is_finite());
+        assert!(
+            s.rms_synth_deg.is_finite()
+                && s.rms_normal_deg.is_finite()
+                && s.dtw_synth_deg.is_finite()
+        );
     }
     // The frequency control uses the others' mean speed-up: it must bring the tempo closer to
     // the recorded fast walk than leaving it unchanged, on average.
     let err = |f: fn(&motionlab_gait::loso::LosoSubjectRecord) -> f64| {
-        r.subjects.iter().map(|s| (f(s) - s.frequency_recorded_hz).abs()).sum::<f64>() / r.subjects.len() as f64
+        r.subjects.iter().map(|s| (f(s) - s.frequency_recorded_hz).abs()).sum::<f64>()
+            / r.subjects.len() as f64
     };
     assert!(err(|s| s.frequency_synth_hz) < err(|s| s.frequency_normal_hz));
 }
-

@@ -6,9 +6,9 @@
 use std::path::Path;
 
 use divan::counter::BytesCount;
-use divan::{black_box, Bencher};
+use divan::{Bencher, black_box};
 use motionlab_core::Axis;
-use motionlab_io::c3d::{parse_c3d, C3dOptions};
+use motionlab_io::c3d::{C3dOptions, parse_c3d};
 use motionlab_io::qualisys_tsv::parse_qualisys_tsv;
 use motionlab_io::read::{read_bytes, read_text};
 
@@ -32,7 +32,9 @@ fn c3d_motionlab(bencher: Bencher) {
 #[divan::bench(sample_count = 30)]
 fn c3d_c3dio_peer(bencher: Bencher) {
     let bytes = read_bytes(&data("mct/dance1.c3d.gz")).unwrap();
-    bencher.counter(BytesCount::new(bytes.len())).bench(|| c3dio::C3d::from_bytes(black_box(&bytes)).unwrap());
+    bencher
+        .counter(BytesCount::new(bytes.len()))
+        .bench(|| c3dio::C3d::from_bytes(black_box(&bytes)).unwrap());
 }
 
 #[divan::bench(sample_count = 30)]
@@ -70,15 +72,18 @@ fn tsv_tokens() -> (Vec<String>, usize) {
 #[divan::bench(sample_count = 30)]
 fn tsv_numbers_fast_float2(bencher: Bencher) {
     let (tokens, bytes) = tsv_tokens();
-    bencher
-        .counter(BytesCount::new(bytes))
-        .bench(|| tokens.iter().map(|t| fast_float2::parse::<f64, _>(black_box(t.as_str())).unwrap()).sum::<f64>());
+    bencher.counter(BytesCount::new(bytes)).bench(|| {
+        tokens
+            .iter()
+            .map(|t| fast_float2::parse::<f64, _>(black_box(t.as_str())).unwrap())
+            .sum::<f64>()
+    });
 }
 
 #[divan::bench(sample_count = 30)]
 fn tsv_numbers_std_parse(bencher: Bencher) {
     let (tokens, bytes) = tsv_tokens();
-    bencher
-        .counter(BytesCount::new(bytes))
-        .bench(|| tokens.iter().map(|t| black_box(t.as_str()).parse::<f64>().unwrap()).sum::<f64>());
+    bencher.counter(BytesCount::new(bytes)).bench(|| {
+        tokens.iter().map(|t| black_box(t.as_str()).parse::<f64>().unwrap()).sum::<f64>()
+    });
 }

@@ -19,8 +19,8 @@ use std::sync::LazyLock;
 
 use divan::Bencher;
 use divan::counter::{BytesCount, ItemsCount};
-use motionlab_core::{ForwardKinematics, FrameRate, SkeletonMotion};
 use motionlab_core::registry::{build_loader, default_params};
+use motionlab_core::{ForwardKinematics, FrameRate, SkeletonMotion};
 use motionlab_io::asf_amc::{AsfSkeleton, amc_motion, parse_amc, parse_asf};
 use motionlab_io::bvh::{BvhOptions, parse_bvh, parse_bvh_channels};
 use motionlab_io::read::read_text;
@@ -29,7 +29,8 @@ fn main() {
     divan::main();
 }
 
-const BVH_FILES: &[&str] = &["cmu131/131_01.bvh.gz", "cmu131/131_02.bvh.gz", "cmu131/131_03.bvh.gz"];
+const BVH_FILES: &[&str] =
+    &["cmu131/131_01.bvh.gz", "cmu131/131_02.bvh.gz", "cmu131/131_03.bvh.gz"];
 const AMC_FILES: &[&str] = &["cmu86/86_01.amc.gz", "mocap6/amc/13_29.amc.gz"];
 
 fn data(relative: &str) -> PathBuf {
@@ -37,7 +38,11 @@ fn data(relative: &str) -> PathBuf {
 }
 
 static TEXTS: LazyLock<HashMap<&'static str, String>> = LazyLock::new(|| {
-    BVH_FILES.iter().chain(AMC_FILES).map(|f| (*f, read_text(&data(f)).expect("shipped file reads"))).collect()
+    BVH_FILES
+        .iter()
+        .chain(AMC_FILES)
+        .map(|f| (*f, read_text(&data(f)).expect("shipped file reads")))
+        .collect()
 });
 
 /// The ASF beside each AMC file.
@@ -62,13 +67,17 @@ fn bytes(file: &str) -> BytesCount {
 #[divan::bench(args = BVH_FILES)]
 fn bvh_parse(bencher: Bencher, file: &str) {
     let text = &TEXTS[file];
-    bencher.counter(bytes(file)).bench(|| parse_bvh_channels(divan::black_box(text), Path::new(file), &BvhOptions::default()).unwrap());
+    bencher.counter(bytes(file)).bench(|| {
+        parse_bvh_channels(divan::black_box(text), Path::new(file), &BvhOptions::default()).unwrap()
+    });
 }
 
 #[divan::bench(args = BVH_FILES)]
 fn bvh_parse_and_fk(bencher: Bencher, file: &str) {
     let text = &TEXTS[file];
-    bencher.counter(bytes(file)).bench(|| parse_bvh(divan::black_box(text), Path::new(file), &BvhOptions::default()).unwrap());
+    bencher.counter(bytes(file)).bench(|| {
+        parse_bvh(divan::black_box(text), Path::new(file), &BvhOptions::default()).unwrap()
+    });
 }
 
 #[divan::bench(args = BVH_FILES)]
@@ -82,7 +91,9 @@ fn bvh_loader(bencher: Bencher, file: &str) {
 fn amc_parse(bencher: Bencher, file: &str) {
     let text = &TEXTS[file];
     let asf = &ASFS[file];
-    bencher.counter(bytes(file)).bench(|| parse_amc(divan::black_box(text), Path::new(file), asf).unwrap());
+    bencher
+        .counter(bytes(file))
+        .bench(|| parse_amc(divan::black_box(text), Path::new(file), asf).unwrap());
 }
 
 #[divan::bench(args = AMC_FILES)]
@@ -106,16 +117,25 @@ fn amc_loader(bencher: Bencher, file: &str) {
 /// Parsed channel values of every shipped take, for the FK-only benches.
 static CHANNELS: LazyLock<HashMap<&'static str, SkeletonMotion>> = LazyLock::new(|| {
     let bvh = BVH_FILES.iter().map(|f| {
-        (*f, parse_bvh_channels(&TEXTS[f], Path::new(f), &BvhOptions::default()).expect("BVH parses").motion)
+        (
+            *f,
+            parse_bvh_channels(&TEXTS[f], Path::new(f), &BvhOptions::default())
+                .expect("BVH parses")
+                .motion,
+        )
     });
-    let amc = AMC_FILES.iter().map(|f| (*f, parse_amc(&TEXTS[f], Path::new(f), &ASFS[f]).expect("AMC parses")));
+    let amc = AMC_FILES
+        .iter()
+        .map(|f| (*f, parse_amc(&TEXTS[f], Path::new(f), &ASFS[f]).expect("AMC parses")));
     bvh.chain(amc).collect()
 });
 
 fn fk(bencher: Bencher, file: &str) {
     let channels = &CHANNELS[file];
     let fk = ForwardKinematics::new(&channels.skeleton);
-    bencher.counter(ItemsCount::new(channels.n_frames())).bench(|| fk.positions(divan::black_box(channels.channel_values())));
+    bencher
+        .counter(ItemsCount::new(channels.n_frames()))
+        .bench(|| fk.positions(divan::black_box(channels.channel_values())));
 }
 
 #[divan::bench(args = BVH_FILES)]

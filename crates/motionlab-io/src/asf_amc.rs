@@ -24,7 +24,6 @@
 //! The `dof`/`order` lines give the order of the values on the AMC lines, which is the order
 //! the channels are stored in.
 
-
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -35,8 +34,8 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::{ParamGuard, closest_names};
 use motionlab_core::skeleton::{ChannelKind, axis_rotation};
 use motionlab_core::{
-    Axis, Error, ErrorKind, FrameRate, Joint, LengthUnit, Loader, Location, Motion, PointKind, Result, Skeleton,
-    SkeletonMotion,
+    Axis, Error, ErrorKind, FrameRate, Joint, LengthUnit, Loader, Location, Motion, PointKind,
+    Result, Skeleton, SkeletonMotion,
 };
 
 use crate::text::{LineWord, NumberLines, read_plain_line, strip_bom};
@@ -95,11 +94,15 @@ pub struct AsfAmcLoader {
 impl ParamGuard for AsfAmcParams {
     type Checked = AsfAmcLoader;
     fn check(self) -> Result<AsfAmcLoader> {
-        let frame_rate = FrameRate::new(self.frame_rate_hz).map_err(|e| e.with_field("frame_rate_hz"))?;
+        let frame_rate =
+            FrameRate::new(self.frame_rate_hz).map_err(|e| e.with_field("frame_rate_hz"))?;
         let skeleton = match self.skeleton {
             Some(s) if s.trim().is_empty() => {
-                return Err(Error::new(ErrorKind::InvalidParameter, "is empty; expected a path to an .asf file or no key at all")
-                    .with_field("skeleton"));
+                return Err(Error::new(
+                    ErrorKind::InvalidParameter,
+                    "is empty; expected a path to an .asf file or no key at all",
+                )
+                .with_field("skeleton"));
             }
             s => s.map(PathBuf::from),
         };
@@ -121,7 +124,8 @@ impl Loader for AsfAmcLoader {
         let channels = parse_amc(&amc, path, &asf)?;
         let mut motion = amc_motion(channels, path, self.frame_rate)?;
         motion.load_notes.length_unit = asf.length_unit;
-        motion.load_notes.length_unit_from = format!("the ASF's :units length ({} mm per unit)", asf.mm_per_unit);
+        motion.load_notes.length_unit_from =
+            format!("the ASF's :units length ({} mm per unit)", asf.mm_per_unit);
         Ok(motion)
     }
 }
@@ -222,8 +226,18 @@ struct AsfBone<'a> {
 fn num(word: &str, origin: &Path, line: usize, what: &str) -> Result<f64> {
     match fast_float2::parse::<f64, _>(word) {
         Ok(v) if v.is_finite() => Ok(v),
-        Ok(_) => Err(Error::at_line(ErrorKind::NonFinite, origin, line, format!("{what} is {word:?}, expected a finite number"))),
-        Err(_) => Err(Error::at_line(ErrorKind::Syntax, origin, line, format!("{what} is {word:?}, expected a number"))),
+        Ok(_) => Err(Error::at_line(
+            ErrorKind::NonFinite,
+            origin,
+            line,
+            format!("{what} is {word:?}, expected a finite number"),
+        )),
+        Err(_) => Err(Error::at_line(
+            ErrorKind::Syntax,
+            origin,
+            line,
+            format!("{what} is {word:?}, expected a number"),
+        )),
     }
 }
 
@@ -263,7 +277,12 @@ fn axis_order(word: &str, origin: &Path, line: usize) -> Result<[Axis; 3]> {
     if ok {
         Ok(out)
     } else {
-        Err(Error::at_line(ErrorKind::Syntax, origin, line, format!("axis order {word:?}; expected a permutation of XYZ")))
+        Err(Error::at_line(
+            ErrorKind::Syntax,
+            origin,
+            line,
+            format!("axis order {word:?}; expected a permutation of XYZ"),
+        ))
     }
 }
 
@@ -317,19 +336,29 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
                 ErrorKind::Syntax,
                 origin,
                 line,
-                format!("{keyword:?} outside any section; expected a :keyword such as :root or :bonedata"),
+                format!(
+                    "{keyword:?} outside any section; expected a :keyword such as :root or :bonedata"
+                ),
             ));
         }
         match keyword.to_ascii_lowercase().as_str() {
             ":name" => name = words[1..].join(" "),
             ":units" => {
-                while let Some((l, w)) = lines.peek().cloned().filter(|(_, w)| !w[0].starts_with(':')) {
+                while let Some((l, w)) =
+                    lines.peek().cloned().filter(|(_, w)| !w[0].starts_with(':'))
+                {
                     lines.next_line();
                     match w[0].to_ascii_lowercase().as_str() {
                         "length" => {
-                            let v = num(w.get(1).copied().unwrap_or(""), origin, l, ":units length")?;
+                            let v =
+                                num(w.get(1).copied().unwrap_or(""), origin, l, ":units length")?;
                             if v <= 0.0 {
-                                return Err(Error::at_line(ErrorKind::OutOfRange, origin, l, format!(":units length is {v}; expected > 0")));
+                                return Err(Error::at_line(
+                                    ErrorKind::OutOfRange,
+                                    origin,
+                                    l,
+                                    format!(":units length is {v}; expected > 0"),
+                                ));
                             }
                             length_per_inch = v;
                         }
@@ -341,7 +370,10 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
                                     ErrorKind::Syntax,
                                     origin,
                                     l,
-                                    format!(":units angle is {:?}; expected deg or rad", other.unwrap_or("")),
+                                    format!(
+                                        ":units angle is {:?}; expected deg or rad",
+                                        other.unwrap_or("")
+                                    ),
                                 ));
                             }
                         },
@@ -351,30 +383,50 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
             }
             ":root" => {
                 saw_root = true;
-                while let Some((l, w)) = lines.peek().cloned().filter(|(_, w)| !w[0].starts_with(':')) {
+                while let Some((l, w)) =
+                    lines.peek().cloned().filter(|(_, w)| !w[0].starts_with(':'))
+                {
                     lines.next_line();
                     match w[0].to_ascii_lowercase().as_str() {
                         "order" => {
                             root_order.clear();
                             for t in &w[1..] {
                                 let kind = dof_kind(t).ok_or_else(|| {
-                                    Error::at_line(ErrorKind::Syntax, origin, l, format!(":root order lists {t:?}; expected TX TY TZ RX RY RZ"))
+                                    Error::at_line(
+                                        ErrorKind::Syntax,
+                                        origin,
+                                        l,
+                                        format!(
+                                            ":root order lists {t:?}; expected TX TY TZ RX RY RZ"
+                                        ),
+                                    )
                                 })?;
                                 if root_order.contains(&kind) {
-                                    return Err(Error::at_line(ErrorKind::DuplicateName, origin, l, format!(":root order lists {t} twice")));
+                                    return Err(Error::at_line(
+                                        ErrorKind::DuplicateName,
+                                        origin,
+                                        l,
+                                        format!(":root order lists {t} twice"),
+                                    ));
                                 }
                                 root_order.push(kind);
                             }
                         }
-                        "axis" => root_axis = axis_order(w.get(1).copied().unwrap_or(""), origin, l)?,
+                        "axis" => {
+                            root_axis = axis_order(w.get(1).copied().unwrap_or(""), origin, l)?
+                        }
                         "position" => root_position = nums3(&w, origin, l, ":root position")?,
-                        "orientation" => root_orientation = nums3(&w, origin, l, ":root orientation")?,
+                        "orientation" => {
+                            root_orientation = nums3(&w, origin, l, ":root orientation")?
+                        }
                         other => {
                             return Err(Error::at_line(
                                 ErrorKind::Syntax,
                                 origin,
                                 l,
-                                format!("{other:?} in :root; expected order, axis, position or orientation"),
+                                format!(
+                                    "{other:?} in :root; expected order, axis, position or orientation"
+                                ),
                             ));
                         }
                     }
@@ -385,7 +437,15 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
                 saw_hierarchy = true;
                 children.resize(bones.len(), Vec::new());
                 parent_line.resize(bones.len(), None);
-                parse_hierarchy(&mut lines, origin, &bones, &bone_index, &mut root_children, &mut children, &mut parent_line)?;
+                parse_hierarchy(
+                    &mut lines,
+                    origin,
+                    &bones,
+                    &bone_index,
+                    &mut root_children,
+                    &mut children,
+                    &mut parent_line,
+                )?;
             }
             // :version, :documentation (free text) and vendor sections: skip to the next section.
             _ => {
@@ -396,10 +456,20 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
         }
     }
     if !saw_root {
-        return Err(Error::at_line(ErrorKind::Syntax, origin, lines.last_line(), "no :root section; expected :root with order, axis, position, orientation"));
+        return Err(Error::at_line(
+            ErrorKind::Syntax,
+            origin,
+            lines.last_line(),
+            "no :root section; expected :root with order, axis, position, orientation",
+        ));
     }
     if !saw_hierarchy {
-        return Err(Error::at_line(ErrorKind::Syntax, origin, lines.last_line(), "no :hierarchy section; expected one after :bonedata"));
+        return Err(Error::at_line(
+            ErrorKind::Syntax,
+            origin,
+            lines.last_line(),
+            "no :hierarchy section; expected one after :bonedata",
+        ));
     }
     // Bones declared after :hierarchy were never attached either.
     children.resize(bones.len(), Vec::new());
@@ -413,7 +483,11 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
         ));
     }
 
-    let mm = if length_per_inch == 0.45 { LengthUnit::CmuUnit.millimetres_per_unit() } else { 25.4 / length_per_inch };
+    let mm = if length_per_inch == 0.45 {
+        LengthUnit::CmuUnit.millimetres_per_unit()
+    } else {
+        25.4 / length_per_inch
+    };
     let length_unit = if length_per_inch == 0.45 {
         Some(LengthUnit::CmuUnit)
     } else if length_per_inch == 1.0 {
@@ -437,9 +511,15 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
         }
         let bone = &bones[b];
         let segment = bone.direction.map(|c| c * bone.length * mm);
-        let mut joint = Joint::new(bone.name, Some(parent_joint), segment_of_joint[parent_joint], bone.dof.clone());
+        let mut joint = Joint::new(
+            bone.name,
+            Some(parent_joint),
+            segment_of_joint[parent_joint],
+            bone.dof.clone(),
+        );
         joint.rotation_order = CMU_ROTATION_ORDER.to_vec();
-        joint.axis = axis_matrix(bone.axis.0.map(to_deg), axis_order(bone.axis.1, origin, bone.line)?);
+        joint.axis =
+            axis_matrix(bone.axis.0.map(to_deg), axis_order(bone.axis.1, origin, bone.line)?);
         if children[b].is_empty() {
             joint.end_sites.push(segment);
         }
@@ -454,12 +534,22 @@ pub fn parse_asf(text: &str, origin: &Path) -> Result<AsfSkeleton> {
             ErrorKind::Syntax,
             origin,
             parent_line[b].unwrap_or(bones[b].line),
-            format!("bone {:?} is not connected to root (its :hierarchy parents form a cycle)", bones[b].name),
+            format!(
+                "bone {:?} is not connected to root (its :hierarchy parents form a cycle)",
+                bones[b].name
+            ),
         ));
     }
     let skeleton = Skeleton { joints };
     skeleton.validate().map_err(|e| e.in_file(origin))?;
-    Ok(AsfSkeleton { name, skeleton, mm_per_unit: mm, length_unit, angles_in_radians: radians, origin: origin.to_path_buf() })
+    Ok(AsfSkeleton {
+        name,
+        skeleton,
+        mm_per_unit: mm,
+        length_unit,
+        angles_in_radians: radians,
+        origin: origin.to_path_buf(),
+    })
 }
 
 fn parse_bonedata<'a>(
@@ -468,10 +558,16 @@ fn parse_bonedata<'a>(
     bones: &mut Vec<AsfBone<'a>>,
     bone_index: &mut HashMap<&'a str, usize>,
 ) -> Result<()> {
-    while let Some((begin_line, w)) = lines.peek().cloned().filter(|(_, w)| !w[0].starts_with(':')) {
+    while let Some((begin_line, w)) = lines.peek().cloned().filter(|(_, w)| !w[0].starts_with(':'))
+    {
         lines.next_line();
         if !w[0].eq_ignore_ascii_case("begin") {
-            return Err(Error::at_line(ErrorKind::Syntax, origin, begin_line, format!("{:?} in :bonedata; expected begin", w[0])));
+            return Err(Error::at_line(
+                ErrorKind::Syntax,
+                origin,
+                begin_line,
+                format!("{:?} in :bonedata; expected begin", w[0]),
+            ));
         }
         let mut name = None;
         let mut direction = None;
@@ -484,7 +580,9 @@ fn parse_bonedata<'a>(
                     ErrorKind::Truncated,
                     origin,
                     lines.last_line(),
-                    format!("file ends inside the bone that begins at line {begin_line}; expected end"),
+                    format!(
+                        "file ends inside the bone that begins at line {begin_line}; expected end"
+                    ),
                 ));
             };
             let key = w[0].to_ascii_lowercase();
@@ -492,7 +590,9 @@ fn parse_bonedata<'a>(
                 "end" => break,
                 "name" => name = Some((w.get(1).copied().unwrap_or(""), l)),
                 "direction" => direction = Some(nums3(&w, origin, l, "direction")?),
-                "length" => length = Some(num(w.get(1).copied().unwrap_or(""), origin, l, "length")?),
+                "length" => {
+                    length = Some(num(w.get(1).copied().unwrap_or(""), origin, l, "length")?)
+                }
                 "axis" => {
                     let a = nums3(&w, origin, l, "axis")?;
                     let order = w.get(4).copied().unwrap_or("XYZ");
@@ -502,19 +602,35 @@ fn parse_bonedata<'a>(
                 "dof" => {
                     for t in &w[1..] {
                         let kind = dof_kind(t).ok_or_else(|| {
-                            let hint = if t.eq_ignore_ascii_case("l") { " (bone stretching is not supported)" } else { "" };
-                            Error::at_line(ErrorKind::Syntax, origin, l, format!("dof {t:?}{hint}; expected rx, ry or rz"))
+                            let hint = if t.eq_ignore_ascii_case("l") {
+                                " (bone stretching is not supported)"
+                            } else {
+                                ""
+                            };
+                            Error::at_line(
+                                ErrorKind::Syntax,
+                                origin,
+                                l,
+                                format!("dof {t:?}{hint}; expected rx, ry or rz"),
+                            )
                         })?;
                         if let ChannelKind::Translation(_) = kind {
                             return Err(Error::at_line(
                                 ErrorKind::Syntax,
                                 origin,
                                 l,
-                                format!("dof {t:?}: bone translations are not supported; expected rx, ry or rz"),
+                                format!(
+                                    "dof {t:?}: bone translations are not supported; expected rx, ry or rz"
+                                ),
                             ));
                         }
                         if dof.contains(&kind) {
-                            return Err(Error::at_line(ErrorKind::DuplicateName, origin, l, format!("dof {t} is listed twice")));
+                            return Err(Error::at_line(
+                                ErrorKind::DuplicateName,
+                                origin,
+                                l,
+                                format!("dof {t} is listed twice"),
+                            ));
                         }
                         dof.push(kind);
                     }
@@ -524,29 +640,50 @@ fn parse_bonedata<'a>(
                         ErrorKind::Truncated,
                         origin,
                         l,
-                        format!("section {} starts inside the bone that begins at line {begin_line}; expected end", w[0]),
+                        format!(
+                            "section {} starts inside the bone that begins at line {begin_line}; expected end",
+                            w[0]
+                        ),
                     ));
                 }
                 _ => {} // id, limits and their continuation lines, bodymass, cofmass
             }
         }
-        let (name, name_line) = name
-            .filter(|(n, _)| !n.is_empty())
-            .ok_or_else(|| Error::at_line(ErrorKind::Syntax, origin, begin_line, "bone without a name; expected name <bone>"))?;
+        let (name, name_line) = name.filter(|(n, _)| !n.is_empty()).ok_or_else(|| {
+            Error::at_line(
+                ErrorKind::Syntax,
+                origin,
+                begin_line,
+                "bone without a name; expected name <bone>",
+            )
+        })?;
         let missing = |what: &str| {
-            Error::at_line(ErrorKind::Syntax, origin, begin_line, format!("bone {name:?} has no {what}; expected {what} …"))
+            Error::at_line(
+                ErrorKind::Syntax,
+                origin,
+                begin_line,
+                format!("bone {name:?} has no {what}; expected {what} …"),
+            )
         };
         let direction = direction.ok_or_else(|| missing("direction"))?;
         let length = length.ok_or_else(|| missing("length"))?;
         if name.eq_ignore_ascii_case("root") {
-            return Err(Error::at_line(ErrorKind::DuplicateName, origin, name_line, "a bone is named root; that name is the :root's"));
+            return Err(Error::at_line(
+                ErrorKind::DuplicateName,
+                origin,
+                name_line,
+                "a bone is named root; that name is the :root's",
+            ));
         }
         if let Some(&first) = bone_index.get(name) {
             return Err(Error::at_line(
                 ErrorKind::DuplicateName,
                 origin,
                 name_line,
-                format!("bone {name:?} is already declared at line {}; bone names must be unique", bones[first].line),
+                format!(
+                    "bone {name:?} is already declared at line {}; bone names must be unique",
+                    bones[first].line
+                ),
             ));
         }
         bone_index.insert(name, bones.len());
@@ -566,15 +703,28 @@ fn parse_hierarchy(
 ) -> Result<()> {
     let unknown = |name: &str, line: usize| {
         let close = closest_names(name, bones.iter().map(|b| b.name).chain(["root"]));
-        let hint = if close.is_empty() { String::new() } else { format!(" (closest: {})", close.join(", ")) };
-        Error::at_line(ErrorKind::UnknownName, origin, line, format!("bone {name:?} in :hierarchy is not declared in :bonedata{hint}"))
+        let hint = if close.is_empty() {
+            String::new()
+        } else {
+            format!(" (closest: {})", close.join(", "))
+        };
+        Error::at_line(
+            ErrorKind::UnknownName,
+            origin,
+            line,
+            format!("bone {name:?} in :hierarchy is not declared in :bonedata{hint}"),
+        )
     };
     while let Some((l, w)) = lines.peek().cloned().filter(|(_, w)| !w[0].starts_with(':')) {
         lines.next_line();
         if w[0].eq_ignore_ascii_case("begin") || w[0].eq_ignore_ascii_case("end") {
             continue;
         }
-        let parent = if w[0] == "root" { None } else { Some(*bone_index.get(w[0]).ok_or_else(|| unknown(w[0], l))?) };
+        let parent = if w[0] == "root" {
+            None
+        } else {
+            Some(*bone_index.get(w[0]).ok_or_else(|| unknown(w[0], l))?)
+        };
         for child in &w[1..] {
             let c = *bone_index.get(child).ok_or_else(|| unknown(child, l))?;
             if let Some(first) = parent_line[c] {
@@ -582,7 +732,9 @@ fn parse_hierarchy(
                     ErrorKind::DuplicateName,
                     origin,
                     l,
-                    format!("bone {child:?} is given a second parent; it is already attached at line {first}"),
+                    format!(
+                        "bone {child:?} is given a second parent; it is already attached at line {first}"
+                    ),
                 ));
             }
             parent_line[c] = Some(l);
@@ -620,7 +772,14 @@ impl FastBoneLines<'_> {
     /// read. A joint already seen in this frame also stops it, so the general path reports the
     /// duplicate.
     #[inline(never)]
-    fn read(&self, cursor: &mut NumberLines<'_>, order_pos: usize, frame_values: &mut [f64], seen: &mut [usize], frame: usize) -> usize {
+    fn read(
+        &self,
+        cursor: &mut NumberLines<'_>,
+        order_pos: usize,
+        frame_values: &mut [f64],
+        seen: &mut [usize],
+        frame: usize,
+    ) -> usize {
         let mut read = 0;
         for &j in &self.order[order_pos.min(self.order.len())..] {
             if !cursor.skip_empty_lines() || seen[j] == frame {
@@ -653,7 +812,12 @@ pub fn parse_amc(text: &str, origin: &Path, asf: &AsfSkeleton) -> Result<Skeleto
 /// [`parse_amc`], with the bone-line fast path ([`FastBoneLines`]) switched off when
 /// `fast_path` is false — for the test that the two read every shipped take bit for bit alike.
 /// Also returns how many bone lines the fast path read.
-fn parse_amc_with(text: &str, origin: &Path, asf: &AsfSkeleton, fast_path: bool) -> Result<(SkeletonMotion, usize)> {
+fn parse_amc_with(
+    text: &str,
+    origin: &Path,
+    asf: &AsfSkeleton,
+    fast_path: bool,
+) -> Result<(SkeletonMotion, usize)> {
     let bytes = strip_bom(text).as_bytes();
     let mut reader = AmcReader::new(asf, origin, bytes.len());
     let mut cursor = NumberLines::new(bytes, 0, 1, origin);
@@ -745,21 +909,40 @@ impl<'a> AmcReader<'a> {
         }
         let frame = self.n_frames - 1;
         let n = self.n_channels;
-        let fast = FastBoneLines { order: &self.order, words: &self.line_words, slots: &self.slots, scale: &self.scale };
-        let read = fast.read(cursor, self.order_pos, &mut self.values[frame * n..(frame + 1) * n], &mut self.seen, frame);
+        let fast = FastBoneLines {
+            order: &self.order,
+            words: &self.line_words,
+            slots: &self.slots,
+            scale: &self.scale,
+        };
+        let read = fast.read(
+            cursor,
+            self.order_pos,
+            &mut self.values[frame * n..(frame + 1) * n],
+            &mut self.seen,
+            frame,
+        );
         self.order_pos += read;
         self.fast_lines += read;
         read > 0
     }
 
     /// `:DEGREES`, `:RADIANS` and other keyword lines, allowed before the first frame only.
-    fn keyword_line(&mut self, cursor: &mut NumberLines<'_>, word: &[u8], line: usize) -> Result<()> {
+    fn keyword_line(
+        &mut self,
+        cursor: &mut NumberLines<'_>,
+        word: &[u8],
+        line: usize,
+    ) -> Result<()> {
         if self.n_frames > 0 {
             return Err(Error::at_line(
                 ErrorKind::Syntax,
                 self.origin,
                 line,
-                format!("{:?} after the first frame; expected a frame number or a bone line", String::from_utf8_lossy(word)),
+                format!(
+                    "{:?} after the first frame; expected a frame number or a bone line",
+                    String::from_utf8_lossy(word)
+                ),
             ));
         }
         if word.eq_ignore_ascii_case(b":DEGREES") {
@@ -773,17 +956,37 @@ impl<'a> AmcReader<'a> {
 
     /// A frame number line: the previous frame checked complete, the next number checked, a
     /// new frame of values started.
-    fn frame_number_line(&mut self, cursor: &mut NumberLines<'_>, word: &[u8], line: usize) -> Result<()> {
-        let number = std::str::from_utf8(word).ok().and_then(|w| w.parse::<u64>().ok()).ok_or_else(|| {
-            Error::at_line(ErrorKind::Syntax, self.origin, line, format!("{:?}; expected a frame number or a bone name", String::from_utf8_lossy(word)))
-        })?;
+    fn frame_number_line(
+        &mut self,
+        cursor: &mut NumberLines<'_>,
+        word: &[u8],
+        line: usize,
+    ) -> Result<()> {
+        let number = std::str::from_utf8(word)
+            .ok()
+            .and_then(|w| w.parse::<u64>().ok())
+            .ok_or_else(|| {
+                Error::at_line(
+                    ErrorKind::Syntax,
+                    self.origin,
+                    line,
+                    format!(
+                        "{:?}; expected a frame number or a bone name",
+                        String::from_utf8_lossy(word)
+                    ),
+                )
+            })?;
         self.check_frame_complete()?;
         if self.n_frames > 0 && number != self.frame_number + 1 {
             return Err(Error::at_line(
                 ErrorKind::Syntax,
                 self.origin,
                 line,
-                format!("frame number {number} follows frame {}; expected {}", self.frame_number, self.frame_number + 1),
+                format!(
+                    "frame number {number} follows frame {}; expected {}",
+                    self.frame_number,
+                    self.frame_number + 1
+                ),
             ));
         }
         if self.n_frames == 0 {
@@ -799,7 +1002,14 @@ impl<'a> AmcReader<'a> {
         cursor.skip_word(word);
         let rest = cursor.read_line(&mut [], &[], || format!("frame number line {number}"))?;
         if rest.count != 0 {
-            return Err(Error::at_line(ErrorKind::Syntax, self.origin, line, format!("frame number {number} is followed by values; expected it alone on its line")));
+            return Err(Error::at_line(
+                ErrorKind::Syntax,
+                self.origin,
+                line,
+                format!(
+                    "frame number {number} is followed by values; expected it alone on its line"
+                ),
+            ));
         }
         Ok(())
     }
@@ -829,7 +1039,10 @@ impl<'a> AmcReader<'a> {
                 ErrorKind::Syntax,
                 self.origin,
                 line,
-                format!("{:?} before the first frame number; expected a frame number", String::from_utf8_lossy(word)),
+                format!(
+                    "{:?} before the first frame number; expected a frame number",
+                    String::from_utf8_lossy(word)
+                ),
             ));
         }
         let j = match self.order.get(self.order_pos) {
@@ -845,23 +1058,35 @@ impl<'a> AmcReader<'a> {
                 ErrorKind::DuplicateName,
                 self.origin,
                 line,
-                format!("bone {:?} appears twice in frame {}", skeleton.joints[j].name, self.frame_number),
+                format!(
+                    "bone {:?} appears twice in frame {}",
+                    skeleton.joints[j].name, self.frame_number
+                ),
             ));
         }
         self.seen[j] = self.n_frames - 1;
         cursor.skip_word(word);
         let slot = self.slots[j];
         let base = (self.n_frames - 1) * self.n_channels + slot.first;
-        let got = cursor.read_line(&mut self.values[base..base + slot.n], &self.scale[slot.first..slot.first + slot.n], || {
-            format!("bone {}", skeleton.joints[j].name)
-        })?;
+        let got = cursor.read_line(
+            &mut self.values[base..base + slot.n],
+            &self.scale[slot.first..slot.first + slot.n],
+            || format!("bone {}", skeleton.joints[j].name),
+        )?;
         if got.count != slot.n {
-            let dofs: Vec<&str> = skeleton.joints[j].channels.iter().map(|c| c.short_name()).collect();
+            let dofs: Vec<&str> =
+                skeleton.joints[j].channels.iter().map(|c| c.short_name()).collect();
             return Err(Error::at_line(
                 ErrorKind::WrongValueCount,
                 self.origin,
                 line,
-                format!("bone {:?}: found {} values, expected {} (dof {})", skeleton.joints[j].name, got.count, slot.n, dofs.join(" ")),
+                format!(
+                    "bone {:?}: found {} values, expected {} (dof {})",
+                    skeleton.joints[j].name,
+                    got.count,
+                    slot.n,
+                    dofs.join(" ")
+                ),
             ));
         }
         Ok(())
@@ -871,10 +1096,20 @@ impl<'a> AmcReader<'a> {
     fn bone_by_name(&self, word: &[u8], line: usize) -> Result<usize> {
         let name = std::str::from_utf8(word).unwrap_or("");
         self.by_name.get(name).copied().ok_or_else(|| {
-            let close = closest_names(name, self.asf.skeleton.joints.iter().map(|j| j.name.as_str()));
-            let hint = if close.is_empty() { String::new() } else { format!("; closest: {}", close.join(", ")) };
-            Error::at_line(ErrorKind::UnknownName, self.origin, line, format!("bone {name:?} is not in the skeleton {}{hint}", self.asf.origin.display()))
-                .with_field(name.to_string())
+            let close =
+                closest_names(name, self.asf.skeleton.joints.iter().map(|j| j.name.as_str()));
+            let hint = if close.is_empty() {
+                String::new()
+            } else {
+                format!("; closest: {}", close.join(", "))
+            };
+            Error::at_line(
+                ErrorKind::UnknownName,
+                self.origin,
+                line,
+                format!("bone {name:?} is not in the skeleton {}{hint}", self.asf.origin.display()),
+            )
+            .with_field(name.to_string())
         })
     }
 
@@ -884,13 +1119,20 @@ impl<'a> AmcReader<'a> {
             return Ok(());
         }
         let joints = &self.asf.skeleton.joints;
-        match joints.iter().enumerate().find(|(j, jt)| !jt.channels.is_empty() && self.seen[*j] != self.n_frames - 1) {
+        match joints
+            .iter()
+            .enumerate()
+            .find(|(j, jt)| !jt.channels.is_empty() && self.seen[*j] != self.n_frames - 1)
+        {
             None => Ok(()),
             Some((_, jt)) => Err(Error::at_line(
                 ErrorKind::WrongValueCount,
                 self.origin,
                 self.frame_line,
-                format!("frame {} has no line for bone {:?}; expected every bone with dofs in every frame", self.frame_number, jt.name),
+                format!(
+                    "frame {} has no line for bone {:?}; expected every bone with dofs in every frame",
+                    self.frame_number, jt.name
+                ),
             )),
         }
     }
@@ -900,21 +1142,39 @@ impl<'a> AmcReader<'a> {
     fn finish(self, last_line: usize) -> Result<(SkeletonMotion, usize)> {
         self.check_frame_complete()?;
         if self.n_frames == 0 {
-            return Err(Error::at_line(ErrorKind::EmptySequence, self.origin, last_line, "no frames; expected a frame number line then bone lines"));
+            return Err(Error::at_line(
+                ErrorKind::EmptySequence,
+                self.origin,
+                last_line,
+                "no frames; expected a frame number line then bone lines",
+            ));
         }
         let origin = self.origin;
-        SkeletonMotion::new(self.asf.skeleton.clone(), self.values).map(|m| (m, self.fast_lines)).map_err(|e| e.in_file(origin))
+        SkeletonMotion::new(self.asf.skeleton.clone(), self.values)
+            .map(|m| (m, self.fast_lines))
+            .map_err(|e| e.in_file(origin))
     }
 }
 
 /// Turns AMC channel values into a [`Motion`] by forward kinematics (Y up, mm); the name is
 /// the AMC's stem.
-pub fn amc_motion(channels: SkeletonMotion, origin: &Path, frame_rate: FrameRate) -> Result<Motion> {
+pub fn amc_motion(
+    channels: SkeletonMotion,
+    origin: &Path,
+    frame_rate: FrameRate,
+) -> Result<Motion> {
     let positions = channels.positions();
     let names = channels.skeleton.point_names();
-    let mut motion = Motion::new(crate::read::stem(origin), frame_rate, Axis::Y, PointKind::Joint, names, positions)
-        .map_err(|e| e.in_file(origin))?
-        .with_source(origin, "asf_amc");
+    let mut motion = Motion::new(
+        crate::read::stem(origin),
+        frame_rate,
+        Axis::Y,
+        PointKind::Joint,
+        names,
+        positions,
+    )
+    .map_err(|e| e.in_file(origin))?
+    .with_source(origin, "asf_amc");
     motion.skeleton = Some(channels);
     Ok(motion)
 }
@@ -961,7 +1221,10 @@ mod tests {
         assert_eq!(s.skeleton.joints[1].offset, [0.0; 3]);
         assert_eq!(s.skeleton.joints[2].offset, [0.0, 50.8, 0.0]);
         assert_eq!(s.skeleton.joints[2].end_sites, vec![[25.4, 0.0, 0.0]]);
-        assert_eq!(s.skeleton.joints[1].channels, [ChannelKind::Rotation(Axis::Z), ChannelKind::Rotation(Axis::X)]);
+        assert_eq!(
+            s.skeleton.joints[1].channels,
+            [ChannelKind::Rotation(Axis::Z), ChannelKind::Rotation(Axis::X)]
+        );
         assert_eq!(s.skeleton.joints[1].rotation_order, CMU_ROTATION_ORDER);
     }
 
@@ -972,7 +1235,10 @@ mod tests {
         let ch = parse_amc(&text, Path::new("t.amc"), &s).unwrap();
         assert_eq!(ch.n_frames(), 2);
         // Stored in degrees, in dof order (rz, rx); root translation in mm.
-        assert!(close([ch.frame_values(0)[0], ch.frame_values(0)[6], ch.frame_values(0)[7]], [25.4, 90.0, 0.0]));
+        assert!(close(
+            [ch.frame_values(0)[0], ch.frame_values(0)[6], ch.frame_values(0)[7]],
+            [25.4, 90.0, 0.0]
+        ));
         let m = amc_motion(ch, Path::new("t.amc"), FrameRate::new(120.0).unwrap()).unwrap();
         // Root at x = 1 in. a turned 90° about z: b = root + Rz(90)·(0, 2 in, 0) = (−1 in, 0, 0).
         // b's rx = 90° about its local x, which C turns onto global y: Rz(90)·Ry(90)·(1 in, 0, 0).
@@ -1006,10 +1272,10 @@ mod tests {
     fn amc_structure_errors_name_their_line() {
         let s = asf();
         let cases = [
-            ("1\nroot 0 0 0 0 0 0\na 0 0\nb 0\n3\n", ErrorKind::Syntax, 5),      // frame number gap
+            ("1\nroot 0 0 0 0 0 0\na 0 0\nb 0\n3\n", ErrorKind::Syntax, 5), // frame number gap
             ("1\nroot 0 0 0 0 0 0\na 0 0\na 0 0\nb 0\n", ErrorKind::DuplicateName, 4),
-            ("root 0 0 0 0 0 0\n", ErrorKind::Syntax, 1),                        // before any frame
-            ("1\nroot 0 0 0 0 0 0\nb 0\n", ErrorKind::WrongValueCount, 1),     // a missing
+            ("root 0 0 0 0 0 0\n", ErrorKind::Syntax, 1), // before any frame
+            ("1\nroot 0 0 0 0 0 0\nb 0\n", ErrorKind::WrongValueCount, 1), // a missing
             ("1 2\nroot 0 0 0 0 0 0\n", ErrorKind::Syntax, 1),
             ("1\nroot 0 0 0 0 0 0\na 0 0\nb 0\n:DEGREES\n", ErrorKind::Syntax, 5),
             ("# only a comment\n:DEGREES\n", ErrorKind::EmptySequence, 3),
@@ -1045,9 +1311,12 @@ mod tests {
         let cyclic = ASF.replace("    a b\n", "    b b\n");
         let e = parse_asf(&cyclic, Path::new("t.asf")).unwrap_err();
         assert!(e.message().contains("cycle"), "{e}");
-        let e = parse_asf(&ASF.replace(":hierarchy", ":hierarchx"), Path::new("t.asf")).unwrap_err();
+        let e =
+            parse_asf(&ASF.replace(":hierarchy", ":hierarchx"), Path::new("t.asf")).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Syntax);
-        let e = parse_asf(&ASF[..ASF.find("  end\n  begin\n    name b").unwrap()], Path::new("t.asf")).unwrap_err();
+        let e =
+            parse_asf(&ASF[..ASF.find("  end\n  begin\n    name b").unwrap()], Path::new("t.asf"))
+                .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Truncated);
     }
 
@@ -1075,11 +1344,17 @@ mod tests {
             assert!(fast.n_frames() > 1000, "{take}");
             // Every bone line goes the fast way on these files but the first frame's (no order
             // yet) and those in the last 256 bytes (the window does not fit).
-            let bones_with_dofs = asf.skeleton.joints.iter().filter(|j| !j.channels.is_empty()).count();
+            let bones_with_dofs =
+                asf.skeleton.joints.iter().filter(|j| !j.channels.is_empty()).count();
             let most = (fast.n_frames() - 1) * bones_with_dofs;
-            assert!(fast_lines <= most && fast_lines + bones_with_dofs >= most, "{take}: {fast_lines} of {most}");
+            assert!(
+                fast_lines <= most && fast_lines + bones_with_dofs >= most,
+                "{take}: {fast_lines} of {most}"
+            );
             assert_eq!(no_lines, 0);
-            let bits = |m: &SkeletonMotion| m.channel_values().iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+            let bits = |m: &SkeletonMotion| {
+                m.channel_values().iter().map(|v| v.to_bits()).collect::<Vec<u64>>()
+            };
             assert_eq!(bits(&fast), bits(&general), "{take}");
         }
     }
@@ -1093,7 +1368,10 @@ mod tests {
         let frame = |n: usize| format!("{n}\nroot 1 0 0 0 0 0\na 0.5 -1.25\nb 2.0\n");
         let frames: String = (1..=20).map(frame).collect();
         let ok = parse_amc(&frames, Path::new("t.amc"), &s).unwrap();
-        assert_eq!(ok.frame_values(19)[6..9], [0.5f64.to_degrees(), (-1.25f64).to_degrees(), 2f64.to_degrees()]);
+        assert_eq!(
+            ok.frame_values(19)[6..9],
+            [0.5f64.to_degrees(), (-1.25f64).to_degrees(), 2f64.to_degrees()]
+        );
         // Frame 3 is lines 9–12: its `a` line is line 11, its `b` line 12.
         let cases = [
             ("a 0.5 -1.25\n", "a 0.5 -1.25 7\n", ErrorKind::WrongValueCount, 11),
@@ -1113,20 +1391,33 @@ mod tests {
             assert_eq!((e.kind(), e.location().line), (kind, Some(line)), "{to:?}: {e}");
         }
         // Values the fast path hands over (exponents, long mantissas, a `+`, CRLF) read alike.
-        let odd = frames.replace("a 0.5 -1.25\n", "a 5e-1 -1.2500000000000000000001\r\n").replace("b 2.0\n", "b\t+2.0 \n");
+        let odd = frames
+            .replace("a 0.5 -1.25\n", "a 5e-1 -1.2500000000000000000001\r\n")
+            .replace("b 2.0\n", "b\t+2.0 \n");
         let odd = parse_amc(&odd, Path::new("t.amc"), &s).unwrap();
         assert_eq!(odd.channel_values(), ok.channel_values());
     }
 
     #[test]
     fn params_are_validated() {
-        let e = motionlab_core::registry::build_loader("asf_amc", &toml::from_str("frame_rate_hz = 0.0").unwrap()).err().unwrap();
+        let e = motionlab_core::registry::build_loader(
+            "asf_amc",
+            &toml::from_str("frame_rate_hz = 0.0").unwrap(),
+        )
+        .err()
+        .unwrap();
         assert_eq!(e.location().field.as_deref(), Some("frame_rate_hz"));
-        let e = motionlab_core::registry::build_loader("asf_amc", &toml::from_str("skeleton = \" \"").unwrap()).err().unwrap();
+        let e = motionlab_core::registry::build_loader(
+            "asf_amc",
+            &toml::from_str("skeleton = \" \"").unwrap(),
+        )
+        .err()
+        .unwrap();
         assert_eq!(e.location().field.as_deref(), Some("skeleton"));
         assert_eq!(
             asf_candidates(Path::new("d/amc/86_01.amc.gz")),
-            ["d/amc/86.asf", "d/amc/86.asf.gz", "d/amc/../asf/86.asf", "d/amc/../asf/86.asf.gz"].map(PathBuf::from)
+            ["d/amc/86.asf", "d/amc/86.asf.gz", "d/amc/../asf/86.asf", "d/amc/../asf/86.asf.gz"]
+                .map(PathBuf::from)
         );
     }
 

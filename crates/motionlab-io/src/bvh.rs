@@ -10,7 +10,6 @@
 //! section needs the allocation-free number scanner of `text.rs` to reach the throughput in
 //! `benches/README.md`.
 
-
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
@@ -21,8 +20,8 @@ use serde::{Deserialize, Serialize};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::skeleton::ChannelKind;
 use motionlab_core::{
-    Axis, Error, ErrorKind, FrameRate, Joint, LengthUnit, Loader, Location, Motion, PointKind, Result, Skeleton,
-    SkeletonMotion,
+    Axis, Error, ErrorKind, FrameRate, Joint, LengthUnit, Loader, Location, Motion, PointKind,
+    Result, Skeleton, SkeletonMotion,
 };
 
 use crate::text::{NumberLines, Token, Tokens, parse_f64, strip_bom};
@@ -136,7 +135,11 @@ pub struct BvhOptions {
 
 impl Default for BvhOptions {
     fn default() -> Self {
-        BvhOptions { length_unit: None, up_axis: Axis::Y, position_channels: PositionChannels::Replace }
+        BvhOptions {
+            length_unit: None,
+            up_axis: Axis::Y,
+            position_channels: PositionChannels::Replace,
+        }
     }
 }
 
@@ -150,7 +153,11 @@ impl ParamGuard for BvhParams {
     type Checked = BvhLoader;
     fn check(self) -> Result<BvhLoader> {
         Ok(BvhLoader {
-            options: BvhOptions { length_unit: self.length_unit.unit(), up_axis: self.up_axis, position_channels: self.position_channels },
+            options: BvhOptions {
+                length_unit: self.length_unit.unit(),
+                up_axis: self.up_axis,
+                position_channels: self.position_channels,
+            },
         })
     }
 }
@@ -195,9 +202,16 @@ pub fn parse_bvh(text: &str, origin: &Path, options: &BvhOptions) -> Result<Moti
 pub fn bvh_motion(data: BvhData, origin: &Path, up_axis: Axis) -> Result<Motion> {
     let positions = data.motion.positions();
     let names = data.motion.skeleton.point_names();
-    let mut motion = Motion::new(crate::read::stem(origin), data.frame_rate, up_axis, PointKind::Joint, names, positions)
-        .map_err(|e| e.in_file(origin))?
-        .with_source(origin, "bvh");
+    let mut motion = Motion::new(
+        crate::read::stem(origin),
+        data.frame_rate,
+        up_axis,
+        PointKind::Joint,
+        names,
+        positions,
+    )
+    .map_err(|e| e.in_file(origin))?
+    .with_source(origin, "bvh");
     motion.skeleton = Some(data.motion);
     motion.load_notes.length_unit = Some(data.length_unit);
     motion.load_notes.length_unit_from = data.length_unit_from;
@@ -209,26 +223,51 @@ pub fn parse_bvh_channels(text: &str, origin: &Path, options: &BvhOptions) -> Re
     let text = strip_bom(text);
     let header = parse_header(text, origin)?;
     let Header { mut skeleton, n_frames, frame_time, frame_rate, data_pos, data_line } = header;
-    let is_translation: Vec<bool> =
-        skeleton.joints.iter().flat_map(|j| j.channels.iter()).map(|c| matches!(c, ChannelKind::Translation(_))).collect();
-    let read = |scale: &[f64]| read_frames(text.as_bytes(), data_pos, data_line, n_frames, scale, origin);
+    let is_translation: Vec<bool> = skeleton
+        .joints
+        .iter()
+        .flat_map(|j| j.channels.iter())
+        .map(|c| matches!(c, ChannelKind::Translation(_)))
+        .collect();
+    let read =
+        |scale: &[f64]| read_frames(text.as_bytes(), data_pos, data_line, n_frames, scale, origin);
 
     // The unit, and the frames when inferring it needed them (read in file units).
     let (length_unit, length_unit_from, file_unit_values) = match options.length_unit {
-        Some(u) => (u, format!("length_unit = \"{}\" (loader setting)", unit_setting_name(u)), None),
+        Some(u) => {
+            (u, format!("length_unit = \"{}\" (loader setting)", unit_setting_name(u)), None)
+        }
         None => {
-            let rest = UnitEvidence::RestPoseHeight(options.up_axis, rest_pose_height(&skeleton, options.up_axis));
+            let rest = UnitEvidence::RestPoseHeight(
+                options.up_axis,
+                rest_pose_height(&skeleton, options.up_axis),
+            );
             match rest.unit() {
                 Some(u) => (u, format!("inferred from {rest}"), None),
                 None => {
                     let values = read(&vec![1.0; is_translation.len()])?;
-                    let posed = with_position_convention(skeleton.clone(), options.position_channels);
-                    let first = UnitEvidence::FirstFrameHeight(options.up_axis, first_frame_height(&posed, &values, options.up_axis));
+                    let posed =
+                        with_position_convention(skeleton.clone(), options.position_channels);
+                    let first = UnitEvidence::FirstFrameHeight(
+                        options.up_axis,
+                        first_frame_height(&posed, &values, options.up_axis),
+                    );
                     let (axis, extent) = rest_pose_longest_extent(&skeleton);
                     let lying = UnitEvidence::RestPoseExtent(axis, extent);
                     match [first, lying].into_iter().find_map(|e| e.unit().map(|u| (u, e))) {
-                        Some((u, e)) => (u, format!("inferred from {e} (rest pose: {} units tall along {})", fmt_units(rest.height()), options.up_axis), Some(values)),
-                        None => return Err(cannot_infer(&[rest, first, lying]).with_location(Location::file(origin))),
+                        Some((u, e)) => (
+                            u,
+                            format!(
+                                "inferred from {e} (rest pose: {} units tall along {})",
+                                fmt_units(rest.height()),
+                                options.up_axis
+                            ),
+                            Some(values),
+                        ),
+                        None => {
+                            return Err(cannot_infer(&[rest, first, lying])
+                                .with_location(Location::file(origin)));
+                        }
                     }
                 }
             }
@@ -253,7 +292,9 @@ pub fn parse_bvh_channels(text: &str, origin: &Path, options: &BvhOptions) -> Re
             }
             values
         }
-        None => read(&is_translation.iter().map(|t| if *t { mm } else { 1.0 }).collect::<Vec<f64>>())?,
+        None => {
+            read(&is_translation.iter().map(|t| if *t { mm } else { 1.0 }).collect::<Vec<f64>>())?
+        }
     };
     let n_channels = is_translation.len();
     let motion = SkeletonMotion::new(skeleton, values).map_err(|e| e.in_file(origin))?;
@@ -284,7 +325,9 @@ fn first_frame_height(skeleton: &Skeleton, values: &[f64], up: Axis) -> f64 {
 }
 
 fn extent(points: &[[f64; 3]], axis: usize) -> f64 {
-    let (lo, hi) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[axis]), hi.max(p[axis])));
+    let (lo, hi) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[axis]), hi.max(p[axis])));
     hi - lo
 }
 
@@ -311,7 +354,9 @@ pub enum UnitEvidence {
 impl UnitEvidence {
     pub fn height(self) -> f64 {
         match self {
-            UnitEvidence::RestPoseHeight(_, h) | UnitEvidence::FirstFrameHeight(_, h) | UnitEvidence::RestPoseExtent(_, h) => h,
+            UnitEvidence::RestPoseHeight(_, h)
+            | UnitEvidence::FirstFrameHeight(_, h)
+            | UnitEvidence::RestPoseExtent(_, h) => h,
         }
     }
     /// The unit in whose human height range the height lies.
@@ -327,9 +372,15 @@ impl UnitEvidence {
 impl std::fmt::Display for UnitEvidence {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            UnitEvidence::RestPoseHeight(a, h) => write!(f, "the rest pose: {} units tall along {a}", fmt_units(*h)),
-            UnitEvidence::FirstFrameHeight(a, h) => write!(f, "the first frame: {} units tall along {a}", fmt_units(*h)),
-            UnitEvidence::RestPoseExtent(a, h) => write!(f, "the rest pose's longest extent: {} units along {a}", fmt_units(*h)),
+            UnitEvidence::RestPoseHeight(a, h) => {
+                write!(f, "the rest pose: {} units tall along {a}", fmt_units(*h))
+            }
+            UnitEvidence::FirstFrameHeight(a, h) => {
+                write!(f, "the first frame: {} units tall along {a}", fmt_units(*h))
+            }
+            UnitEvidence::RestPoseExtent(a, h) => {
+                write!(f, "the rest pose's longest extent: {} units along {a}", fmt_units(*h))
+            }
         }
     }
 }
@@ -370,7 +421,14 @@ fn cannot_infer(evidence: &[UnitEvidence]) -> Error {
 }
 
 /// Reads `n_frames` lines of `scale.len()` values each, starting at byte `pos` (line `line`).
-fn read_frames(bytes: &[u8], pos: usize, line: usize, n_frames: usize, scale: &[f64], origin: &Path) -> Result<Vec<f64>> {
+fn read_frames(
+    bytes: &[u8],
+    pos: usize,
+    line: usize,
+    n_frames: usize,
+    scale: &[f64],
+    origin: &Path,
+) -> Result<Vec<f64>> {
     let c = scale.len();
     // Every value takes at least two bytes (a digit and a separator), so a `Frames:` count the
     // rest of the file cannot hold is not allocated up front: it fails as truncated below.
@@ -394,7 +452,11 @@ fn read_frames(bytes: &[u8], pos: usize, line: usize, n_frames: usize, scale: &[
                 ErrorKind::WrongValueCount,
                 origin,
                 got.line,
-                format!("frame {}: found {} values, expected {c} (one per channel of the hierarchy)", f + 1, got.count),
+                format!(
+                    "frame {}: found {} values, expected {c} (one per channel of the hierarchy)",
+                    f + 1,
+                    got.count
+                ),
             ));
         }
     }
@@ -437,8 +499,21 @@ fn parse_header(text: &str, origin: &Path) -> Result<Header> {
     let mut toks = Tokens::new(text, false);
     match toks.next_token() {
         Some(t) if t.text.eq_ignore_ascii_case("HIERARCHY") => {}
-        Some(t) => return Err(syntax(origin, t.line, format!("expected HIERARCHY at the start of a BVH file, found {:?}", t.text))),
-        None => return Err(Error::at_line(ErrorKind::Truncated, origin, 1, "empty file; expected a BVH HIERARCHY")),
+        Some(t) => {
+            return Err(syntax(
+                origin,
+                t.line,
+                format!("expected HIERARCHY at the start of a BVH file, found {:?}", t.text),
+            ));
+        }
+        None => {
+            return Err(Error::at_line(
+                ErrorKind::Truncated,
+                origin,
+                1,
+                "empty file; expected a BVH HIERARCHY",
+            ));
+        }
     }
     let mut joints: Vec<Joint> = Vec::new();
     let mut declared: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
@@ -451,7 +526,11 @@ fn parse_header(text: &str, origin: &Path) -> Result<Header> {
         } else if t.text.eq_ignore_ascii_case("MOTION") {
             break;
         } else {
-            return Err(syntax(origin, t.line, format!("expected ROOT or MOTION, found {:?}", t.text)));
+            return Err(syntax(
+                origin,
+                t.line,
+                format!("expected ROOT or MOTION, found {:?}", t.text),
+            ));
         }
     }
     if joints.is_empty() {
@@ -459,44 +538,84 @@ fn parse_header(text: &str, origin: &Path) -> Result<Header> {
     }
     let skeleton = Skeleton { joints };
     if skeleton.n_channels() == 0 {
-        return Err(syntax(origin, toks.line(), "HIERARCHY declares no CHANNELS; expected at least one channel"));
+        return Err(syntax(
+            origin,
+            toks.line(),
+            "HIERARCHY declares no CHANNELS; expected at least one channel",
+        ));
     }
 
     // Frames: N
-    let t = toks.next_token().ok_or_else(|| truncated(origin, &toks, "MOTION", "Frames: <count>"))?;
+    let t =
+        toks.next_token().ok_or_else(|| truncated(origin, &toks, "MOTION", "Frames: <count>"))?;
     let count_tok = keyword_value(&mut toks, t, "Frames:", origin)?;
     let n_frames: usize = count_tok.text.parse().map_err(|_| {
-        syntax(origin, count_tok.line, format!("Frames: is {:?}, expected a whole number of frames", count_tok.text))
+        syntax(
+            origin,
+            count_tok.line,
+            format!("Frames: is {:?}, expected a whole number of frames", count_tok.text),
+        )
     })?;
     if n_frames == 0 {
-        return Err(Error::at_line(ErrorKind::EmptySequence, origin, count_tok.line, "Frames: 0; expected at least one frame"));
+        return Err(Error::at_line(
+            ErrorKind::EmptySequence,
+            origin,
+            count_tok.line,
+            "Frames: 0; expected at least one frame",
+        ));
     }
     // Frame Time: t
-    let t = toks.next_token().ok_or_else(|| truncated(origin, &toks, "MOTION", "Frame Time: <seconds>"))?;
+    let t = toks
+        .next_token()
+        .ok_or_else(|| truncated(origin, &toks, "MOTION", "Frame Time: <seconds>"))?;
     if !t.text.eq_ignore_ascii_case("Frame") {
-        return Err(syntax(origin, t.line, format!("expected \"Frame Time:\", found {:?}", t.text)));
+        return Err(syntax(
+            origin,
+            t.line,
+            format!("expected \"Frame Time:\", found {:?}", t.text),
+        ));
     }
-    let t = toks.next_token().ok_or_else(|| truncated(origin, &toks, "MOTION", "Frame Time: <seconds>"))?;
+    let t = toks
+        .next_token()
+        .ok_or_else(|| truncated(origin, &toks, "MOTION", "Frame Time: <seconds>"))?;
     let time_tok = keyword_value(&mut toks, t, "Time:", origin)?;
     let frame_time = parse_f64(time_tok, origin, "Frame Time")?;
     let frame_rate = frame_rate_from_time(frame_time)
         .map_err(|e| e.with_location(Location::file(origin).line(time_tok.line)))?;
     let extra = toks.rest_of_line();
     if let Some(x) = extra.first() {
-        return Err(syntax(origin, x.line, format!("unexpected {:?} after Frame Time; expected the end of the line", x.text)));
+        return Err(syntax(
+            origin,
+            x.line,
+            format!("unexpected {:?} after Frame Time; expected the end of the line", x.text),
+        ));
     }
-    Ok(Header { skeleton, n_frames, frame_time, frame_rate, data_pos: toks.pos(), data_line: toks.line() })
+    Ok(Header {
+        skeleton,
+        n_frames,
+        frame_time,
+        frame_rate,
+        data_pos: toks.pos(),
+        data_line: toks.line(),
+    })
 }
 
 /// `Frames: 994` or `Frames:994` (and `Time: 0.008` likewise): returns the value token.
-fn keyword_value<'a>(toks: &mut Tokens<'a>, t: Token<'a>, keyword: &str, origin: &Path) -> Result<Token<'a>> {
+fn keyword_value<'a>(
+    toks: &mut Tokens<'a>,
+    t: Token<'a>,
+    keyword: &str,
+    origin: &Path,
+) -> Result<Token<'a>> {
     let k = keyword.len();
     // Byte comparison: the first k bytes matching an ASCII keyword makes k a char boundary.
     if t.text.len() >= k && t.text.as_bytes()[..k].eq_ignore_ascii_case(keyword.as_bytes()) {
         if t.text.len() > k {
             return Ok(Token { text: &t.text[k..], line: t.line });
         }
-        return toks.next_token().ok_or_else(|| truncated(origin, toks, "MOTION", &format!("a value after {keyword}")));
+        return toks
+            .next_token()
+            .ok_or_else(|| truncated(origin, toks, "MOTION", &format!("a value after {keyword}")));
     }
     Err(syntax(origin, t.line, format!("expected {keyword:?}, found {:?}", t.text)))
 }
@@ -504,11 +623,18 @@ fn keyword_value<'a>(toks: &mut Tokens<'a>, t: Token<'a>, keyword: &str, origin:
 /// `1 / frame_time`, snapped to a whole rate when within 1e-4 relative (see the loader docs).
 pub fn frame_rate_from_time(frame_time: f64) -> Result<FrameRate> {
     if frame_time.is_nan() || frame_time <= 0.0 || frame_time.is_infinite() {
-        return Err(Error::new(ErrorKind::OutOfRange, format!("Frame Time is {frame_time}; expected a time > 0 s")));
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("Frame Time is {frame_time}; expected a time > 0 s"),
+        ));
     }
     let rate = 1.0 / frame_time;
     let whole = rate.round();
-    if whole >= 1.0 && (frame_time * whole - 1.0).abs() <= 1e-4 { FrameRate::new(whole) } else { FrameRate::new(rate) }
+    if whole >= 1.0 && (frame_time * whole - 1.0).abs() <= 1e-4 {
+        FrameRate::new(whole)
+    } else {
+        FrameRate::new(rate)
+    }
 }
 
 /// Parses one `ROOT name { … }` tree (the ROOT token already consumed), appending joints in
@@ -526,7 +652,12 @@ fn parse_joint_tree<'a>(
     while let Some(&(top, opened_at, _)) = stack.last() {
         let inside = || format!("joint {:?} (opened at line {opened_at})", joints[top].name);
         let Some(t) = toks.next_token() else {
-            return Err(truncated(origin, toks, &inside(), "OFFSET, CHANNELS, JOINT, End Site or '}'"));
+            return Err(truncated(
+                origin,
+                toks,
+                &inside(),
+                "OFFSET, CHANNELS, JOINT, End Site or '}'",
+            ));
         };
         let word = t.text;
         if word.eq_ignore_ascii_case("OFFSET") {
@@ -548,7 +679,13 @@ fn parse_joint_tree<'a>(
             if word.eq_ignore_ascii_case("End") {
                 match toks.next_token() {
                     Some(s) if s.text.eq_ignore_ascii_case("Site") => {}
-                    Some(s) => return Err(syntax(origin, s.line, format!("expected \"End Site\", found \"End {}\"", s.text))),
+                    Some(s) => {
+                        return Err(syntax(
+                            origin,
+                            s.line,
+                            format!("expected \"End Site\", found \"End {}\"", s.text),
+                        ));
+                    }
                     None => return Err(truncated(origin, toks, &inside(), "End Site")),
                 }
             }
@@ -556,7 +693,13 @@ fn parse_joint_tree<'a>(
             expect_brace(toks, "{", origin, &site)?;
             match toks.next_token() {
                 Some(o) if o.text.eq_ignore_ascii_case("OFFSET") => {}
-                Some(o) => return Err(syntax(origin, o.line, format!("expected OFFSET in {site}, found {:?}", o.text))),
+                Some(o) => {
+                    return Err(syntax(
+                        origin,
+                        o.line,
+                        format!("expected OFFSET in {site}, found {:?}", o.text),
+                    ));
+                }
                 None => return Err(truncated(origin, toks, &site, "OFFSET")),
             }
             let e = read_offset(toks, origin, &site)?;
@@ -564,14 +707,22 @@ fn parse_joint_tree<'a>(
             expect_brace(toks, "}", origin, &site)?;
         } else if word == "}" {
             if !stack.last().is_some_and(|s| s.2) {
-                return Err(syntax(origin, t.line, format!("{} has no OFFSET; expected OFFSET x y z", inside())));
+                return Err(syntax(
+                    origin,
+                    t.line,
+                    format!("{} has no OFFSET; expected OFFSET x y z", inside()),
+                ));
             }
             stack.pop();
         } else {
             return Err(syntax(
                 origin,
                 t.line,
-                format!("expected OFFSET, CHANNELS, JOINT, End Site or '}}' in {}, found {:?}", inside(), word),
+                format!(
+                    "expected OFFSET, CHANNELS, JOINT, End Site or '}}' in {}, found {:?}",
+                    inside(),
+                    word
+                ),
             ));
         }
     }
@@ -581,7 +732,11 @@ fn parse_joint_tree<'a>(
 fn expect_brace(toks: &mut Tokens<'_>, brace: &str, origin: &Path, inside: &str) -> Result<()> {
     match toks.next_token() {
         Some(b) if b.text == brace => Ok(()),
-        Some(b) => Err(syntax(origin, b.line, format!("expected '{brace}' in {inside}, found {:?}", b.text))),
+        Some(b) => Err(syntax(
+            origin,
+            b.line,
+            format!("expected '{brace}' in {inside}, found {:?}", b.text),
+        )),
         None => Err(truncated(origin, toks, inside, &format!("'{brace}'"))),
     }
 }
@@ -603,7 +758,11 @@ fn open_joint<'a>(
         words.pop();
     }
     if words.is_empty() {
-        return Err(syntax(origin, keyword.line, format!("{} without a name; expected {} <name>", keyword.text, keyword.text)));
+        return Err(syntax(
+            origin,
+            keyword.line,
+            format!("{} without a name; expected {} <name>", keyword.text, keyword.text),
+        ));
     }
     let name = words.iter().map(|w| w.text).collect::<Vec<_>>().join(" ");
     if let Some(first) = declared.get(&name) {
@@ -611,7 +770,9 @@ fn open_joint<'a>(
             ErrorKind::DuplicateName,
             origin,
             keyword.line,
-            format!("joint {name:?} is already declared at line {first}; joint names must be unique"),
+            format!(
+                "joint {name:?} is already declared at line {first}; joint names must be unique"
+            ),
         ));
     }
     if !brace_on_line {
@@ -626,23 +787,26 @@ fn open_joint<'a>(
 fn read_offset(toks: &mut Tokens<'_>, origin: &Path, inside: &str) -> Result<[f64; 3]> {
     let mut out = [0.0; 3];
     for (k, slot) in out.iter_mut().enumerate() {
-        let t = toks.next_token().ok_or_else(|| truncated(origin, toks, inside, "three OFFSET values"))?;
+        let t = toks
+            .next_token()
+            .ok_or_else(|| truncated(origin, toks, inside, "three OFFSET values"))?;
         *slot = parse_f64(t, origin, &format!("OFFSET value {} of {inside}", k + 1))?;
     }
     Ok(out)
 }
 
 fn read_channels(toks: &mut Tokens<'_>, origin: &Path, inside: &str) -> Result<Vec<ChannelKind>> {
-    let n_tok = toks.next_token().ok_or_else(|| truncated(origin, toks, inside, "a channel count after CHANNELS"))?;
-    let n: usize = n_tok
-        .text
-        .parse()
-        .ok()
-        .filter(|n| *n <= 6)
-        .ok_or_else(|| syntax(origin, n_tok.line, format!("CHANNELS count is {:?}, expected 0 to 6", n_tok.text)))?;
+    let n_tok = toks
+        .next_token()
+        .ok_or_else(|| truncated(origin, toks, inside, "a channel count after CHANNELS"))?;
+    let n: usize = n_tok.text.parse().ok().filter(|n| *n <= 6).ok_or_else(|| {
+        syntax(origin, n_tok.line, format!("CHANNELS count is {:?}, expected 0 to 6", n_tok.text))
+    })?;
     let mut channels = Vec::with_capacity(n);
     for _ in 0..n {
-        let t = toks.next_token().ok_or_else(|| truncated(origin, toks, inside, &format!("{n} channel names")))?;
+        let t = toks
+            .next_token()
+            .ok_or_else(|| truncated(origin, toks, inside, &format!("{n} channel names")))?;
         let kind = channel_kind(t.text).ok_or_else(|| {
             syntax(origin, t.line, format!("channel {:?} in {inside}; expected one of Xposition Yposition Zposition Xrotation Yrotation Zrotation", t.text))
         })?;
@@ -688,8 +852,13 @@ pub const HUMAN_HEIGHT_MM: (f64, f64) = (1200.0, 2200.0);
 
 /// The units `auto` can infer, in increasing size of their height range in file units; the
 /// ranges (`HUMAN_HEIGHT_MM` expressed in each unit) do not overlap.
-pub const INFERABLE_UNITS: [LengthUnit; 5] =
-    [LengthUnit::Metre, LengthUnit::CmuUnit, LengthUnit::Inch, LengthUnit::Centimetre, LengthUnit::Millimetre];
+pub const INFERABLE_UNITS: [LengthUnit; 5] = [
+    LengthUnit::Metre,
+    LengthUnit::CmuUnit,
+    LengthUnit::Inch,
+    LengthUnit::Centimetre,
+    LengthUnit::Millimetre,
+];
 
 /// The rest-pose height range of a human in `unit` (file units).
 pub fn human_height_range(unit: LengthUnit) -> (f64, f64) {
@@ -727,7 +896,12 @@ enum WritePlan {
 /// channel-for-channel; its local rotation `C·R·C⁻¹` is written as `Zrotation Yrotation
 /// Xrotation`, which reproduces the same positions. Non-finite values are refused
 /// (`NonFinite`).
-pub fn write_bvh(motion: &SkeletonMotion, frame_rate: FrameRate, length_unit: LengthUnit, out: &mut impl Write) -> Result<()> {
+pub fn write_bvh(
+    motion: &SkeletonMotion,
+    frame_rate: FrameRate,
+    length_unit: LengthUnit,
+    out: &mut impl Write,
+) -> Result<()> {
     let skeleton = &motion.skeleton;
     skeleton.validate()?;
     let per_mm = 1.0 / length_unit.millimetres_per_unit();
@@ -764,7 +938,10 @@ pub fn write_bvh(motion: &SkeletonMotion, frame_rate: FrameRate, length_unit: Le
                     .rotation_order
                     .iter()
                     .filter_map(|a| {
-                        j.channels.iter().position(|c| *c == ChannelKind::Rotation(*a)).map(|k| (first_channel[i] + k, ChannelKind::Rotation(*a)))
+                        j.channels
+                            .iter()
+                            .position(|c| *c == ChannelKind::Rotation(*a))
+                            .map(|k| (first_channel[i] + k, ChannelKind::Rotation(*a)))
                     })
                     .collect();
                 WritePlan::Direct { translations, rotations }
@@ -791,7 +968,13 @@ pub fn write_bvh(motion: &SkeletonMotion, frame_rate: FrameRate, length_unit: Le
                 let indent = "\t".repeat(depth);
                 for e in &skeleton.joints[j].end_sites {
                     let _ = writeln!(head, "{indent}\tEnd Site\n{indent}\t{{");
-                    let _ = writeln!(head, "{indent}\t\tOFFSET {:.6} {:.6} {:.6}", e[0] * per_mm, e[1] * per_mm, e[2] * per_mm);
+                    let _ = writeln!(
+                        head,
+                        "{indent}\t\tOFFSET {:.6} {:.6} {:.6}",
+                        e[0] * per_mm,
+                        e[1] * per_mm,
+                        e[2] * per_mm
+                    );
                     let _ = writeln!(head, "{indent}\t}}");
                 }
                 let _ = writeln!(head, "{indent}}}");
@@ -799,7 +982,12 @@ pub fn write_bvh(motion: &SkeletonMotion, frame_rate: FrameRate, length_unit: Le
             }
         }
     }
-    let _ = writeln!(head, "MOTION\nFrames: {}\nFrame Time: {}", motion.n_frames(), frame_rate.frame_period().value());
+    let _ = writeln!(
+        head,
+        "MOTION\nFrames: {}\nFrame Time: {}",
+        motion.n_frames(),
+        frame_rate.frame_period().value()
+    );
     let io = |e: std::io::Error| Error::new(ErrorKind::Io, format!("cannot write BVH: {e}"));
     out.write_all(head.as_bytes()).map_err(io)?;
 
@@ -811,9 +999,13 @@ pub fn write_bvh(motion: &SkeletonMotion, frame_rate: FrameRate, length_unit: Le
         for &j in &order {
             let mut put = |v: f64, k: Option<usize>| -> Result<()> {
                 if !v.is_finite() {
-                    let what = k.map_or_else(|| skeleton.joints[j].name.clone(), |k| names[k].clone());
-                    return Err(Error::new(ErrorKind::NonFinite, format!("frame {f}: {what} is {v}; BVH needs finite values"))
-                        .with_field(what));
+                    let what =
+                        k.map_or_else(|| skeleton.joints[j].name.clone(), |k| names[k].clone());
+                    return Err(Error::new(
+                        ErrorKind::NonFinite,
+                        format!("frame {f}: {what} is {v}; BVH needs finite values"),
+                    )
+                    .with_field(what));
                 }
                 if !line.is_empty() {
                     line.push(' ');
@@ -835,7 +1027,8 @@ pub fn write_bvh(motion: &SkeletonMotion, frame_rate: FrameRate, length_unit: Le
                         put(values[k] * per_mm, Some(k))?;
                     }
                     let nc = skeleton.joints[j].channels.len();
-                    let local = skeleton.local_rotation(j, &values[*first_channel..*first_channel + nc]);
+                    let local =
+                        skeleton.local_rotation(j, &values[*first_channel..*first_channel + nc]);
                     // nalgebra: euler_angles() = (roll, pitch, yaw) with R = Rz(yaw)·Ry(pitch)·Rx(roll).
                     let (x, y, z) = local.euler_angles();
                     put(z.to_degrees(), None)?;
@@ -850,13 +1043,26 @@ pub fn write_bvh(motion: &SkeletonMotion, frame_rate: FrameRate, length_unit: Le
     out.flush().map_err(io)
 }
 
-fn write_joint_open(head: &mut String, skeleton: &Skeleton, j: usize, plan: &WritePlan, depth: usize, per_mm: f64) {
+fn write_joint_open(
+    head: &mut String,
+    skeleton: &Skeleton,
+    j: usize,
+    plan: &WritePlan,
+    depth: usize,
+    per_mm: f64,
+) {
     let joint = &skeleton.joints[j];
     let indent = "\t".repeat(depth);
     let keyword = if joint.parent.is_none() { "ROOT" } else { "JOINT" };
     let o = joint.offset;
     let _ = writeln!(head, "{indent}{keyword} {}\n{indent}{{", joint.name);
-    let _ = writeln!(head, "{indent}\tOFFSET {:.6} {:.6} {:.6}", o[0] * per_mm, o[1] * per_mm, o[2] * per_mm);
+    let _ = writeln!(
+        head,
+        "{indent}\tOFFSET {:.6} {:.6} {:.6}",
+        o[0] * per_mm,
+        o[1] * per_mm,
+        o[2] * per_mm
+    );
     let names: Vec<&str> = match plan {
         WritePlan::Direct { translations, rotations } => {
             translations.iter().chain(rotations.iter()).map(|(_, c)| c.bvh_name()).collect()
@@ -881,7 +1087,11 @@ mod tests {
     const ARM: &str = "HIERARCHY\nROOT hip\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT knee\n  {\n    OFFSET 0 -10 0\n    CHANNELS 3 Xrotation Yrotation Zrotation\n    End Site\n    {\n      OFFSET 0 -10 0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n1 2 3 0 0 0 0 0 0\n0 0 0 90 0 0 90 0 0\n";
 
     fn opts_mm() -> BvhOptions {
-        BvhOptions { length_unit: Some(LengthUnit::Millimetre), up_axis: Axis::Y, ..BvhOptions::default() }
+        BvhOptions {
+            length_unit: Some(LengthUnit::Millimetre),
+            up_axis: Axis::Y,
+            ..BvhOptions::default()
+        }
     }
 
     #[test]
@@ -905,7 +1115,10 @@ mod tests {
         // channel (value 4) beside its OFFSET (0, -10, 0).
         let text = ARM
             .replace("  OFFSET 0 0 0\n", "  OFFSET 5 7 9\n")
-            .replace("    CHANNELS 3 Xrotation Yrotation Zrotation", "    CHANNELS 4 Yposition Xrotation Yrotation Zrotation")
+            .replace(
+                "    CHANNELS 3 Xrotation Yrotation Zrotation",
+                "    CHANNELS 4 Yposition Xrotation Yrotation Zrotation",
+            )
             .replace("1 2 3 0 0 0 0 0 0\n", "1 2 3 0 0 0 4 0 0 0\n")
             .replace("0 0 0 90 0 0 90 0 0\n", "0 0 0 0 0 0 -10 0 0 0\n");
         let replace = parse_bvh(&text, Path::new("r.bvh"), &opts_mm()).unwrap();
@@ -913,7 +1126,12 @@ mod tests {
         // Knee: x and z keep the OFFSET's 0, y is the channel's 4.
         assert_eq!(replace.position(0, 1), [1.0, 6.0, 3.0]);
         assert_eq!(replace.position(1, 1), [0.0, -10.0, 0.0]);
-        let add = parse_bvh(&text, Path::new("a.bvh"), &BvhOptions { position_channels: PositionChannels::Add, ..opts_mm() }).unwrap();
+        let add = parse_bvh(
+            &text,
+            Path::new("a.bvh"),
+            &BvhOptions { position_channels: PositionChannels::Add, ..opts_mm() },
+        )
+        .unwrap();
         assert_eq!(add.position(0, 0), [6.0, 9.0, 12.0]);
         assert_eq!(add.position(0, 1), [6.0, 3.0, 12.0]);
         // The stored skeleton holds 0 on the replaced axes, so what the writer writes reads the
@@ -921,16 +1139,38 @@ mod tests {
         let sk = &replace.skeleton.as_ref().unwrap().skeleton;
         assert_eq!((sk.joints[0].offset, sk.joints[1].offset), ([0.0; 3], [0.0, 0.0, 0.0]));
         let mut out = Vec::new();
-        write_bvh(replace.skeleton.as_ref().unwrap(), replace.frame_rate(), LengthUnit::Millimetre, &mut out).unwrap();
+        write_bvh(
+            replace.skeleton.as_ref().unwrap(),
+            replace.frame_rate(),
+            LengthUnit::Millimetre,
+            &mut out,
+        )
+        .unwrap();
         let written = String::from_utf8(out).unwrap();
         for convention in [PositionChannels::Replace, PositionChannels::Add] {
-            let back = parse_bvh(&written, Path::new("w.bvh"), &BvhOptions { position_channels: convention, ..opts_mm() }).unwrap();
+            let back = parse_bvh(
+                &written,
+                Path::new("w.bvh"),
+                &BvhOptions { position_channels: convention, ..opts_mm() },
+            )
+            .unwrap();
             assert_eq!(back.positions(), replace.positions(), "{convention:?}");
         }
         // A zero OFFSET under the position channels: both conventions agree bit for bit.
-        let plain_add = parse_bvh(ARM, Path::new("p.bvh"), &BvhOptions { position_channels: PositionChannels::Add, ..opts_mm() }).unwrap();
-        assert_eq!(parse_bvh(ARM, Path::new("p.bvh"), &opts_mm()).unwrap().positions(), plain_add.positions());
-        let p: BvhParams = motionlab_core::registry::parse_params(&toml::from_str("position_channels = \"add\"").unwrap()).unwrap();
+        let plain_add = parse_bvh(
+            ARM,
+            Path::new("p.bvh"),
+            &BvhOptions { position_channels: PositionChannels::Add, ..opts_mm() },
+        )
+        .unwrap();
+        assert_eq!(
+            parse_bvh(ARM, Path::new("p.bvh"), &opts_mm()).unwrap().positions(),
+            plain_add.positions()
+        );
+        let p: BvhParams = motionlab_core::registry::parse_params(
+            &toml::from_str("position_channels = \"add\"").unwrap(),
+        )
+        .unwrap();
         assert_eq!(p.position_channels, PositionChannels::Add);
     }
 
@@ -943,20 +1183,31 @@ mod tests {
     #[test]
     fn position_channels_on_every_joint_equal_to_the_offsets_read_as_the_plain_skeleton() {
         let six = STANDING
-            .replace("    CHANNELS 3 Zrotation Xrotation Yrotation", "    CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation")
+            .replace(
+                "    CHANNELS 3 Zrotation Xrotation Yrotation",
+                "    CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation",
+            )
             .replace("0 100 0 0 0 0 0 0 0 0 0 0\n", "0 100 0 0 0 0 0 50 0 0 0 0 0 -50 0 0 0 0\n")
             .replace("3 100 0 0 0 0 0 0 0 0 0 0\n", "3 100 0 0 0 0 0 50 0 0 0 0 0 -50 0 0 0 0\n");
         let cm = BvhOptions { length_unit: Some(LengthUnit::Centimetre), ..BvhOptions::default() };
         let plain = parse_bvh(STANDING, Path::new("p.bvh"), &cm).unwrap();
         let replace = parse_bvh(&six, Path::new("s.bvh"), &cm).unwrap();
         assert_eq!(replace.positions(), plain.positions());
-        let add = parse_bvh(&six, Path::new("s.bvh"), &BvhOptions { position_channels: PositionChannels::Add, ..cm }).unwrap();
+        let add = parse_bvh(
+            &six,
+            Path::new("s.bvh"),
+            &BvhOptions { position_channels: PositionChannels::Add, ..cm },
+        )
+        .unwrap();
         // The head end: 2 × 1 m (hips) + 2 × 0.5 m (head) + 0.2 m, instead of 1.7 m.
         assert_eq!(add.position(0, add.point_index("head_end").unwrap())[1], 3200.0);
         assert_eq!(replace.position(0, replace.point_index("head_end").unwrap())[1], 1700.0);
         // Inferred from the rest pose (every joint at its OFFSET), not from doubled bones.
         let d = parse_bvh_channels(&six, Path::new("s.bvh"), &BvhOptions::default()).unwrap();
-        assert_eq!((d.length_unit, d.length_unit_from.as_str()), (LengthUnit::Centimetre, "inferred from the rest pose: 170 units tall along y"));
+        assert_eq!(
+            (d.length_unit, d.length_unit_from.as_str()),
+            (LengthUnit::Centimetre, "inferred from the rest pose: 170 units tall along y")
+        );
     }
 
     #[test]
@@ -975,21 +1226,41 @@ mod tests {
             .replace("3 100 0 0 0 0 0 0", "3 100 0 90 0 0 0 0");
         let d = parse_bvh_channels(&lying, Path::new("l.bvh"), &BvhOptions::default()).unwrap();
         assert_eq!(d.length_unit, LengthUnit::Centimetre);
-        assert_eq!(d.length_unit_from, "inferred from the first frame: 170 units tall along y (rest pose: 0 units tall along y)");
+        assert_eq!(
+            d.length_unit_from,
+            "inferred from the first frame: 170 units tall along y (rest pose: 0 units tall along y)"
+        );
         // Lying in its frames too: the rest pose's longest extent (x) says it.
         let still = lying.replace(" 90 0 0 0 0", " 0 0 0 0 0");
         let d = parse_bvh_channels(&still, Path::new("l.bvh"), &BvhOptions::default()).unwrap();
         assert_eq!(d.length_unit, LengthUnit::Centimetre);
-        assert_eq!(d.length_unit_from, "inferred from the rest pose's longest extent: 170 units along x (rest pose: 0 units tall along y)");
+        assert_eq!(
+            d.length_unit_from,
+            "inferred from the rest pose's longest extent: 170 units along x (rest pose: 0 units tall along y)"
+        );
         // The frames read while inferring are scaled exactly as a one-pass read scales them.
-        let explicit = parse_bvh_channels(&still, Path::new("l.bvh"), &BvhOptions { length_unit: Some(LengthUnit::Centimetre), ..BvhOptions::default() }).unwrap();
+        let explicit = parse_bvh_channels(
+            &still,
+            Path::new("l.bvh"),
+            &BvhOptions { length_unit: Some(LengthUnit::Centimetre), ..BvhOptions::default() },
+        )
+        .unwrap();
         assert_eq!(explicit.motion.channel_values(), d.motion.channel_values());
         assert_eq!(explicit.length_unit_from, "length_unit = \"centimetre\" (loader setting)");
         // No evidence in range: all three are named.
-        let tiny = still.replace("OFFSET 50 0 0", "OFFSET 5 0 0").replace("OFFSET 20 0 0", "OFFSET 2 0 0").replace("OFFSET -50 0 0", "OFFSET -5 0 0");
+        let tiny = still
+            .replace("OFFSET 50 0 0", "OFFSET 5 0 0")
+            .replace("OFFSET 20 0 0", "OFFSET 2 0 0")
+            .replace("OFFSET -50 0 0", "OFFSET -5 0 0");
         let e = parse_bvh(&tiny, Path::new("t.bvh"), &BvhOptions::default()).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::OutOfRange);
-        for said in ["t.bvh", "the rest pose: 0 units tall along y", "the first frame: ", "longest extent: 17 units along x", "set length_unit"] {
+        for said in [
+            "t.bvh",
+            "the rest pose: 0 units tall along y",
+            "the first frame: ",
+            "longest extent: 17 units along x",
+            "set length_unit",
+        ] {
             assert!(e.to_string().contains(said), "{said}: {e}");
         }
     }
@@ -1035,35 +1306,76 @@ mod tests {
 
     #[test]
     fn params_parse_and_reject_unknown_units() {
-        let p: BvhParams = motionlab_core::registry::parse_params(&toml::from_str("length_unit = \"cmu_unit\"").unwrap()).unwrap();
+        let p: BvhParams = motionlab_core::registry::parse_params(
+            &toml::from_str("length_unit = \"cmu_unit\"").unwrap(),
+        )
+        .unwrap();
         assert_eq!(p.length_unit.unit(), Some(LengthUnit::CmuUnit));
         assert_eq!(p.up_axis, Axis::Y);
-        let e = motionlab_core::registry::parse_params::<BvhParams>(&toml::from_str("length_unit = \"feet\"").unwrap()).unwrap_err();
+        let e = motionlab_core::registry::parse_params::<BvhParams>(
+            &toml::from_str("length_unit = \"feet\"").unwrap(),
+        )
+        .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::WrongType);
-        let e = motionlab_core::registry::parse_params::<BvhParams>(&toml::from_str("unit = \"mm\"").unwrap()).unwrap_err();
+        let e = motionlab_core::registry::parse_params::<BvhParams>(
+            &toml::from_str("unit = \"mm\"").unwrap(),
+        )
+        .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownKey);
-        assert!(motionlab_core::registry::build_loader("bvh", &motionlab_core::registry::default_params()).is_ok());
+        assert!(
+            motionlab_core::registry::build_loader(
+                "bvh",
+                &motionlab_core::registry::default_params()
+            )
+            .is_ok()
+        );
     }
 
     #[test]
     fn writer_orders_joints_depth_first_and_round_trips_positions() {
         use motionlab_core::ChannelKind::{Rotation, Translation};
         // Stored parents-first but breadth-first: r, x, y, x2 (x2 is x's child).
-        let mut r = Joint::new("r", None, [0.0; 3], vec![Translation(Axis::X), Translation(Axis::Y), Translation(Axis::Z), Rotation(Axis::Y)]);
+        let mut r = Joint::new(
+            "r",
+            None,
+            [0.0; 3],
+            vec![
+                Translation(Axis::X),
+                Translation(Axis::Y),
+                Translation(Axis::Z),
+                Rotation(Axis::Y),
+            ],
+        );
         r.end_sites = vec![];
-        let x = Joint::new("x", Some(0), [100.0, 0.0, 0.0], vec![Rotation(Axis::X), Rotation(Axis::Z)]);
+        let x =
+            Joint::new("x", Some(0), [100.0, 0.0, 0.0], vec![Rotation(Axis::X), Rotation(Axis::Z)]);
         let y = Joint::new("y", Some(0), [0.0, 100.0, 0.0], vec![]);
         let mut x2 = Joint::new("x2", Some(1), [0.0, 0.0, 50.0], vec![Rotation(Axis::Z)]);
         x2.end_sites = vec![[10.0, 0.0, 0.0], [0.0, 10.0, 0.0]];
         let sk = Skeleton { joints: vec![r, x, y, x2] };
-        let values = vec![1.0, 2.0, 3.0, 30.0, 10.0, 20.0, 33.3, 2.0, 4.0, 6.0, -30.0, 45.0, 0.0, 1e-7];
+        let values =
+            vec![1.0, 2.0, 3.0, 30.0, 10.0, 20.0, 33.3, 2.0, 4.0, 6.0, -30.0, 45.0, 0.0, 1e-7];
         let sm = SkeletonMotion::new(sk, values).unwrap();
         let mut out = Vec::new();
         write_bvh(&sm, FrameRate::new(30.0).unwrap(), LengthUnit::Centimetre, &mut out).unwrap();
         let text = String::from_utf8(out).unwrap();
-        assert!(text.contains("\tJOINT y\n\t{\n\t\tOFFSET 0.000000 10.000000 0.000000\n\t\tCHANNELS 0\n"), "{text}");
+        assert!(
+            text.contains(
+                "\tJOINT y\n\t{\n\t\tOFFSET 0.000000 10.000000 0.000000\n\t\tCHANNELS 0\n"
+            ),
+            "{text}"
+        );
         assert!(text.contains("Frame Time: 0.03333333333333333\n"), "{text}");
-        let back = parse_bvh(&text, Path::new("w.bvh"), &BvhOptions { length_unit: Some(LengthUnit::Centimetre), up_axis: Axis::Y, ..BvhOptions::default() }).unwrap();
+        let back = parse_bvh(
+            &text,
+            Path::new("w.bvh"),
+            &BvhOptions {
+                length_unit: Some(LengthUnit::Centimetre),
+                up_axis: Axis::Y,
+                ..BvhOptions::default()
+            },
+        )
+        .unwrap();
         let names = back.point_names().to_vec();
         assert_eq!(names, ["r", "x", "x2", "y", "x2_end", "x2_end2"]);
         assert_eq!(back.frame_rate().hz(), 30.0);
@@ -1074,7 +1386,10 @@ mod tests {
                 let a = original[f * point_names.len() + k];
                 let b = back.position(f, back.point_index(n).unwrap());
                 // 1e-6 cm printed precision on lengths, 1e-6° on angles.
-                assert!(a.iter().zip(b).all(|(p, q)| (p - q).abs() < 1e-4), "frame {f} {n}: {a:?} {b:?}");
+                assert!(
+                    a.iter().zip(b).all(|(p, q)| (p - q).abs() < 1e-4),
+                    "frame {f} {n}: {a:?} {b:?}"
+                );
             }
         }
     }
@@ -1101,9 +1416,21 @@ mod tests {
         assert_eq!(m.point_names(), ["hip", "left knee", "left knee_end"]);
         let cases = [
             (ARM.replace("HIERARCHY", "HIERARCHIE"), ErrorKind::Syntax, 1),
-            (ARM.replace("Xrotation Yrotation Zrotation", "Xrotation Wrotation Zrotation"), ErrorKind::Syntax, 9),
-            (ARM.replace("Xrotation Yrotation Zrotation", "Xrotation Xrotation Zrotation"), ErrorKind::DuplicateName, 9),
-            (ARM.replace("    OFFSET 0 -10 0\n    CHANNELS", "    CHANNELS"), ErrorKind::Syntax, 13),
+            (
+                ARM.replace("Xrotation Yrotation Zrotation", "Xrotation Wrotation Zrotation"),
+                ErrorKind::Syntax,
+                9,
+            ),
+            (
+                ARM.replace("Xrotation Yrotation Zrotation", "Xrotation Xrotation Zrotation"),
+                ErrorKind::DuplicateName,
+                9,
+            ),
+            (
+                ARM.replace("    OFFSET 0 -10 0\n    CHANNELS", "    CHANNELS"),
+                ErrorKind::Syntax,
+                13,
+            ),
             (ARM.replace("Frames: 2", "Frames: two"), ErrorKind::Syntax, 17),
             (ARM.replace("Frames: 2", "Frames: 0"), ErrorKind::EmptySequence, 17),
             (ARM.replace("Frame Time: 0.1", "Frame Time: 0.1 extra"), ErrorKind::Syntax, 18),
@@ -1119,7 +1446,12 @@ mod tests {
 
     #[test]
     fn an_absurd_frame_count_is_truncation_not_an_allocation() {
-        let e = parse_bvh(&ARM.replace("Frames: 2", "Frames: 18446744073709551615"), Path::new("q.bvh"), &opts_mm()).unwrap_err();
+        let e = parse_bvh(
+            &ARM.replace("Frames: 2", "Frames: 18446744073709551615"),
+            Path::new("q.bvh"),
+            &opts_mm(),
+        )
+        .unwrap_err();
         assert_eq!((e.kind(), e.location().line), (ErrorKind::Truncated, Some(21)), "{e}");
     }
 

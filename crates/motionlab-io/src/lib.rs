@@ -15,9 +15,9 @@ pub mod read;
 
 pub mod asf_amc;
 pub mod bvh;
-pub mod labels;
-mod text;
 pub mod c3d;
 pub mod channel_file;
+pub mod labels;
 pub mod qualisys_tsv;
 pub mod scores_csv;
+mod text;

@@ -16,7 +16,6 @@
 //! never zero-filled. Infinities are not a missing-data convention of the format and are an
 //! error.
 
-
 use std::iter::Peekable;
 use std::path::Path;
 
@@ -131,18 +130,31 @@ fn fields(line: &str) -> impl Iterator<Item = &str> {
 /// Parses a Qualisys TSV text; `origin` names it in errors and in the motion.
 pub fn parse_qualisys_tsv(text: &str, origin: &Path, up_axis: Axis) -> Result<Motion> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text.split('\n').enumerate().map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l))).peekable();
+    let mut lines = text
+        .split('\n')
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
+        .peekable();
     let header = read_header(&mut lines, origin)?;
     let first_data_line = lines.peek().map_or_else(|| text.split('\n').count(), |(n, _)| *n);
     let (names, frequency) = header.markers_and_rate(first_data_line, origin)?;
     let layout = ColumnLayout::of(&header, &names, origin)?;
-    let rows = read_rows(lines, &header, &layout, &names.value, first_data_line, text.len(), origin)?;
+    let rows =
+        read_rows(lines, &header, &layout, &names.value, first_data_line, text.len(), origin)?;
 
-    let rate = FrameRate::new(frequency.value).map_err(|e| e.in_file(origin).with_line(frequency.line))?;
+    let rate =
+        FrameRate::new(frequency.value).map_err(|e| e.in_file(origin).with_line(frequency.line))?;
     let names: Vec<String> = names.value.iter().map(|s| s.to_string()).collect();
-    let mut motion = Motion::new(crate::read::stem(origin), rate, up_axis, PointKind::Marker, names, rows.positions)
-        .map_err(|e| e.in_file(origin))?
-        .with_source(origin, "qualisys_tsv");
+    let mut motion = Motion::new(
+        crate::read::stem(origin),
+        rate,
+        up_axis,
+        PointKind::Marker,
+        names,
+        rows.positions,
+    )
+    .map_err(|e| e.in_file(origin))?
+    .with_source(origin, "qualisys_tsv");
     motion.events = header
         .events
         .iter()
@@ -160,7 +172,10 @@ pub fn parse_qualisys_tsv(text: &str, origin: &Path, up_axis: Axis) -> Result<Mo
 /// The header lines (`KEY<TAB>value…`, blank lines, and the column-header row once the marker
 /// names are known), read up to the first line that is none of these: the first data row,
 /// left in `lines`.
-fn read_header<'t>(lines: &mut Peekable<impl Iterator<Item = (usize, &'t str)>>, origin: &Path) -> Result<Header<'t>> {
+fn read_header<'t>(
+    lines: &mut Peekable<impl Iterator<Item = (usize, &'t str)>>,
+    origin: &Path,
+) -> Result<Header<'t>> {
     let mut header = Header::default();
     while let Some(&(line_no, line)) = lines.peek() {
         if line.trim().is_empty() {
@@ -185,11 +200,29 @@ fn read_header<'t>(lines: &mut Peekable<impl Iterator<Item = (usize, &'t str)>>,
 
 impl<'t> Header<'t> {
     /// One header line `key<TAB>value…` (`line`, number `line_no`).
-    fn key_line(&mut self, key: &str, value: &str, line: &'t str, line_no: usize, origin: &Path) -> Result<()> {
+    fn key_line(
+        &mut self,
+        key: &str,
+        value: &str,
+        line: &'t str,
+        line_no: usize,
+        origin: &Path,
+    ) -> Result<()> {
         let at = |kind: ErrorKind, msg: String| Error::at_line(kind, origin, line_no, msg);
-        let parse_count = |what: &str| -> Result<usize> { value.parse::<usize>().map_err(|_| at(ErrorKind::Syntax, format!("{what} is {value:?}; expected a whole number"))) };
+        let parse_count = |what: &str| -> Result<usize> {
+            value.parse::<usize>().map_err(|_| {
+                at(ErrorKind::Syntax, format!("{what} is {value:?}; expected a whole number"))
+            })
+        };
         let once = |seen: bool| -> Result<()> {
-            if seen { Err(at(ErrorKind::DuplicateName, format!("{key} is given twice; expected one {key} line"))) } else { Ok(()) }
+            if seen {
+                Err(at(
+                    ErrorKind::DuplicateName,
+                    format!("{key} is given twice; expected one {key} line"),
+                ))
+            } else {
+                Ok(())
+            }
         };
         match key {
             "NO_OF_FRAMES" => {
@@ -202,38 +235,67 @@ impl<'t> Header<'t> {
             }
             "FREQUENCY" => {
                 once(self.frequency.is_some())?;
-                let hz = value
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite() && *v > 0.0)
-                    .ok_or_else(|| at(ErrorKind::OutOfRange, format!("FREQUENCY is {value:?}; expected a frame rate > 0 Hz")))?;
+                let hz =
+                    value.parse::<f64>().ok().filter(|v| v.is_finite() && *v > 0.0).ok_or_else(
+                        || {
+                            at(
+                                ErrorKind::OutOfRange,
+                                format!("FREQUENCY is {value:?}; expected a frame rate > 0 Hz"),
+                            )
+                        },
+                    )?;
                 self.frequency = Some(Keyed { value: hz, line: line_no });
             }
             "DATA_INCLUDED" if !value.eq_ignore_ascii_case("3D") => {
-                return Err(at(ErrorKind::OutOfRange, format!("DATA_INCLUDED is {value:?}; only 3D marker exports can be read")));
+                return Err(at(
+                    ErrorKind::OutOfRange,
+                    format!("DATA_INCLUDED is {value:?}; only 3D marker exports can be read"),
+                ));
             }
             "MARKER_NAMES" => {
                 once(self.names.is_some())?;
                 let names: Vec<&str> = fields(line).skip(1).collect();
                 // A map, not a scan of the names before each one: a corrupt line of 10⁵ names
                 // must not take 10¹⁰ comparisons.
-                let mut first_column: std::collections::HashMap<&str, usize> = std::collections::HashMap::with_capacity(names.len());
+                let mut first_column: std::collections::HashMap<&str, usize> =
+                    std::collections::HashMap::with_capacity(names.len());
                 for (i, n) in names.iter().enumerate() {
                     if n.is_empty() {
-                        return Err(at(ErrorKind::Syntax, format!("marker name {} is empty; expected a name", i + 1)).with_field("MARKER_NAMES"));
+                        return Err(at(
+                            ErrorKind::Syntax,
+                            format!("marker name {} is empty; expected a name", i + 1),
+                        )
+                        .with_field("MARKER_NAMES"));
                     }
                     if let Some(j) = first_column.insert(n, i) {
-                        return Err(at(ErrorKind::DuplicateName, format!("marker {n:?} is named twice (columns {} and {})", j + 2, i + 2)).with_field(n.to_string()));
+                        return Err(at(
+                            ErrorKind::DuplicateName,
+                            format!(
+                                "marker {n:?} is named twice (columns {} and {})",
+                                j + 2,
+                                i + 2
+                            ),
+                        )
+                        .with_field(n.to_string()));
                     }
                 }
                 self.names = Some(Keyed { value: names, line: line_no });
             }
             "EVENT" => {
                 let rest: Vec<&str> = fields(line).skip(1).collect();
-                let num = |s: Option<&&str>| s.and_then(|s| s.parse::<f64>().ok()).filter(|v| v.is_finite());
+                let num = |s: Option<&&str>| {
+                    s.and_then(|s| s.parse::<f64>().ok()).filter(|v| v.is_finite())
+                };
                 match (rest.first(), num(rest.get(1)), num(rest.get(2))) {
-                    (Some(name), Some(frame), Some(time)) => self.events.push((name, frame, time, line_no)),
-                    _ => return Err(at(ErrorKind::Syntax, "EVENT line needs a name, a frame number and a time in seconds".into())),
+                    (Some(name), Some(frame), Some(time)) => {
+                        self.events.push((name, frame, time, line_no))
+                    }
+                    _ => {
+                        return Err(at(
+                            ErrorKind::Syntax,
+                            "EVENT line needs a name, a frame number and a time in seconds".into(),
+                        ));
+                    }
                 }
             }
             _ => {} // NO_OF_CAMERAS, TIME_STAMP, DESCRIPTION, FILE_VERSION, …: not needed.
@@ -244,22 +306,42 @@ impl<'t> Header<'t> {
     /// The marker names and the frame rate, which the data cannot be read without, checked
     /// against `NO_OF_MARKERS`; `first_data_line` is where an error about a missing one points.
     #[allow(clippy::type_complexity)]
-    fn markers_and_rate(&self, first_data_line: usize, origin: &Path) -> Result<(Keyed<Vec<&'t str>>, Keyed<f64>)> {
-        let at = |line: usize, kind: ErrorKind, msg: &str| Error::at_line(kind, origin, line, msg.to_string());
+    fn markers_and_rate(
+        &self,
+        first_data_line: usize,
+        origin: &Path,
+    ) -> Result<(Keyed<Vec<&'t str>>, Keyed<f64>)> {
+        let at = |line: usize, kind: ErrorKind, msg: &str| {
+            Error::at_line(kind, origin, line, msg.to_string())
+        };
         let Some(names) = self.names.clone() else {
-            return Err(at(first_data_line, ErrorKind::MissingKey, "no MARKER_NAMES line before the data; expected the marker names").with_field("MARKER_NAMES"));
+            return Err(at(
+                first_data_line,
+                ErrorKind::MissingKey,
+                "no MARKER_NAMES line before the data; expected the marker names",
+            )
+            .with_field("MARKER_NAMES"));
         };
         let Some(frequency) = self.frequency else {
-            return Err(at(first_data_line, ErrorKind::MissingKey, "no FREQUENCY line before the data; expected the frame rate").with_field("FREQUENCY"));
+            return Err(at(
+                first_data_line,
+                ErrorKind::MissingKey,
+                "no FREQUENCY line before the data; expected the frame rate",
+            )
+            .with_field("FREQUENCY"));
         };
         let m = names.value.len();
         if m == 0 {
-            return Err(at(names.line, ErrorKind::EmptySequence, "MARKER_NAMES lists no marker").with_field("MARKER_NAMES"));
+            return Err(at(names.line, ErrorKind::EmptySequence, "MARKER_NAMES lists no marker")
+                .with_field("MARKER_NAMES"));
         }
         if let Some(declared) = self.markers
             && declared.value != m
         {
-            let msg = format!("MARKER_NAMES lists {m} markers but NO_OF_MARKERS (line {}) says {}", declared.line, declared.value);
+            let msg = format!(
+                "MARKER_NAMES lists {m} markers but NO_OF_MARKERS (line {}) says {}",
+                declared.line, declared.value
+            );
             return Err(at(names.line, ErrorKind::WrongValueCount, &msg));
         }
         Ok((names, frequency))
@@ -280,7 +362,10 @@ impl ColumnLayout {
     fn of(header: &Header<'_>, names: &Keyed<Vec<&str>>, origin: &Path) -> Result<Self> {
         let m = names.value.len();
         let (columns, frame_column): (Vec<Column>, Option<usize>) = match &header.columns {
-            None => ((0..3 * m).map(|k| Column::Coordinate { marker: k / 3, axis: k % 3 }).collect(), None),
+            None => (
+                (0..3 * m).map(|k| Column::Coordinate { marker: k / 3, axis: k % 3 }).collect(),
+                None,
+            ),
             Some((titles, line)) => {
                 let mut cols = vec![Column::Other; titles.len()];
                 let mut found = vec![[false; 3]; m];
@@ -298,8 +383,16 @@ impl ColumnLayout {
                     }
                 }
                 if let Some(k) = found.iter().position(|f| !f.iter().all(|x| *x)) {
-                    return Err(Error::at_line(ErrorKind::MissingKey, origin, *line, format!("column-header row has no X, Y and Z columns for marker {:?}", names.value[k]))
-                        .with_field(names.value[k].to_string()));
+                    return Err(Error::at_line(
+                        ErrorKind::MissingKey,
+                        origin,
+                        *line,
+                        format!(
+                            "column-header row has no X, Y and Z columns for marker {:?}",
+                            names.value[k]
+                        ),
+                    )
+                    .with_field(names.value[k].to_string()));
                 }
                 let frame_col = titles.iter().position(|t| t.eq_ignore_ascii_case("frame"));
                 (cols, frame_col)
@@ -307,7 +400,11 @@ impl ColumnLayout {
         };
         let expected = columns.len();
         let extra = expected - 3 * m;
-        let expected_text = if extra == 0 { format!("3 × {m} markers = {expected}") } else { format!("3 × {m} markers + {extra} other columns = {expected}") };
+        let expected_text = if extra == 0 {
+            format!("3 × {m} markers = {expected}")
+        } else {
+            format!("3 × {m} markers + {extra} other columns = {expected}")
+        };
         Ok(ColumnLayout { columns, frame_column, expected_text })
     }
 }
@@ -350,32 +447,72 @@ fn read_rows<'t>(
         if let Some(declared) = header.frames
             && n_rows == declared.value
         {
-            return Err(at(line_no, ErrorKind::WrongValueCount, format!("row beyond the {} frames NO_OF_FRAMES (line {}) declares", declared.value, declared.line)));
+            return Err(at(
+                line_no,
+                ErrorKind::WrongValueCount,
+                format!(
+                    "row beyond the {} frames NO_OF_FRAMES (line {}) declares",
+                    declared.value, declared.line
+                ),
+            ));
         }
         // Counting tabs is a cheap first pass, so a row of the wrong length is reported as
         // such before any of its values is parsed.
         let row = line.trim_end_matches(['\t', ' ', '\r']);
         let found = row.bytes().filter(|b| *b == b'\t').count() + 1;
         if found != expected {
-            return Err(at(line_no, ErrorKind::WrongValueCount, format!("found {found} values, expected {}", layout.expected_text)));
+            return Err(at(
+                line_no,
+                ErrorKind::WrongValueCount,
+                format!("found {found} values, expected {}", layout.expected_text),
+            ));
         }
-        for (c, (token, column)) in row.split('\t').map(|t| t.trim_matches(' ')).zip(&layout.columns).enumerate() {
+        for (c, (token, column)) in
+            row.split('\t').map(|t| t.trim_matches(' ')).zip(&layout.columns).enumerate()
+        {
             match *column {
                 Column::Coordinate { marker, axis } => {
                     let v = fast_float2::parse::<f64, _>(token).map_err(|_| {
-                        at(line_no, ErrorKind::Syntax, format!("expected a number or NaN, found {token:?} (column {})", c + 1))
-                            .with_field(format!("{} {}", names[marker], ["X", "Y", "Z"][axis]))
+                        at(
+                            line_no,
+                            ErrorKind::Syntax,
+                            format!("expected a number or NaN, found {token:?} (column {})", c + 1),
+                        )
+                        .with_field(format!(
+                            "{} {}",
+                            names[marker],
+                            ["X", "Y", "Z"][axis]
+                        ))
                     })?;
                     if v.is_infinite() {
-                        return Err(at(line_no, ErrorKind::NonFinite, format!("{token:?} in column {}; expected a number or NaN (missing)", c + 1))
-                            .with_field(format!("{} {}", names[marker], ["X", "Y", "Z"][axis])));
+                        return Err(at(
+                            line_no,
+                            ErrorKind::NonFinite,
+                            format!(
+                                "{token:?} in column {}; expected a number or NaN (missing)",
+                                c + 1
+                            ),
+                        )
+                        .with_field(format!(
+                            "{} {}",
+                            names[marker],
+                            ["X", "Y", "Z"][axis]
+                        )));
                     }
                     sample[marker][axis] = v;
                 }
                 Column::Other => {
                     if n_rows == 0 && Some(c) == layout.frame_column {
                         first_frame_number = token.parse::<f64>().map_err(|_| {
-                            at(line_no, ErrorKind::Syntax, format!("expected a frame number, found {token:?} (column {})", c + 1)).with_field("Frame")
+                            at(
+                                line_no,
+                                ErrorKind::Syntax,
+                                format!(
+                                    "expected a frame number, found {token:?} (column {})",
+                                    c + 1
+                                ),
+                            )
+                            .with_field("Frame")
                         })?;
                     }
                 }
@@ -390,11 +527,18 @@ fn read_rows<'t>(
         return Err(at(
             last_line,
             ErrorKind::Truncated,
-            format!("file ends after {n_rows} data rows, but NO_OF_FRAMES (line {}) declares {}", declared.line, declared.value),
+            format!(
+                "file ends after {n_rows} data rows, but NO_OF_FRAMES (line {}) declares {}",
+                declared.line, declared.value
+            ),
         ));
     }
     if n_rows == 0 {
-        return Err(at(last_line, ErrorKind::EmptySequence, "no data rows after the header; expected one row per frame".into()));
+        return Err(at(
+            last_line,
+            ErrorKind::EmptySequence,
+            "no data rows after the header; expected one row per frame".into(),
+        ));
     }
     Ok(Rows { positions, first_frame_number })
 }
@@ -437,7 +581,10 @@ mod tests {
         assert_eq!(m.position(2, 1), [-4.25, 50.0, 6.0]);
         assert!(m.is_missing(1, 1) && m.position(1, 1)[2].is_nan());
         assert_eq!(m.missing_count(), 1);
-        assert_eq!((m.name.as_str(), m.format.as_str(), m.up_axis()), ("made", "qualisys_tsv", Axis::Z));
+        assert_eq!(
+            (m.name.as_str(), m.format.as_str(), m.up_axis()),
+            ("made", "qualisys_tsv", Axis::Z)
+        );
     }
 
     #[test]
@@ -474,7 +621,11 @@ mod tests {
 
     #[test]
     fn a_short_row_is_an_error_with_its_line_and_counts() {
-        let e = err_at(&file("1\t2\t3\t4\t5\t6\n1\t2\t3\t4\t5\n1\t2\t3\t4\t5\t6\n"), ErrorKind::WrongValueCount, 8);
+        let e = err_at(
+            &file("1\t2\t3\t4\t5\t6\n1\t2\t3\t4\t5\n1\t2\t3\t4\t5\t6\n"),
+            ErrorKind::WrongValueCount,
+            8,
+        );
         assert!(e.message().contains("found 5 values, expected 3 × 2 markers = 6"), "{e}");
         let e = err_at(&file("1\t2\t3\t4\t5\t6\t7\n"), ErrorKind::WrongValueCount, 7);
         assert!(e.message().contains("found 7"), "{e}");
@@ -496,21 +647,37 @@ mod tests {
     #[test]
     fn fewer_rows_than_declared_is_truncated() {
         let e = err_at(&file("1\t2\t3\t4\t5\t6\n1\t2\t3\t4\t5\t6\n"), ErrorKind::Truncated, 9);
-        assert!(e.message().contains("after 2 data rows") && e.message().contains("declares 3"), "{e}");
+        assert!(
+            e.message().contains("after 2 data rows") && e.message().contains("declares 3"),
+            "{e}"
+        );
         let e = err_at(&file(&format!("{ROWS}1\t2\t3\t4\t5\t6\n")), ErrorKind::WrongValueCount, 10);
         assert!(e.message().contains("beyond the 3 frames"), "{e}");
     }
 
     #[test]
     fn missing_marker_names_frequency_and_duplicates_are_errors() {
-        let e = err_at(&format!("NO_OF_FRAMES\t3\nFREQUENCY\t60\n{ROWS}"), ErrorKind::MissingKey, 3);
+        let e =
+            err_at(&format!("NO_OF_FRAMES\t3\nFREQUENCY\t60\n{ROWS}"), ErrorKind::MissingKey, 3);
         assert_eq!(e.location().field.as_deref(), Some("MARKER_NAMES"));
         err_at(&format!("NO_OF_FRAMES\t3\nMARKER_NAMES\ta\tb\n{ROWS}"), ErrorKind::MissingKey, 3);
-        let e = err_at(&file(ROWS).replace("MARKER_NAMES\ta\tb", "MARKER_NAMES\ta\ta"), ErrorKind::DuplicateName, 6);
+        let e = err_at(
+            &file(ROWS).replace("MARKER_NAMES\ta\tb", "MARKER_NAMES\ta\ta"),
+            ErrorKind::DuplicateName,
+            6,
+        );
         assert_eq!(e.location().field.as_deref(), Some("a"));
-        err_at(&file(ROWS).replace("NO_OF_MARKERS\t2", "NO_OF_MARKERS\t3"), ErrorKind::WrongValueCount, 6);
+        err_at(
+            &file(ROWS).replace("NO_OF_MARKERS\t2", "NO_OF_MARKERS\t3"),
+            ErrorKind::WrongValueCount,
+            6,
+        );
         err_at(&file(ROWS).replace("FREQUENCY\t60", "FREQUENCY\t0"), ErrorKind::OutOfRange, 4);
-        err_at(&file(ROWS).replace("DATA_INCLUDED\t3D", "DATA_INCLUDED\t6D"), ErrorKind::OutOfRange, 5);
+        err_at(
+            &file(ROWS).replace("DATA_INCLUDED\t3D", "DATA_INCLUDED\t6D"),
+            ErrorKind::OutOfRange,
+            5,
+        );
         err_at(&file(ROWS).replace("NO_OF_FRAMES\t3", "NO_OF_FRAMES\tthree"), ErrorKind::Syntax, 1);
     }
 
@@ -523,7 +690,8 @@ mod tests {
 
     #[test]
     fn a_row_starting_with_nan_is_data_not_a_header_key() {
-        let m = parse(&file("NAN\tNaN\tnan\t4\t5\t6\n1\t2\t3\t4\t5\t6\n1\t2\t3\t4\t5\t6\n")).unwrap();
+        let m =
+            parse(&file("NAN\tNaN\tnan\t4\t5\t6\n1\t2\t3\t4\t5\t6\n1\t2\t3\t4\t5\t6\n")).unwrap();
         assert!(m.is_missing(0, 0));
         assert_eq!(m.n_frames(), 3);
     }

@@ -39,10 +39,13 @@ pub fn decode_within(raw: Vec<u8>, limit: u64, path: &Path) -> Result<Vec<u8>> {
         let mut out = Vec::with_capacity(len);
         // `bufread` reads the input slice in place (the `read` decoder would copy it through a
         // 32 KiB buffer).
-        flate2::bufread::MultiGzDecoder::new(&raw[..]).read_to_end(&mut out).map_err(|e| gzip_error(path, &e))?;
+        flate2::bufread::MultiGzDecoder::new(&raw[..])
+            .read_to_end(&mut out)
+            .map_err(|e| gzip_error(path, &e))?;
         Ok(out)
     } else if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gz")) {
-        Err(Error::new(ErrorKind::Syntax, "file name ends in .gz but the content is not gzip").with_location(Location::file(path)))
+        Err(Error::new(ErrorKind::Syntax, "file name ends in .gz but the content is not gzip")
+            .with_location(Location::file(path)))
     } else if raw.len() as u64 > limit {
         Err(limits::too_large(path, &format!("holds {} bytes", raw.len()), limit))
     } else {
@@ -51,7 +54,8 @@ pub fn decode_within(raw: Vec<u8>, limit: u64, path: &Path) -> Result<Vec<u8>> {
 }
 
 fn gzip_error(path: &Path, e: &std::io::Error) -> Error {
-    Error::new(ErrorKind::Truncated, format!("cannot decompress gzip data: {e}")).with_location(Location::file(path))
+    Error::new(ErrorKind::Truncated, format!("cannot decompress gzip data: {e}"))
+        .with_location(Location::file(path))
 }
 
 /// How many bytes the gzip data inflate to, counted through a small buffer; an error as soon
@@ -69,10 +73,15 @@ fn inflated_len(raw: &[u8], limit: u64, path: &Path) -> Result<usize> {
         };
         total += n as u64;
         if total > limit {
-            return Err(limits::too_large(path, &format!("gzip data of {} bytes inflate to more than {total} bytes", raw.len()), limit));
+            return Err(limits::too_large(
+                path,
+                &format!("gzip data of {} bytes inflate to more than {total} bytes", raw.len()),
+                limit,
+            ));
         }
     }
-    usize::try_from(total).map_err(|_| limits::too_large(path, &format!("inflates to {total} bytes"), limit))
+    usize::try_from(total)
+        .map_err(|_| limits::too_large(path, &format!("inflates to {total} bytes"), limit))
 }
 
 /// A gzip file of exactly one member, inflated by libdeflate in one call into a buffer of the
@@ -119,7 +128,10 @@ fn gunzip_single_member(raw: &[u8], limit: u64) -> Option<Vec<u8>> {
             &mut used_in,
             &mut used_out,
         );
-        if result != libdeflate_sys::libdeflate_result_LIBDEFLATE_SUCCESS || used_in != raw.len() || used_out != isize {
+        if result != libdeflate_sys::libdeflate_result_LIBDEFLATE_SUCCESS
+            || used_in != raw.len()
+            || used_out != isize
+        {
             return None;
         }
         out.set_len(used_out);
@@ -142,7 +154,12 @@ pub fn read_text(path: &Path) -> Result<String> {
             let e = e.utf8_error();
             let at = e.valid_up_to();
             let line = body[..at].iter().filter(|b| **b == b'\n').count() + 1;
-            Err(Error::at_line(ErrorKind::Syntax, path, line, format!("invalid UTF-8 at byte {at}; expected a text file")))
+            Err(Error::at_line(
+                ErrorKind::Syntax,
+                path,
+                line,
+                format!("invalid UTF-8 at byte {at}; expected a text file"),
+            ))
         }
     }
 }
@@ -201,7 +218,8 @@ mod tests {
         assert!(gz.len() >= 10, "{gz:?}");
         for p in gz {
             let raw = std::fs::read(&p).unwrap();
-            let fast = gunzip_single_member(&raw, u64::MAX).unwrap_or_else(|| panic!("{}: not taken", p.display()));
+            let fast = gunzip_single_member(&raw, u64::MAX)
+                .unwrap_or_else(|| panic!("{}: not taken", p.display()));
             assert!(fast == flate2_gunzip(&raw).unwrap(), "{}", p.display());
         }
     }
@@ -254,25 +272,46 @@ mod tests {
         lying[n - 4..].copy_from_slice(&1000u32.to_le_bytes());
         let two = [gzip(&zeros[..600 << 10]), gzip(&zeros[..600 << 10])].concat();
         let limit = 1 << 19;
-        for (name, bytes) in [("honest.tsv.gz", &honest), ("lying.tsv.gz", &lying), ("two.tsv.gz", &two), ("plain.tsv", &zeros)] {
+        for (name, bytes) in [
+            ("honest.tsv.gz", &honest),
+            ("lying.tsv.gz", &lying),
+            ("two.tsv.gz", &two),
+            ("plain.tsv", &zeros),
+        ] {
             let path = dir.join(name);
             std::fs::write(&path, bytes).unwrap();
             let e = read_bytes_within(&path, limit).unwrap_err();
             assert_eq!(e.kind(), ErrorKind::TooLarge, "{name}: {e}");
             assert_eq!(e.location().file.as_deref(), Some(path.as_path()), "{name}");
-            assert!(e.to_string().contains("more than the input limit of 524288 bytes (set MOTIONLAB_MAX_INPUT_MB"), "{name}: {e}");
+            assert!(
+                e.to_string().contains(
+                    "more than the input limit of 524288 bytes (set MOTIONLAB_MAX_INPUT_MB"
+                ),
+                "{name}: {e}"
+            );
             // Within the limit: read — but a trailer that lies is a corrupt file, and the two
             // members hold more than the limit.
             match name {
-                "lying.tsv.gz" => assert_eq!(read_bytes_within(&path, 1 << 20).unwrap_err().kind(), ErrorKind::Truncated),
-                "two.tsv.gz" => assert_eq!(read_bytes_within(&path, 1 << 20).unwrap_err().kind(), ErrorKind::TooLarge),
-                _ => assert_eq!(read_bytes_within(&path, 1 << 20).unwrap().len(), 1 << 20, "{name}"),
+                "lying.tsv.gz" => assert_eq!(
+                    read_bytes_within(&path, 1 << 20).unwrap_err().kind(),
+                    ErrorKind::Truncated
+                ),
+                "two.tsv.gz" => assert_eq!(
+                    read_bytes_within(&path, 1 << 20).unwrap_err().kind(),
+                    ErrorKind::TooLarge
+                ),
+                _ => {
+                    assert_eq!(read_bytes_within(&path, 1 << 20).unwrap().len(), 1 << 20, "{name}")
+                }
             }
         }
         // Two members of 600 KiB: within a limit of 1200 KiB, both read.
         let path = dir.join("two.tsv.gz");
         assert_eq!(read_bytes_within(&path, 1200 << 10).unwrap().len(), 1200 << 10);
-        assert_eq!(read_bytes_within(&path, (1200 << 10) - 1).unwrap_err().kind(), ErrorKind::TooLarge);
+        assert_eq!(
+            read_bytes_within(&path, (1200 << 10) - 1).unwrap_err().kind(),
+            ErrorKind::TooLarge
+        );
         std::fs::remove_dir_all(&dir).ok();
     }
 }

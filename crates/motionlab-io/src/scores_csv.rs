@@ -49,40 +49,73 @@ pub fn parse_scores_csv(text: &str, path: &Path) -> Result<PublishedScores> {
     let text = crate::text::blank_comment_lines(text);
     let line_of = |p: Option<&csv::Position>| crate::text::csv_record_line(&text, p) as u64;
     let mut reader = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_bytes());
-    let header = reader.headers().map_err(|e| Error::new(ErrorKind::Syntax, format!("cannot read the header: {e}")).with_location(Location::file(path)))?.clone();
+    let header = reader
+        .headers()
+        .map_err(|e| {
+            Error::new(ErrorKind::Syntax, format!("cannot read the header: {e}"))
+                .with_location(Location::file(path))
+        })?
+        .clone();
     let header_line = line_of(header.position());
     if header.len() < 2 {
-        return Err(Error::new(ErrorKind::Syntax, format!("the header has {} column(s); expected the series name, then one column per method", header.len()))
-            .with_location(at(header_line, None)));
+        return Err(Error::new(
+            ErrorKind::Syntax,
+            format!(
+                "the header has {} column(s); expected the series name, then one column per method",
+                header.len()
+            ),
+        )
+        .with_location(at(header_line, None)));
     }
     let methods: Vec<String> = header.iter().skip(1).map(|h| h.trim().to_string()).collect();
     for (i, m) in methods.iter().enumerate() {
         if m.is_empty() {
-            return Err(Error::new(ErrorKind::Syntax, format!("header column {} is empty; expected a method name", i + 2)).with_location(at(header_line, None)));
+            return Err(Error::new(
+                ErrorKind::Syntax,
+                format!("header column {} is empty; expected a method name", i + 2),
+            )
+            .with_location(at(header_line, None)));
         }
         if methods[..i].contains(m) {
-            return Err(Error::new(ErrorKind::DuplicateName, format!("method {m:?} is named twice in the header")).with_location(at(header_line, Some(m))));
+            return Err(Error::new(
+                ErrorKind::DuplicateName,
+                format!("method {m:?} is named twice in the header"),
+            )
+            .with_location(at(header_line, Some(m))));
         }
     }
     let mut series: Vec<(String, Vec<f64>)> = Vec::new();
     for record in reader.records() {
         let record = record.map_err(|e| {
-            Error::new(ErrorKind::Syntax, format!("cannot read the row: {e}")).with_location(at(line_of(e.position()), None))
+            Error::new(ErrorKind::Syntax, format!("cannot read the row: {e}"))
+                .with_location(at(line_of(e.position()), None))
         })?;
         let line = line_of(record.position());
         if record.iter().all(|c| c.trim().is_empty()) {
             continue;
         }
         if record.len() != header.len() {
-            return Err(Error::new(ErrorKind::Syntax, format!("found {} cells, expected {} (the series name and one score per method)", record.len(), header.len()))
-                .with_location(at(line, None)));
+            return Err(Error::new(
+                ErrorKind::Syntax,
+                format!(
+                    "found {} cells, expected {} (the series name and one score per method)",
+                    record.len(),
+                    header.len()
+                ),
+            )
+            .with_location(at(line, None)));
         }
         let name = record[0].trim().to_string();
         if name.is_empty() {
-            return Err(Error::new(ErrorKind::Syntax, "the series name is empty").with_location(at(line, Some(&header[0]))));
+            return Err(Error::new(ErrorKind::Syntax, "the series name is empty")
+                .with_location(at(line, Some(&header[0]))));
         }
         if series.iter().any(|(n, _)| *n == name) {
-            return Err(Error::new(ErrorKind::DuplicateName, format!("series {name:?} is listed twice")).with_location(at(line, Some(&header[0]))));
+            return Err(Error::new(
+                ErrorKind::DuplicateName,
+                format!("series {name:?} is listed twice"),
+            )
+            .with_location(at(line, Some(&header[0]))));
         }
         let scores = methods
             .iter()
@@ -100,7 +133,11 @@ pub fn parse_scores_csv(text: &str, path: &Path) -> Result<PublishedScores> {
         series.push((name, scores));
     }
     if series.is_empty() {
-        return Err(Error::new(ErrorKind::EmptySequence, "lists no series; expected one row per series").with_location(Location::file(path)));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "lists no series; expected one row per series",
+        )
+        .with_location(Location::file(path)));
     }
     Ok(PublishedScores { methods, series })
 }
@@ -153,7 +190,9 @@ mod tests {
 
     #[test]
     fn reads_tssbs_published_sheet() {
-        let s = read_scores_csv(&motionlab_testkit::data_path("tssb/published_covering_unknown.csv")).unwrap();
+        let s =
+            read_scores_csv(&motionlab_testkit::data_path("tssb/published_covering_unknown.csv"))
+                .unwrap();
         assert_eq!(s.methods, ["ESPRESSO", "BOCD", "Window", "PELT", "BinSeg", "FLOSS", "ClaSP"]);
         assert_eq!(s.series.len(), 75);
         // The notebook's means (×100, rounded to 2 decimals): ClaSP 85.47, PELT 58.1.

@@ -10,7 +10,6 @@
 //! Conventions: `\n` ends a line; `\r`, space and tab are blanks (so CRLF and LF files scan
 //! identically); line numbers are 1-based.
 
-
 use std::path::Path;
 
 use motionlab_core::{Error, ErrorKind, Result};
@@ -25,7 +24,15 @@ pub(crate) fn strip_bom(text: &str) -> &str {
 /// a CSV reader's line numbers stay the file's (the csv crate's own comment skipping leaves
 /// the skipped lines out of its positions).
 pub(crate) fn blank_comment_lines(text: &str) -> String {
-    text.split_inclusive('\n').map(|l| if l.trim_start().starts_with('#') { if l.ends_with('\n') { "\n" } else { "" } } else { l }).collect()
+    text.split_inclusive('\n')
+        .map(|l| {
+            if l.trim_start().starts_with('#') {
+                if l.ends_with('\n') { "\n" } else { "" }
+            } else {
+                l
+            }
+        })
+        .collect()
 }
 
 /// The 1-based line of `text` where the CSV record at `position` starts: a record's position
@@ -52,7 +59,8 @@ fn is_separator(b: u8) -> bool {
 
 /// How the token after a number ended, for the error message of a value that is not a number.
 fn token_at(bytes: &[u8], start: usize) -> &str {
-    let end = bytes[start..].iter().position(|b| is_separator(*b)).map_or(bytes.len(), |n| start + n);
+    let end =
+        bytes[start..].iter().position(|b| is_separator(*b)).map_or(bytes.len(), |n| start + n);
     // Cut at 40 bytes so a garbage line does not flood the message; back off to a char boundary.
     let mut cut = end.min(start + 40);
     while cut > start && std::str::from_utf8(&bytes[start..cut]).is_err() {
@@ -63,8 +71,8 @@ fn token_at(bytes: &[u8], start: usize) -> &str {
 
 /// 10⁰ … 10²², the powers of ten an f64 holds exactly.
 const EXACT_POWERS_OF_TEN: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
-    1e21, 1e22,
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
 /// The common case of a mocap number — `-?digits[.digits][e±digits]` with at most 19
@@ -161,7 +169,12 @@ impl LineWord {
     /// makes the line a comment, a header or a number line).
     pub fn new(word: &[u8]) -> Option<Self> {
         let first = *word.first()?;
-        if word.len() > 16 || word.iter().any(|b| is_separator(*b)) || first == b'#' || first == b':' || first.is_ascii_digit() {
+        if word.len() > 16
+            || word.iter().any(|b| is_separator(*b))
+            || first == b'#'
+            || first == b':'
+            || first.is_ascii_digit()
+        {
             return None;
         }
         let mut padded = [0u8; 16];
@@ -172,7 +185,8 @@ impl LineWord {
 }
 
 /// 10⁰ … 10⁸ as integers, to join a number's integer and fraction digits.
-const POWERS_OF_TEN_U64: [u64; 9] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000];
+const POWERS_OF_TEN_U64: [u64; 9] =
+    [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000];
 
 /// The 8 window bytes from `i` on (little-endian: byte `i` lowest), `i` ≤ `LINE_WINDOW − 8`.
 #[inline(always)]
@@ -237,7 +251,11 @@ fn plain_decimal_swar(w: &[u8; LINE_WINDOW], start: usize) -> Option<(f64, usize
     // At most 14 digits: far below 2⁵³ (so the signed conversion, one instruction where the
     // unsigned one takes several, is exact), and 10^|exponent| ≤ 10⁷ is exact.
     let m = mantissa as i64 as f64;
-    let value = if exponent == 0 { m * EXACT_POWERS_OF_TEN[0] } else { m / EXACT_POWERS_OF_TEN[(-exponent) as usize] };
+    let value = if exponent == 0 {
+        m * EXACT_POWERS_OF_TEN[0]
+    } else {
+        m / EXACT_POWERS_OF_TEN[(-exponent) as usize]
+    };
     Some((if negative { -value } else { value }, i))
 }
 
@@ -323,7 +341,12 @@ fn plain_decimal_in_window(w: &[u8; LINE_WINDOW], start: usize) -> Option<(f64, 
 /// speed, never results: each value is the same arithmetic as [`NumberLines::read_line`]'s.
 /// `out` may be partly written when it returns `None`.
 #[inline(always)]
-pub(crate) fn read_plain_line(w: &[u8; LINE_WINDOW], word: Option<&LineWord>, out: &mut [f64], scale: &[f64]) -> Option<usize> {
+pub(crate) fn read_plain_line(
+    w: &[u8; LINE_WINDOW],
+    word: Option<&LineWord>,
+    out: &mut [f64],
+    scale: &[f64],
+) -> Option<usize> {
     let at = |i: usize| w[i % LINE_WINDOW];
     let mut i = 0;
     if let Some(word) = word {
@@ -442,7 +465,12 @@ impl<'a> NumberLines<'a> {
     /// `\n`. Errors: a token that is not a number (`Syntax`), a NaN or infinite value
     /// (`NonFinite`), both at this line.
     #[inline]
-    pub fn read_line(&mut self, out: &mut [f64], scale: &[f64], what: impl Fn() -> String) -> Result<LineValues> {
+    pub fn read_line(
+        &mut self,
+        out: &mut [f64],
+        scale: &[f64],
+        what: impl Fn() -> String,
+    ) -> Result<LineValues> {
         let bytes = self.bytes;
         let line = self.line;
         let mut count = 0usize;
@@ -477,7 +505,12 @@ impl<'a> NumberLines<'a> {
                         ErrorKind::Syntax,
                         self.origin,
                         line,
-                        format!("{}: value {} is {:?}, expected a number", what(), count + 1, token_at(bytes, pos)),
+                        format!(
+                            "{}: value {} is {:?}, expected a number",
+                            what(),
+                            count + 1,
+                            token_at(bytes, pos)
+                        ),
                     ));
                 }
             };
@@ -486,7 +519,12 @@ impl<'a> NumberLines<'a> {
                     ErrorKind::NonFinite,
                     self.origin,
                     line,
-                    format!("{}: value {} is {:?}, expected a finite number", what(), count + 1, token_at(bytes, pos)),
+                    format!(
+                        "{}: value {} is {:?}, expected a finite number",
+                        what(),
+                        count + 1,
+                        token_at(bytes, pos)
+                    ),
                 ));
             }
             if let (Some(slot), Some(s)) = (out.get_mut(count), scale.get(count)) {
@@ -565,7 +603,10 @@ impl<'a> Tokens<'a> {
             return None;
         }
         let start = self.pos;
-        while self.pos < bytes.len() && !is_separator(bytes[self.pos]) && !(self.comments && bytes[self.pos] == b'#') {
+        while self.pos < bytes.len()
+            && !is_separator(bytes[self.pos])
+            && !(self.comments && bytes[self.pos] == b'#')
+        {
             self.pos += 1;
         }
         Some(Token { text: &self.text[start..self.pos], line: self.line })
@@ -596,9 +637,12 @@ pub(crate) fn parse_f64(tok: Token<'_>, origin: &Path, what: &str) -> Result<f64
             tok.line,
             format!("{what} is {:?}, expected a finite number", tok.text),
         )),
-        Err(_) => {
-            Err(Error::at_line(ErrorKind::Syntax, origin, tok.line, format!("{what} is {:?}, expected a number", tok.text)))
-        }
+        Err(_) => Err(Error::at_line(
+            ErrorKind::Syntax,
+            origin,
+            tok.line,
+            format!("{what} is {:?}, expected a number", tok.text),
+        )),
     }
 }
 
@@ -627,10 +671,41 @@ mod tests {
         // Hand-picked corners, then a deterministic sweep of mantissas, point positions and
         // exponents around the fast path's limits (2^53, 19 digits, |e| = 22).
         let mut cases: Vec<String> = [
-            "0", "-0", "0.0", "-0.000", "1", "-1", "1.", ".5", "-.5", "17.3866", "-88.1261", "1.39149e-015", "7.95139e-016",
-            "1e22", "1e23", "1e-22", "1e-23", "9007199254740992", "9007199254740993", "1234567890123456789",
-            "12345678901234567890", "0.1", "0.2", "0.30000000000000004", "2.5E+3", "4e", "5e+", "1.5x", "+1", "inf", "nan",
-            "00000000000000000001.5", "-", ".", "e5",
+            "0",
+            "-0",
+            "0.0",
+            "-0.000",
+            "1",
+            "-1",
+            "1.",
+            ".5",
+            "-.5",
+            "17.3866",
+            "-88.1261",
+            "1.39149e-015",
+            "7.95139e-016",
+            "1e22",
+            "1e23",
+            "1e-22",
+            "1e-23",
+            "9007199254740992",
+            "9007199254740993",
+            "1234567890123456789",
+            "12345678901234567890",
+            "0.1",
+            "0.2",
+            "0.30000000000000004",
+            "2.5E+3",
+            "4e",
+            "5e+",
+            "1.5x",
+            "+1",
+            "inf",
+            "nan",
+            "00000000000000000001.5",
+            "-",
+            ".",
+            "e5",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -644,7 +719,8 @@ mod tests {
             let m = format!("{:020}", x >> 3);
             let m = &m[m.len() - digits..];
             let point = (x >> 40) as usize % (digits + 1);
-            let mut t = format!("{}{}.{}", if x & 1 == 0 { "-" } else { "" }, &m[..point], &m[point..]);
+            let mut t =
+                format!("{}{}.{}", if x & 1 == 0 { "-" } else { "" }, &m[..point], &m[point..]);
             if x & 2 == 0 {
                 t.push_str(&format!("e{}", ((x >> 50) % 61) as i64 - 30));
             }
@@ -655,7 +731,9 @@ mod tests {
             let reference = fast_float2::parse_partial::<f64, _>(t.as_bytes()).ok();
             if let Some((v, n)) = parse_plain_decimal(t.as_bytes()) {
                 fast += 1;
-                let (rv, rn) = reference.unwrap_or_else(|| panic!("{t:?}: fast path accepted what fast-float2 refuses"));
+                let (rv, rn) = reference.unwrap_or_else(|| {
+                    panic!("{t:?}: fast path accepted what fast-float2 refuses")
+                });
                 assert_eq!((v.to_bits(), n), (rv.to_bits(), rn), "{t:?}: {v} vs {rv}");
             }
         }
@@ -672,18 +750,37 @@ mod tests {
             if let Some(used) = read_plain_line(&window, None, &mut out, &[1.0]) {
                 line_fast += 1;
                 assert_eq!(used, t.len() + 3, "{t:?}");
-                let (v, _) = parse_plain_decimal(t.as_bytes()).unwrap_or_else(|| panic!("{t:?}: line path accepted what the scanner refuses"));
+                let (v, _) = parse_plain_decimal(t.as_bytes()).unwrap_or_else(|| {
+                    panic!("{t:?}: line path accepted what the scanner refuses")
+                });
                 assert_eq!(out[0].to_bits(), v.to_bits(), "{t:?}");
             }
         }
         assert!(line_fast > cases.len() / 2, "{line_fast} of {}", cases.len());
-        for t in ["17.3866", "-88.1261", "0.17894", "1.39149e-015", "-0.000001", "1234567.1234567", "5", "-7."] {
+        for t in [
+            "17.3866",
+            "-88.1261",
+            "0.17894",
+            "1.39149e-015",
+            "-0.000001",
+            "1234567.1234567",
+            "5",
+            "-7.",
+        ] {
             let mut window = [b' '; LINE_WINDOW];
             window[..t.len()].copy_from_slice(t.as_bytes());
             window[t.len()] = b'\n';
             let mut out = [0.0];
-            assert_eq!(read_plain_line(&window, None, &mut out, &[1.0]), Some(t.len() + 1), "{t:?}");
-            assert_eq!(Some(out[0].to_bits()), parse_plain_decimal(t.as_bytes()).map(|(v, _)| v.to_bits()), "{t:?}");
+            assert_eq!(
+                read_plain_line(&window, None, &mut out, &[1.0]),
+                Some(t.len() + 1),
+                "{t:?}"
+            );
+            assert_eq!(
+                Some(out[0].to_bits()),
+                parse_plain_decimal(t.as_bytes()).map(|(v, _)| v.to_bits()),
+                "{t:?}"
+            );
         }
         assert!(parse_plain_decimal(b"12345678901234567890").is_none());
         assert!(parse_plain_decimal(b"1e23").is_none());

@@ -7,10 +7,10 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use motionlab_core::registry::{build_loader, default_params, plugins, StageKind};
+use motionlab_core::registry::{StageKind, build_loader, default_params, plugins};
 use motionlab_core::{Axis, Motion};
 use motionlab_io::c3d::raw::C3dFile;
-use motionlab_io::c3d::{parse_c3d, C3dOptions};
+use motionlab_io::c3d::{C3dOptions, parse_c3d};
 use motionlab_io::qualisys_tsv::parse_qualisys_tsv;
 use motionlab_io::read::{read_bytes, read_text};
 use motionlab_testkit::data_path;
@@ -22,7 +22,10 @@ fn load_c3d(path: &Path) -> Motion {
 }
 
 fn load_tsv(path: &Path) -> Motion {
-    build_loader("qualisys_tsv", &default_params()).unwrap().load(path).unwrap_or_else(|e| panic!("{e}"))
+    build_loader("qualisys_tsv", &default_params())
+        .unwrap()
+        .load(path)
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn schreiber_files() -> Vec<PathBuf> {
@@ -31,7 +34,11 @@ fn schreiber_files() -> Vec<PathBuf> {
     for subject in std::fs::read_dir(&root).unwrap() {
         let dynamic = subject.unwrap().path().join("dynamic");
         if let Ok(entries) = std::fs::read_dir(&dynamic) {
-            files.extend(entries.map(|e| e.unwrap().path()).filter(|p| p.to_string_lossy().ends_with(".c3d.gz")));
+            files.extend(
+                entries
+                    .map(|e| e.unwrap().path())
+                    .filter(|p| p.to_string_lossy().ends_with(".c3d.gz")),
+            );
         }
     }
     files.sort();
@@ -68,7 +75,10 @@ fn mct_tsv_and_c3d_give_the_same_positions_names_and_rate() {
         eprintln!("{name}: largest |TSV − C3D| = {worst:.2e} mm");
         // TSV keeps 3 decimals (rounding error ≤ 5e-4 mm); C3D float32 is exact to ~1e-4 mm here.
         assert!(worst < 1e-3, "{name}: largest difference {worst} mm");
-        assert!(worst > 0.0, "{name}: the two formats cannot be bit-identical (3-decimal text vs float32)");
+        assert!(
+            worst > 0.0,
+            "{name}: the two formats cannot be bit-identical (3-decimal text vs float32)"
+        );
         assert_eq!((tsv.up_axis(), c3d.up_axis()), (Axis::Z, Axis::Z));
     }
 }
@@ -94,7 +104,11 @@ fn walk1_has_27_missing_samples_at_the_same_places_in_both_formats() {
     assert!(c3d.trajectory(1).skip(199).take(11).all(|p| p.iter().all(|v| v.is_nan())));
     // The other two recordings and both dances are complete.
     for name in ["dance1", "dance2", "walk2"] {
-        assert_eq!(load_c3d(&data_path(&format!("mct/{name}.c3d.gz"))).missing_count(), 0, "{name}");
+        assert_eq!(
+            load_c3d(&data_path(&format!("mct/{name}.c3d.gz"))).missing_count(),
+            0,
+            "{name}"
+        );
     }
 }
 
@@ -107,13 +121,19 @@ fn listed_strides() -> BTreeMap<String, (f64, f64)> {
     };
     text.lines()
         .filter(|l| l.contains("strideL="))
-        .map(|l| (l.split_whitespace().next().unwrap().to_string(), (value(l, "strideL="), value(l, "strideR="))))
+        .map(|l| {
+            (
+                l.split_whitespace().next().unwrap().to_string(),
+                (value(l, "strideL="), value(l, "strideR=")),
+            )
+        })
         .collect()
 }
 
 /// The ISB marker names SOURCE.txt spells out (`L_IAS … L_FM5, the same for R_`).
 fn listed_lower_limb_markers() -> Vec<String> {
-    let text = std::fs::read_to_string(data_path("schreiber2019/SOURCE.txt")).unwrap().replace('\n', " ");
+    let text =
+        std::fs::read_to_string(data_path("schreiber2019/SOURCE.txt")).unwrap().replace('\n', " ");
     let start = text.find("ISB set:").unwrap() + "ISB set:".len();
     let end = start + text[start..].find(", the same for R_").unwrap();
     let left: Vec<String> = text[start..end].split_whitespace().map(str::to_string).collect();
@@ -156,9 +176,13 @@ fn schreiber_trials_have_100_hz_and_the_isb_markers_of_source_txt() {
     }
     let full = full.unwrap();
     assert!(full.iter().all(|n| !n.is_empty() && !n.contains(' ')));
-    let expected_reduced: Vec<String> = full.iter().filter(|n| !medial.contains(&n.as_str())).cloned().collect();
+    let expected_reduced: Vec<String> =
+        full.iter().filter(|n| !medial.contains(&n.as_str())).cloned().collect();
     let names: Vec<&str> = reduced.iter().map(|(n, _)| n.as_str()).collect();
-    assert_eq!(names, ["2015026_C4_04.c3d", "2015026_C5_03.c3d", "2015032_C4_03.c3d", "2015032_C5_01.c3d"]);
+    assert_eq!(
+        names,
+        ["2015026_C4_04.c3d", "2015026_C5_03.c3d", "2015032_C4_03.c3d", "2015032_C5_01.c3d"]
+    );
     for (name, labels) in &reduced {
         assert_eq!(labels, &expected_reduced, "{name}");
     }
@@ -175,16 +199,25 @@ fn schreiber_foot_strike_events_reproduce_the_listed_stride_times() {
         let (want_l, want_r) = listed[&name];
         for (side, want) in [("Left", want_l), ("Right", want_r)] {
             // Vicon labels them "Foot Strike1", "Foot Strike2" in these files.
-            let strikes: Vec<&motionlab_core::Event> =
-                m.events.iter().filter(|e| e.context == side && e.label.starts_with("Foot Strike")).collect();
+            let strikes: Vec<&motionlab_core::Event> = m
+                .events
+                .iter()
+                .filter(|e| e.context == side && e.label.starts_with("Foot Strike"))
+                .collect();
             assert_eq!(strikes.len(), 2, "{name} {side}: {:?}", m.events);
             let stride_s = strikes[1].time.0 - strikes[0].time.0;
-            assert!((stride_s - want).abs() <= 0.005 + 1e-6, "{name} {side}: {stride_s:.4} s vs listed {want}");
+            assert!(
+                (stride_s - want).abs() <= 0.005 + 1e-6,
+                "{name} {side}: {stride_s:.4} s vs listed {want}"
+            );
             // The frame indices give the same stride.
             let stride_frames = strikes[1].frame - strikes[0].frame;
             assert!((stride_frames / rate - stride_s).abs() < 1e-9);
             // Every event lies within the recording.
-            assert!(m.events.iter().all(|e| e.frame >= 0.0 && e.frame <= (m.n_frames() - 1) as f64), "{name}");
+            assert!(
+                m.events.iter().all(|e| e.frame >= 0.0 && e.frame <= (m.n_frames() - 1) as f64),
+                "{name}"
+            );
         }
         let offs = m.events.iter().filter(|e| e.label == "Foot Off").count();
         assert_eq!(offs, 3, "{name}");
@@ -225,7 +258,10 @@ fn foot_strike_frames_agree_with_force_plate_onsets() {
     }
     assert!(lags.len() >= 60, "{} plate strikes", lags.len());
     let mean = lags.iter().sum::<f64>() / lags.len() as f64;
-    eprintln!("force-plate onset − Foot Strike frame: mean {mean:.3} frames over {} plate strikes", lags.len());
+    eprintln!(
+        "force-plate onset − Foot Strike frame: mean {mean:.3} frames over {} plate strikes",
+        lags.len()
+    );
     // Force rises within the event's frame on average (the 20 N threshold adds a few ms);
     // an off-by-one convention would put the mean near −0.3 or +1.7 frames.
     assert!((0.2..1.2).contains(&mean), "mean onset − event = {mean:.2} frames; lags {lags:?}");
@@ -234,18 +270,24 @@ fn foot_strike_frames_agree_with_force_plate_onsets() {
 
 #[test]
 fn c3dio_reads_the_same_positions_and_labels_from_every_shipped_c3d() {
-    let mut files: Vec<PathBuf> = MCT.iter().map(|n| data_path(&format!("mct/{n}.c3d.gz"))).collect();
+    let mut files: Vec<PathBuf> =
+        MCT.iter().map(|n| data_path(&format!("mct/{n}.c3d.gz"))).collect();
     files.extend(schreiber_files());
     assert_eq!(files.len(), 40);
     let mut compared = 0usize;
     for path in files {
         let bytes = read_bytes(&path).unwrap();
         let ours = parse_c3d(&bytes, &path, &C3dOptions::default()).unwrap();
-        let theirs = c3dio::C3d::from_bytes(&bytes).unwrap_or_else(|e| panic!("c3dio on {}: {e:?}", path.display()));
+        let theirs = c3dio::C3d::from_bytes(&bytes)
+            .unwrap_or_else(|e| panic!("c3dio on {}: {e:?}", path.display()));
         let name = file_name(&path);
         assert_eq!(theirs.points.labels, ours.point_names(), "{name}");
         assert_eq!(f64::from(theirs.points.frame_rate), ours.frame_rate().hz(), "{name}");
-        assert_eq!((theirs.points.rows(), theirs.points.cols()), (ours.n_frames(), ours.n_points()), "{name}");
+        assert_eq!(
+            (theirs.points.rows(), theirs.points.cols()),
+            (ours.n_frames(), ours.n_points()),
+            "{name}"
+        );
         for f in 0..ours.n_frames() {
             for k in 0..ours.n_points() {
                 if ours.is_missing(f, k) {
@@ -332,9 +374,12 @@ fn c3dio_limitations_that_motivated_our_own_reader() {
         // Corrupt one byte of the header or parameter section (walk1's data starts at 3072).
         let i = (rng.next_u64() % 3072) as usize;
         b[i] = rng.next_u64() as u8;
-        panics += usize::from(std::panic::catch_unwind(|| c3dio::C3d::from_bytes(&b).is_ok()).is_err());
+        panics +=
+            usize::from(std::panic::catch_unwind(|| c3dio::C3d::from_bytes(&b).is_ok()).is_err());
         let _ = parse_c3d(&b, &path, &C3dOptions::default()); // ours: never panics
     }
-    eprintln!("c3dio panicked on {panics} of 500 single-byte corruptions of walk1.c3d's header/parameters");
+    eprintln!(
+        "c3dio panicked on {panics} of 500 single-byte corruptions of walk1.c3d's header/parameters"
+    );
     assert!(panics > 0);
 }

@@ -14,8 +14,8 @@ use std::sync::LazyLock;
 
 use motionlab_core::registry::{build_loader, default_params};
 use motionlab_core::{Axis, ErrorKind, LengthUnit, Motion};
-use motionlab_io::bvh::{parse_bvh, BvhOptions, PositionChannels};
-use motionlab_io::c3d::{parse_c3d, C3dOptions};
+use motionlab_io::bvh::{BvhOptions, PositionChannels, parse_bvh};
+use motionlab_io::c3d::{C3dOptions, parse_c3d};
 use motionlab_io::read::{read_bytes, read_text};
 use motionlab_testkit::{data_path, repo_root};
 use serde_json::Value;
@@ -25,7 +25,9 @@ fn fixture(kind: &str, name: &str) -> PathBuf {
 }
 
 static REFERENCE: LazyLock<Value> = LazyLock::new(|| {
-    let text = std::fs::read_to_string(repo_root().join("tests/fixtures/conformance/reference.json")).unwrap();
+    let text =
+        std::fs::read_to_string(repo_root().join("tests/fixtures/conformance/reference.json"))
+            .unwrap();
     serde_json::from_str(&text).unwrap()
 });
 
@@ -42,7 +44,9 @@ fn load_c3d(name: &str) -> Motion {
 fn strict_c3d_error(name: &str) -> motionlab_core::Error {
     let path = fixture("c3d", name);
     let strict = C3dOptions { strict: true, ..C3dOptions::default() };
-    let e = parse_c3d(&read_bytes(&path).unwrap(), &path, &strict).err().unwrap_or_else(|| panic!("{name}: strict reading loaded"));
+    let e = parse_c3d(&read_bytes(&path).unwrap(), &path, &strict)
+        .err()
+        .unwrap_or_else(|| panic!("{name}: strict reading loaded"));
     assert!(e.to_string().contains(name) && !e.to_string().contains('\n'), "{e}");
     e
 }
@@ -60,14 +64,27 @@ fn assert_close(a: f64, b: f64, scale: f64, what: &str) {
 /// file units of `mm_per_unit` mm. Returns how many samples the checksums cover.
 fn assert_matches_reference(m: &Motion, r: &Value, mm_per_unit: f64) -> usize {
     let (n, points) = (m.n_frames(), m.n_points());
-    assert_eq!((n as u64, points as u64), (r["n_frames"].as_u64().unwrap(), r["n_points"].as_u64().unwrap()));
+    assert_eq!(
+        (n as u64, points as u64),
+        (r["n_frames"].as_u64().unwrap(), r["n_points"].as_u64().unwrap())
+    );
     let mut covered = 0;
     for p in 0..points {
         let what = |s: &str| format!("{} point {p} ({}) {s}", m.name, m.point_names()[p]);
         let valid: Vec<usize> = (0..n).filter(|&k| !m.is_missing(k, p)).collect();
-        assert_eq!(valid.len() as u64, r["valid"][p].as_u64().unwrap(), "{}", what("valid samples"));
+        assert_eq!(
+            valid.len() as u64,
+            r["valid"][p].as_u64().unwrap(),
+            "{}",
+            what("valid samples")
+        );
         let missing_sum: u64 = (0..n).filter(|&k| m.is_missing(k, p)).map(|k| k as u64).sum();
-        assert_eq!(missing_sum, r["missing_frame_sum"][p].as_u64().unwrap(), "{}", what("missing frames"));
+        assert_eq!(
+            missing_sum,
+            r["missing_frame_sum"][p].as_u64().unwrap(),
+            "{}",
+            what("missing frames")
+        );
         covered += valid.len();
         for axis in 0..3 {
             let c = |k: usize| m.position(k, p)[axis] / mm_per_unit;
@@ -77,7 +94,12 @@ fn assert_matches_reference(m: &Motion, r: &Value, mm_per_unit: f64) -> usize {
             let square: f64 = valid.iter().map(|&k| c(k) * c(k)).sum();
             assert_close(abs, f(&r["abs_sum"][p][axis]), abs, &what("sum of |x|"));
             assert_close(sum, f(&r["sum"][p][axis]), abs, &what("sum"));
-            assert_close(weighted, f(&r["weighted_sum"][p][axis]), abs * n as f64, &what("frame-weighted sum"));
+            assert_close(
+                weighted,
+                f(&r["weighted_sum"][p][axis]),
+                abs * n as f64,
+                &what("frame-weighted sum"),
+            );
             assert_close(square, f(&r["square_sum"][p][axis]), square, &what("sum of squares"));
         }
     }
@@ -85,12 +107,19 @@ fn assert_matches_reference(m: &Motion, r: &Value, mm_per_unit: f64) -> usize {
         let k: usize = frame.parse().unwrap();
         for (p, point) in row.as_array().unwrap().iter().enumerate() {
             match point.as_array() {
-                None => assert!(m.is_missing(k, p), "{} frame {k} point {p} should be missing", m.name),
+                None => {
+                    assert!(m.is_missing(k, p), "{} frame {k} point {p} should be missing", m.name)
+                }
                 Some(xyz) => {
                     let ours = m.position(k, p);
                     for axis in 0..3 {
                         let want = f(&xyz[axis]);
-                        assert_close(ours[axis] / mm_per_unit, want, want.abs(), &format!("{} frame {k} point {p}", m.name));
+                        assert_close(
+                            ours[axis] / mm_per_unit,
+                            want,
+                            want.abs(),
+                            &format!("{} frame {k} point {p}", m.name),
+                        );
                     }
                 }
             }
@@ -106,10 +135,16 @@ fn bits(m: &Motion) -> Vec<u64> {
 
 /// The reference's labels, blank ones as `P<n>` (the loader's documented naming).
 fn reference_names(r: &Value) -> Vec<String> {
-    r["labels"].as_array().unwrap().iter().enumerate().map(|(i, l)| match l.as_str().unwrap() {
-        "" => format!("P{}", i + 1),
-        s => s.to_string(),
-    }).collect()
+    r["labels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, l)| match l.as_str().unwrap() {
+            "" => format!("P{}", i + 1),
+            s => s.to_string(),
+        })
+        .collect()
 }
 
 /// A C3D fixture that loads: positions equal to its reference, names and rate as it has them.
@@ -127,8 +162,15 @@ fn processor_type_0_is_refused_as_every_reader_refuses_it() {
     assert!(reference("c3d", "examples_simple.c3d")["reference"].is_null());
     let path = fixture("c3d", "examples_simple.c3d");
     let e = build_loader("c3d", &default_params()).unwrap().load(&path).unwrap_err();
-    assert_eq!((e.kind(), e.location().byte_offset, e.location().field.as_deref()), (ErrorKind::Syntax, Some(515), Some("parameters.processor")));
-    assert!(e.to_string().contains("examples_simple.c3d (byte 515)") && e.to_string().contains("processor type is 0 (never set"), "{e}");
+    assert_eq!(
+        (e.kind(), e.location().byte_offset, e.location().field.as_deref()),
+        (ErrorKind::Syntax, Some(515), Some("parameters.processor"))
+    );
+    assert!(
+        e.to_string().contains("examples_simple.c3d (byte 515)")
+            && e.to_string().contains("processor type is 0 (never set"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -138,13 +180,22 @@ fn motion_analysis_walk1_repeated_labels_are_made_unique() {
     let theirs = reference_names(reference("c3d", name));
     assert_eq!((theirs[14].as_str(), theirs[25].as_str()), ("RKNE", "RKNE"));
     assert_eq!((m.point_names()[14].as_str(), m.point_names()[25].as_str()), ("RKNE", "RKNE#2"));
-    assert_eq!((m.point_names()[29].as_str(), m.point_names()[41].as_str(), m.point_names()[42].as_str()), ("VMID", "VMID#2", "VMID#3"));
+    assert_eq!(
+        (m.point_names()[29].as_str(), m.point_names()[41].as_str(), m.point_names()[42].as_str()),
+        ("VMID", "VMID#2", "VMID#3")
+    );
     // Every other name is as written.
     for (ours, written) in m.point_names().iter().zip(&theirs) {
         assert!(ours == written || ours.starts_with(&format!("{written}#")), "{ours} vs {written}");
     }
     assert_eq!(m.load_notes.repairs.len(), 1);
-    assert!(m.load_notes.repairs[0].starts_with(r#"duplicate point labels made unique: "RKNE" (points 15, 26) → RKNE, RKNE#2; "#), "{:?}", m.load_notes);
+    assert!(
+        m.load_notes.repairs[0].starts_with(
+            r#"duplicate point labels made unique: "RKNE" (points 15, 26) → RKNE, RKNE#2; "#
+        ),
+        "{:?}",
+        m.load_notes
+    );
     assert_eq!(strict_c3d_error(name).kind(), ErrorKind::DuplicateName);
 }
 
@@ -195,7 +246,10 @@ fn a_parameter_name_with_a_space_is_read() {
     let name = "sample_11_2198928.c3d";
     let m = c3d_matches_reference(name);
     assert_eq!(m.point_names(), reference_names(reference("c3d", name)));
-    assert_eq!(m.load_notes.repairs, [r#"group or parameter names with spaces accepted: "Splines Fitted""#]);
+    assert_eq!(
+        m.load_notes.repairs,
+        [r#"group or parameter names with spaces accepted: "Splines Fitted""#]
+    );
     let e = strict_c3d_error(name);
     assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Syntax, Some(20003)));
     assert!(e.message().contains(r#""Splines Fitted" has a space"#), "{e}");
@@ -210,7 +264,9 @@ fn evart_reads_with_the_header_stride() {
     assert_eq!(m.point_names(), reference_names(reference("c3d", name)));
     assert_eq!(
         m.load_notes.repairs,
-        ["ANALOG:RATE 1000 Hz is not a whole multiple of POINT:RATE 60 Hz, so the parameters give no analog word count; the header's 476 words per frame are used"]
+        [
+            "ANALOG:RATE 1000 Hz is not a whole multiple of POINT:RATE 60 Hz, so the parameters give no analog word count; the header's 476 words per frame are used"
+        ]
     );
     assert_eq!(strict_c3d_error(name).location().field.as_deref(), Some("ANALOG:RATE"));
 }
@@ -220,10 +276,20 @@ fn a_unit_string_cut_short_is_read_as_its_unit() {
     let name = "sample_15_FP1.C3D";
     let m = c3d_matches_reference(name);
     assert_eq!(m.load_notes.length_unit, Some(LengthUnit::Metre));
-    assert_eq!(m.load_notes.repairs, [r#"POINT:UNITS "mete" read as "meter" (a unit name cut short)"#]);
+    assert_eq!(
+        m.load_notes.repairs,
+        [r#"POINT:UNITS "mete" read as "meter" (a unit name cut short)"#]
+    );
     // Metres: the markers span about a metre.
-    assert!((500.0..3000.0).contains(&(m.frame(0).iter().map(|p| p[2]).fold(f64::MIN, f64::max))), "{:?}", m.frame(0));
-    assert_eq!((strict_c3d_error(name).kind(), strict_c3d_error(name).location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:UNITS")));
+    assert!(
+        (500.0..3000.0).contains(&(m.frame(0).iter().map(|p| p[2]).fold(f64::MIN, f64::max))),
+        "{:?}",
+        m.frame(0)
+    );
+    assert_eq!(
+        (strict_c3d_error(name).kind(), strict_c3d_error(name).location().field.as_deref()),
+        (ErrorKind::OutOfRange, Some("POINT:UNITS"))
+    );
 }
 
 #[test]
@@ -249,7 +315,9 @@ fn motion_monitor_reads_every_sample_with_the_parameters_stride() {
     assert!(largest < 2000.0, "{largest} mm");
     assert_eq!(
         m.load_notes.repairs,
-        ["the header says 16 analog words per frame but ANALOG:USED 16 × 7 samples = 112: the parameters' account fits the file (517120 bytes) and is used"]
+        [
+            "the header says 16 analog words per frame but ANALOG:USED 16 × 7 samples = 112: the parameters' account fits the file (517120 bytes) and is used"
+        ]
     );
     assert_eq!(m.point_names()[0], "P1");
     assert_eq!(strict_c3d_error(name).location().field.as_deref(), Some("ANALOG:USED"));
@@ -263,7 +331,12 @@ fn kyowadengyo_point_count_is_resolved_by_the_file_size() {
     let m = c3d_matches_reference(name);
     assert_eq!((m.n_points(), m.n_frames()), (11, 152));
     assert_eq!(m.point_names(), reference_names(reference("c3d", name)));
-    assert_eq!(m.load_notes.repairs, ["POINT:USED is 12 but the header says 11 points per frame: the header's account fits the file (31232 bytes) and is used"]);
+    assert_eq!(
+        m.load_notes.repairs,
+        [
+            "POINT:USED is 12 but the header says 11 points per frame: the header's account fits the file (31232 bytes) and is used"
+        ]
+    );
     assert_eq!(strict_c3d_error(name).location().field.as_deref(), Some("POINT:USED"));
 }
 
@@ -286,7 +359,10 @@ fn parameters_defined_twice_keep_the_first() {
     assert_eq!(m.load_notes.repairs.len(), 1);
     assert!(m.load_notes.repairs[0].starts_with("2764 parameters defined twice, the first definition of each kept: PROCESSING:MARKERDIAMETER"), "{:?}", m.load_notes);
     let e = strict_c3d_error(name);
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::DuplicateName, Some("PROCESSING:MARKERDIAMETER")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::DuplicateName, Some("PROCESSING:MARKERDIAMETER"))
+    );
 }
 
 /// The PyMO walk: a root OFFSET of (11.3, 35.4, −54.3) inches under its position channels.
@@ -298,28 +374,46 @@ fn pymo_walk_position_channels_replace_the_offset() {
     let path = fixture("bvh", name);
     let m = build_loader("bvh", &default_params()).unwrap().load(&path).unwrap();
     assert_eq!(m.load_notes.length_unit, Some(LengthUnit::Inch));
-    assert_eq!(m.load_notes.length_unit_from, "inferred from the rest pose: 60.5578 units tall along y");
+    assert_eq!(
+        m.load_notes.length_unit_from,
+        "inferred from the rest pose: 60.5578 units tall along y"
+    );
     let covered = assert_matches_reference(&m, reference("bvh", name), 25.4);
     assert_eq!(covered, 1064 * 30);
     let lowest = |m: &Motion| m.positions().iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
     assert!(lowest(&m).abs() < 10.0, "feet {} mm from the floor", lowest(&m));
-    let add = parse_bvh(&read_text(&path).unwrap(), &path, &BvhOptions { position_channels: PositionChannels::Add, ..BvhOptions::default() }).unwrap();
+    let add = parse_bvh(
+        &read_text(&path).unwrap(),
+        &path,
+        &BvhOptions { position_channels: PositionChannels::Add, ..BvhOptions::default() },
+    )
+    .unwrap();
     assert!((lowest(&add) - 35.419 * 25.4).abs() < 10.0, "{}", lowest(&add));
 }
 
 #[test]
 fn every_shipped_bvh_reads_the_same_under_both_position_conventions() {
-    let files: Vec<PathBuf> = ["131_01", "131_02", "131_03"].iter().map(|t| data_path(&format!("cmu131/{t}.bvh.gz"))).collect();
+    let files: Vec<PathBuf> = ["131_01", "131_02", "131_03"]
+        .iter()
+        .map(|t| data_path(&format!("cmu131/{t}.bvh.gz")))
+        .collect();
     for path in &files {
         let text = read_text(path).unwrap();
         let replace = parse_bvh(&text, path, &BvhOptions::default()).unwrap();
-        let add = parse_bvh(&text, path, &BvhOptions { position_channels: PositionChannels::Add, ..BvhOptions::default() }).unwrap();
+        let add = parse_bvh(
+            &text,
+            path,
+            &BvhOptions { position_channels: PositionChannels::Add, ..BvhOptions::default() },
+        )
+        .unwrap();
         // Only the root has position channels, and its OFFSET is zero: nothing to replace.
         let sk = &add.skeleton.as_ref().unwrap().skeleton;
         let translated: Vec<&str> = sk
             .joints
             .iter()
-            .filter(|j| j.channels.iter().any(|c| matches!(c, motionlab_core::ChannelKind::Translation(_))))
+            .filter(|j| {
+                j.channels.iter().any(|c| matches!(c, motionlab_core::ChannelKind::Translation(_)))
+            })
             .map(|j| j.name.as_str())
             .collect();
         assert_eq!(translated, ["Hips"], "{}", path.display());
@@ -333,7 +427,10 @@ fn every_shipped_bvh_reads_the_same_under_both_position_conventions() {
 
 #[test]
 fn every_shipped_c3d_reads_strictly_with_nothing_repaired() {
-    let mut files: Vec<PathBuf> = ["dance1", "dance2", "walk1", "walk2"].iter().map(|n| data_path(&format!("mct/{n}.c3d.gz"))).collect();
+    let mut files: Vec<PathBuf> = ["dance1", "dance2", "walk1", "walk2"]
+        .iter()
+        .map(|n| data_path(&format!("mct/{n}.c3d.gz")))
+        .collect();
     for subject in std::fs::read_dir(data_path("schreiber2019")).unwrap() {
         if let Ok(entries) = std::fs::read_dir(subject.unwrap().path().join("dynamic")) {
             files.extend(entries.map(|e| e.unwrap().path()));
@@ -344,10 +441,18 @@ fn every_shipped_c3d_reads_strictly_with_nothing_repaired() {
     for path in &files {
         let bytes = read_bytes(path).unwrap();
         let lenient = parse_c3d(&bytes, path, &C3dOptions::default()).unwrap();
-        assert!(lenient.load_notes.repairs.is_empty(), "{}: {:?}", path.display(), lenient.load_notes);
+        assert!(
+            lenient.load_notes.repairs.is_empty(),
+            "{}: {:?}",
+            path.display(),
+            lenient.load_notes
+        );
         let m = parse_c3d(&bytes, path, &strict).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(m.positions().len(), lenient.positions().len());
-        assert_eq!((m.up_axis(), m.load_notes.length_unit), (Axis::Z, Some(LengthUnit::Millimetre)));
+        assert_eq!(
+            (m.up_axis(), m.load_notes.length_unit),
+            (Axis::Z, Some(LengthUnit::Millimetre))
+        );
     }
 }
 
@@ -364,12 +469,28 @@ fn fixtures_are_the_corpus_byte_for_byte_with_licences_and_source() {
             }
             // Listed in SOURCE.txt with its SHA-256, and a test of this file names it.
             let bytes = std::fs::read(dir.join(kind).join(&name)).unwrap();
-            let line = source.lines().find(|l| l.contains(&format!("{kind}/{name}"))).unwrap_or_else(|| panic!("{name} not in SOURCE.txt"));
-            assert!(line.contains(&motionlab_cache::hex(&motionlab_cache::sha256(&bytes))), "{name}: {line}");
-            assert!(include_str!("conformance.rs").contains(&format!("\"{name}\"")), "no test names {name}");
+            let line = source
+                .lines()
+                .find(|l| l.contains(&format!("{kind}/{name}")))
+                .unwrap_or_else(|| panic!("{name} not in SOURCE.txt"));
+            assert!(
+                line.contains(&motionlab_cache::hex(&motionlab_cache::sha256(&bytes))),
+                "{name}: {line}"
+            );
+            assert!(
+                include_str!("conformance.rs").contains(&format!("\"{name}\"")),
+                "no test names {name}"
+            );
             n += 1;
         }
-        assert!(dir.join(kind).read_dir().unwrap().any(|e| e.unwrap().file_name().to_string_lossy().starts_with("LICENSE")), "{kind}: no licence");
+        assert!(
+            dir.join(kind).read_dir().unwrap().any(|e| e
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with("LICENSE")),
+            "{kind}: no licence"
+        );
     }
     assert_eq!(n, 14);
 }

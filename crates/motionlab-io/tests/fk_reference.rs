@@ -52,7 +52,8 @@ fn reference_forward_kinematics(skeleton: &Skeleton, values: &[f64]) -> Vec<Poin
 
 /// Loads `file` and checks every coordinate of every frame against the reference, bit for bit.
 fn assert_loader_matches_reference(loader: &str, file: &str) {
-    let motion: Motion = build_loader(loader, &default_params()).unwrap().load(&data_path(file)).unwrap();
+    let motion: Motion =
+        build_loader(loader, &default_params()).unwrap().load(&data_path(file)).unwrap();
     let sm = motion.skeleton.as_ref().expect("a skeleton motion");
     let m = motion.n_points();
     assert!(motion.n_frames() > 100, "{file}");
@@ -61,7 +62,11 @@ fn assert_loader_matches_reference(loader: &str, file: &str) {
         assert_eq!(expected.len(), m);
         for (k, (got, want)) in motion.frame(f).iter().zip(&expected).enumerate() {
             let same = got.iter().zip(want).all(|(a, b)| a.to_bits() == b.to_bits());
-            assert!(same, "{file} frame {f} point {}: {got:?} vs reference {want:?}", motion.point_names()[k]);
+            assert!(
+                same,
+                "{file} frame {f} point {}: {got:?} vs reference {want:?}",
+                motion.point_names()[k]
+            );
         }
     }
 }
@@ -94,9 +99,15 @@ fn synthetic_corner_cases_are_bit_identical_to_the_reference() {
     use motionlab_core::{Axis, Joint, SkeletonMotion};
     let t = |a| ChannelKind::Translation(a);
     let r = |a| ChannelKind::Rotation(a);
-    let mut root = Joint::new("root", None, [1.0, -0.0, 2.5], vec![t(Axis::X), t(Axis::Y), t(Axis::Z), r(Axis::Z), r(Axis::X), r(Axis::Y)]);
+    let mut root = Joint::new(
+        "root",
+        None,
+        [1.0, -0.0, 2.5],
+        vec![t(Axis::X), t(Axis::Y), t(Axis::Z), r(Axis::Z), r(Axis::X), r(Axis::Y)],
+    );
     root.axis = axis_rotation(Axis::Y, 0.3) * axis_rotation(Axis::X, -1.2);
-    let mut a = Joint::new("a", Some(0), [0.0, 10.0, 0.0], vec![r(Axis::X), r(Axis::X), r(Axis::Z)]);
+    let mut a =
+        Joint::new("a", Some(0), [0.0, 10.0, 0.0], vec![r(Axis::X), r(Axis::X), r(Axis::Z)]);
     a.end_sites = vec![[0.0, 0.0, 3.0], [-0.0, 1.0, 0.0]];
     let mut b = Joint::new("b", Some(1), [5.0, 0.0, -0.0], vec![t(Axis::Y), r(Axis::Y)]);
     b.rotation_order = vec![Axis::Z, Axis::Y, Axis::X];
@@ -133,7 +144,9 @@ fn reference_is_not_trivially_equal() {
     // The comparison above must be able to fail: a one-ulp change of one channel moves a point.
     let p = data_path("cmu131/131_01.bvh.gz");
     let text = motionlab_io::read::read_text(&p).unwrap();
-    let d = motionlab_io::bvh::parse_bvh_channels(&text, Path::new("131_01.bvh"), &Default::default()).unwrap();
+    let d =
+        motionlab_io::bvh::parse_bvh_channels(&text, Path::new("131_01.bvh"), &Default::default())
+            .unwrap();
     let mut v = d.motion.frame_values(0).to_vec();
     let before = reference_forward_kinematics(&d.motion.skeleton, &v);
     v[5] = f64::from_bits(v[5].to_bits() + 1);

@@ -4,7 +4,6 @@
 //! Each shipped motion is loaded once per test binary (forward kinematics of a 4600-frame AMC
 //! takes seconds in an unoptimised build).
 
-
 use std::path::Path;
 use std::sync::LazyLock;
 
@@ -22,8 +21,10 @@ fn load(loader: &str, params: &str, file: &str) -> Result<Motion> {
     build_loader(loader, &params)?.load(&data_path(file))
 }
 
-static BVH_131_01: LazyLock<Motion> = LazyLock::new(|| load("bvh", "", "cmu131/131_01.bvh.gz").unwrap());
-static AMC_86_01: LazyLock<Motion> = LazyLock::new(|| load("asf_amc", "", "cmu86/86_01.amc.gz").unwrap());
+static BVH_131_01: LazyLock<Motion> =
+    LazyLock::new(|| load("bvh", "", "cmu131/131_01.bvh.gz").unwrap());
+static AMC_86_01: LazyLock<Motion> =
+    LazyLock::new(|| load("asf_amc", "", "cmu86/86_01.amc.gz").unwrap());
 static ASF_86: LazyLock<AsfSkeleton> = LazyLock::new(|| {
     let p = data_path("cmu86/86.asf");
     parse_asf(&read_text(&p).unwrap(), &p).unwrap()
@@ -36,8 +37,9 @@ const MOCAP6: [(&str, &str, usize); 3] = [
     ("mocap6/amc/13_30.amc.gz", "", 2465),
     ("mocap6/amc/13_31.amc.gz", "frame_rate_hz = 120.0", 3017),
 ];
-static MOCAP6_MOTIONS: LazyLock<Vec<Motion>> =
-    LazyLock::new(|| MOCAP6.iter().map(|(file, params, _)| load("asf_amc", params, file).unwrap()).collect());
+static MOCAP6_MOTIONS: LazyLock<Vec<Motion>> = LazyLock::new(|| {
+    MOCAP6.iter().map(|(file, params, _)| load("asf_amc", params, file).unwrap()).collect()
+});
 
 fn text_of(file: &str) -> String {
     read_text(&data_path(file)).unwrap()
@@ -48,7 +50,8 @@ fn text_of(file: &str) -> String {
 fn assert_bone_lengths_constant(m: &Motion, rel: f64) -> usize {
     let sk = &m.skeleton.as_ref().expect("skeleton motion").skeleton;
     let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let mut rest: Vec<f64> = sk.joints.iter().filter(|j| j.parent.is_some()).map(|j| norm(j.offset)).collect();
+    let mut rest: Vec<f64> =
+        sk.joints.iter().filter(|j| j.parent.is_some()).map(|j| norm(j.offset)).collect();
     rest.extend(sk.joints.iter().flat_map(|j| j.end_sites.iter().map(|e| norm(*e))));
     let bones = sk.bones();
     assert_eq!(bones.len(), rest.len());
@@ -57,7 +60,12 @@ fn assert_bone_lengths_constant(m: &Motion, rel: f64) -> usize {
         for (&(a, b), &len) in bones.iter().zip(&rest) {
             let d = norm([p[a][0] - p[b][0], p[a][1] - p[b][1], p[a][2] - p[b][2]]);
             let ok = if len == 0.0 { d < 1e-9 } else { (d - len).abs() <= rel * len };
-            assert!(ok, "frame {f}: bone {}–{} is {d} mm, rest length {len} mm", m.point_names()[a], m.point_names()[b]);
+            assert!(
+                ok,
+                "frame {f}: bone {}–{} is {d} mm, rest length {len} mm",
+                m.point_names()[a],
+                m.point_names()[b]
+            );
         }
     }
     bones.len()
@@ -135,7 +143,14 @@ fn bvh_131_01_has_994_frames_at_120_fps_in_cmu_units() {
     assert_eq!(d.length_unit, LengthUnit::CmuUnit);
     assert_eq!(d.frame_time_s, 0.0083333);
     let v = sk.frame_values(0);
-    let expect = [5.2300 * MM_PER_CMU_UNIT, 16.9002 * MM_PER_CMU_UNIT, -33.8986 * MM_PER_CMU_UNIT, -5.4029, 9.8098, 10.4956];
+    let expect = [
+        5.2300 * MM_PER_CMU_UNIT,
+        16.9002 * MM_PER_CMU_UNIT,
+        -33.8986 * MM_PER_CMU_UNIT,
+        -5.4029,
+        9.8098,
+        10.4956,
+    ];
     for (a, b) in v.iter().zip(expect) {
         assert!((a - b).abs() < 1e-9, "{v:?}");
     }
@@ -146,7 +161,8 @@ fn bvh_131_01_has_994_frames_at_120_fps_in_cmu_units() {
     let h = rest_pose_height(&d.motion.skeleton, Axis::Y) / MM_PER_CMU_UNIT;
     assert!((h - 24.27).abs() < 0.01, "{h}");
     let ys: Vec<f64> = m.frame(0).iter().map(|p| p[1]).collect();
-    let stand = ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
+    let stand =
+        ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
     assert!((1300.0..1600.0).contains(&stand), "{stand}");
 }
 
@@ -203,14 +219,22 @@ fn bvh_other_shipped_files_load() {
     for (file, frames) in [("cmu131/131_02.bvh.gz", 1247), ("cmu131/131_03.bvh.gz", 1102)] {
         let text = text_of(file);
         let d = parse_bvh_channels(&text, &data_path(file), &BvhOptions::default()).unwrap();
-        assert_eq!((d.motion.n_frames(), d.frame_rate.hz(), d.length_unit), (frames, 120.0, LengthUnit::CmuUnit), "{file}");
+        assert_eq!(
+            (d.motion.n_frames(), d.frame_rate.hz(), d.length_unit),
+            (frames, 120.0, LengthUnit::CmuUnit),
+            "{file}"
+        );
     }
 }
 
 #[test]
 fn bvh_explicit_length_unit_and_up_axis_are_used() {
     let text = text_of("cmu131/131_01.bvh.gz");
-    let opts = BvhOptions { length_unit: Some(LengthUnit::Inch), up_axis: Axis::Z, ..BvhOptions::default() };
+    let opts = BvhOptions {
+        length_unit: Some(LengthUnit::Inch),
+        up_axis: Axis::Z,
+        ..BvhOptions::default()
+    };
     let d = parse_bvh_channels(&text, Path::new("x.bvh"), &opts).unwrap();
     assert_eq!(d.length_unit, LengthUnit::Inch);
     assert_eq!(d.motion.skeleton.joints[2].offset[0], 1.24777 * 25.4);
@@ -243,7 +267,8 @@ fn crlf_lf_and_bom_load_identically() {
     let short = |t: &str| {
         let cut: Vec<&str> = t.split_inclusive('\n').collect();
         let header_end = cut.iter().position(|l| l.starts_with("Frame Time")).unwrap() + 1;
-        cut[..header_end].concat().replace("Frames: 994", "Frames: 20") + &cut[header_end..header_end + 20].concat()
+        cut[..header_end].concat().replace("Frames: 994", "Frames: 20")
+            + &cut[header_end..header_end + 20].concat()
     };
     let a = parse_bvh(&short(&lf), Path::new("a.bvh"), &opts).unwrap();
     let b = parse_bvh(&short(&bom), Path::new("a.bvh"), &opts).unwrap();
@@ -274,7 +299,11 @@ fn bvh_round_trip_keeps_channels_and_positions() {
     let mut out = Vec::new();
     write_bvh(sm, m.frame_rate(), LengthUnit::CmuUnit, &mut out).unwrap();
     let text = String::from_utf8(out).unwrap();
-    assert!(text.starts_with("HIERARCHY\nROOT Hips\n{\n\tOFFSET 0.000000 0.000000 0.000000\n"), "{}", &text[..200]);
+    assert!(
+        text.starts_with("HIERARCHY\nROOT Hips\n{\n\tOFFSET 0.000000 0.000000 0.000000\n"),
+        "{}",
+        &text[..200]
+    );
     let back = parse_bvh(&text, Path::new("rt.bvh"), &BvhOptions::default()).unwrap();
     let bs = back.skeleton.as_ref().unwrap();
     assert_eq!(back.frame_rate(), m.frame_rate());
@@ -329,7 +358,8 @@ fn amc_86_01_has_4579_frames_and_a_plausible_height() {
     assert!((ASF_86.mm_per_unit - 56.444_444).abs() < 1e-5);
     // Standing height (max − min joint height) in the first frame, and in the rest pose.
     let ys: Vec<f64> = m.frame(0).iter().map(|p| p[1]).collect();
-    let h = ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
+    let h =
+        ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
     assert!((1500.0..2000.0).contains(&h), "first frame {h} mm");
     let rest = rest_pose_height(sk, Axis::Y);
     assert!((1500.0..2000.0).contains(&rest), "rest pose {rest} mm");
@@ -379,9 +409,19 @@ fn amc_fk_matches_an_independent_computation_of_the_left_leg() {
     let bones: [Bone; 5] = [
         ([0.561145, -0.797705, 0.220866], 2.46425, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]), // lhipjoint: no dof
         ([0.34202, -0.939693, 0.0], 7.95556, [0.0, 0.0, 20.0], [-29.1974, 1.82053, -23.3363]), // lfemur rx ry rz
-        ([0.34202, -0.939693, 0.0], 7.9832, [0.0, 0.0, 20.0], [40.0149, 0.0, 0.0]),       // ltibia rx
-        ([0.0723927, -0.198897, 0.977343], 2.23085, [-90.0, 7.62852e-016, 20.0], [-22.863, 0.0, 0.874378]), // lfoot rx rz
-        ([1.53826e-011, -4.21988e-011, 1.0], 1.12127, [-90.0, 7.62852e-016, 20.0], [-5.96403, 0.0, 0.0]), // ltoes rx
+        ([0.34202, -0.939693, 0.0], 7.9832, [0.0, 0.0, 20.0], [40.0149, 0.0, 0.0]), // ltibia rx
+        (
+            [0.0723927, -0.198897, 0.977343],
+            2.23085,
+            [-90.0, 7.62852e-016, 20.0],
+            [-22.863, 0.0, 0.874378],
+        ), // lfoot rx rz
+        (
+            [1.53826e-011, -4.21988e-011, 1.0],
+            1.12127,
+            [-90.0, 7.62852e-016, 20.0],
+            [-5.96403, 0.0, 0.0],
+        ), // ltoes rx
     ];
     let names = ["ltibia", "lfoot", "ltoes", "ltoes_end"];
     let mut m = m_root;
@@ -410,7 +450,8 @@ fn mocap6_amc_files_load_with_the_13_skeleton() {
         // The loader found (or was given) 13.asf: same skeleton as parsed here.
         assert_eq!(m.skeleton.as_ref().unwrap().skeleton, asf.skeleton, "{file}");
         let ys: Vec<f64> = m.frame(0).iter().map(|p| p[1]).collect();
-        let h = ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
+        let h = ys.iter().cloned().fold(f64::MIN, f64::max)
+            - ys.iter().cloned().fold(f64::MAX, f64::min);
         assert!((1300.0..2000.0).contains(&h), "{file}: {h} mm");
     }
     assert_bone_lengths_constant(&MOCAP6_MOTIONS[1], 1e-6);
@@ -428,7 +469,8 @@ fn asf_discovery_failure_lists_the_paths_tried() {
     // An absolute skeleton path is used as given.
     let asf = dir.join("other.asf");
     std::fs::write(&asf, ":root\n order TX TY TZ RX RY RZ\n axis XYZ\n position 0 0 0\n orientation 0 0 0\n:bonedata\n:hierarchy\n").unwrap();
-    let params: toml::Value = toml::Value::Table(toml::toml! { skeleton = (asf.display().to_string()) });
+    let params: toml::Value =
+        toml::Value::Table(toml::toml! { skeleton = (asf.display().to_string()) });
     let m = build_loader("asf_amc", &params).unwrap().load(&amc).unwrap();
     assert_eq!((m.n_frames(), m.n_points()), (1, 1));
     std::fs::remove_dir_all(&dir).ok();
@@ -475,7 +517,10 @@ fn truncated_bvh_frames_and_hierarchy_are_errors() {
         let cut: String = text.split_inclusive('\n').take(keep).collect();
         let e = parse_bvh(&cut, Path::new("cut.bvh"), &BvhOptions::default()).unwrap_err();
         assert_error_at(&e, ErrorKind::Truncated, "cut.bvh", keep + 1);
-        assert!(e.message().contains("file ends inside") && e.message().contains("joint \"L"), "{e}");
+        assert!(
+            e.message().contains("file ends inside") && e.message().contains("joint \"L"),
+            "{e}"
+        );
     }
     // Through the loader: the error names the real file.
     let dir = std::env::temp_dir().join(format!("mlab-bvh-{}", std::process::id()));
@@ -508,7 +553,12 @@ fn bvh_non_numeric_and_non_finite_values() {
     let text = bvh_lf();
     let line = motion_line(&text) + 3;
     let orig = text.lines().nth(line - 1).unwrap();
-    for (bad, kind) in [("1.2.3", ErrorKind::Syntax), ("abc", ErrorKind::Syntax), ("nan", ErrorKind::NonFinite), ("-inf", ErrorKind::NonFinite)] {
+    for (bad, kind) in [
+        ("1.2.3", ErrorKind::Syntax),
+        ("abc", ErrorKind::Syntax),
+        ("nan", ErrorKind::NonFinite),
+        ("-inf", ErrorKind::NonFinite),
+    ] {
         let t = replace_line(&text, line, &orig.replacen("0.0000", bad, 1));
         let e = parse_bvh(&t, Path::new("n.bvh"), &BvhOptions::default()).unwrap_err();
         assert_error_at(&e, kind, "n.bvh", line);
@@ -546,12 +596,18 @@ fn bvh_duplicate_joint_names_are_refused() {
 fn amc_bone_absent_from_the_asf_names_the_bone_line_and_close_names() {
     let amc = text_of("cmu86/86_01.amc.gz").replace("\r\n", "\n");
     // Frame 2's lfemur line.
-    let line = amc.lines().enumerate().filter(|(_, l)| l.starts_with("lfemur ")).nth(1).unwrap().0 + 1;
+    let line =
+        amc.lines().enumerate().filter(|(_, l)| l.starts_with("lfemur ")).nth(1).unwrap().0 + 1;
     let orig = amc.lines().nth(line - 1).unwrap().to_string();
     let t = replace_line(&amc, line, &orig.replace("lfemur", "lfemr"));
     let e = parse_amc(&t, Path::new("86_01.amc"), &ASF_86).unwrap_err();
     assert_error_at(&e, ErrorKind::UnknownName, "86_01.amc", line);
-    assert!(e.message().contains("\"lfemr\"") && e.message().contains("lfemur") && e.message().contains("86.asf"), "{e}");
+    assert!(
+        e.message().contains("\"lfemr\"")
+            && e.message().contains("lfemur")
+            && e.message().contains("86.asf"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -599,7 +655,10 @@ fn cmu86_labels_of_86_01() {
     // mocap.txt, trial 86 01: b = 550 1150 1980 2500 3200 4065, length 4579.
     assert_eq!(s.frames(), vec![549, 1149, 1979, 2499, 3199, 4064]);
     let windows: Vec<_> = s.boundaries.iter().map(|b| b.window.unwrap()).collect();
-    assert_eq!(windows, vec![(499, 599), (1099, 1199), (1929, 2029), (2449, 2549), (3149, 3249), (4014, 4114)]);
+    assert_eq!(
+        windows,
+        vec![(499, 599), (1099, 1199), (1929, 2029), (2449, 2549), (3149, 3249), (4014, 4114)]
+    );
     let labels: Vec<&str> = s.segments.iter().map(|g| g.label.as_str()).collect();
     assert_eq!(labels, ["walk", "jump", "walk", "punch", "walk", "leg_kick", "punch"]);
     assert_eq!((s.segments[0].start, s.segments[6].end), (0, 4579));
@@ -609,7 +668,8 @@ fn cmu86_labels_of_86_01() {
 #[test]
 fn cmu86_labels_every_trial_parses_and_windows_contain_their_boundary() {
     let p = data_path("cmu86/mocap.txt");
-    let trials = motionlab_io::labels::cmu86::parse_cmu86_labels(&read_text(&p).unwrap(), &p).unwrap();
+    let trials =
+        motionlab_io::labels::cmu86::parse_cmu86_labels(&read_text(&p).unwrap(), &p).unwrap();
     assert_eq!(trials.len(), 14);
     let r = FrameRate::new(120.0).unwrap();
     for t in &trials {
@@ -634,7 +694,12 @@ fn cmu86_labels_errors_name_what_is_wrong() {
     let absent: toml::Value = toml::from_str("trial = \"86_15\"").unwrap();
     let e = build_ground_truth("cmu86_labels", &absent).unwrap().read(&p, &AMC_86_01).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::UnknownName);
-    assert!(e.message().contains("86_15") && e.message().contains("86_01") && e.message().contains("86_14"), "{e}");
+    assert!(
+        e.message().contains("86_15")
+            && e.message().contains("86_01")
+            && e.message().contains("86_14"),
+        "{e}"
+    );
     // Trial 86_02 runs to frame 10617, past the end of 86_01's 4579 frames.
     let other: toml::Value = toml::from_str("trial = \"86 02\"").unwrap();
     let e = build_ground_truth("cmu86_labels", &other).unwrap().read(&p, &AMC_86_01).unwrap_err();
@@ -646,16 +711,28 @@ fn cmu86_labels_errors_name_what_is_wrong() {
 fn mocap6_labels_of_the_three_shipped_sequences() {
     // Expected runs computed independently from truelabels/*.txt (block i → frames 12(i−1)…).
     let cases: [(&str, &[usize], &[&str]); 3] = [
-        ("13_29", &[468, 1212, 1920, 2700, 3804], &["JumpJack", "Twist", "ArmCircle", "ToeTouchOneHand", "KneeRaise", "Squat"]),
+        (
+            "13_29",
+            &[468, 1212, 1920, 2700, 3804],
+            &["JumpJack", "Twist", "ArmCircle", "ToeTouchOneHand", "KneeRaise", "Squat"],
+        ),
         ("13_30", &[216, 804, 1416, 1932], &["JumpJack", "Twist", "KneeRaise", "Squat", "Jog"]),
-        ("13_31", &[396, 984, 1392, 1608, 2052, 2724], &["Twist", "KneeRaise", "ToeTouchOneHand", "Twist", "Jog", "ArmCircle", "JumpJack"]),
+        (
+            "13_31",
+            &[396, 984, 1392, 1608, 2052, 2724],
+            &["Twist", "KneeRaise", "ToeTouchOneHand", "Twist", "Jog", "ArmCircle", "JumpJack"],
+        ),
     ];
     let reader = build_ground_truth("mocap6_labels", &default_params()).unwrap();
     for ((trial, bounds, labels), m) in cases.into_iter().zip(MOCAP6_MOTIONS.iter()) {
         let labels_file = data_path(&format!("mocap6/truelabels/{trial}.txt"));
         let s = reader.read(&labels_file, m).unwrap();
         assert_eq!(s.frames(), bounds, "{trial}");
-        assert_eq!(s.segments.iter().map(|g| g.label.as_str()).collect::<Vec<_>>(), labels, "{trial}");
+        assert_eq!(
+            s.segments.iter().map(|g| g.label.as_str()).collect::<Vec<_>>(),
+            labels,
+            "{trial}"
+        );
         // ceil(F / 12) labels: the last block is partial and cut at the motion's end.
         let n_labels = read_text(&labels_file).unwrap().split_whitespace().count();
         assert_eq!(n_labels, m.n_frames().div_ceil(12), "{trial}");
@@ -680,7 +757,12 @@ fn mocap6_labels_of_the_three_shipped_sequences() {
 
 #[test]
 fn plugins_are_registered_documented_and_valid() {
-    for (name, ext) in [("bvh", Some("bvh")), ("asf_amc", Some("amc")), ("cmu86_labels", None), ("mocap6_labels", None)] {
+    for (name, ext) in [
+        ("bvh", Some("bvh")),
+        ("asf_amc", Some("amc")),
+        ("cmu86_labels", None),
+        ("mocap6_labels", None),
+    ] {
         let p = find(name).unwrap();
         assert!(p.doc().contains("Missing samples"), "{name}: {}", p.doc());
         if let Some(ext) = ext {
@@ -689,9 +771,14 @@ fn plugins_are_registered_documented_and_valid() {
     }
     let problems: Vec<String> = motionlab_core::registry::check_registry()
         .into_iter()
-        .filter(|p| ["bvh", "asf_amc", "cmu86_labels", "mocap6_labels"].iter().any(|n| p.contains(&format!("\"{n}\""))))
+        .filter(|p| {
+            ["bvh", "asf_amc", "cmu86_labels", "mocap6_labels"]
+                .iter()
+                .any(|n| p.contains(&format!("\"{n}\"")))
+        })
         .collect();
     assert!(problems.is_empty(), "{problems:?}");
-    let describe: Vec<String> = find("bvh").unwrap().params().iter().map(|p| p.name.to_string()).collect();
+    let describe: Vec<String> =
+        find("bvh").unwrap().params().iter().map(|p| p.name.to_string()).collect();
     assert_eq!(describe, ["length_unit", "up_axis", "position_channels"]);
 }

@@ -10,7 +10,9 @@
 
 use std::io::Read;
 
-use motionlab_match::dp::{Euclidean3, Trajectory3, Workspace, anchored_costs, dtw_full_with, subsequence_match};
+use motionlab_match::dp::{
+    Euclidean3, Trajectory3, Workspace, anchored_costs, dtw_full_with, subsequence_match,
+};
 use serde::{Deserialize, Serialize};
 
 #[derive(Deserialize)]

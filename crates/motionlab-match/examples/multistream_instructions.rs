@@ -19,21 +19,40 @@ use motionlab_match::multistream::two_stage;
 /// Position of marker `l` at (fractional) frame `j` (mm) — the bench's formula.
 fn position(j: f64, l: usize) -> [f64; 3] {
     let l = l as f64;
-    [300.0 * (0.05 * j + 0.3 * l).sin() + 20.0 * l, 200.0 * (0.037 * j + 0.7 * l).cos(), 150.0 * (0.021 * j - l).sin() + 900.0]
+    [
+        300.0 * (0.05 * j + 0.3 * l).sin() + 20.0 * l,
+        200.0 * (0.037 * j + 0.7 * l).cos(),
+        150.0 * (0.021 * j - l).sin() + 900.0,
+    ]
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (markers, model_frames, window) = (31, 120, 600);
     let model: Vec<Trajectory3> = (0..markers)
-        .map(|l| Trajectory3::from_points(&(0..model_frames).map(|i| position(240.0 + 1.1 * i as f64, l)).collect::<Vec<_>>()))
+        .map(|l| {
+            Trajectory3::from_points(
+                &(0..model_frames).map(|i| position(240.0 + 1.1 * i as f64, l)).collect::<Vec<_>>(),
+            )
+        })
         .collect();
-    let target: Vec<Trajectory3> =
-        (0..markers).map(|l| Trajectory3::from_points(&(0..window).map(|j| position(j as f64, l)).collect::<Vec<_>>())).collect();
+    let target: Vec<Trajectory3> = (0..markers)
+        .map(|l| {
+            Trajectory3::from_points(
+                &(0..window).map(|j| position(j as f64, l)).collect::<Vec<_>>(),
+            )
+        })
+        .collect();
     let passes: usize = std::env::args().nth(1).map(|s| s.parse()).transpose()?.unwrap_or(1);
     for _ in 0..passes {
         let r = two_stage(&model, &target, true)?;
         let a = r.alignment;
-        println!("[a, b] = [{}, {}], H = {:?} mm, {} paths", a.start, a.end, a.total_distance, a.paths.len());
+        println!(
+            "[a, b] = [{}, {}], H = {:?} mm, {} paths",
+            a.start,
+            a.end,
+            a.total_distance,
+            a.paths.len()
+        );
     }
     Ok(())
 }

@@ -40,15 +40,20 @@ fn fail(msg: String) -> ! {
 
 fn main() {
     let mut text = String::new();
-    std::io::stdin().read_to_string(&mut text).unwrap_or_else(|e| fail(format!("cannot read stdin: {e}")));
-    let input: Input = serde_json::from_str(&text).unwrap_or_else(|e| fail(format!("bad JSON input: {e}")));
+    std::io::stdin()
+        .read_to_string(&mut text)
+        .unwrap_or_else(|e| fail(format!("cannot read stdin: {e}")));
+    let input: Input =
+        serde_json::from_str(&text).unwrap_or_else(|e| fail(format!("bad JSON input: {e}")));
     let model: Vec<Trajectory3> = input.model.iter().map(|p| Trajectory3::from_points(p)).collect();
-    let target: Vec<Trajectory3> = input.target.iter().map(|p| Trajectory3::from_points(p)).collect();
+    let target: Vec<Trajectory3> =
+        input.target.iter().map(|p| Trajectory3::from_points(p)).collect();
     let mut times_s = Vec::with_capacity(input.repeats);
     let mut last = None;
     for _ in 0..input.repeats.max(1) {
         let t0 = Instant::now();
-        let r = two_stage(&model, &target, input.keep_paths).unwrap_or_else(|e| fail(e.to_string()));
+        let r =
+            two_stage(&model, &target, input.keep_paths).unwrap_or_else(|e| fail(e.to_string()));
         times_s.push(t0.elapsed().as_secs_f64());
         last = Some(r);
     }

@@ -55,15 +55,24 @@ struct Output {
 }
 
 fn load(path: &str) -> Motion {
-    let loader = serde_json::from_str::<AsfAmcParams>("{}").unwrap_or_else(|e| fail(e.to_string())).check().unwrap_or_else(|e| fail(e.to_string()));
+    let loader = serde_json::from_str::<AsfAmcParams>("{}")
+        .unwrap_or_else(|e| fail(e.to_string()))
+        .check()
+        .unwrap_or_else(|e| fail(e.to_string()));
     let motion = loader.load(&PathBuf::from(path)).unwrap_or_else(|e| fail(e.to_string()));
-    let distinct = DistinctPointsParams { max_distance_mm: motionlab_core::Millimetres(1e-6) }.check().unwrap_or_else(|e| fail(e.to_string()));
+    let distinct = DistinctPointsParams { max_distance_mm: motionlab_core::Millimetres(1e-6) }
+        .check()
+        .unwrap_or_else(|e| fail(e.to_string()));
     distinct.apply(motion).unwrap_or_else(|e| fail(e.to_string()))
 }
 
 fn prepared(motion: &Motion, names: &[String]) -> Vec<Trajectory3> {
-    let mut t = trajectories(motion, names, "take", "retrieval_timing").unwrap_or_else(|e| fail(e.to_string()));
-    let root = names.iter().position(|n| n == "root").unwrap_or_else(|| fail("no point named root".into()));
+    let mut t = trajectories(motion, names, "take", "retrieval_timing")
+        .unwrap_or_else(|e| fail(e.to_string()));
+    let root = names
+        .iter()
+        .position(|n| n == "root")
+        .unwrap_or_else(|| fail("no point named root".into()));
     relative_to_point(&mut t, root).unwrap_or_else(|e| fail(e.to_string()));
     t
 }
@@ -98,11 +107,13 @@ fn listed(r: &Retrieval) -> (Vec<Listed>, Vec<Listed>) {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut positional = Vec::new();
-    let (mut export_dir, mut repeats, mut window, mut stride, mut k, mut kd) = (None, 3usize, 250usize, 31usize, 5usize, None);
+    let (mut export_dir, mut repeats, mut window, mut stride, mut k, mut kd) =
+        (None, 3usize, 250usize, 31usize, 5usize, None);
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().cloned().unwrap_or_else(|| fail(format!("{a} needs a value")));
-        let number = |v: String| v.parse::<usize>().unwrap_or_else(|e| fail(format!("{a} {v}: {e}")));
+        let number =
+            |v: String| v.parse::<usize>().unwrap_or_else(|e| fail(format!("{a} {v}: {e}")));
         match a.as_str() {
             "--export" => export_dir = Some(PathBuf::from(value())),
             "--repeats" => repeats = number(value()),
@@ -113,8 +124,13 @@ fn main() {
             _ => positional.push(a.clone()),
         }
     }
-    let [model_path, first, last, takes @ ..] = positional.as_slice() else { fail("usage: MODEL FIRST LAST TAKE…".into()) };
-    let (first, last) = (first.parse::<usize>().unwrap_or_else(|e| fail(e.to_string())), last.parse::<usize>().unwrap_or_else(|e| fail(e.to_string())));
+    let [model_path, first, last, takes @ ..] = positional.as_slice() else {
+        fail("usage: MODEL FIRST LAST TAKE…".into())
+    };
+    let (first, last) = (
+        first.parse::<usize>().unwrap_or_else(|e| fail(e.to_string())),
+        last.parse::<usize>().unwrap_or_else(|e| fail(e.to_string())),
+    );
     let model = load(model_path).slice_frames(first, last).unwrap_or_else(|e| fail(e.to_string()));
     let names: Vec<String> = model.point_names().to_vec();
     let model_t = prepared(&model, &names);
@@ -131,15 +147,23 @@ fn main() {
             "take_frames": take_t.iter().map(|t| t[0].len()).collect::<Vec<_>>(),
             "takes": takes,
         });
-        std::fs::write(dir.join("meta.json"), meta.to_string()).unwrap_or_else(|e| fail(e.to_string()));
+        std::fs::write(dir.join("meta.json"), meta.to_string())
+            .unwrap_or_else(|e| fail(e.to_string()));
     }
-    let settings = |pruning| RetrievalSettings { k_similar: k, k_dissimilar: kd.unwrap_or(k), window_frames: window, stride_frames: stride, pruning };
+    let settings = |pruning| RetrievalSettings {
+        k_similar: k,
+        k_dissimilar: kd.unwrap_or(k),
+        window_frames: window,
+        stride_frames: stride,
+        pruning,
+    };
     let time = |pruning: bool| {
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..repeats.max(1) {
             let t0 = Instant::now();
-            let r = retrieve(&model_t, &take_t, &settings(pruning)).unwrap_or_else(|e| fail(e.to_string()));
+            let r = retrieve(&model_t, &take_t, &settings(pruning))
+                .unwrap_or_else(|e| fail(e.to_string()));
             times.push(t0.elapsed().as_secs_f64());
             last = Some(r);
         }

@@ -80,7 +80,8 @@ impl Preprocessor for DelayPoints {
             )
             .with_location(loc.field("delay")));
         }
-        let indices: Vec<usize> = self.points.iter().map(|n| motion.point_index(n)).collect::<Result<_>>()?;
+        let indices: Vec<usize> =
+            self.points.iter().map(|n| motion.point_index(n)).collect::<Result<_>>()?;
         if shift > 0 {
             let positions = motion.positions_mut();
             // Walk backwards so every source frame i − N is read before it is overwritten.
@@ -102,8 +103,8 @@ motionlab_core::register_plugin!(Preprocessor, DelayPointsParams, "delay_points"
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::{build_loader, build_preprocessor, default_params};
     use crate::build_matcher;
+    use motionlab_core::registry::{build_loader, build_preprocessor, default_params};
     use motionlab_testkit::motion_from_fn;
     // Links the loaders the real-data test looks up by name.
     use motionlab_io as _;
@@ -114,13 +115,16 @@ mod tests {
 
     /// Marker k at frame i sits at (10 i + k, 100 k, −i).
     fn ramp(frames: usize, rate: f64) -> Motion {
-        motion_from_fn(frames, rate, 3, |i, k| [10.0 * i as f64 + k as f64, 100.0 * k as f64, -(i as f64)])
+        motion_from_fn(frames, rate, 3, |i, k| {
+            [10.0 * i as f64 + k as f64, 100.0 * k as f64, -(i as f64)]
+        })
     }
 
     #[test]
     fn listed_markers_hold_their_first_position_then_move_n_frames_late() {
         let m = ramp(6, 100.0);
-        let out = stage("points = [\"m1\", \"m2\"]\ndelay = { frames = 2 }").apply(m.clone()).unwrap();
+        let out =
+            stage("points = [\"m1\", \"m2\"]\ndelay = { frames = 2 }").apply(m.clone()).unwrap();
         assert_eq!(out.n_frames(), 6);
         for i in 0..6 {
             // Unlisted marker: untouched.
@@ -156,7 +160,10 @@ mod tests {
             _ => [i as f64, k as f64, 0.0],
         });
         let out = stage("points = [\"m0\", \"m1\"]\ndelay = { frames = 1 }").apply(m).unwrap();
-        let missing: Vec<(usize, usize)> = (0..6).flat_map(|i| (0..2).map(move |k| (i, k))).filter(|&(i, k)| out.is_missing(i, k)).collect();
+        let missing: Vec<(usize, usize)> = (0..6)
+            .flat_map(|i| (0..2).map(move |k| (i, k)))
+            .filter(|&(i, k)| out.is_missing(i, k))
+            .collect();
         assert_eq!(missing, vec![(0, 0), (1, 0), (3, 1)]);
         assert_eq!(out.missing_count(), 3);
         assert_eq!(out.position(2, 0), [1.0, 0.0, 0.0]);
@@ -165,19 +172,31 @@ mod tests {
 
     #[test]
     fn bad_parameters_and_impossible_delays_are_refused_naming_the_field() {
-        let bad = |text: &str| build_preprocessor("delay_points", &toml::from_str::<toml::Value>(text).unwrap()).err().unwrap();
+        let bad = |text: &str| {
+            build_preprocessor("delay_points", &toml::from_str::<toml::Value>(text).unwrap())
+                .err()
+                .unwrap()
+        };
         let e = bad("points = [\"m0\"]\ndelay = { frames = -1 }");
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("delay")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("delay"))
+        );
         let e = bad("points = []\ndelay = { frames = 1 }");
         assert_eq!(e.location().field.as_deref(), Some("points"));
         let e = bad("points = [\"m0\", \"m0\"]\ndelay = { frames = 1 }");
         assert_eq!(e.kind(), ErrorKind::DuplicateName);
         assert_eq!(bad("points = [\"m0\"]").kind(), ErrorKind::MissingKey);
         // At run time: a delay as long as the motion, and an unknown marker.
-        let e = stage("points = [\"m0\"]\ndelay = { frames = 6 }").apply(ramp(6, 100.0)).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("delay")));
+        let e =
+            stage("points = [\"m0\"]\ndelay = { frames = 6 }").apply(ramp(6, 100.0)).unwrap_err();
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("delay"))
+        );
         assert!(e.to_string().contains("6 frames"), "{e}");
-        let e = stage("points = [\"hand\"]\ndelay = { frames = 1 }").apply(ramp(6, 100.0)).unwrap_err();
+        let e =
+            stage("points = [\"hand\"]\ndelay = { frames = 1 }").apply(ramp(6, 100.0)).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
     }
 
@@ -187,7 +206,12 @@ mod tests {
     #[test]
     fn on_a_real_take_a_delayed_hand_matches_its_original_twelve_frames_later() {
         let path = motionlab_testkit::data_path("mocap6/amc/13_29.amc.gz");
-        let take = build_loader("asf_amc", &default_params()).unwrap().load(&path).unwrap().slice_frames(0, 468).unwrap();
+        let take = build_loader("asf_amc", &default_params())
+            .unwrap()
+            .load(&path)
+            .unwrap()
+            .slice_frames(0, 468)
+            .unwrap();
         assert!(take.skeleton.is_some());
         let model = take.slice_frames(138, 270).unwrap();
         let delayed = stage("points = [\"lhand\"]\ndelay = { seconds = 0.1 }").apply(take).unwrap();

@@ -54,8 +54,11 @@ impl ParamGuard for DistinctPointsParams {
     fn check(self) -> Result<DistinctPoints> {
         let d = self.max_distance_mm.0;
         if !(d.is_finite() && d >= 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite distance >= 0 mm, found {d}"))
-                .with_field("max_distance_mm"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a finite distance >= 0 mm, found {d}"),
+            )
+            .with_field("max_distance_mm"));
         }
         Ok(DistinctPoints { max_distance_mm: d })
     }
@@ -68,13 +71,16 @@ impl DistinctPoints {
         let m = motion.n_points();
         let limit = self.max_distance_mm * self.max_distance_mm;
         let same = |a: usize, b: usize| {
-            (0..motion.n_frames()).all(|i| match (motion.is_missing(i, a), motion.is_missing(i, b)) {
-                (true, true) => true,
-                (false, false) => {
-                    let (p, q) = (motion.position(i, a), motion.position(i, b));
-                    (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2) <= limit
+            (0..motion.n_frames()).all(|i| {
+                match (motion.is_missing(i, a), motion.is_missing(i, b)) {
+                    (true, true) => true,
+                    (false, false) => {
+                        let (p, q) = (motion.position(i, a), motion.position(i, b));
+                        (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
+                            <= limit
+                    }
+                    _ => false,
                 }
-                _ => false,
             })
         };
         let mut group_of: Vec<Option<usize>> = vec![None; m];
@@ -148,11 +154,18 @@ mod tests {
     #[test]
     fn a_cmu_skeleton_has_31_distinct_places_among_38_joints() {
         let path = motionlab_testkit::data_path("mocap6/amc/13_29.amc.gz");
-        let take = build_loader("asf_amc", &default_params()).unwrap().load(&path).unwrap().slice_frames(0, 200).unwrap();
+        let take = build_loader("asf_amc", &default_params())
+            .unwrap()
+            .load(&path)
+            .unwrap()
+            .slice_frames(0, 200)
+            .unwrap();
         assert_eq!(take.n_points(), 38);
         let s = DistinctPointsParams { max_distance_mm: default_max_distance() }.check().unwrap();
-        let names = |g: &Vec<usize>| g.iter().map(|&k| take.point_names()[k].as_str()).collect::<Vec<_>>();
-        let merged: Vec<Vec<&str>> = s.groups(&take).iter().filter(|g| g.len() > 1).map(names).collect();
+        let names =
+            |g: &Vec<usize>| g.iter().map(|&k| take.point_names()[k].as_str()).collect::<Vec<_>>();
+        let merged: Vec<Vec<&str>> =
+            s.groups(&take).iter().filter(|g| g.len() > 1).map(names).collect();
         assert_eq!(
             merged,
             [
@@ -162,7 +175,8 @@ mod tests {
                 vec!["rhand", "rthumb"],
             ]
         );
-        let out = build_preprocessor("distinct_points", &default_params()).unwrap().apply(take).unwrap();
+        let out =
+            build_preprocessor("distinct_points", &default_params()).unwrap().apply(take).unwrap();
         assert_eq!(out.n_points(), 31);
         assert!(out.skeleton.is_none());
     }
@@ -171,6 +185,9 @@ mod tests {
     fn a_bad_tolerance_is_an_error_naming_the_field() {
         let v: toml::Value = toml::from_str("max_distance_mm = -1.0").unwrap();
         let e = build_preprocessor("distinct_points", &v).err().unwrap();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("max_distance_mm")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("max_distance_mm"))
+        );
     }
 }

@@ -140,7 +140,11 @@ pub struct Trajectory3 {
 
 impl Trajectory3 {
     pub fn with_capacity(frames: usize) -> Self {
-        Trajectory3 { x: Vec::with_capacity(frames), y: Vec::with_capacity(frames), z: Vec::with_capacity(frames) }
+        Trajectory3 {
+            x: Vec::with_capacity(frames),
+            y: Vec::with_capacity(frames),
+            z: Vec::with_capacity(frames),
+        }
     }
     pub fn from_points(points: &[Point3]) -> Self {
         let mut t = Trajectory3::with_capacity(points.len());
@@ -191,7 +195,8 @@ impl LocalDistance for Euclidean3<'_> {
     fn row(&self, i: usize, j0: usize, out: &mut [f64]) {
         let (sx, sy, sz) = (self.model.x[i], self.model.y[i], self.model.z[i]);
         let end = j0 + out.len();
-        let (tx, ty, tz) = (&self.target.x[j0..end], &self.target.y[j0..end], &self.target.z[j0..end]);
+        let (tx, ty, tz) =
+            (&self.target.x[j0..end], &self.target.y[j0..end], &self.target.z[j0..end]);
         // Zipped slices of equal length: no bounds checks, and LLVM vectorises the whole body
         // (sub, mul, add and sqrtpd) because nothing in it depends on the previous element.
         for (((o, &x), &y), &z) in out.iter_mut().zip(tx).zip(ty).zip(tz) {
@@ -256,7 +261,9 @@ fn require_nonempty(d: &impl LocalDistance) -> Result<(usize, usize)> {
         let which = if n == 0 { "the model" } else { "the target" };
         return Err(Error::new(
             ErrorKind::EmptySequence,
-            format!("DP matching needs at least one frame in each sequence, but {which} has none (model {n}, target {m} frames)"),
+            format!(
+                "DP matching needs at least one frame in each sequence, but {which} has none (model {n}, target {m} frames)"
+            ),
         ));
     }
     Ok((n, m))
@@ -288,7 +295,11 @@ impl<C: Cost> Workspace<C> {
 
 /// The paper's forward pass: writes `h(j) = g(n−1, j)` for every target frame into `h`
 /// (resized to `m`), keeping one rolling row (O(m) memory besides `h` itself).
-pub fn subsequence_costs_into<D: LocalDistance>(d: &D, h: &mut Vec<D::Cost>, ws: &mut Workspace<D::Cost>) -> Result<()> {
+pub fn subsequence_costs_into<D: LocalDistance>(
+    d: &D,
+    h: &mut Vec<D::Cost>,
+    ws: &mut Workspace<D::Cost>,
+) -> Result<()> {
     let (n, m) = require_nonempty(d)?;
     h.clear();
     h.resize(m, D::Cost::default());
@@ -345,7 +356,10 @@ pub struct SubsequenceMatch {
 
 /// The forward pass keeping the whole `n × m` matrix (O(n·m) memory), then the path by
 /// backtracking from `(n−1, b)` until it reaches model frame 0 (the free start).
-pub fn subsequence_match(d: &impl LocalDistance<Cost = f64>, ws: &mut Workspace) -> Result<SubsequenceMatch> {
+pub fn subsequence_match(
+    d: &impl LocalDistance<Cost = f64>,
+    ws: &mut Workspace,
+) -> Result<SubsequenceMatch> {
     let (n, m) = require_nonempty(d)?;
     let mut g = std::mem::take(&mut ws.matrix);
     g.clear();
@@ -367,7 +381,11 @@ pub fn subsequence_match(d: &impl LocalDistance<Cost = f64>, ws: &mut Workspace)
     let (mut i, mut j) = (n - 1, end);
     path.push((i, j));
     while i > 0 {
-        (i, j) = if j == 0 { (i - 1, 0) } else { best_predecessor(at(i - 1, j - 1), at(i - 1, j), at(i, j - 1), i, j) };
+        (i, j) = if j == 0 {
+            (i - 1, 0)
+        } else {
+            best_predecessor(at(i - 1, j - 1), at(i - 1, j), at(i, j - 1), i, j)
+        };
         path.push((i, j));
     }
     path.reverse();
@@ -388,7 +406,10 @@ fn best_predecessor(diag: f64, up: f64, left: f64, i: usize, j: usize) -> (usize
 }
 
 fn non_finite_costs() -> Error {
-    Error::new(ErrorKind::NonFinite, "every accumulated DP cost is NaN; the local distances must be finite numbers")
+    Error::new(
+        ErrorKind::NonFinite,
+        "every accumulated DP cost is NaN; the local distances must be finite numbers",
+    )
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -478,7 +499,10 @@ pub fn anchored_path(
 ) -> Result<(f64, Vec<(usize, usize)>)> {
     let (n, _) = check_end(d, end)?;
     if start > end {
-        return Err(Error::new(ErrorKind::OutOfRange, format!("the start a = {start} is after the end b = {end}")));
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("the start a = {start} is after the end b = {end}"),
+        ));
     }
     let w = end - start + 1;
     let mut g = std::mem::take(&mut ws.matrix);
@@ -550,7 +574,10 @@ fn first_row_cumulative<D: LocalDistance>(d: &D, g: &mut [D::Cost]) {
 }
 
 /// Full DTW keeping the `n × m` matrix; the path by backtracking from `(n−1, m−1)` to `(0, 0)`.
-pub fn dtw_full_with(d: &impl LocalDistance<Cost = f64>, ws: &mut Workspace) -> Result<(f64, Vec<(usize, usize)>)> {
+pub fn dtw_full_with(
+    d: &impl LocalDistance<Cost = f64>,
+    ws: &mut Workspace,
+) -> Result<(f64, Vec<(usize, usize)>)> {
     let (n, m) = require_nonempty(d)?;
     let mut g = std::mem::take(&mut ws.matrix);
     g.clear();
@@ -587,7 +614,11 @@ pub fn dtw_full_with(d: &impl LocalDistance<Cost = f64>, ws: &mut Workspace) -> 
 /// Full DTW between sequences of `n` and `m` samples under any local distance
 /// `dist(i, j) ≥ 0`: the summed distance along the best path from `(0, 0)` to `(n−1, m−1)` and
 /// that path. Fails only when `n` or `m` is 0.
-pub fn dtw_full(n: usize, m: usize, dist: impl Fn(usize, usize) -> f64) -> Result<(f64, Vec<(usize, usize)>)> {
+pub fn dtw_full(
+    n: usize,
+    m: usize,
+    dist: impl Fn(usize, usize) -> f64,
+) -> Result<(f64, Vec<(usize, usize)>)> {
     dtw_full_with(&FnDistance::new(n, m, dist), &mut Workspace::new())
 }
 
@@ -603,7 +634,10 @@ pub fn dtw_full_1d(a: &[f64], b: &[f64]) -> Result<(f64, Vec<(usize, usize)>)> {
         if let Some(k) = s.iter().position(|v| !v.is_finite()) {
             return Err(Error::new(
                 ErrorKind::NonFinite,
-                format!("DTW needs finite samples, but the {name} series holds {} at index {k}", s[k]),
+                format!(
+                    "DTW needs finite samples, but the {name} series holds {} at index {k}",
+                    s[k]
+                ),
             ));
         }
     }
@@ -622,12 +656,19 @@ mod tests {
     use motionlab_testkit::Rng;
 
     fn random_traj(rng: &mut Rng, len: usize) -> Trajectory3 {
-        let pts: Vec<Point3> = (0..len).map(|_| [rng.normal() * 10.0, rng.normal() * 10.0, rng.normal() * 10.0]).collect();
+        let pts: Vec<Point3> = (0..len)
+            .map(|_| [rng.normal() * 10.0, rng.normal() * 10.0, rng.normal() * 10.0])
+            .collect();
         Trajectory3::from_points(&pts)
     }
 
     /// Textbook full-matrix DP with explicit ±inf borders: the independent reference.
-    fn reference_dp(n: usize, m: usize, d: impl Fn(usize, usize) -> f64, free_start: bool) -> Vec<Vec<f64>> {
+    fn reference_dp(
+        n: usize,
+        m: usize,
+        d: impl Fn(usize, usize) -> f64,
+        free_start: bool,
+    ) -> Vec<Vec<f64>> {
         let mut g = vec![vec![f64::INFINITY; m + 1]; n + 1];
         for (j, c) in g[0].iter_mut().enumerate() {
             *c = if free_start || j == 0 { 0.0 } else { f64::INFINITY };
@@ -648,7 +689,12 @@ mod tests {
     fn assert_valid_steps(path: &[(usize, usize)]) {
         for w in path.windows(2) {
             let (di, dj) = (w[1].0 - w[0].0, w[1].1 - w[0].1);
-            assert!(matches!((di, dj), (1, 1) | (1, 0) | (0, 1)), "bad step {:?} -> {:?}", w[0], w[1]);
+            assert!(
+                matches!((di, dj), (1, 1) | (1, 0) | (0, 1)),
+                "bad step {:?} -> {:?}",
+                w[0],
+                w[1]
+            );
         }
     }
 
@@ -726,11 +772,19 @@ mod tests {
             let free = reference_dp(n, m, f, true);
             let h = subsequence_costs(&d).unwrap();
             for j in 0..m {
-                assert!((h[j] - free[n][j + 1]).abs() <= 1e-9 * free[n][j + 1].max(1.0), "case {case} j {j}");
+                assert!(
+                    (h[j] - free[n][j + 1]).abs() <= 1e-9 * free[n][j + 1].max(1.0),
+                    "case {case} j {j}"
+                );
                 // h(j) = min over starts of a full DTW against T[a..=j].
-                let brute =
-                    (0..=j).map(|a| dtw_full_cost(n, j - a + 1, |i, k| f(i, a + k)).unwrap()).fold(f64::INFINITY, f64::min);
-                assert!((h[j] - brute).abs() <= 1e-9 * brute.max(1.0), "case {case} j {j}: {} vs {brute}", h[j]);
+                let brute = (0..=j)
+                    .map(|a| dtw_full_cost(n, j - a + 1, |i, k| f(i, a + k)).unwrap())
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    (h[j] - brute).abs() <= 1e-9 * brute.max(1.0),
+                    "case {case} j {j}: {} vs {brute}",
+                    h[j]
+                );
             }
             let full = reference_dp(n, m, f, false)[n][m];
             let (cost, path) = dtw_full_with(&d, &mut Workspace::new()).unwrap();
@@ -743,7 +797,10 @@ mod tests {
             let sub = subsequence_match(&d, &mut Workspace::new()).unwrap();
             assert_eq!(sub.end_costs, h);
             assert_eq!(sub.end, argmin_first(&h).unwrap());
-            assert_eq!((sub.path[0], *sub.path.last().unwrap()), ((0, sub.start), (n - 1, sub.end)));
+            assert_eq!(
+                (sub.path[0], *sub.path.last().unwrap()),
+                ((0, sub.start), (n - 1, sub.end))
+            );
             assert_valid_steps(&sub.path);
             assert!((path_cost(&sub.path, f) - sub.cost).abs() <= 1e-9 * sub.cost.max(1.0));
 
@@ -769,7 +826,8 @@ mod tests {
         let (c1, p1) = dtw_full_1d(&a, &b).unwrap();
         let (c2, p2) = dtw_full(a.len(), b.len(), |i, j| (a[i] - b[j]).abs()).unwrap();
         assert_eq!((c1, &p1), (c2, &p2));
-        let want = reference_dp(a.len(), b.len(), |i, j| (a[i] - b[j]).abs(), false)[a.len()][b.len()];
+        let want =
+            reference_dp(a.len(), b.len(), |i, j| (a[i] - b[j]).abs(), false)[a.len()][b.len()];
         assert_eq!(c1, want);
     }
 
@@ -781,7 +839,10 @@ mod tests {
         let s = [1.0, 2.0];
         let d = Absolute1 { model: &s, target: &s };
         assert_eq!(anchored_costs(&d, 2).unwrap_err().kind(), ErrorKind::OutOfRange);
-        assert_eq!(anchored_path(&d, 2, 1, &mut Workspace::new()).unwrap_err().kind(), ErrorKind::OutOfRange);
+        assert_eq!(
+            anchored_path(&d, 2, 1, &mut Workspace::new()).unwrap_err().kind(),
+            ErrorKind::OutOfRange
+        );
         let e = dtw_full_1d(&[1.0, f64::NAN], &[1.0]).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::NonFinite);
         assert!(e.to_string().contains("index 1"), "{e}");

@@ -39,8 +39,9 @@ impl ParamGuard for InitialPoseNormalisationParams {
 impl Preprocessor for InitialPoseNormalisation {
     fn apply(&self, mut motion: Motion) -> Result<Motion> {
         let (f, m) = (motion.n_frames(), motion.n_points());
-        let initial: Vec<Option<[f64; 3]>> =
-            (0..m).map(|k| (0..f).find(|&i| !motion.is_missing(i, k)).map(|i| motion.position(i, k))).collect();
+        let initial: Vec<Option<[f64; 3]>> = (0..m)
+            .map(|k| (0..f).find(|&i| !motion.is_missing(i, k)).map(|i| motion.position(i, k)))
+            .collect();
         for frame in motion.positions_mut().chunks_exact_mut(m) {
             for (p, origin) in frame.iter_mut().zip(&initial) {
                 if let Some(o) = origin {
@@ -55,7 +56,11 @@ impl Preprocessor for InitialPoseNormalisation {
     }
 }
 
-motionlab_core::register_plugin!(Preprocessor, InitialPoseNormalisationParams, "initial_pose_normalisation");
+motionlab_core::register_plugin!(
+    Preprocessor,
+    InitialPoseNormalisationParams,
+    "initial_pose_normalisation"
+);
 
 #[cfg(test)]
 mod tests {
@@ -65,8 +70,13 @@ mod tests {
 
     #[test]
     fn every_marker_starts_at_the_origin_and_keeps_its_displacements() {
-        let m = motion_from_fn(5, 60.0, 3, |i, k| [100.0 * k as f64 + i as f64, 2.0 * i as f64 - k as f64, 1700.0]);
-        let out = build_preprocessor("initial_pose_normalisation", &default_params()).unwrap().apply(m.clone()).unwrap();
+        let m = motion_from_fn(5, 60.0, 3, |i, k| {
+            [100.0 * k as f64 + i as f64, 2.0 * i as f64 - k as f64, 1700.0]
+        });
+        let out = build_preprocessor("initial_pose_normalisation", &default_params())
+            .unwrap()
+            .apply(m.clone())
+            .unwrap();
         for k in 0..3 {
             assert_eq!(out.position(0, k), [0.0, 0.0, 0.0]);
             for i in 0..5 {

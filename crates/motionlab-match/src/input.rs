@@ -13,10 +13,16 @@ use crate::dp::Trajectory3;
 /// [`ErrorKind::EmptySequence`] for a motion without frames, and with
 /// [`ErrorKind::MissingData`] at the first missing sample (the DP has no rule for a gap: a
 /// missing sample has no distance to anything).
-pub fn trajectories(motion: &Motion, names: &[String], role: &str, stage: &str) -> Result<Vec<Trajectory3>> {
+pub fn trajectories(
+    motion: &Motion,
+    names: &[String],
+    role: &str,
+    stage: &str,
+) -> Result<Vec<Trajectory3>> {
     motion.require_frames(1, stage)?;
     let indices: Vec<usize> = names.iter().map(|n| motion.point_index(n)).collect::<Result<_>>()?;
-    let mut out: Vec<Trajectory3> = indices.iter().map(|_| Trajectory3::with_capacity(motion.n_frames())).collect();
+    let mut out: Vec<Trajectory3> =
+        indices.iter().map(|_| Trajectory3::with_capacity(motion.n_frames())).collect();
     for frame in 0..motion.n_frames() {
         let points = motion.frame(frame);
         let missing = motion.frame_missing(frame);
@@ -43,17 +49,24 @@ pub fn trajectories(motion: &Motion, names: &[String], role: &str, stage: &str) 
 /// Checks a list of point names from parameters: not empty, no blank or repeated name.
 pub fn check_names(names: &[String], field: &str) -> Result<()> {
     if names.is_empty() {
-        return Err(
-            Error::new(ErrorKind::InvalidParameter, "expected at least one marker name, found an empty list").with_field(field)
-        );
+        return Err(Error::new(
+            ErrorKind::InvalidParameter,
+            "expected at least one marker name, found an empty list",
+        )
+        .with_field(field));
     }
     let mut seen = std::collections::HashSet::new();
     for n in names {
         if n.trim().is_empty() {
-            return Err(Error::new(ErrorKind::InvalidParameter, "marker names must not be blank").with_field(field));
+            return Err(Error::new(ErrorKind::InvalidParameter, "marker names must not be blank")
+                .with_field(field));
         }
         if !seen.insert(n.as_str()) {
-            return Err(Error::new(ErrorKind::DuplicateName, format!("marker {n:?} is listed twice")).with_field(field));
+            return Err(Error::new(
+                ErrorKind::DuplicateName,
+                format!("marker {n:?} is listed twice"),
+            )
+            .with_field(field));
         }
     }
     Ok(())
@@ -77,12 +90,21 @@ mod tests {
 
     #[test]
     fn a_missing_sample_is_refused_naming_marker_and_frame() {
-        let m = motion_from_fn(4, 10.0, 2, |i, k| if (i, k) == (2, 1) { [f64::NAN; 3] } else { [0.0; 3] });
-        let e = trajectories(&m, &["m0".into(), "m1".into()], "target", "multistream_two_stage").unwrap_err();
+        let m = motion_from_fn(
+            4,
+            10.0,
+            2,
+            |i, k| if (i, k) == (2, 1) { [f64::NAN; 3] } else { [0.0; 3] },
+        );
+        let e = trajectories(&m, &["m0".into(), "m1".into()], "target", "multistream_two_stage")
+            .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingData);
         assert_eq!(e.location().field.as_deref(), Some("m1"));
         let msg = e.to_string();
-        assert!(msg.contains("frame 2") && msg.contains("fill_gaps") && msg.contains("target"), "{msg}");
+        assert!(
+            msg.contains("frame 2") && msg.contains("fill_gaps") && msg.contains("target"),
+            "{msg}"
+        );
         // The same motion is fine when only the complete marker is asked for.
         assert!(trajectories(&m, &["m0".into()], "target", "x").is_ok());
     }
@@ -91,7 +113,10 @@ mod tests {
     fn names_must_be_present_and_distinct() {
         assert!(check_names(&[], "points").is_err());
         let e = check_names(&["a".into(), "a".into()], "points").unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::DuplicateName, Some("points")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::DuplicateName, Some("points"))
+        );
         assert!(check_names(&[" ".into()], "points").is_err());
         assert!(check_names(&["a".into(), "b".into()], "points").is_ok());
     }

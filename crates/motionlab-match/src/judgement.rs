@@ -3,9 +3,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalInputType, EvalInput, Evaluator, Result, Table};
 use crate::MatchingResult;
+use motionlab_core::registry::ParamGuard;
+use motionlab_core::{Error, ErrorKind, EvalInput, EvalInputType, Evaluator, Result, Table};
 
 /// Similar/dissimilar judgement of each repetition, and the user's tendencies (§4.1–4.2).
 ///
@@ -147,7 +147,9 @@ fn require_finite(v: f64, what: &str, take: &str, rep: &str) -> Result<f64> {
     } else {
         Err(Error::new(
             ErrorKind::NonFinite,
-            format!("{what} of repetition {rep:?} in take {take:?} is {v}; expected a finite number"),
+            format!(
+                "{what} of repetition {rep:?} in take {take:?} is {v}; expected a finite number"
+            ),
         )
         .with_field(rep.to_string()))
     }
@@ -180,7 +182,10 @@ fn judge_take(take: &MatchingResult, out: &mut JudgementRecords) -> Result<()> {
     let name = take.take.as_str();
     let reps = &take.repetitions;
     if reps.is_empty() {
-        return Err(Error::new(ErrorKind::EmptySequence, format!("take {name:?} has no matched repetitions to judge")));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            format!("take {name:?} has no matched repetitions to judge"),
+        ));
     }
     let n_points = take.point_names.len();
     let sections = &reps[0].synchronisation.model_frames;
@@ -197,10 +202,14 @@ fn judge_take(take: &MatchingResult, out: &mut JudgementRecords) -> Result<()> {
                 ),
             ));
         }
-        if &rep.synchronisation.model_frames != sections || rep.synchronisation.section_values.len() != sections.len() {
+        if &rep.synchronisation.model_frames != sections
+            || rep.synchronisation.section_values.len() != sections.len()
+        {
             return Err(Error::new(
                 ErrorKind::Mismatch,
-                format!("repetition {label:?} of take {name:?} was synchronised at other model frames than the first repetition"),
+                format!(
+                    "repetition {label:?} of take {name:?} was synchronised at other model frames than the first repetition"
+                ),
             ));
         }
         for &v in rep.alignment.point_distances.iter().chain(&rep.synchronisation.section_values) {
@@ -228,8 +237,9 @@ fn judge_take(take: &MatchingResult, out: &mut JudgementRecords) -> Result<()> {
             most_dissimilar: rank[k] == reps.len(),
         });
     }
-    let part_means: Vec<f64> =
-        (0..n_points).map(|l| mean(&reps.iter().map(|rep| rep.alignment.point_distances[l]).collect::<Vec<_>>())).collect();
+    let part_means: Vec<f64> = (0..n_points)
+        .map(|l| mean(&reps.iter().map(|rep| rep.alignment.point_distances[l]).collect::<Vec<_>>()))
+        .collect();
     let (best, worst) = extremes(&part_means);
     for (l, point) in take.point_names.iter().enumerate() {
         out.parts.push(PartTendency {
@@ -241,7 +251,9 @@ fn judge_take(take: &MatchingResult, out: &mut JudgementRecords) -> Result<()> {
         });
     }
     let section_means: Vec<f64> = (0..sections.len())
-        .map(|q| mean(&reps.iter().map(|rep| rep.synchronisation.section_values[q]).collect::<Vec<_>>()))
+        .map(|q| {
+            mean(&reps.iter().map(|rep| rep.synchronisation.section_values[q]).collect::<Vec<_>>())
+        })
         .collect();
     let (best, worst) = extremes(&section_means);
     for (q, &frame) in sections.iter().enumerate() {
@@ -289,9 +301,9 @@ motionlab_core::register_plugin!(Evaluator, JudgementParams, "judgement");
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::{build_evaluator, default_params};
-    use motionlab_core::ColumnValues;
     use crate::{Alignment, RepetitionResult, Synchronisation};
+    use motionlab_core::ColumnValues;
+    use motionlab_core::registry::{build_evaluator, default_params};
 
     #[test]
     fn scores_and_ranks_follow_the_rule() {
@@ -314,12 +326,20 @@ mod tests {
                 total_distance: h.iter().sum(),
                 paths: vec![],
             },
-            synchronisation: Synchronisation { model_frames: vec![10, 20], section_values: r.to_vec(), total: r.iter().sum() },
+            synchronisation: Synchronisation {
+                model_frames: vec![10, 20],
+                section_values: r.to_vec(),
+                total: r.iter().sum(),
+            },
         }
     }
 
     fn take(reps: Vec<RepetitionResult>) -> MatchingResult {
-        MatchingResult { take: "t".into(), point_names: vec!["hand".into(), "foot".into()], repetitions: reps }
+        MatchingResult {
+            take: "t".into(),
+            point_names: vec!["hand".into(), "foot".into()],
+            repetitions: reps,
+        }
     }
 
     #[test]
@@ -371,12 +391,25 @@ mod tests {
     fn inconsistent_or_wrong_input_is_an_error() {
         let ev = Judgement;
         let bad = take(vec![rep("a", &[1.0], &[0.0, 0.0])]);
-        assert_eq!(ev.evaluate(EvalInput::new(&vec![bad])).unwrap_err().kind(), ErrorKind::Mismatch);
+        assert_eq!(
+            ev.evaluate(EvalInput::new(&vec![bad])).unwrap_err().kind(),
+            ErrorKind::Mismatch
+        );
         let nan = take(vec![rep("a", &[f64::NAN, 1.0], &[0.0, 0.0])]);
-        assert_eq!(ev.evaluate(EvalInput::new(&vec![nan])).unwrap_err().kind(), ErrorKind::NonFinite);
-        assert_eq!(ev.evaluate(EvalInput::new(&vec![take(vec![])])).unwrap_err().kind(), ErrorKind::EmptySequence);
+        assert_eq!(
+            ev.evaluate(EvalInput::new(&vec![nan])).unwrap_err().kind(),
+            ErrorKind::NonFinite
+        );
+        assert_eq!(
+            ev.evaluate(EvalInput::new(&vec![take(vec![])])).unwrap_err().kind(),
+            ErrorKind::EmptySequence
+        );
         // Another workflow's results: an error naming what judgement reads.
         let e = ev.evaluate(EvalInput::new(&vec![1_u8])).unwrap_err();
-        assert!(e.kind() == ErrorKind::Mismatch && e.to_string().contains("judgement evaluates matching results"), "{e}");
+        assert!(
+            e.kind() == ErrorKind::Mismatch
+                && e.to_string().contains("judgement evaluates matching results"),
+            "{e}"
+        );
     }
 }

@@ -258,11 +258,15 @@ mod avx512 {
             y = _mm512_fmadd_pd(d, h, y);
             // Proof per lane: |x − y²| < y·(y − pred(y)), x in the range where that is exact.
             let rem = _mm512_fnmadd_pd(y, y, x);
-            let pred = _mm512_castsi512_pd(_mm512_sub_epi64(_mm512_castpd_si512(y), _mm512_set1_epi64(1)));
+            let pred =
+                _mm512_castsi512_pd(_mm512_sub_epi64(_mm512_castpd_si512(y), _mm512_set1_epi64(1)));
             let gap_below = _mm512_sub_pd(y, pred);
             let bound = _mm512_mul_pd(y, gap_below);
             let abs_rem = _mm512_abs_pd(rem);
-            let in_range = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(x, _mm512_set1_pd(f64::from_bits(0x07B0_0000_0000_0000)));
+            let in_range = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(
+                x,
+                _mm512_set1_pd(f64::from_bits(0x07B0_0000_0000_0000)),
+            );
             let proven = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(in_range, abs_rem, bound);
             if proven == u8::MAX { y } else { _mm512_mask_sqrt_pd(y, !proven, x) }
         }
@@ -322,7 +326,12 @@ fn forward_block<V: Vector>(model: &[Frame8], target: &[Frame8], g: &mut [Cell8]
 /// return `c[a]` is the cost of matching the whole model to `T[a..=b]`, per lane. With
 /// `STEPS`, `steps[i·w + j]` (`w = b + 1`, `i < n − 1`, `j < b`) receives the path decisions.
 #[inline(always)]
-fn backward_block<V: Vector, const STEPS: bool>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8], steps: &mut [Step8]) {
+fn backward_block<V: Vector, const STEPS: bool>(
+    model: &[Frame8],
+    target: &[Frame8],
+    c: &mut [Cell8],
+    steps: &mut [Step8],
+) {
     let w = target.len();
     let Some((s_last, rows)) = model.split_last() else { return };
     let s = model_frame::<V>(s_last);
@@ -341,9 +350,12 @@ fn backward_block<V: Vector, const STEPS: bool>(model: &[Frame8], target: &[Fram
         right.store(&mut cb.0);
         if STEPS {
             let row = &mut steps[i * w..(i + 1) * w - 1];
-            for ((cj, t), step) in c_rest.iter_mut().rev().zip(target_rest.iter().rev()).zip(row.iter_mut().rev()) {
+            for ((cj, t), step) in
+                c_rest.iter_mut().rev().zip(target_rest.iter().rev()).zip(row.iter_mut().rev())
+            {
                 let down = V::load(&cj.0);
-                *step = Step8 { diagonal: diag.le(down) & diag.le(right), model_step: down.le(right) };
+                *step =
+                    Step8 { diagonal: diag.le(down) & diag.le(right), model_step: down.le(right) };
                 let v = distance(s, t).add(down.min(diag).min(right));
                 diag = down;
                 v.store(&mut cj.0);
@@ -493,13 +505,23 @@ unsafe fn forward_avx2(model: &[Frame8], target: &[Frame8], g: &mut [Cell8]) {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn backward_avx512<const STEPS: bool>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8], steps: &mut [Step8]) {
+unsafe fn backward_avx512<const STEPS: bool>(
+    model: &[Frame8],
+    target: &[Frame8],
+    c: &mut [Cell8],
+    steps: &mut [Step8],
+) {
     backward_block::<avx512::Zmm, STEPS>(model, target, c, steps)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn backward_avx2<const STEPS: bool>(model: &[Frame8], target: &[Frame8], c: &mut [Cell8], steps: &mut [Step8]) {
+unsafe fn backward_avx2<const STEPS: bool>(
+    model: &[Frame8],
+    target: &[Frame8],
+    c: &mut [Cell8],
+    steps: &mut [Step8],
+) {
     backward_block::<Portable, STEPS>(model, target, c, steps)
 }
 
@@ -524,7 +546,13 @@ pub(crate) fn forward(level: Level, model: &[Frame8], target: &[Frame8], g: &mut
 /// Backward pass of one block anchored at the last frame of `target` (pass `T[0..=b]`): `c` is
 /// resized to `b + 1`; with `steps` given, it is resized to `n·(b+1)` and receives the path
 /// decisions (read them with [`walk`]).
-pub(crate) fn backward(level: Level, model: &[Frame8], target: &[Frame8], c: &mut Vec<Cell8>, steps: Option<&mut Vec<Step8>>) {
+pub(crate) fn backward(
+    level: Level,
+    model: &[Frame8],
+    target: &[Frame8],
+    c: &mut Vec<Cell8>,
+    steps: Option<&mut Vec<Step8>>,
+) {
     c.clear();
     if model.is_empty() || target.is_empty() {
         return;
@@ -555,7 +583,13 @@ pub(crate) fn backward(level: Level, model: &[Frame8], target: &[Frame8], c: &mu
 /// Lane `lane`'s warping path from `(0, start)` to `(n−1, end)` by the decisions `steps` of a
 /// [`backward`] pass over `T[0..=end]` (`n` model frames): the path
 /// [`crate::dp::anchored_path`] returns, pair for pair.
-pub(crate) fn walk(steps: &[Step8], n: usize, start: usize, end: usize, lane: usize) -> Vec<(usize, usize)> {
+pub(crate) fn walk(
+    steps: &[Step8],
+    n: usize,
+    start: usize,
+    end: usize,
+    lane: usize,
+) -> Vec<(usize, usize)> {
     let (w, bit) = (end + 1, 1u8 << lane);
     let mut path = Vec::with_capacity(n + end - start);
     let (mut i, mut j) = (0usize, start);
@@ -590,7 +624,18 @@ mod tests {
     /// squares and their neighbours, the ends of the range the fast path accepts, zero,
     /// subnormals, the largest double, infinity and NaN, plus random bit patterns.
     fn hard_inputs(rng: &mut Rng) -> Vec<f64> {
-        let mut v = vec![0.0, -0.0, f64::MIN_POSITIVE, 5e-324, f64::MAX, f64::INFINITY, f64::NAN, 1.0, 2.0, 4.0];
+        let mut v = vec![
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NAN,
+            1.0,
+            2.0,
+            4.0,
+        ];
         for e in -1060..1030 {
             let p = 2f64.powi(e);
             v.extend([p, p.next_up(), p.next_down()]);
@@ -618,7 +663,13 @@ mod tests {
             let got = unsafe { sqrt_avx512(&x) };
             for l in 0..LANES {
                 let want = x[l].sqrt();
-                assert!(got[l].to_bits() == want.to_bits() || (got[l].is_nan() && want.is_nan()), "√{:e}: {:e} vs {:e}", x[l], got[l], want);
+                assert!(
+                    got[l].to_bits() == want.to_bits() || (got[l].is_nan() && want.is_nan()),
+                    "√{:e}: {:e} vs {:e}",
+                    x[l],
+                    got[l],
+                    want
+                );
             }
         }
     }
@@ -627,7 +678,10 @@ mod tests {
     fn gather_pads_spare_lanes_and_refuses_unequal_lengths() {
         let a = Trajectory3::from_points(&[[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
         let b = Trajectory3::from_points(&[[7.0, 8.0, 9.0], [1.0, 1.0, 1.0]]);
-        let blocks = MarkerBlocks::gather(&vec![a.clone(); 9].into_iter().chain([b.clone()]).collect::<Vec<_>>()).unwrap();
+        let blocks = MarkerBlocks::gather(
+            &vec![a.clone(); 9].into_iter().chain([b.clone()]).collect::<Vec<_>>(),
+        )
+        .unwrap();
         assert_eq!((blocks.markers(), blocks.frames(), blocks.block_count()), (10, 2, 2));
         assert_eq!((blocks.used(0), blocks.used(1)), (8, 2));
         assert_eq!(blocks.block(1)[0].x, [1.0, 7.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]);

@@ -73,8 +73,9 @@ pub mod subsequence;
 pub mod sync;
 
 pub use stage::{
-    build_matcher, build_point_detector, build_synchroniser, matching_results, Alignment, Matcher, MatchingResult, PointDetection, PointDetector,
-    RepetitionResult, Synchronisation, Synchroniser,
+    Alignment, Matcher, MatchingResult, PointDetection, PointDetector, RepetitionResult,
+    Synchronisation, Synchroniser, build_matcher, build_point_detector, build_synchroniser,
+    matching_results,
 };
 
 #[cfg(test)]
@@ -98,13 +99,21 @@ mod tests {
             let (crate_name, doc) = match (find(name), find_custom(name)) {
                 (Ok(p), None) => (p.crate_name, p.doc()),
                 (Err(_), Some(p)) => (p.crate_name, p.doc()),
-                (core, custom) => panic!("{name}: registered {} times", core.is_ok() as u8 + custom.is_some() as u8),
+                (core, custom) => panic!(
+                    "{name}: registered {} times",
+                    core.is_ok() as u8 + custom.is_some() as u8
+                ),
             };
             assert_eq!(crate_name, "motionlab-match");
-            assert!(doc.contains("issing"), "{name}: the doc must say how missing samples are treated");
+            assert!(
+                doc.contains("issing"),
+                "{name}: the doc must say how missing samples are treated"
+            );
         }
-        let problems: Vec<String> =
-            check_registry().into_iter().filter(|p| PLUGINS.iter().any(|n| p.contains(&format!("{n:?}")))).collect();
+        let problems: Vec<String> = check_registry()
+            .into_iter()
+            .filter(|p| PLUGINS.iter().any(|n| p.contains(&format!("{n:?}"))))
+            .collect();
         assert!(problems.is_empty(), "{problems:?}");
     }
 }

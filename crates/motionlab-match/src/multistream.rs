@@ -5,9 +5,9 @@ use std::ops::Range;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::{Alignment, Matcher};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Motion, Result};
-use crate::{Alignment, Matcher};
 
 use crate::dp::{Trajectory3, argmin_first};
 use crate::input::{check_names, trajectories};
@@ -91,12 +91,21 @@ pub struct TwoStageMatch {
 }
 
 /// Checks the per-marker trajectories and regroups them eight markers to a block.
-pub(crate) fn marker_blocks(model: &[Trajectory3], target: &[Trajectory3]) -> Result<(MarkerBlocks, MarkerBlocks)> {
+pub(crate) fn marker_blocks(
+    model: &[Trajectory3],
+    target: &[Trajectory3],
+) -> Result<(MarkerBlocks, MarkerBlocks)> {
     let (Some(s0), Some(t0)) = (model.first(), target.first()) else {
-        return Err(Error::new(ErrorKind::EmptySequence, "two-stage matching needs at least one marker"));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "two-stage matching needs at least one marker",
+        ));
     };
     let (n, m) = (s0.len(), t0.len());
-    if model.len() != target.len() || model.iter().any(|s| s.len() != n) || target.iter().any(|t| t.len() != m) {
+    if model.len() != target.len()
+        || model.iter().any(|s| s.len() != n)
+        || target.iter().any(|t| t.len() != m)
+    {
         return Err(Error::new(
             ErrorKind::WrongValueCount,
             format!(
@@ -111,11 +120,15 @@ pub(crate) fn marker_blocks(model: &[Trajectory3], target: &[Trajectory3]) -> Re
         let which = if n == 0 { "the model" } else { "the target" };
         return Err(Error::new(
             ErrorKind::EmptySequence,
-            format!("DP matching needs at least one frame in each sequence, but {which} has none (model {n}, target {m} frames)"),
+            format!(
+                "DP matching needs at least one frame in each sequence, but {which} has none (model {n}, target {m} frames)"
+            ),
         ));
     }
     let gather = |t: &[Trajectory3]| {
-        MarkerBlocks::gather(t).ok_or_else(|| Error::new(ErrorKind::WrongValueCount, "marker trajectories of unequal lengths"))
+        MarkerBlocks::gather(t).ok_or_else(|| {
+            Error::new(ErrorKind::WrongValueCount, "marker trajectories of unequal lengths")
+        })
     };
     Ok((gather(model)?, gather(target)?))
 }
@@ -155,14 +168,23 @@ pub fn end_costs(model: &[Trajectory3], target: &[Trajectory3]) -> Result<Vec<f6
 /// backward pass records each cell's path decision, so the paths need no third DP (see
 /// [`crate::lanes`]); the numbers and paths are bit-for-bit those of one marker at a time with
 /// [`crate::dp`]'s kernels.
-pub fn two_stage(model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
+pub fn two_stage(
+    model: &[Trajectory3],
+    target: &[Trajectory3],
+    keep_paths: bool,
+) -> Result<TwoStageMatch> {
     let (s, t) = marker_blocks(model, target)?;
     two_stage_at(simd::level(), &s, &t, 0..t.frames(), keep_paths)
 }
 
 /// [`two_stage`] at a chosen instruction-set level (capped at what the CPU runs), to compare
 /// the levels' speed; every level gives the same numbers.
-pub fn two_stage_at_level(level: Level, model: &[Trajectory3], target: &[Trajectory3], keep_paths: bool) -> Result<TwoStageMatch> {
+pub fn two_stage_at_level(
+    level: Level,
+    model: &[Trajectory3],
+    target: &[Trajectory3],
+    keep_paths: bool,
+) -> Result<TwoStageMatch> {
     let (s, t) = marker_blocks(model, target)?;
     two_stage_at(level.min(simd::level()), &s, &t, 0..t.frames(), keep_paths)
 }
@@ -170,16 +192,28 @@ pub fn two_stage_at_level(level: Level, model: &[Trajectory3], target: &[Traject
 /// The two-stage match of the model against the target's frames `frames` (a window of a take:
 /// the result's frame indices count from `frames.start`, as when the window is cut out first).
 /// `frames` must be a nonempty range within the target.
-pub(crate) fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, frames: Range<usize>, keep_paths: bool) -> Result<TwoStageMatch> {
+pub(crate) fn two_stage_at(
+    level: Level,
+    s: &MarkerBlocks,
+    t: &MarkerBlocks,
+    frames: Range<usize>,
+    keep_paths: bool,
+) -> Result<TwoStageMatch> {
     if frames.is_empty() || frames.end > t.frames() {
         return Err(Error::new(
             ErrorKind::OutOfRange,
-            format!("frames {}..{} are not a nonempty stretch of the target's {} frames", frames.start, frames.end, t.frames()),
+            format!(
+                "frames {}..{} are not a nonempty stretch of the target's {} frames",
+                frames.start,
+                frames.end,
+                t.frames()
+            ),
         ));
     }
     let mut cells = Vec::new();
     let end_costs = summed_end_costs(level, s, t, frames.clone(), &mut cells);
-    let end = argmin_first(&end_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "G(j) is NaN everywhere"))?;
+    let end = argmin_first(&end_costs)
+        .ok_or_else(|| Error::new(ErrorKind::NonFinite, "G(j) is NaN everywhere"))?;
     // Stage 2: backward from b; each block's cost per start is kept to read h_l at a, and its
     // path decisions to walk the paths.
     let blocks = s.block_count();
@@ -187,7 +221,13 @@ pub(crate) fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, fra
     let mut steps: Vec<Vec<Step8>> = Vec::with_capacity(blocks);
     for k in 0..blocks {
         let (mut c, mut st) = (Vec::new(), Vec::new());
-        lanes::backward(level, s.block(k), &t.block(k)[frames.start..=frames.start + end], &mut c, keep_paths.then_some(&mut st));
+        lanes::backward(
+            level,
+            s.block(k),
+            &t.block(k)[frames.start..=frames.start + end],
+            &mut c,
+            keep_paths.then_some(&mut st),
+        );
         costs.push(c);
         steps.push(st);
     }
@@ -199,17 +239,24 @@ pub(crate) fn two_stage_at(level: Level, s: &MarkerBlocks, t: &MarkerBlocks, fra
             }
         }
     }
-    let start =
-        argmin_last(&start_costs).ok_or_else(|| Error::new(ErrorKind::NonFinite, "the backward costs are NaN everywhere"))?;
+    let start = argmin_last(&start_costs)
+        .ok_or_else(|| Error::new(ErrorKind::NonFinite, "the backward costs are NaN everywhere"))?;
     let markers = s.markers();
-    let point_distances: Vec<f64> = (0..markers).map(|l| costs[l / LANES][start].0[l % LANES]).collect();
+    let point_distances: Vec<f64> =
+        (0..markers).map(|l| costs[l / LANES][start].0[l % LANES]).collect();
     let total_distance = point_distances.iter().sum();
     let paths = if keep_paths {
-        (0..markers).map(|l| lanes::walk(&steps[l / LANES], s.frames(), start, end, l % LANES)).collect()
+        (0..markers)
+            .map(|l| lanes::walk(&steps[l / LANES], s.frames(), start, end, l % LANES))
+            .collect()
     } else {
         Vec::new()
     };
-    Ok(TwoStageMatch { end_costs, start_costs, alignment: Alignment { start, end, point_distances, total_distance, paths } })
+    Ok(TwoStageMatch {
+        end_costs,
+        start_costs,
+        alignment: Alignment { start, end, point_distances, total_distance, paths },
+    })
 }
 
 /// Index of the least value, the latest among equal values (NaN skipped).
@@ -243,20 +290,29 @@ impl Matcher for MultistreamTwoStage {
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::Matcher, MultistreamTwoStageParams, "multistream_two_stage", kind = "matcher");
+motionlab_core::register_custom_plugin!(
+    crate::Matcher,
+    MultistreamTwoStageParams,
+    "multistream_two_stage",
+    kind = "matcher"
+);
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dp::{Euclidean3, dtw_full_3d, subsequence_costs};
     use crate::build_matcher;
+    use crate::dp::{Euclidean3, dtw_full_3d, subsequence_costs};
     use motionlab_testkit::{Rng, motion_from_fn};
 
     /// A smooth, non-repeating 3-D movement per marker (mm).
     fn movement(i: usize, k: usize) -> [f64; 3] {
         let t = i as f64 * 0.11;
         let k = k as f64;
-        [300.0 * (t + k).sin() + 20.0 * k, 200.0 * (0.7 * t + 2.0 * k).cos(), 150.0 * (1.3 * t - k).sin() + 5.0 * t]
+        [
+            300.0 * (t + k).sin() + 20.0 * k,
+            200.0 * (0.7 * t + 2.0 * k).cos(),
+            150.0 * (1.3 * t - k).sin() + 5.0 * t,
+        ]
     }
 
     #[test]
@@ -278,8 +334,9 @@ mod tests {
         let mut rng = Rng::new(3);
         let (n, offset, stretched) = (60usize, 70usize, 75usize);
         let model = motion_from_fn(n, 60.0, 5, movement);
-        let noise: Vec<[f64; 3]> =
-            (0..200 * 5).map(|_| [rng.normal() * 40.0, rng.normal() * 40.0, rng.normal() * 40.0]).collect();
+        let noise: Vec<[f64; 3]> = (0..200 * 5)
+            .map(|_| [rng.normal() * 40.0, rng.normal() * 40.0, rng.normal() * 40.0])
+            .collect();
         let target = motion_from_fn(200, 60.0, 5, |j, k| {
             if (offset..offset + stretched).contains(&j) {
                 // Linear resampling of the model onto 75 frames, plus 1 mm jitter.
@@ -305,10 +362,14 @@ mod tests {
         let mut sum = 0.0;
         for k in 0..5 {
             let s: Vec<[f64; 3]> = model.trajectory(k).collect();
-            let t: Vec<[f64; 3]> = target.trajectory(k).skip(a.start).take(a.end - a.start + 1).collect();
+            let t: Vec<[f64; 3]> =
+                target.trajectory(k).skip(a.start).take(a.end - a.start + 1).collect();
             let (c, p) = dtw_full_3d(&s, &t).unwrap();
             assert!((c - a.point_distances[k]).abs() < 1e-9 * c.max(1.0));
-            assert!((c - p.iter().map(|&(i, j)| dist(s[i], t[j])).sum::<f64>()).abs() < 1e-9 * c.max(1.0));
+            assert!(
+                (c - p.iter().map(|&(i, j)| dist(s[i], t[j])).sum::<f64>()).abs()
+                    < 1e-9 * c.max(1.0)
+            );
             sum += c;
             assert_eq!(a.paths[k].first(), Some(&(0, a.start)));
             assert_eq!(a.paths[k].last(), Some(&(n - 1, a.end)));
@@ -321,7 +382,10 @@ mod tests {
         ))
         .unwrap();
         assert!(r.end_costs.iter().zip(&h0).all(|(g, h)| g >= h));
-        assert_eq!(r.start_costs[a.start], r.start_costs.iter().copied().fold(f64::INFINITY, f64::min));
+        assert_eq!(
+            r.start_costs[a.start],
+            r.start_costs.iter().copied().fold(f64::INFINITY, f64::min)
+        );
     }
 
     #[test]
@@ -335,7 +399,10 @@ mod tests {
             [p[0] + e[0], p[1] + e[1], p[2] + e[2]]
         });
         let names: Vec<String> = model.point_names().to_vec();
-        let (s, t) = (trajectories(&model, &names, "", "").unwrap(), trajectories(&target, &names, "", "").unwrap());
+        let (s, t) = (
+            trajectories(&model, &names, "", "").unwrap(),
+            trajectories(&target, &names, "", "").unwrap(),
+        );
         let r = two_stage(&s, &t, true).unwrap();
         let mut g = vec![0.0; 90];
         for (sl, tl) in s.iter().zip(&t) {
@@ -368,7 +435,10 @@ mod tests {
             }
         });
         let names: Vec<String> = model.point_names().to_vec();
-        let (s, t) = (trajectories(&model, &names, "", "").unwrap(), trajectories(&target, &names, "", "").unwrap());
+        let (s, t) = (
+            trajectories(&model, &names, "", "").unwrap(),
+            trajectories(&target, &names, "", "").unwrap(),
+        );
         let mut g = vec![0.0; m];
         for (sl, tl) in s.iter().zip(&t) {
             let h = subsequence_costs(&Euclidean3::new(sl, tl)).unwrap();
@@ -386,8 +456,14 @@ mod tests {
                 let back = crate::dp::anchored_costs(&d, a.end).unwrap();
                 start_costs.iter_mut().zip(&back).for_each(|(acc, c)| *acc += c);
                 assert_eq!(a.point_distances[l], back[a.start], "{level:?} marker {l}");
-                let (cost, path) = crate::dp::anchored_path(&d, a.start, a.end, &mut crate::dp::Workspace::new()).unwrap();
-                assert_eq!((cost, &path), (a.point_distances[l], &a.paths[l]), "{level:?} marker {l}");
+                let (cost, path) =
+                    crate::dp::anchored_path(&d, a.start, a.end, &mut crate::dp::Workspace::new())
+                        .unwrap();
+                assert_eq!(
+                    (cost, &path),
+                    (a.point_distances[l], &a.paths[l]),
+                    "{level:?} marker {l}"
+                );
             }
             assert_eq!(r.start_costs, start_costs, "{level:?}");
             let without = crate::simd::with_cap(level, || two_stage(&s, &t, false)).unwrap();
@@ -421,7 +497,12 @@ mod tests {
         // The target lists the markers in reverse order under the same names.
         let names = ["m2", "m1", "m0"];
         let target = motionlab_testkit::named_motion(15, 60.0, &names, |i, k| movement(i, 2 - k));
-        let stage = MultistreamTwoStageParams { points: Some(vec!["m2".into(), "m0".into()]), keep_paths: true }.check().unwrap();
+        let stage = MultistreamTwoStageParams {
+            points: Some(vec!["m2".into(), "m0".into()]),
+            keep_paths: true,
+        }
+        .check()
+        .unwrap();
         let a = stage.align(&model, &target).unwrap();
         assert_eq!((a.point_distances.len(), a.paths.len(), a.total_distance), (2, 2, 0.0));
     }
@@ -429,8 +510,12 @@ mod tests {
     #[test]
     fn missing_samples_are_refused_and_params_are_checked() {
         let model = motion_from_fn(10, 60.0, 2, movement);
-        let target = motion_from_fn(30, 60.0, 2, |i, k| if i == 12 && k == 1 { [f64::NAN; 3] } else { movement(i, k) });
-        let stage = build_matcher("multistream_two_stage", &motionlab_core::registry::default_params()).unwrap();
+        let target = motion_from_fn(30, 60.0, 2, |i, k| {
+            if i == 12 && k == 1 { [f64::NAN; 3] } else { movement(i, k) }
+        });
+        let stage =
+            build_matcher("multistream_two_stage", &motionlab_core::registry::default_params())
+                .unwrap();
         let e = stage.align(&model, &target).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingData);
         assert!(e.to_string().contains("fill_gaps"), "{e}");
@@ -438,6 +523,9 @@ mod tests {
         let e = build_matcher("multistream_two_stage", &bad).err().unwrap();
         assert_eq!(e.location().field.as_deref(), Some("points"));
         let typo: toml::Value = toml::from_str("keep_path = true").unwrap();
-        assert_eq!(build_matcher("multistream_two_stage", &typo).err().unwrap().kind(), ErrorKind::UnknownKey);
+        assert_eq!(
+            build_matcher("multistream_two_stage", &typo).err().unwrap().kind(),
+            ErrorKind::UnknownKey
+        );
     }
 }

@@ -4,9 +4,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::{PointDetection, PointDetector};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Motion, Result, TimeSpan, Trace};
-use crate::{PointDetection, PointDetector};
 use motionlab_features::smoothing::moving_average_positions;
 
 use crate::input::{check_names, trajectories};
@@ -72,9 +72,11 @@ impl ParamGuard for VelocityPeaksParams {
     fn check(self) -> Result<VelocityPeaks> {
         check_names(std::slice::from_ref(&self.marker), "marker")?;
         if self.count == 0 {
-            return Err(
-                Error::new(ErrorKind::OutOfRange, "expected at least one repetition (count >= 1), found 0").with_field("count")
-            );
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "expected at least one repetition (count >= 1), found 0",
+            )
+            .with_field("count"));
         }
         Ok(VelocityPeaks {
             marker: self.marker,
@@ -163,7 +165,12 @@ pub fn peak_regions(v: &[f64], count: usize) -> Result<PeakRegions> {
 pub fn velocity_function(points: &[[f64; 3]]) -> Vec<f64> {
     let mut v: Vec<f64> = points
         .windows(2)
-        .map(|w| ((w[0][0] - w[1][0]).powi(2) + (w[0][1] - w[1][1]).powi(2) + (w[0][2] - w[1][2]).powi(2)).sqrt())
+        .map(|w| {
+            ((w[0][0] - w[1][0]).powi(2)
+                + (w[0][1] - w[1][1]).powi(2)
+                + (w[0][2] - w[1][2]).powi(2))
+            .sqrt()
+        })
         .collect();
     v.push(f64::NAN);
     v
@@ -176,19 +183,40 @@ impl PointDetector for VelocityPeaks {
         trajectories(motion, std::slice::from_ref(&self.marker), "take", "velocity_peaks")?;
         let one = motion.select_points(std::slice::from_ref(&self.marker))?;
         let window = self.smoothing.map(|s| s.whole_frames_at(motion.frame_rate())).unwrap_or(0);
-        let points = if window > 1 { moving_average_positions(&one, window) } else { one.positions().to_vec() };
+        let points = if window > 1 {
+            moving_average_positions(&one, window)
+        } else {
+            one.positions().to_vec()
+        };
         let v = velocity_function(&points);
         let found = peak_regions(&v, self.count)?;
-        let peaks: Vec<usize> =
-            found.regions.iter().map(|&(s, e)| (s..=e).fold(s, |best, i| if v[i] > v[best] { i } else { best })).collect();
+        let peaks: Vec<usize> = found
+            .regions
+            .iter()
+            .map(|&(s, e)| (s..=e).fold(s, |best, i| if v[i] > v[best] { i } else { best }))
+            .collect();
         let f = motion.n_frames();
-        let (before, after) = (self.before.whole_frames_at(motion.frame_rate()), self.after.whole_frames_at(motion.frame_rate()));
-        let windows = peaks.iter().map(|&p| (p.saturating_sub(before), (p + after + 1).min(f))).collect();
-        Ok(PointDetection { velocity: Trace::new("v_mm_per_frame", "mm/frame", v), threshold: found.threshold, peaks, windows })
+        let (before, after) = (
+            self.before.whole_frames_at(motion.frame_rate()),
+            self.after.whole_frames_at(motion.frame_rate()),
+        );
+        let windows =
+            peaks.iter().map(|&p| (p.saturating_sub(before), (p + after + 1).min(f))).collect();
+        Ok(PointDetection {
+            velocity: Trace::new("v_mm_per_frame", "mm/frame", v),
+            threshold: found.threshold,
+            peaks,
+            windows,
+        })
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::PointDetector, VelocityPeaksParams, "velocity_peaks", kind = "point_detector");
+motionlab_core::register_custom_plugin!(
+    crate::PointDetector,
+    VelocityPeaksParams,
+    "velocity_peaks",
+    kind = "point_detector"
+);
 
 #[cfg(test)]
 mod tests {
@@ -215,13 +243,18 @@ mod tests {
     }
 
     fn detector(toml_text: &str) -> Box<dyn PointDetector> {
-        build_point_detector("velocity_peaks", &toml::from_str::<toml::Value>(toml_text).unwrap()).unwrap()
+        build_point_detector("velocity_peaks", &toml::from_str::<toml::Value>(toml_text).unwrap())
+            .unwrap()
     }
 
     #[test]
     fn finds_n_bumps_of_different_heights_and_cuts_windows() {
         let m = motion_with_speed(210, bumps);
-        let d = detector("marker = \"m0\"\ncount = 4\nbefore = { frames = 20 }\nafter = { seconds = 0.25 }").detect(&m).unwrap();
+        let d = detector(
+            "marker = \"m0\"\ncount = 4\nbefore = { frames = 20 }\nafter = { seconds = 0.25 }",
+        )
+        .detect(&m)
+        .unwrap();
         assert_eq!(d.peaks, vec![30, 80, 130, 180]);
         // The fourth region appears when θ reaches the lowest bump's top (4).
         assert!((d.threshold - 4.0).abs() < 1e-9, "{}", d.threshold);
@@ -231,7 +264,8 @@ mod tests {
         assert!(d.velocity.values[209].is_nan());
         assert!((d.velocity.values[130] - 12.0).abs() < 1e-9);
         // Two repetitions: the two highest bumps.
-        let d2 = detector("marker = \"m0\"\ncount = 2\nbefore = { frames = 40 }").detect(&m).unwrap();
+        let d2 =
+            detector("marker = \"m0\"\ncount = 2\nbefore = { frames = 40 }").detect(&m).unwrap();
         assert_eq!(d2.peaks, vec![30, 130]);
         assert_eq!(d2.windows[0], (0, 131)); // clipped at the start; 1 s = 100 frames after
     }
@@ -287,19 +321,42 @@ mod tests {
         };
         let m = motion_with_speed(140, speed);
         assert_eq!(detector("marker = \"m0\"\ncount = 2").detect(&m).unwrap().peaks, vec![39, 41]);
-        let smooth = detector("marker = \"m0\"\ncount = 2\nsmoothing = { frames = 9 }").detect(&m).unwrap();
+        let smooth =
+            detector("marker = \"m0\"\ncount = 2\nsmoothing = { frames = 9 }").detect(&m).unwrap();
         assert_eq!(smooth.peaks.len(), 2);
-        assert!(smooth.peaks[0].abs_diff(40) <= 2 && smooth.peaks[1].abs_diff(100) <= 2, "{:?}", smooth.peaks);
+        assert!(
+            smooth.peaks[0].abs_diff(40) <= 2 && smooth.peaks[1].abs_diff(100) <= 2,
+            "{:?}",
+            smooth.peaks
+        );
     }
 
     #[test]
     fn missing_samples_and_bad_params_are_refused() {
-        let m = motion_from_fn(20, 100.0, 1, |i, _| if i == 7 { [f64::NAN; 3] } else { [i as f64, 0.0, 0.0] });
+        let m =
+            motion_from_fn(
+                20,
+                100.0,
+                1,
+                |i, _| if i == 7 { [f64::NAN; 3] } else { [i as f64, 0.0, 0.0] },
+            );
         let e = detector("marker = \"m0\"\ncount = 1").detect(&m).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingData);
         let zero: toml::Value = toml::from_str("marker = \"m0\"\ncount = 0").unwrap();
-        assert_eq!(build_point_detector("velocity_peaks", &zero).err().unwrap().location().field.as_deref(), Some("count"));
-        let neg: toml::Value = toml::from_str("marker = \"m0\"\ncount = 1\nbefore = { seconds = -1.0 }").unwrap();
-        assert_eq!(build_point_detector("velocity_peaks", &neg).err().unwrap().location().field.as_deref(), Some("before"));
+        assert_eq!(
+            build_point_detector("velocity_peaks", &zero)
+                .err()
+                .unwrap()
+                .location()
+                .field
+                .as_deref(),
+            Some("count")
+        );
+        let neg: toml::Value =
+            toml::from_str("marker = \"m0\"\ncount = 1\nbefore = { seconds = -1.0 }").unwrap();
+        assert_eq!(
+            build_point_detector("velocity_peaks", &neg).err().unwrap().location().field.as_deref(),
+            Some("before")
+        );
     }
 }

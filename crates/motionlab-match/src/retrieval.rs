@@ -71,8 +71,8 @@ use std::collections::BinaryHeap;
 
 use rayon::prelude::*;
 
-use motionlab_core::{Error, ErrorKind, Result};
 use crate::Alignment;
+use motionlab_core::{Error, ErrorKind, Result};
 
 use crate::dp::Trajectory3;
 use crate::lanes::{self, Cell8, MarkerBlocks};
@@ -159,7 +159,8 @@ pub fn windows(frames: usize, window_frames: usize, stride_frames: usize) -> Vec
         return vec![(0, frames)];
     }
     let last = frames - window_frames;
-    let mut out: Vec<(usize, usize)> = (0..=last).step_by(stride_frames).map(|s| (s, s + window_frames)).collect();
+    let mut out: Vec<(usize, usize)> =
+        (0..=last).step_by(stride_frames).map(|s| (s, s + window_frames)).collect();
     if out.last().is_some_and(|&(s, _)| s != last) {
         out.push((last, frames));
     }
@@ -183,7 +184,10 @@ pub fn relative_to_point(trajectories: &mut [Trajectory3], reference: usize) -> 
     };
     for t in trajectories.iter_mut() {
         if t.len() != r.len() {
-            return Err(Error::new(ErrorKind::WrongValueCount, "marker trajectories of unequal lengths"));
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                "marker trajectories of unequal lengths",
+            ));
         }
         for (v, o) in [(&mut t.x, &r.x), (&mut t.y, &r.y), (&mut t.z, &r.z)] {
             v.iter_mut().zip(o).for_each(|(p, q)| *p -= q);
@@ -199,9 +203,16 @@ struct Prepared {
     candidates: Vec<Candidate>,
 }
 
-fn prepare(model: &[Trajectory3], takes: &[Vec<Trajectory3>], settings: &RetrievalSettings) -> Result<Prepared> {
+fn prepare(
+    model: &[Trajectory3],
+    takes: &[Vec<Trajectory3>],
+    settings: &RetrievalSettings,
+) -> Result<Prepared> {
     if takes.is_empty() {
-        return Err(Error::new(ErrorKind::EmptySequence, "retrieval needs at least one take to search, found none"));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "retrieval needs at least one take to search, found none",
+        ));
     }
     if settings.window_frames == 0 || settings.stride_frames == 0 {
         return Err(Error::new(
@@ -223,7 +234,14 @@ fn prepare(model: &[Trajectory3], takes: &[Vec<Trajectory3>], settings: &Retriev
     let mut candidates = Vec::new();
     for (k, t) in blocks.iter().enumerate() {
         for (s, e) in windows(t.frames(), settings.window_frames, settings.stride_frames) {
-            candidates.push(Candidate { take: k, window_start: s, window_end: e, lower_bound: None, upper_bound: None, matched: None });
+            candidates.push(Candidate {
+                take: k,
+                window_start: s,
+                window_end: e,
+                lower_bound: None,
+                upper_bound: None,
+                matched: None,
+            });
         }
     }
     Ok(Prepared { level: simd::level(), model, takes: blocks, candidates })
@@ -232,17 +250,26 @@ fn prepare(model: &[Trajectory3], takes: &[Vec<Trajectory3>], settings: &Retriev
 impl Prepared {
     fn match_window(&self, c: &Candidate, keep_paths: bool) -> Result<Alignment> {
         let t = &self.takes[c.take];
-        Ok(two_stage_at(self.level, &self.model, t, c.window_start..c.window_end, keep_paths)?.alignment)
+        Ok(two_stage_at(self.level, &self.model, t, c.window_start..c.window_end, keep_paths)?
+            .alignment)
     }
 
     fn matched(&self, c: &Candidate) -> Result<Matched> {
         let a = self.match_window(c, false)?;
-        Ok(Matched { start: c.window_start + a.start, end: c.window_start + a.end, total_distance: a.total_distance })
+        Ok(Matched {
+            start: c.window_start + a.start,
+            end: c.window_start + a.end,
+            total_distance: a.total_distance,
+        })
     }
 
     /// `U(j)` (with `pass = lanes::column`) or `D(j)` (`lanes::diagonal`) for every frame of
     /// take `k`, markers added in order as the two-stage match adds its start costs.
-    fn path_costs(&self, k: usize, pass: fn(Level, &[lanes::Frame8], &[lanes::Frame8], &mut Vec<Cell8>)) -> Vec<f64> {
+    fn path_costs(
+        &self,
+        k: usize,
+        pass: fn(Level, &[lanes::Frame8], &[lanes::Frame8], &mut Vec<Cell8>),
+    ) -> Vec<f64> {
         let t = &self.takes[k];
         let mut u = vec![0.0; t.frames()];
         let mut cells: Vec<Cell8> = Vec::new();
@@ -259,14 +286,22 @@ impl Prepared {
 
     /// Fills the bounds of every candidate (parallel over takes).
     fn bound(&mut self, lower: bool, upper: bool) {
-        let factor = lower_bound_factor(self.model.frames() + self.candidates.iter().map(|c| c.window_end - c.window_start).max().unwrap_or(0), self.model.markers());
+        let factor = lower_bound_factor(
+            self.model.frames()
+                + self.candidates.iter().map(|c| c.window_end - c.window_start).max().unwrap_or(0),
+            self.model.markers(),
+        );
         type PathCosts = (Vec<f64>, Vec<f64>);
         let per_take: Vec<(Option<Vec<f64>>, Option<PathCosts>)> = (0..self.takes.len())
             .into_par_iter()
             .map(|k| {
                 let t = &self.takes[k];
-                let g = lower.then(|| summed_end_costs(self.level, &self.model, t, 0..t.frames(), &mut Vec::new()));
-                let u = upper.then(|| (self.path_costs(k, lanes::column), self.path_costs(k, lanes::diagonal)));
+                let g = lower.then(|| {
+                    summed_end_costs(self.level, &self.model, t, 0..t.frames(), &mut Vec::new())
+                });
+                let u = upper.then(|| {
+                    (self.path_costs(k, lanes::column), self.path_costs(k, lanes::diagonal))
+                });
                 (g, u)
             })
             .collect();
@@ -274,11 +309,19 @@ impl Prepared {
         for c in &mut self.candidates {
             let (g, u) = &per_take[c.take];
             let span = c.window_start..c.window_end;
-            c.lower_bound = g.as_ref().map(|g| g[span.clone()].iter().copied().fold(f64::INFINITY, f64::min) * factor);
+            c.lower_bound = g
+                .as_ref()
+                .map(|g| g[span.clone()].iter().copied().fold(f64::INFINITY, f64::min) * factor);
             // The lockstep path ending at b starts at b − n + 1: inside the window or not a path.
             c.upper_bound = u.as_ref().map(|(column, diagonal)| {
                 span.clone()
-                    .map(|b| if b + 1 >= c.window_start + n { column[b].min(diagonal[b]) } else { column[b] })
+                    .map(|b| {
+                        if b + 1 >= c.window_start + n {
+                            column[b].min(diagonal[b])
+                        } else {
+                            column[b]
+                        }
+                    })
                     .fold(f64::NEG_INFINITY, f64::max)
             });
         }
@@ -402,7 +445,8 @@ fn select_lazy(p: &mut Prepared, side: Side, k: usize) -> Result<Vec<usize>> {
                 batch.push(e.candidate);
             }
         }
-        let matched: Vec<Matched> = batch.par_iter().map(|&i| p.matched(&p.candidates[i])).collect::<Result<_>>()?;
+        let matched: Vec<Matched> =
+            batch.par_iter().map(|&i| p.matched(&p.candidates[i])).collect::<Result<_>>()?;
         for (i, m) in batch.into_iter().zip(matched) {
             p.candidates[i].matched = Some(m);
             heap.push(Entry { side, key: m.total_distance, candidate: i, exact: true });
@@ -417,7 +461,11 @@ fn select_lazy(p: &mut Prepared, side: Side, k: usize) -> Result<Vec<usize>> {
 ///
 /// Fails when there is no take, a take has no frames or other markers than the model, or the
 /// window length or stride is 0.
-pub fn retrieve(model: &[Trajectory3], takes: &[Vec<Trajectory3>], settings: &RetrievalSettings) -> Result<Retrieval> {
+pub fn retrieve(
+    model: &[Trajectory3],
+    takes: &[Vec<Trajectory3>],
+    settings: &RetrievalSettings,
+) -> Result<Retrieval> {
     let mut p = prepare(model, takes, settings)?;
     let (similar, dissimilar) = if settings.pruning {
         p.bound(settings.k_similar > 0, settings.k_dissimilar > 0);
@@ -425,14 +473,23 @@ pub fn retrieve(model: &[Trajectory3], takes: &[Vec<Trajectory3>], settings: &Re
         let d = select_lazy(&mut p, Side::Dissimilar, settings.k_dissimilar)?;
         (s, d)
     } else {
-        let matched: Vec<Matched> = p.candidates.par_iter().map(|c| p.matched(c)).collect::<Result<_>>()?;
+        let matched: Vec<Matched> =
+            p.candidates.par_iter().map(|c| p.matched(c)).collect::<Result<_>>()?;
         for (c, m) in p.candidates.iter_mut().zip(matched) {
             c.matched = Some(m);
         }
-        (select_exhaustive(&p.candidates, Side::Similar, settings.k_similar), select_exhaustive(&p.candidates, Side::Dissimilar, settings.k_dissimilar))
+        (
+            select_exhaustive(&p.candidates, Side::Similar, settings.k_similar),
+            select_exhaustive(&p.candidates, Side::Dissimilar, settings.k_dissimilar),
+        )
     };
     let matched_candidates = p.candidates.iter().filter(|c| c.matched.is_some()).count();
-    Ok(Retrieval { similar: p.hits(&similar)?, dissimilar: p.hits(&dissimilar)?, matched_candidates, candidates: p.candidates })
+    Ok(Retrieval {
+        similar: p.hits(&similar)?,
+        dissimilar: p.hits(&dissimilar)?,
+        matched_candidates,
+        candidates: p.candidates,
+    })
 }
 
 #[cfg(test)]
@@ -444,22 +501,49 @@ mod tests {
     /// A smooth movement per marker (mm), phase `t` in frames.
     fn movement(t: f64, l: usize) -> [f64; 3] {
         let l = l as f64;
-        [300.0 * (0.11 * t + l).sin() + 20.0 * l, 200.0 * (0.077 * t + 2.0 * l).cos(), 150.0 * (0.143 * t - l).sin()]
+        [
+            300.0 * (0.11 * t + l).sin() + 20.0 * l,
+            200.0 * (0.077 * t + 2.0 * l).cos(),
+            150.0 * (0.143 * t - l).sin(),
+        ]
     }
 
-    fn traj(frames: usize, markers: usize, f: impl Fn(usize, usize) -> [f64; 3]) -> Vec<Trajectory3> {
-        (0..markers).map(|l| Trajectory3::from_points(&(0..frames).map(|i| f(i, l)).collect::<Vec<_>>())).collect()
+    fn traj(
+        frames: usize,
+        markers: usize,
+        f: impl Fn(usize, usize) -> [f64; 3],
+    ) -> Vec<Trajectory3> {
+        (0..markers)
+            .map(|l| Trajectory3::from_points(&(0..frames).map(|i| f(i, l)).collect::<Vec<_>>()))
+            .collect()
     }
 
     fn settings(k: usize, window: usize, stride: usize, pruning: bool) -> RetrievalSettings {
-        RetrievalSettings { k_similar: k, k_dissimilar: k, window_frames: window, stride_frames: stride, pruning }
+        RetrievalSettings {
+            k_similar: k,
+            k_dissimilar: k,
+            window_frames: window,
+            stride_frames: stride,
+            pruning,
+        }
     }
 
     /// (take, a, b, H) of each listed stretch.
     type Listed = Vec<(usize, usize, usize, f64)>;
 
     fn summary(r: &Retrieval) -> (Listed, Listed) {
-        let s = |h: &[Hit]| h.iter().map(|x| (x.take, x.window_start + x.alignment.start, x.window_start + x.alignment.end, x.alignment.total_distance)).collect();
+        let s = |h: &[Hit]| {
+            h.iter()
+                .map(|x| {
+                    (
+                        x.take,
+                        x.window_start + x.alignment.start,
+                        x.window_start + x.alignment.end,
+                        x.alignment.total_distance,
+                    )
+                })
+                .collect()
+        };
         (s(&r.similar), s(&r.dissimilar))
     }
 
@@ -493,11 +577,16 @@ mod tests {
                 }
             })
         };
-        let takes = vec![take(200, 120, 2.0, None), take(150, 50, 0.0, None), take(220, 20, 10.0, Some((100, 160)))];
+        let takes = vec![
+            take(200, 120, 2.0, None),
+            take(150, 50, 0.0, None),
+            take(220, 20, 10.0, Some((100, 160))),
+        ];
         for pruning in [false, true] {
             let r = retrieve(&model, &takes, &settings(3, 60, 10, pruning)).unwrap();
             let (sim, dis) = summary(&r);
-            let found: Vec<(usize, usize, usize)> = sim.iter().map(|&(t, a, b, _)| (t, a, b)).collect();
+            let found: Vec<(usize, usize, usize)> =
+                sim.iter().map(|&(t, a, b, _)| (t, a, b)).collect();
             assert_eq!(found, vec![(1, 50, 79), (0, 120, 149), (2, 20, 49)], "pruning {pruning}");
             assert_eq!(sim[0].3, 0.0);
             assert!(sim[1].3 < sim[2].3);
@@ -521,9 +610,18 @@ mod tests {
                 // needs most of them matched; the similar list alone, and the most dissimilar
                 // stretch alone, need few.
                 for (ks, kd) in [(3, 0), (0, 1)] {
-                    let few = RetrievalSettings { k_similar: ks, k_dissimilar: kd, ..settings(3, 60, 10, true) };
+                    let few = RetrievalSettings {
+                        k_similar: ks,
+                        k_dissimilar: kd,
+                        ..settings(3, 60, 10, true)
+                    };
                     let r = retrieve(&model, &takes, &few).unwrap();
-                    assert!(r.matched_candidates * 2 < r.candidates.len(), "{ks} {kd}: {} of {}", r.matched_candidates, r.candidates.len());
+                    assert!(
+                        r.matched_candidates * 2 < r.candidates.len(),
+                        "{ks} {kd}: {} of {}",
+                        r.matched_candidates,
+                        r.candidates.len()
+                    );
                 }
             }
         }
@@ -540,7 +638,8 @@ mod tests {
                 .map(|_| {
                     let frames = 1 + (rng.next_u64() % 120) as usize;
                     let phase = rng.uniform() * 50.0;
-                    let noise: Vec<f64> = (0..frames * markers * 3).map(|_| rng.normal() * 20.0).collect();
+                    let noise: Vec<f64> =
+                        (0..frames * markers * 3).map(|_| rng.normal() * 20.0).collect();
                     traj(frames, markers, |j, l| {
                         let p = movement(phase + j as f64 * 0.9, l + case);
                         let e = &noise[(j * markers + l) * 3..];
@@ -553,26 +652,47 @@ mod tests {
             let stride = 1 + (rng.next_u64() % 12) as usize;
             let full = retrieve(&model, &takes, &settings(k, window, stride, false)).unwrap();
             let lazy = retrieve(&model, &takes, &settings(k, window, stride, true)).unwrap();
-            assert_eq!((&full.similar, &full.dissimilar), (&lazy.similar, &lazy.dissimilar), "case {case}");
+            assert_eq!(
+                (&full.similar, &full.dissimilar),
+                (&lazy.similar, &lazy.dissimilar),
+                "case {case}"
+            );
             assert_eq!(full.matched_candidates, full.candidates.len());
             // The bounds hold for every candidate the pruned search left unmatched too.
             for (c, f) in lazy.candidates.iter().zip(&full.candidates) {
                 let h = f.matched.unwrap().total_distance;
-                assert!(c.lower_bound.unwrap() <= h && h <= c.upper_bound.unwrap(), "case {case}: {c:?} H {h}");
+                assert!(
+                    c.lower_bound.unwrap() <= h && h <= c.upper_bound.unwrap(),
+                    "case {case}: {c:?} H {h}"
+                );
                 assert!(c.matched.is_none_or(|m| m == f.matched.unwrap()));
             }
             // Non-overlapping lists, in order of H.
             for list in [&full.similar, &full.dissimilar] {
                 for (x, hx) in list.iter().enumerate() {
                     for hy in &list[x + 1..] {
-                        let (a1, b1) = (hx.window_start + hx.alignment.start, hx.window_start + hx.alignment.end);
-                        let (a2, b2) = (hy.window_start + hy.alignment.start, hy.window_start + hy.alignment.end);
+                        let (a1, b1) = (
+                            hx.window_start + hx.alignment.start,
+                            hx.window_start + hx.alignment.end,
+                        );
+                        let (a2, b2) = (
+                            hy.window_start + hy.alignment.start,
+                            hy.window_start + hy.alignment.end,
+                        );
                         assert!(hx.take != hy.take || b1 < a2 || b2 < a1, "case {case}: overlap");
                     }
                 }
             }
-            assert!(full.similar.windows(2).all(|w| w[0].alignment.total_distance <= w[1].alignment.total_distance));
-            assert!(full.dissimilar.windows(2).all(|w| w[0].alignment.total_distance >= w[1].alignment.total_distance));
+            assert!(
+                full.similar
+                    .windows(2)
+                    .all(|w| w[0].alignment.total_distance <= w[1].alignment.total_distance)
+            );
+            assert!(
+                full.dissimilar
+                    .windows(2)
+                    .all(|w| w[0].alignment.total_distance >= w[1].alignment.total_distance)
+            );
         }
     }
 
@@ -596,9 +716,15 @@ mod tests {
         assert_eq!(e.kind(), ErrorKind::EmptySequence);
         assert!(e.to_string().contains("at least one take"), "{e}");
         let takes = vec![traj(12, 3, |j, l| movement(j as f64, l))];
-        assert_eq!(retrieve(&model, &takes, &settings(1, 6, 3, true)).unwrap_err().kind(), ErrorKind::WrongValueCount);
+        assert_eq!(
+            retrieve(&model, &takes, &settings(1, 6, 3, true)).unwrap_err().kind(),
+            ErrorKind::WrongValueCount
+        );
         let takes = vec![traj(12, 2, |j, l| movement(j as f64, l))];
-        assert_eq!(retrieve(&model, &takes, &settings(1, 0, 3, true)).unwrap_err().kind(), ErrorKind::OutOfRange);
+        assert_eq!(
+            retrieve(&model, &takes, &settings(1, 0, 3, true)).unwrap_err().kind(),
+            ErrorKind::OutOfRange
+        );
     }
 
     #[test]

@@ -91,7 +91,10 @@ pub trait Synchroniser: Send + Sync {
 }
 
 /// Builds a point detector by name from its TOML table (without the `type` key).
-pub fn build_point_detector(name: &str, params: &motionlab_core::toml::Value) -> Result<Box<dyn PointDetector>> {
+pub fn build_point_detector(
+    name: &str,
+    params: &motionlab_core::toml::Value,
+) -> Result<Box<dyn PointDetector>> {
     build_custom::<dyn PointDetector>("point_detector", name, params)
 }
 
@@ -101,7 +104,10 @@ pub fn build_matcher(name: &str, params: &motionlab_core::toml::Value) -> Result
 }
 
 /// Builds a synchroniser by name from its TOML table (without the `type` key).
-pub fn build_synchroniser(name: &str, params: &motionlab_core::toml::Value) -> Result<Box<dyn Synchroniser>> {
+pub fn build_synchroniser(
+    name: &str,
+    params: &motionlab_core::toml::Value,
+) -> Result<Box<dyn Synchroniser>> {
     build_custom::<dyn Synchroniser>("synchroniser", name, params)
 }
 

@@ -3,9 +3,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::{Alignment, Matcher};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Motion, Result};
-use crate::{Alignment, Matcher};
 
 use crate::dp::{Euclidean3, Workspace, subsequence_match};
 use crate::input::{check_names, trajectories};
@@ -66,13 +66,18 @@ impl Matcher for SubsequenceDp {
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::Matcher, SubsequenceDpParams, "subsequence_dp", kind = "matcher");
+motionlab_core::register_custom_plugin!(
+    crate::Matcher,
+    SubsequenceDpParams,
+    "subsequence_dp",
+    kind = "matcher"
+);
 
 #[cfg(test)]
 mod tests {
+    use crate::build_matcher;
     use motionlab_core::ErrorKind;
     use motionlab_core::registry::default_params;
-    use crate::build_matcher;
     use motionlab_testkit::motion_from_fn;
 
     fn wave(i: usize) -> [f64; 3] {
@@ -84,8 +89,9 @@ mod tests {
     fn finds_the_model_inside_a_longer_take() {
         // The target is the model's movement preceded by 12 and followed by 9 frames far away.
         let model = motion_from_fn(30, 60.0, 2, |i, _| wave(i));
-        let target =
-            motion_from_fn(51, 60.0, 2, |j, k| if (12..42).contains(&j) { wave(j - 12) } else { [5000.0 + k as f64, 0.0, 0.0] });
+        let target = motion_from_fn(51, 60.0, 2, |j, k| {
+            if (12..42).contains(&j) { wave(j - 12) } else { [5000.0 + k as f64, 0.0, 0.0] }
+        });
         let v: toml::Value = toml::from_str("marker = \"m1\"").unwrap();
         let a = build_matcher("subsequence_dp", &v).unwrap().align(&model, &target).unwrap();
         assert_eq!((a.start, a.end, a.total_distance), (12, 41, 0.0));
@@ -106,7 +112,13 @@ mod tests {
     fn missing_samples_of_the_marker_are_refused() {
         let v: toml::Value = toml::from_str("marker = \"m0\"").unwrap();
         let model = motion_from_fn(5, 60.0, 2, |i, _| wave(i));
-        let target = motion_from_fn(9, 60.0, 2, |j, k| if j == 4 && k == 0 { [f64::NAN; 3] } else { wave(j) });
+        let target =
+            motion_from_fn(
+                9,
+                60.0,
+                2,
+                |j, k| if j == 4 && k == 0 { [f64::NAN; 3] } else { wave(j) },
+            );
         let e = build_matcher("subsequence_dp", &v).unwrap().align(&model, &target).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::MissingData);
         assert!(e.to_string().contains("frame 4"), "{e}");

@@ -3,9 +3,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::{Alignment, Synchronisation, Synchroniser};
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::{Error, ErrorKind, Result};
-use crate::{Alignment, Synchronisation, Synchroniser};
 
 /// Synchronisation of the markers along a two-stage alignment (Yabe & Tanaka §3.2).
 ///
@@ -68,8 +68,11 @@ impl ParamGuard for SynchronisationParams {
     type Checked = SynchronisationStage;
     fn check(self) -> Result<SynchronisationStage> {
         if self.k == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "expected at least one model frame to examine (k >= 1), found 0")
-                .with_field("k"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "expected at least one model frame to examine (k >= 1), found 0",
+            )
+            .with_field("k"));
         }
         Ok(SynchronisationStage { k: self.k, tie: self.tie })
     }
@@ -93,7 +96,11 @@ pub fn division_frames(n: usize, k: usize) -> Result<Vec<usize>> {
 /// `u(i)` for each requested model frame (sorted ascending) from one warping path.
 ///
 /// Fails when the path does not cover a requested frame or is not ordered by model frame.
-pub fn matched_target_frames(path: &[(usize, usize)], model_frames: &[usize], tie: TieRule) -> Result<Vec<f64>> {
+pub fn matched_target_frames(
+    path: &[(usize, usize)],
+    model_frames: &[usize],
+    tie: TieRule,
+) -> Result<Vec<f64>> {
     let mut out = Vec::with_capacity(model_frames.len());
     let mut pos = 0;
     for &want in model_frames {
@@ -112,7 +119,9 @@ pub fn matched_target_frames(path: &[(usize, usize)], model_frames: &[usize], ti
         let Some(first) = first else {
             return Err(Error::new(
                 ErrorKind::Mismatch,
-                format!("the warping path never reaches model frame {want}; expected a path over every model frame"),
+                format!(
+                    "the warping path never reaches model frame {want}; expected a path over every model frame"
+                ),
             ));
         };
         out.push(match tie {
@@ -142,16 +151,25 @@ impl Synchroniser for SynchronisationStage {
             ));
         }
         let frames = division_frames(model_frames, self.k)?;
-        let per_marker: Vec<Vec<f64>> =
-            alignment.paths.iter().map(|p| matched_target_frames(p, &frames, self.tie)).collect::<Result<_>>()?;
-        let section_values: Vec<f64> =
-            (0..frames.len()).map(|q| population_variance(&per_marker.iter().map(|u| u[q]).collect::<Vec<_>>())).collect();
+        let per_marker: Vec<Vec<f64>> = alignment
+            .paths
+            .iter()
+            .map(|p| matched_target_frames(p, &frames, self.tie))
+            .collect::<Result<_>>()?;
+        let section_values: Vec<f64> = (0..frames.len())
+            .map(|q| population_variance(&per_marker.iter().map(|u| u[q]).collect::<Vec<_>>()))
+            .collect();
         let total = section_values.iter().sum();
         Ok(Synchronisation { model_frames: frames, section_values, total })
     }
 }
 
-motionlab_core::register_custom_plugin!(crate::Synchroniser, SynchronisationParams, "synchronisation", kind = "synchroniser");
+motionlab_core::register_custom_plugin!(
+    crate::Synchroniser,
+    SynchronisationParams,
+    "synchronisation",
+    kind = "synchroniser"
+);
 
 #[cfg(test)]
 mod tests {
@@ -176,8 +194,10 @@ mod tests {
     #[test]
     fn the_papers_figure_4_example() {
         // Fig. 4: n = 7, m = 5 (1-based there). T1: t1 t2 t3 t3 t3 t4 t5; T2: t1 t2 t3 t4 t5 t5 t5.
-        let p1: Vec<(usize, usize)> = [0, 1, 2, 2, 2, 3, 4].iter().enumerate().map(|(i, &j)| (i, j)).collect();
-        let p2: Vec<(usize, usize)> = [0, 1, 2, 3, 4, 4, 4].iter().enumerate().map(|(i, &j)| (i, j)).collect();
+        let p1: Vec<(usize, usize)> =
+            [0, 1, 2, 2, 2, 3, 4].iter().enumerate().map(|(i, &j)| (i, j)).collect();
+        let p2: Vec<(usize, usize)> =
+            [0, 1, 2, 3, 4, 4, 4].iter().enumerate().map(|(i, &j)| (i, j)).collect();
         let frames: Vec<usize> = (0..7).collect();
         let u1 = matched_target_frames(&p1, &frames, TieRule::Mean).unwrap();
         let u2 = matched_target_frames(&p2, &frames, TieRule::Mean).unwrap();
@@ -191,7 +211,19 @@ mod tests {
 
     #[test]
     fn r_is_zero_when_every_marker_shares_one_path() {
-        let path = vec![(0, 3), (1, 3), (1, 4), (2, 5), (3, 5), (4, 6), (5, 8), (6, 9), (7, 9), (8, 10), (9, 12)];
+        let path = vec![
+            (0, 3),
+            (1, 3),
+            (1, 4),
+            (2, 5),
+            (3, 5),
+            (4, 6),
+            (5, 8),
+            (6, 9),
+            (7, 9),
+            (8, 10),
+            (9, 12),
+        ];
         let stage = SynchronisationParams { k: 8, tie: TieRule::Mean }.check().unwrap();
         let s = stage.synchronise(&alignment(vec![path.clone(); 5]), 10).unwrap();
         assert_eq!(s.model_frames, (1..=8).collect::<Vec<_>>());
@@ -216,14 +248,19 @@ mod tests {
 
     #[test]
     fn without_paths_or_with_a_short_path_it_fails_clearly() {
-        let stage = build_synchroniser("synchronisation", &motionlab_core::registry::default_params()).unwrap();
+        let stage =
+            build_synchroniser("synchronisation", &motionlab_core::registry::default_params())
+                .unwrap();
         let e = stage.synchronise(&alignment(vec![]), 20).unwrap_err();
         assert!(e.to_string().contains("keep_paths"), "{e}");
         let short = vec![(0, 0), (1, 1), (2, 2)];
         let e = stage.synchronise(&alignment(vec![short]), 20).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::Mismatch);
         let zero: toml::Value = toml::from_str("k = 0").unwrap();
-        assert_eq!(build_synchroniser("synchronisation", &zero).err().unwrap().location().field.as_deref(), Some("k"));
+        assert_eq!(
+            build_synchroniser("synchronisation", &zero).err().unwrap().location().field.as_deref(),
+            Some("k")
+        );
         let tie: toml::Value = toml::from_str("tie = \"median\"").unwrap();
         assert!(build_synchroniser("synchronisation", &tie).is_err());
     }

@@ -3,12 +3,12 @@
 //! the paper's three kinds of repetition: (a) close to the model, (b) timing-shifted, (c) wrong.
 
 use motionlab_core::registry::{build_evaluator, build_preprocessor, default_params};
+use motionlab_core::{ColumnValues, EvalInput, Point3};
+use motionlab_match as _;
 use motionlab_match::build_matcher;
 use motionlab_match::build_point_detector;
 use motionlab_match::build_synchroniser;
-use motionlab_core::{ColumnValues, EvalInput, Point3};
 use motionlab_match::{MatchingResult, RepetitionResult};
-use motionlab_match as _;
 use motionlab_testkit::{Rng, motion_from_fn};
 
 const MARKERS: usize = 4;
@@ -19,7 +19,11 @@ const MODEL_FRAMES: usize = 60;
 /// at phase 0.8, and a 1.5× lower one during the takeback).
 fn stroke(phase: f64) -> f64 {
     use std::f64::consts::PI;
-    if phase < 0.6 { (1.0 - (PI * phase / 0.6).cos()) / 2.0 } else { (1.0 + (PI * (phase - 0.6) / 0.4).cos()) / 2.0 }
+    if phase < 0.6 {
+        (1.0 - (PI * phase / 0.6).cos()) / 2.0
+    } else {
+        (1.0 + (PI * (phase - 0.6) / 0.4).cos()) / 2.0
+    }
 }
 
 /// A swing: marker `k` moves out and back along its own direction, farthest for the "hand"
@@ -28,7 +32,8 @@ fn swing(t: f64, k: usize) -> Point3 {
     let phase = (t / (MODEL_FRAMES - 1) as f64).clamp(0.0, 1.0);
     let reach = [600.0, 300.0, 250.0, 150.0][k] * stroke(phase);
     let dir = [[1.0, 0.0, 0.2], [0.0, 1.0, 0.0], [0.6, 0.0, 0.8], [0.0, 0.5, 1.0]][k];
-    let base = [[0.0, 0.0, 1000.0], [200.0, 0.0, 1400.0], [-200.0, 0.0, 1400.0], [0.0, 0.0, 900.0]][k];
+    let base =
+        [[0.0, 0.0, 1000.0], [200.0, 0.0, 1400.0], [-200.0, 0.0, 1400.0], [0.0, 0.0, 900.0]][k];
     [base[0] + reach * dir[0], base[1] + reach * dir[1], base[2] + reach * dir[2]]
 }
 
@@ -40,7 +45,11 @@ fn wrong(t: f64, k: usize) -> Point3 {
     let base = swing(0.0, k);
     match k {
         0 => [base[0], base[1] + 600.0 * stroke(phase), base[2]],
-        _ => [base[0] + 200.0 * s.sin(), base[1] + 200.0 * (1.0 - s.cos()), base[2] - 100.0 * s.sin()],
+        _ => [
+            base[0] + 200.0 * s.sin(),
+            base[1] + 200.0 * (1.0 - s.cos()),
+            base[2] - 100.0 * s.sin(),
+        ],
     }
 }
 
@@ -91,19 +100,48 @@ fn the_close_repetition_is_judged_most_similar_and_the_shifted_one_least_synchro
         .map(|(&(s, e), label)| {
             let alignment = matcher.align(&model, &take.slice_frames(s, e).unwrap()).unwrap();
             let synchronisation = sync.synchronise(&alignment, model.n_frames()).unwrap();
-            RepetitionResult { repetition: label.into(), window_start: s, alignment, synchronisation }
+            RepetitionResult {
+                repetition: label.into(),
+                window_start: s,
+                alignment,
+                synchronisation,
+            }
         })
         .collect();
     // (a) is matched to its repetition; (b) too, but its common end waits for the lagging
     // markers (8 model frames = 9 take frames later).
-    let span = |r: &RepetitionResult| (r.window_start + r.alignment.start, r.window_start + r.alignment.end);
+    let span = |r: &RepetitionResult| {
+        (r.window_start + r.alignment.start, r.window_start + r.alignment.end)
+    };
     let ((a0, b0), (a1, b1)) = (span(&repetitions[0]), span(&repetitions[1]));
-    assert!(a0.abs_diff(starts[0]) <= 3 && b0.abs_diff(starts[0] + rep - 1) <= 3, "(a) [{a0}, {b0}]");
-    assert!(a1.abs_diff(starts[1]) <= 3 && (0..=12).contains(&(b1 as i64 - (starts[1] + rep - 1) as i64)), "(b) [{a1}, {b1}]");
+    assert!(
+        a0.abs_diff(starts[0]) <= 3 && b0.abs_diff(starts[0] + rep - 1) <= 3,
+        "(a) [{a0}, {b0}]"
+    );
+    assert!(
+        a1.abs_diff(starts[1]) <= 3
+            && (0..=12).contains(&(b1 as i64 - (starts[1] + rep - 1) as i64)),
+        "(b) [{a1}, {b1}]"
+    );
     let (ra, rb) = (repetitions[0].synchronisation.total, repetitions[1].synchronisation.total);
     assert!(rb > 10.0 * ra.max(1.0), "R(a) = {ra}, R(b) = {rb}");
-    let result = MatchingResult { take: "constructed".into(), point_names: model.point_names().to_vec(), repetitions };
-    let tables = build_evaluator("judgement", &default_params()).unwrap().evaluate(EvalInput::new(&vec![result])).unwrap();
-    assert_eq!(tables[0].column("rank"), Some(&ColumnValues::I64(vec![1, 2, 3])), "{:?}", tables[0]);
-    assert_eq!(tables[0].column("most_similar"), Some(&ColumnValues::Bool(vec![true, false, false])));
+    let result = MatchingResult {
+        take: "constructed".into(),
+        point_names: model.point_names().to_vec(),
+        repetitions,
+    };
+    let tables = build_evaluator("judgement", &default_params())
+        .unwrap()
+        .evaluate(EvalInput::new(&vec![result]))
+        .unwrap();
+    assert_eq!(
+        tables[0].column("rank"),
+        Some(&ColumnValues::I64(vec![1, 2, 3])),
+        "{:?}",
+        tables[0]
+    );
+    assert_eq!(
+        tables[0].column("most_similar"),
+        Some(&ColumnValues::Bool(vec![true, false, false]))
+    );
 }

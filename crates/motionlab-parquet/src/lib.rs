@@ -53,25 +53,53 @@ motionlab_core::inventory::submit! {
 pub fn parse_parquet(bytes: Vec<u8>, origin: &Path, limit: u64) -> Result<ColumnTable> {
     // One shared buffer: polars' reader and the page-header check below read it without a copy.
     let bytes = Buffer::from(bytes);
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read_columns(&bytes, origin, limit))).unwrap_or_else(|panic| {
-        let reason = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_default();
-        Err(Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: the reader failed on its content ({reason})")).in_file(origin))
-    })
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| read_columns(&bytes, origin, limit)))
+        .unwrap_or_else(|panic| {
+            let reason = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(Error::new(
+                ErrorKind::Syntax,
+                format!("not a readable Parquet file: the reader failed on its content ({reason})"),
+            )
+            .in_file(origin))
+        })
 }
 
 /// Every page header against the footer's counts (see the crate docs); `metadata` is the
 /// footer polars' reader has already read.
-fn check_page_headers(metadata: &FileMetadata, bytes: &Buffer<u8>, origin: &Path, limit: u64) -> Result<()> {
-    let unreadable = |e: ParquetError| Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {e}")).in_file(origin);
-    let lies = |what: String| Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {what}")).in_file(origin);
+fn check_page_headers(
+    metadata: &FileMetadata,
+    bytes: &Buffer<u8>,
+    origin: &Path,
+    limit: u64,
+) -> Result<()> {
+    let unreadable = |e: ParquetError| {
+        Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {e}")).in_file(origin)
+    };
+    let lies = |what: String| {
+        Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {what}"))
+            .in_file(origin)
+    };
     let max_page = usize::try_from(limit).unwrap_or(usize::MAX);
     for (g, group) in metadata.row_groups.iter().enumerate() {
         for chunk in group.parquet_columns() {
             let name = &chunk.descriptor().path_in_schema;
-            let values = usize::try_from(chunk.num_values()).ok().filter(|&n| n <= group.num_rows()).ok_or_else(|| {
-                lies(format!("column {name:?} of row group {g} says it holds {} values in {} rows", chunk.num_values(), group.num_rows()))
-            })?;
-            for page in get_page_iterator(chunk, Cursor::new(bytes.clone()), Vec::new(), max_page).map_err(unreadable)? {
+            let values = usize::try_from(chunk.num_values())
+                .ok()
+                .filter(|&n| n <= group.num_rows())
+                .ok_or_else(|| {
+                    lies(format!(
+                        "column {name:?} of row group {g} says it holds {} values in {} rows",
+                        chunk.num_values(),
+                        group.num_rows()
+                    ))
+                })?;
+            for page in get_page_iterator(chunk, Cursor::new(bytes.clone()), Vec::new(), max_page)
+                .map_err(unreadable)?
+            {
                 if let CompressedPage::Data(page) = page.map_err(unreadable)? {
                     if page.num_values() > values || page.uncompressed_size() > max_page {
                         // `num_values` is the header's i32 cast to usize: shown as the header has it.
@@ -90,20 +118,28 @@ fn check_page_headers(metadata: &FileMetadata, bytes: &Buffer<u8>, origin: &Path
 }
 
 fn read_columns(bytes: &Buffer<u8>, origin: &Path, limit: u64) -> Result<ColumnTable> {
-    let polars_error = |e: PolarsError| Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {e}")).in_file(origin);
+    let polars_error = |e: PolarsError| {
+        Error::new(ErrorKind::Syntax, format!("not a readable Parquet file: {e}")).in_file(origin)
+    };
     let mut reader = ParquetReader::new(Cursor::new(bytes.clone()));
     let n_rows = reader.num_rows().map_err(polars_error)?;
     let n_columns = reader.schema().map_err(polars_error)?.len();
     let decoded = (n_rows as u128) * (n_columns as u128) * 8;
     if decoded > u128::from(limit) {
-        let what = format!("decodes to {n_rows} rows × {n_columns} columns ({decoded} bytes of float64)");
+        let what =
+            format!("decodes to {n_rows} rows × {n_columns} columns ({decoded} bytes of float64)");
         return Err(motionlab_core::limits::too_large(origin, &what, limit));
     }
     if n_columns == 0 {
-        return Err(Error::new(ErrorKind::EmptySequence, "a Parquet file with no column; expected one column per channel").in_file(origin));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            "a Parquet file with no column; expected one column per channel",
+        )
+        .in_file(origin));
     }
     if n_rows == 0 {
-        return Err(Error::new(ErrorKind::EmptySequence, "a header and no samples (0 rows)").in_file(origin));
+        return Err(Error::new(ErrorKind::EmptySequence, "a header and no samples (0 rows)")
+            .in_file(origin));
     }
     let metadata = reader.get_metadata().map_err(polars_error)?.clone();
     check_page_headers(&metadata, bytes, origin, limit)?;
@@ -114,7 +150,9 @@ fn read_columns(bytes: &Buffer<u8>, origin: &Path, limit: u64) -> Result<ColumnT
         let name = column.name().to_string();
         let dtype = column.dtype();
         if !dtype.is_primitive_numeric() {
-            let msg = format!("column {name:?} holds {dtype}; expected integer or floating-point numbers (one column per channel)");
+            let msg = format!(
+                "column {name:?} holds {dtype}; expected integer or floating-point numbers (one column per channel)"
+            );
             return Err(Error::new(ErrorKind::WrongType, msg).in_file(origin).with_field(name));
         }
         let as_f64 = column.cast(&DataType::Float64).map_err(polars_error)?;
@@ -147,12 +185,17 @@ mod tests {
     /// snappy-compressed, float64) loads exactly the values of the series' text file.
     #[test]
     fn a_pyarrow_file_loads_the_series_text_values() {
-        let text = build_loader("channels", &toml::from_str::<toml::Value>("rate_hz = 1.0").unwrap()).unwrap().load(&data_path("tssb/datasets/ArrowHead.txt")).unwrap();
+        let text =
+            build_loader("channels", &toml::from_str::<toml::Value>("rate_hz = 1.0").unwrap())
+                .unwrap()
+                .load(&data_path("tssb/datasets/ArrowHead.txt"))
+                .unwrap();
         let parquet = load(&fixture("ArrowHead.parquet"), "rate_hz = 1.0").unwrap();
         let (a, b) = (text.channels(), parquet.channels());
         assert_eq!(b.names(), ["value"]);
         assert_eq!(a.n_samples(), b.n_samples());
-        let bits = |c: &motionlab_core::Channels| c.channel(0).map(f64::to_bits).collect::<Vec<_>>();
+        let bits =
+            |c: &motionlab_core::Channels| c.channel(0).map(f64::to_bits).collect::<Vec<_>>();
         assert_eq!(bits(a), bits(b));
         assert_eq!(parquet.format, "channels");
     }
@@ -170,21 +213,31 @@ mod tests {
         let angle: Vec<f64> = c.channel(2).collect();
         assert_eq!((angle[0], angle[2], angle[4]), (10.0, 30.0, 50.0));
         assert!(angle[1].is_nan() && angle[3].is_nan());
-        let picked = load(&fixture("mixed.parquet"), "columns = [\"angle_with_nulls\", \"speed_f32\"]").unwrap();
+        let picked =
+            load(&fixture("mixed.parquet"), "columns = [\"angle_with_nulls\", \"speed_f32\"]")
+                .unwrap();
         assert_eq!(picked.channels().names(), ["angle_with_nulls", "speed_f32"]);
     }
 
     #[test]
     fn a_text_column_is_an_error_naming_it() {
         let e = load(&fixture("with_text.parquet"), "rate_hz = 10.0").unwrap_err().to_string();
-        assert!(e.contains("with_text.parquet") && e.contains("column \"label\" holds str") && e.contains("expected integer or floating-point"), "{e}");
+        assert!(
+            e.contains("with_text.parquet")
+                && e.contains("column \"label\" holds str")
+                && e.contains("expected integer or floating-point"),
+            "{e}"
+        );
     }
 
     /// Unequal time steps name the row, as a text file's name the line.
     #[test]
     fn uneven_times_name_the_row() {
         let e = load(&fixture("uneven_time.parquet"), "").unwrap_err().to_string();
-        assert!(e.contains("uneven_time.parquet:4") && e.contains("expected equally spaced"), "{e}");
+        assert!(
+            e.contains("uneven_time.parquet:4") && e.contains("expected equally spaced"),
+            "{e}"
+        );
     }
 
     /// The decoded size is bounded before decoding: a limit below rows × columns × 8 refuses
@@ -202,13 +255,17 @@ mod tests {
     #[test]
     fn not_parquet_is_a_clear_error() {
         let path = Path::new("/x/a.parquet");
-        let e = parse_parquet(b"PAR1 but nothing else".to_vec(), path, 1 << 20).unwrap_err().to_string();
+        let e = parse_parquet(b"PAR1 but nothing else".to_vec(), path, 1 << 20)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("/x/a.parquet") && e.contains("not a readable Parquet file"), "{e}");
     }
 
     #[test]
     fn the_loader_lists_the_extension() {
-        assert!(build_loader("channels", &default_params()).unwrap().extensions().contains(&"parquet"));
+        assert!(
+            build_loader("channels", &default_params()).unwrap().extensions().contains(&"parquet")
+        );
     }
 
     /// Truncations of a fixture at every length and 2,000 random byte mutations: each is a

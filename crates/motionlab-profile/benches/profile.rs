@@ -10,9 +10,18 @@ fn main() {
 fn tssb(name: &str) -> (Vec<f64>, usize) {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/tssb/datasets");
     let text = std::fs::read_to_string(format!("{dir}/{name}.txt")).expect("TSSB series");
-    let values = text.lines().filter(|l| !l.trim().is_empty()).map(|l| l.trim().parse().expect("float")).collect();
+    let values = text
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.trim().parse().expect("float"))
+        .collect();
     let desc = std::fs::read_to_string(format!("{dir}/desc.txt")).expect("desc.txt");
-    let window = desc.lines().find_map(|l| l.strip_prefix(&format!("{name},"))).and_then(|r| r.split(',').next()).and_then(|w| w.parse().ok()).expect("window");
+    let window = desc
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("{name},")))
+        .and_then(|r| r.split(',').next())
+        .and_then(|w| w.parse().ok())
+        .expect("window");
     (values, window)
 }
 
@@ -36,6 +45,13 @@ fn clasp_profile(bencher: divan::Bencher, name: &str) {
 #[divan::bench(args = SERIES, sample_count = 5)]
 fn floss_segment(bencher: divan::Bencher, name: &str) {
     let (x, w) = tssb(name);
-    let stage = FlossParams { window: motionlab_profile::clasp::WindowWidth::Samples(w), n_regimes: Some(3), cac_threshold: None, excl_factor: 5 }.check().unwrap();
+    let stage = FlossParams {
+        window: motionlab_profile::clasp::WindowWidth::Samples(w),
+        n_regimes: Some(3),
+        cac_threshold: None,
+        excl_factor: 5,
+    }
+    .check()
+    .unwrap();
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }

@@ -22,7 +22,8 @@ fn finite_or_null(v: &[f64]) -> Value {
 
 fn run(task: &Value) -> Result<Value, String> {
     let op = task["op"].as_str().ok_or("task without op")?;
-    let values: Vec<f64> = serde_json::from_value(task["values"].clone()).map_err(|e| e.to_string())?;
+    let values: Vec<f64> =
+        serde_json::from_value(task["values"].clone()).map_err(|e| e.to_string())?;
     let n_channels = task["n_channels"].as_u64().unwrap_or(1) as usize;
     let params = task.get("params").cloned().unwrap_or(json!({}));
     let window = task["window"].as_u64().map(|w| w as usize);
@@ -30,23 +31,38 @@ fn run(task: &Value) -> Result<Value, String> {
     let start = Instant::now();
     let mut out = match op {
         "clasp_segment" => {
-            let stage = serde_json::from_value::<ClaspParams>(params).map_err(|e| e.to_string())?.check().map_err(err)?;
+            let stage = serde_json::from_value::<ClaspParams>(params)
+                .map_err(|e| e.to_string())?
+                .check()
+                .map_err(err)?;
             let w = stage.window_width(&values, n_channels).map_err(err)?;
             let seg = stage.segment_values(&values, n_channels).map_err(err)?;
             json!({"candidates": seg.candidates, "window": w, "trace": finite_or_null(&seg.traces[0].values)})
         }
         "clasp_profile" => {
-            let stage = serde_json::from_value::<ClaspParams>(params).map_err(|e| e.to_string())?.check().map_err(err)?;
-            let p = stage.profile(&values, n_channels, window.ok_or("clasp_profile needs window")?).map_err(err)?;
+            let stage = serde_json::from_value::<ClaspParams>(params)
+                .map_err(|e| e.to_string())?
+                .check()
+                .map_err(err)?;
+            let p = stage
+                .profile(&values, n_channels, window.ok_or("clasp_profile needs window")?)
+                .map_err(err)?;
             json!({"profile": finite_or_null(&p)})
         }
         "floss_segment" => {
-            let stage = serde_json::from_value::<FlossParams>(params).map_err(|e| e.to_string())?.check().map_err(err)?;
+            let stage = serde_json::from_value::<FlossParams>(params)
+                .map_err(|e| e.to_string())?
+                .check()
+                .map_err(err)?;
             let seg = stage.segment_values(&values, n_channels).map_err(err)?;
             json!({"candidates": seg.candidates, "trace": finite_or_null(&seg.traces[0].values)})
         }
         "matrix_profile" => {
-            let mp = motionlab_profile::floss::matrix_profile(&values, window.ok_or("matrix_profile needs window")?).map_err(err)?;
+            let mp = motionlab_profile::floss::matrix_profile(
+                &values,
+                window.ok_or("matrix_profile needs window")?,
+            )
+            .map_err(err)?;
             json!({"index": mp.index, "distance": finite_or_null(&mp.distance)})
         }
         other => return Err(format!("unknown op {other}")),
@@ -60,6 +76,7 @@ fn main() {
     std::io::stdin().read_to_string(&mut text).expect("stdin");
     let input: Value = serde_json::from_str(&text).expect("JSON on stdin");
     let tasks = input["tasks"].as_array().cloned().unwrap_or_default();
-    let results: Vec<Value> = tasks.iter().map(|t| run(t).unwrap_or_else(|e| json!({"error": e}))).collect();
+    let results: Vec<Value> =
+        tasks.iter().map(|t| run(t).unwrap_or_else(|e| json!({"error": e}))).collect();
     println!("{}", json!({"results": results}));
 }

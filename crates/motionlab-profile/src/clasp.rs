@@ -205,15 +205,25 @@ impl ParamGuard for ClaspParams {
     type Checked = Clasp;
     fn check(self) -> Result<Clasp> {
         if let WindowWidth::Samples(w) = self.window
-            && w < 3 {
-                return Err(invalid("window", format!("window is {w} samples; expected at least 3 (or \"suss\")")));
-            }
+            && w < 3
+        {
+            return Err(invalid(
+                "window",
+                format!("window is {w} samples; expected at least 3 (or \"suss\")"),
+            ));
+        }
         if let SegmentCount::Count(0) = self.n_segments {
-            return Err(invalid("n_segments", "n_segments is 0; expected at least 1 (or \"learn\")".into()));
+            return Err(invalid(
+                "n_segments",
+                "n_segments is 0; expected at least 1 (or \"learn\")".into(),
+            ));
         }
         if self.n_estimators == 0 || self.n_estimators > 1000 {
             // Each constraint keeps k neighbours per window: the bound keeps that in memory.
-            return Err(invalid("n_estimators", format!("n_estimators is {}; expected 1 to 1000", self.n_estimators)));
+            return Err(invalid(
+                "n_estimators",
+                format!("n_estimators is {}; expected 1 to 1000", self.n_estimators),
+            ));
         }
         if self.k_neighbours == 0 {
             return Err(invalid("k_neighbours", "k_neighbours is 0; expected at least 1".into()));
@@ -231,7 +241,12 @@ impl ParamGuard for ClaspParams {
                 Validation::ScoreThreshold => t.is_finite(),
             };
             if !ok {
-                return Err(invalid("threshold", format!("threshold is {t}; expected a p-value in (0, 1] for the significance test, a finite score for the score threshold")));
+                return Err(invalid(
+                    "threshold",
+                    format!(
+                        "threshold is {t}; expected a p-value in (0, 1] for the significance test, a finite score for the score threshold"
+                    ),
+                ));
             }
         }
         Ok(Clasp { params: self })
@@ -274,7 +289,9 @@ impl Clasp {
     fn resolve_window(&self, channels: &[Vec<f64>]) -> usize {
         match self.params.window {
             WindowWidth::Samples(w) => w,
-            WindowWidth::Rule(WindowRule::Suss) => channels.iter().map(|c| (suss::suss(c) / 2).max(3)).min().unwrap_or(10),
+            WindowWidth::Rule(WindowRule::Suss) => {
+                channels.iter().map(|c| (suss::suss(c) / 2).max(3)).min().unwrap_or(10)
+            }
         }
     }
 
@@ -288,7 +305,11 @@ impl Clasp {
         let mut thresholds = Vec::new();
         if self.params.validation == Validation::ScoreThreshold {
             let t = self.settings(3, n_channels).threshold;
-            thresholds.push(Threshold { name: "score_threshold".into(), trace: CLASP_TRACE.into(), value: t });
+            thresholds.push(Threshold {
+                name: "score_threshold".into(),
+                trace: CLASP_TRACE.into(),
+                value: t,
+            });
         }
         let mut candidates = Vec::new();
         if !ch.all_constant() {
@@ -307,7 +328,12 @@ impl Clasp {
             }
             candidates = seg.change_points;
         }
-        Ok(SegmenterOutput { candidates, traces: vec![Trace::new(CLASP_TRACE, "", trace)], thresholds, flagged_frames: Vec::new() })
+        Ok(SegmenterOutput {
+            candidates,
+            traces: vec![Trace::new(CLASP_TRACE, "", trace)],
+            thresholds,
+            flagged_frames: Vec::new(),
+        })
     }
 
     /// The profile of one ClaSP (no ensemble, no segmentation) over the whole series with
@@ -317,7 +343,10 @@ impl Clasp {
     pub fn profile(&self, values: &[f64], n_channels: usize, window: usize) -> Result<Vec<f64>> {
         let ch = input::channels(values, n_channels, "clasp")?;
         if window < 3 {
-            return Err(invalid("window", format!("window is {window} samples; expected at least 3")));
+            return Err(invalid(
+                "window",
+                format!("window is {window} samples; expected at least 3"),
+            ));
         }
         let settings = self.settings(window, n_channels);
         let min_len = 2 * window * self.params.excl_radius;
@@ -341,7 +370,11 @@ impl motionlab_core::Segmenter for Clasp {
     fn consumes(&self) -> motionlab_core::DataKind {
         motionlab_core::DataKind::Channels
     }
-    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+    fn segment(
+        &self,
+        motion: &motionlab_core::Motion,
+        _cache: &motionlab_core::FeatureCache,
+    ) -> Result<SegmenterOutput> {
         let channels = motion.require_channels("clasp")?;
         self.segment_values(channels.values(), channels.n_channels())
     }
@@ -354,7 +387,8 @@ mod tests {
     use super::*;
 
     fn stage(toml_text: &str) -> Result<Clasp> {
-        let p: ClaspParams = toml::from_str(toml_text).map_err(|e| Error::new(ErrorKind::WrongType, e.to_string()))?;
+        let p: ClaspParams = toml::from_str(toml_text)
+            .map_err(|e| Error::new(ErrorKind::WrongType, e.to_string()))?;
         p.check()
     }
 
@@ -363,7 +397,11 @@ mod tests {
         (0..n)
             .map(|i| {
                 let noise = (((i * 7919) % 101) as f64 / 101.0 - 0.5) * 0.1;
-                if i < change { (i as f64 * std::f64::consts::TAU / 20.0).sin() + noise } else { (i % 13) as f64 / 6.5 - 1.0 + noise }
+                if i < change {
+                    (i as f64 * std::f64::consts::TAU / 20.0).sin() + noise
+                } else {
+                    (i % 13) as f64 / 6.5 - 1.0 + noise
+                }
             })
             .collect()
     }
@@ -400,8 +438,14 @@ mod tests {
         let mut gap = two_regimes(300, 150);
         gap[77] = f64::NAN;
         let e = c.segment_values(&gap, 1).err().unwrap();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::MissingData, Some("values[77][0]")));
-        assert_eq!(c.profile(&two_regimes(100, 50), 1, 20).err().unwrap().kind(), ErrorKind::EmptySequence);
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::MissingData, Some("values[77][0]"))
+        );
+        assert_eq!(
+            c.profile(&two_regimes(100, 50), 1, 20).err().unwrap().kind(),
+            ErrorKind::EmptySequence
+        );
     }
 
     #[test]
@@ -420,7 +464,9 @@ mod tests {
         }
         assert!(stage("windw = 10").is_err(), "unknown keys are refused");
         assert!(stage("window = \"fft\"").is_err());
-        let ok = stage("window = 25\nn_segments = 3\nscore = \"f1\"\nvalidation = \"score_threshold\"").unwrap();
+        let ok =
+            stage("window = 25\nn_segments = 3\nscore = \"f1\"\nvalidation = \"score_threshold\"")
+                .unwrap();
         assert_eq!(ok.params().window, WindowWidth::Samples(25));
     }
 }

@@ -82,21 +82,37 @@ impl ParamGuard for FlossParams {
     type Checked = Floss;
     fn check(self) -> Result<Floss> {
         if let WindowWidth::Samples(w) = self.window
-            && w < 3 {
-                return Err(Error::new(ErrorKind::OutOfRange, format!("window is {w} samples; expected at least 3 (or \"suss\")")).with_field("window"));
-            }
+            && w < 3
+        {
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("window is {w} samples; expected at least 3 (or \"suss\")"),
+            )
+            .with_field("window"));
+        }
         match (self.n_regimes, self.cac_threshold) {
             (Some(_), Some(_)) | (None, None) => {
                 return Err(Error::new(ErrorKind::InvalidParameter, "floss needs exactly one of n_regimes (the number of regimes) and cac_threshold (a bound on the corrected arc curve)").with_field("n_regimes"));
             }
-            (Some(0), None) => return Err(Error::new(ErrorKind::OutOfRange, "n_regimes is 0; expected at least 1").with_field("n_regimes")),
+            (Some(0), None) => {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    "n_regimes is 0; expected at least 1",
+                )
+                .with_field("n_regimes"));
+            }
             (None, Some(t)) if !(t > 0.0 && t <= 1.0) => {
-                return Err(Error::new(ErrorKind::OutOfRange, format!("cac_threshold is {t}; expected a value in (0, 1]")).with_field("cac_threshold"));
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("cac_threshold is {t}; expected a value in (0, 1]"),
+                )
+                .with_field("cac_threshold"));
             }
             _ => {}
         }
         if self.excl_factor == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "excl_factor is 0; expected at least 1").with_field("excl_factor"));
+            return Err(Error::new(ErrorKind::OutOfRange, "excl_factor is 0; expected at least 1")
+                .with_field("excl_factor"));
         }
         Ok(Floss { params: self })
     }
@@ -180,7 +196,11 @@ impl Floss {
 
     fn channel(&self, values: &[f64], n_channels: usize) -> Result<Vec<f64>> {
         if n_channels > 1 {
-            return Err(Error::new(ErrorKind::WrongValueCount, format!("floss: {n_channels} channels; FLUSS is univariate, select one channel")).with_field("n_channels"));
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!("floss: {n_channels} channels; FLUSS is univariate, select one channel"),
+            )
+            .with_field("n_channels"));
         }
         let ch = input::channels(values, n_channels, "floss")?;
         Ok(ch.channels.into_iter().next().unwrap_or_default())
@@ -202,13 +222,31 @@ impl Floss {
         let k = mp.index.len();
         let excl = self.params.excl_factor * w;
         let cac = corrected_arc_curve(&mp.index, &idealized_arc_curve(k), excl);
-        let mut candidates: Vec<usize> = regimes(&cac, self.params.n_regimes, self.params.cac_threshold, excl).into_iter().filter(|&c| c > 0 && c < t.len()).collect();
+        let mut candidates: Vec<usize> =
+            regimes(&cac, self.params.n_regimes, self.params.cac_threshold, excl)
+                .into_iter()
+                .filter(|&c| c > 0 && c < t.len())
+                .collect();
         candidates.sort_unstable();
         candidates.dedup();
         let mut trace = vec![f64::NAN; t.len()];
         trace[..k].copy_from_slice(&cac);
-        let thresholds = self.params.cac_threshold.map(|v| Threshold { name: "cac_threshold".into(), trace: FLOSS_TRACE.into(), value: v }).into_iter().collect();
-        Ok(SegmenterOutput { candidates, traces: vec![Trace::new(FLOSS_TRACE, "", trace)], thresholds, flagged_frames: Vec::new() })
+        let thresholds = self
+            .params
+            .cac_threshold
+            .map(|v| Threshold {
+                name: "cac_threshold".into(),
+                trace: FLOSS_TRACE.into(),
+                value: v,
+            })
+            .into_iter()
+            .collect();
+        Ok(SegmenterOutput {
+            candidates,
+            traces: vec![Trace::new(FLOSS_TRACE, "", trace)],
+            thresholds,
+            flagged_frames: Vec::new(),
+        })
     }
 }
 
@@ -216,7 +254,11 @@ impl motionlab_core::Segmenter for Floss {
     fn consumes(&self) -> motionlab_core::DataKind {
         motionlab_core::DataKind::Channels
     }
-    fn segment(&self, motion: &motionlab_core::Motion, _cache: &motionlab_core::FeatureCache) -> Result<SegmenterOutput> {
+    fn segment(
+        &self,
+        motion: &motionlab_core::Motion,
+        _cache: &motionlab_core::FeatureCache,
+    ) -> Result<SegmenterOutput> {
         let channels = motion.require_channels("floss")?;
         self.segment_values(channels.values(), channels.n_channels())
     }
@@ -229,7 +271,8 @@ mod tests {
     use super::*;
 
     fn stage(text: &str) -> Result<Floss> {
-        let p: FlossParams = toml::from_str(text).map_err(|e| Error::new(ErrorKind::WrongType, e.to_string()))?;
+        let p: FlossParams =
+            toml::from_str(text).map_err(|e| Error::new(ErrorKind::WrongType, e.to_string()))?;
         p.check()
     }
 
@@ -256,7 +299,11 @@ mod tests {
         let x: Vec<f64> = (0..1500)
             .map(|i| {
                 let noise = (((i * 7919) % 101) as f64 / 101.0 - 0.5) * 0.1;
-                if i < 800 { (i as f64 * std::f64::consts::TAU / 25.0).sin() + noise } else { ((i % 17) as f64 / 8.5 - 1.0) + noise }
+                if i < 800 {
+                    (i as f64 * std::f64::consts::TAU / 25.0).sin() + noise
+                } else {
+                    ((i % 17) as f64 / 8.5 - 1.0) + noise
+                }
             })
             .collect();
         let out = stage("window = 25\nn_regimes = 2").unwrap().segment_values(&x, 1).unwrap();
@@ -268,14 +315,29 @@ mod tests {
 
     #[test]
     fn malformed_parameters_and_degenerate_inputs() {
-        assert_eq!(stage("window = 10").err().unwrap().location().field.as_deref(), Some("n_regimes"));
-        assert_eq!(stage("n_regimes = 2\ncac_threshold = 0.5").err().unwrap().location().field.as_deref(), Some("n_regimes"));
-        assert_eq!(stage("cac_threshold = 1.5").err().unwrap().location().field.as_deref(), Some("cac_threshold"));
-        assert_eq!(stage("window = 1\nn_regimes = 2").err().unwrap().location().field.as_deref(), Some("window"));
+        assert_eq!(
+            stage("window = 10").err().unwrap().location().field.as_deref(),
+            Some("n_regimes")
+        );
+        assert_eq!(
+            stage("n_regimes = 2\ncac_threshold = 0.5").err().unwrap().location().field.as_deref(),
+            Some("n_regimes")
+        );
+        assert_eq!(
+            stage("cac_threshold = 1.5").err().unwrap().location().field.as_deref(),
+            Some("cac_threshold")
+        );
+        assert_eq!(
+            stage("window = 1\nn_regimes = 2").err().unwrap().location().field.as_deref(),
+            Some("window")
+        );
         assert!(stage("n_regime = 2").is_err());
         let f = stage("window = 10\nn_regimes = 3").unwrap();
         assert_eq!(f.segment_values(&[1.0; 12], 1).err().unwrap().kind(), ErrorKind::EmptySequence);
-        assert_eq!(f.segment_values(&[1.0; 40], 2).err().unwrap().location().field.as_deref(), Some("n_channels"));
+        assert_eq!(
+            f.segment_values(&[1.0; 40], 2).err().unwrap().location().field.as_deref(),
+            Some("n_channels")
+        );
         assert_eq!(f.segment_values(&[], 1).err().unwrap().kind(), ErrorKind::EmptySequence);
         // A constant series: every window matches its nearest flat neighbour, every arc is
         // short, the CAC is low away from the edges and the result is defined.

@@ -23,7 +23,11 @@ impl Channels {
 /// to be filled before, e.g. by the `fill_gaps` preprocessor).
 pub(crate) fn channels(values: &[f64], n_channels: usize, stage: &str) -> Result<Channels> {
     if n_channels == 0 {
-        return Err(Error::new(ErrorKind::OutOfRange, format!("{stage}: n_channels is 0, expected at least one channel")).with_field("n_channels"));
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("{stage}: n_channels is 0, expected at least one channel"),
+        )
+        .with_field("n_channels"));
     }
     if !values.len().is_multiple_of(n_channels) {
         return Err(Error::new(
@@ -34,7 +38,11 @@ pub(crate) fn channels(values: &[f64], n_channels: usize, stage: &str) -> Result
     }
     let n_samples = values.len() / n_channels;
     if n_samples == 0 {
-        return Err(Error::new(ErrorKind::EmptySequence, format!("{stage}: the series has no samples")).with_field("values"));
+        return Err(Error::new(
+            ErrorKind::EmptySequence,
+            format!("{stage}: the series has no samples"),
+        )
+        .with_field("values"));
     }
     if let Some(at) = values.iter().position(|v| !v.is_finite()) {
         let (sample, channel) = (at / n_channels, at % n_channels);
@@ -45,7 +53,9 @@ pub(crate) fn channels(values: &[f64], n_channels: usize, stage: &str) -> Result
         )
         .with_field(format!("values[{sample}][{channel}]")));
     }
-    let channels = (0..n_channels).map(|c| (0..n_samples).map(|s| values[s * n_channels + c]).collect()).collect();
+    let channels = (0..n_channels)
+        .map(|c| (0..n_samples).map(|s| values[s * n_channels + c]).collect())
+        .collect();
     Ok(Channels { channels, n_samples })
 }
 
@@ -64,10 +74,16 @@ mod tests {
     fn refuses_empty_ragged_and_nan_input_naming_the_sample() {
         assert_eq!(channels(&[], 1, "t").err().unwrap().kind(), ErrorKind::EmptySequence);
         assert_eq!(channels(&[1.0], 0, "t").err().unwrap().kind(), ErrorKind::OutOfRange);
-        assert_eq!(channels(&[1.0, 2.0, 3.0], 2, "t").err().unwrap().kind(), ErrorKind::WrongValueCount);
+        assert_eq!(
+            channels(&[1.0, 2.0, 3.0], 2, "t").err().unwrap().kind(),
+            ErrorKind::WrongValueCount
+        );
         let e = channels(&[1.0, 2.0, f64::NAN, 4.0], 2, "t").err().unwrap();
         assert_eq!(e.kind(), ErrorKind::MissingData);
         assert_eq!(e.location().field.as_deref(), Some("values[1][0]"));
-        assert_eq!(channels(&[1.0, f64::INFINITY], 1, "t").err().unwrap().kind(), ErrorKind::NonFinite);
+        assert_eq!(
+            channels(&[1.0, f64::INFINITY], 1, "t").err().unwrap().kind(),
+            ErrorKind::NonFinite
+        );
     }
 }

@@ -144,7 +144,10 @@ mod tests {
         assert_eq!([r.randint(100), r.randint(100)], NUMPY_SEED_2357);
         // np.random.seed(0); np.random.randint(0, 10**6, size=3)
         let mut r = LegacyRandomState::new(0);
-        assert_eq!([r.randint(1_000_000), r.randint(1_000_000), r.randint(1_000_000)], NUMPY_SEED_0);
+        assert_eq!(
+            [r.randint(1_000_000), r.randint(1_000_000), r.randint(1_000_000)],
+            NUMPY_SEED_0
+        );
     }
 
     // Printed by NumPy 2.2.6 (bench/.venv-profile) for the calls named above.

@@ -9,14 +9,21 @@ use motionlab_profile::{ClaspParams, FlossParams};
 fn tssb(name: &str) -> Vec<f64> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/tssb/datasets");
     let text = std::fs::read_to_string(format!("{path}/{name}.txt")).expect("TSSB series");
-    text.lines().filter(|l| !l.trim().is_empty()).map(|l| l.trim().parse().expect("float")).collect()
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.trim().parse().expect("float"))
+        .collect()
 }
 
 #[test]
 fn clasp_gives_claspys_change_points_and_windows() {
     let stage = ClaspParams::default().check().unwrap();
     // claspy: BinaryClaSPSegmentation().fit_predict(ts), and its window_size after fit.
-    for (name, window, cps) in [("ArrowHead", 16, vec![742]), ("Beef", 33, vec![686]), ("Adiac", 11, vec![334, 564, 1007, 1224])] {
+    for (name, window, cps) in [
+        ("ArrowHead", 16, vec![742]),
+        ("Beef", 33, vec![686]),
+        ("Adiac", 11, vec![334, 564, 1007, 1224]),
+    ] {
         let x = tssb(name);
         assert_eq!(stage.window_width(&x, 1).unwrap(), window, "{name}");
         assert_eq!(stage.segment_values(&x, 1).unwrap().candidates, cps, "{name}");
@@ -34,7 +41,10 @@ fn clasp_profile_matches_claspys_at_its_maximum() {
     let first = p.iter().position(|v| v.is_finite()).unwrap();
     let last = p.iter().rposition(|v| v.is_finite()).unwrap();
     assert_eq!((first, last), (70, 1456));
-    let (at, max) = p.iter().enumerate().fold((0, f64::NEG_INFINITY), |b, (i, &v)| if v > b.1 { (i, v) } else { b });
+    let (at, max) = p
+        .iter()
+        .enumerate()
+        .fold((0, f64::NEG_INFINITY), |b, (i, &v)| if v > b.1 { (i, v) } else { b });
     assert_eq!(at, CLASPY_ARGMAX);
     assert!((max - CLASPY_MAX).abs() < 1e-12, "{max}");
 }
@@ -43,7 +53,14 @@ fn clasp_profile_matches_claspys_at_its_maximum() {
 fn floss_gives_stumpys_regimes() {
     // stumpy: I = stump(ts, m)[:, 1]; fluss(I, L=m, n_regimes, custom_iac=2i(k−i)/k)[1].
     let x = tssb("Adiac");
-    let stage = FlossParams { window: WindowWidth::Samples(10), n_regimes: Some(5), cac_threshold: None, excl_factor: 5 }.check().unwrap();
+    let stage = FlossParams {
+        window: WindowWidth::Samples(10),
+        n_regimes: Some(5),
+        cac_threshold: None,
+        excl_factor: 5,
+    }
+    .check()
+    .unwrap();
     assert_eq!(stage.segment_values(&x, 1).unwrap().candidates, vec![563, 613, 1008, 1224]);
 }
 

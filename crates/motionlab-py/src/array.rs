@@ -23,7 +23,10 @@ enum Data {
     I64(Vec<i64>),
     Bool(Vec<bool>),
     /// A view of another object's buffer (a motion's positions), kept alive by `owner`.
-    Borrowed { ptr: usize, _owner: Py<PyAny> },
+    Borrowed {
+        ptr: usize,
+        _owner: Py<PyAny>,
+    },
 }
 
 /// A buffer NumPy can view: owned values, or a view into an object kept alive with it.
@@ -65,18 +68,54 @@ fn array<'py>(py: Python<'py>, buffer: ArrayBuffer) -> PyResult<Bound<'py, PyAny
 }
 
 /// Owned float64 values as an array of `shape`.
-pub fn f64_array<'py>(py: Python<'py>, values: Vec<f64>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
-    array(py, ArrayBuffer { data: Data::F64(values), typestr: F64, shape: shape.to_vec(), readonly: false })
+pub fn f64_array<'py>(
+    py: Python<'py>,
+    values: Vec<f64>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
+    array(
+        py,
+        ArrayBuffer {
+            data: Data::F64(values),
+            typestr: F64,
+            shape: shape.to_vec(),
+            readonly: false,
+        },
+    )
 }
 
 /// Owned int64 values as an array of `shape`.
-pub fn i64_array<'py>(py: Python<'py>, values: Vec<i64>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
-    array(py, ArrayBuffer { data: Data::I64(values), typestr: I64, shape: shape.to_vec(), readonly: false })
+pub fn i64_array<'py>(
+    py: Python<'py>,
+    values: Vec<i64>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
+    array(
+        py,
+        ArrayBuffer {
+            data: Data::I64(values),
+            typestr: I64,
+            shape: shape.to_vec(),
+            readonly: false,
+        },
+    )
 }
 
 /// Owned booleans as an array of `shape`.
-pub fn bool_array<'py>(py: Python<'py>, values: Vec<bool>, shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
-    array(py, ArrayBuffer { data: Data::Bool(values), typestr: BOOL, shape: shape.to_vec(), readonly: false })
+pub fn bool_array<'py>(
+    py: Python<'py>,
+    values: Vec<bool>,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
+    array(
+        py,
+        ArrayBuffer {
+            data: Data::Bool(values),
+            typestr: BOOL,
+            shape: shape.to_vec(),
+            readonly: false,
+        },
+    )
 }
 
 /// The element types a borrowed view can have.
@@ -93,13 +132,23 @@ impl Element for bool {
 /// A read-only view of `values` (owned by `owner`, which the array keeps alive) as an array
 /// of `shape`. The caller guarantees that `values` lives as long as `owner` and never changes
 /// (a frozen class holding an `Arc` of an immutable value).
-pub fn borrowed<'py, T: Element>(owner: &Bound<'py, PyAny>, values: &[T], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+pub fn borrowed<'py, T: Element>(
+    owner: &Bound<'py, PyAny>,
+    values: &[T],
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
     let n: usize = shape.iter().product();
     if n != values.len() {
-        return Err(error(ErrorKind::Report, format!("a view of {} values cannot have shape {shape:?}", values.len())));
+        return Err(error(
+            ErrorKind::Report,
+            format!("a view of {} values cannot have shape {shape:?}", values.len()),
+        ));
     }
     let data = Data::Borrowed { ptr: values.as_ptr() as usize, _owner: owner.clone().unbind() };
-    array(owner.py(), ArrayBuffer { data, typestr: T::TYPESTR, shape: shape.to_vec(), readonly: true })
+    array(
+        owner.py(),
+        ArrayBuffer { data, typestr: T::TYPESTR, shape: shape.to_vec(), readonly: true },
+    )
 }
 
 /// Any array-like as contiguous float64 values and its shape, checking the number of
@@ -109,15 +158,21 @@ pub fn read_f64(v: &Bound<'_, PyAny>, ndim: usize, what: &str) -> PyResult<(Vec<
     let np = py.import("numpy")?;
     let kwargs = PyDict::new(py);
     kwargs.set_item("dtype", np.getattr("float64")?)?;
-    let a = np
-        .call_method("ascontiguousarray", (v,), Some(&kwargs))
-        .map_err(|e| error(ErrorKind::WrongType, format!("{what}: expected an array of numbers ({e})")))?;
+    let a = np.call_method("ascontiguousarray", (v,), Some(&kwargs)).map_err(|e| {
+        error(ErrorKind::WrongType, format!("{what}: expected an array of numbers ({e})"))
+    })?;
     let shape: Vec<usize> = a.getattr("shape")?.extract()?;
     if shape.len() != ndim {
-        return Err(error(ErrorKind::WrongValueCount, format!("{what}: expected {ndim} dimensions, found shape {shape:?}")));
+        return Err(error(
+            ErrorKind::WrongValueCount,
+            format!("{what}: expected {ndim} dimensions, found shape {shape:?}"),
+        ));
     }
     let bytes = a.call_method0("tobytes")?;
     let bytes = bytes.cast::<PyBytes>()?.as_bytes();
-    let values = bytes.chunks_exact(8).map(|c| f64::from_ne_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])).collect();
+    let values = bytes
+        .chunks_exact(8)
+        .map(|c| f64::from_ne_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
+        .collect();
     Ok((values, shape))
 }

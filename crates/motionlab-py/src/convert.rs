@@ -16,7 +16,9 @@ pub fn params(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<toml::Value> {
     let mut table = toml::Table::new();
     if let Some(kwargs) = kwargs {
         for (k, v) in kwargs.iter() {
-            let key: String = k.extract().map_err(|_| error(ErrorKind::WrongType, "parameter names must be strings"))?;
+            let key: String = k
+                .extract()
+                .map_err(|_| error(ErrorKind::WrongType, "parameter names must be strings"))?;
             if v.is_none() {
                 continue;
             }
@@ -33,10 +35,9 @@ pub fn to_toml(v: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
         return Ok(toml::Value::Boolean(v.extract()?));
     }
     if v.is_instance_of::<PyInt>() {
-        return v
-            .extract::<i64>()
-            .map(toml::Value::Integer)
-            .map_err(|_| error(ErrorKind::OutOfRange, format!("{path}: integer {v} does not fit in 64 bits")));
+        return v.extract::<i64>().map(toml::Value::Integer).map_err(|_| {
+            error(ErrorKind::OutOfRange, format!("{path}: integer {v} does not fit in 64 bits"))
+        });
     }
     if v.is_instance_of::<PyFloat>() {
         return Ok(toml::Value::Float(v.extract()?));
@@ -47,7 +48,12 @@ pub fn to_toml(v: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
     if let Ok(d) = v.cast::<PyDict>() {
         let mut t = toml::Table::new();
         for (k, x) in d.iter() {
-            let key: String = k.extract().map_err(|_| error(ErrorKind::WrongType, format!("{path}: table keys must be strings, found {k}")))?;
+            let key: String = k.extract().map_err(|_| {
+                error(
+                    ErrorKind::WrongType,
+                    format!("{path}: table keys must be strings, found {k}"),
+                )
+            })?;
             if x.is_none() {
                 continue;
             }
@@ -56,8 +62,18 @@ pub fn to_toml(v: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
         }
         return Ok(toml::Value::Table(t));
     }
-    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() || v.hasattr("__array__")? && v.hasattr("tolist")? {
-        let items = if v.hasattr("tolist")? && !v.is_instance_of::<PyList>() && !v.is_instance_of::<PyTuple>() { v.call_method0("tolist")? } else { v.clone() };
+    if v.is_instance_of::<PyList>()
+        || v.is_instance_of::<PyTuple>()
+        || v.hasattr("__array__")? && v.hasattr("tolist")?
+    {
+        let items = if v.hasattr("tolist")?
+            && !v.is_instance_of::<PyList>()
+            && !v.is_instance_of::<PyTuple>()
+        {
+            v.call_method0("tolist")?
+        } else {
+            v.clone()
+        };
         // A NumPy 0-d array or scalar gives a plain number from tolist().
         if !(items.is_instance_of::<PyList>() || items.is_instance_of::<PyTuple>()) {
             return to_toml(&items, path);
@@ -81,7 +97,9 @@ pub fn to_toml(v: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
     let ty = v.get_type().name().map(|n| n.to_string()).unwrap_or_default();
     Err(error(
         ErrorKind::WrongType,
-        format!("{path}: a Python `{ty}` is no parameter value; expected a bool, number, string, list or dict (as in TOML)"),
+        format!(
+            "{path}: a Python `{ty}` is no parameter value; expected a bool, number, string, list or dict (as in TOML)"
+        ),
     ))
 }
 
@@ -140,18 +158,26 @@ pub fn to_json(v: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
 pub fn from_py<T: serde::de::DeserializeOwned>(v: &Bound<'_, PyAny>, what: &str) -> PyResult<T> {
     let json = to_json(v)?;
     serde_path_to_json(json).map_err(|(path, msg)| {
-        let field = if path.is_empty() || path == "." { what.to_string() } else { format!("{what}.{path}") };
+        let field = if path.is_empty() || path == "." {
+            what.to_string()
+        } else {
+            format!("{what}.{path}")
+        };
         crate::to_py_err(motionlab_core::Error::new(ErrorKind::WrongType, msg).with_field(field))
     })
 }
 
-fn serde_path_to_json<T: serde::de::DeserializeOwned>(json: serde_json::Value) -> Result<T, (String, String)> {
-    serde_path_to_error::deserialize(json).map_err(|e| (e.path().to_string(), e.inner().to_string()))
+fn serde_path_to_json<T: serde::de::DeserializeOwned>(
+    json: serde_json::Value,
+) -> Result<T, (String, String)> {
+    serde_path_to_error::deserialize(json)
+        .map_err(|e| (e.path().to_string(), e.inner().to_string()))
 }
 
 /// A serde record as Python values (dicts, lists, numbers; NaN from null).
 pub fn to_py<'py, T: serde::Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
-    let json = serde_json::to_value(value).map_err(|e| error(ErrorKind::Report, format!("cannot convert a result: {e}")))?;
+    let json = serde_json::to_value(value)
+        .map_err(|e| error(ErrorKind::Report, format!("cannot convert a result: {e}")))?;
     json_to_py(py, &json)
 }
 
@@ -166,7 +192,10 @@ fn json_to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py
             _ => n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any(),
         },
         Value::String(s) => PyString::new(py, s).into_any(),
-        Value::Array(a) => PyList::new(py, a.iter().map(|x| json_to_py(py, x)).collect::<PyResult<Vec<_>>>()?)?.into_any(),
+        Value::Array(a) => {
+            PyList::new(py, a.iter().map(|x| json_to_py(py, x)).collect::<PyResult<Vec<_>>>()?)?
+                .into_any()
+        }
         Value::Object(m) => {
             let d = PyDict::new(py);
             for (k, x) in m {
@@ -180,19 +209,35 @@ fn json_to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py
 /// Frame indices from a Python sequence or NumPy array of non-negative integers (any integer
 /// dtype; floats must be whole numbers).
 pub fn frames(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<usize>> {
-    let items = if v.hasattr("tolist")? && !v.is_instance_of::<PyList>() { v.call_method0("tolist")? } else { v.clone() };
+    let items = if v.hasattr("tolist")? && !v.is_instance_of::<PyList>() {
+        v.call_method0("tolist")?
+    } else {
+        v.clone()
+    };
     let mut out = Vec::new();
-    for (i, x) in items.try_iter().map_err(|_| error(ErrorKind::WrongType, format!("{what}: expected a sequence of frame indices")))?.enumerate() {
+    for (i, x) in items
+        .try_iter()
+        .map_err(|_| {
+            error(ErrorKind::WrongType, format!("{what}: expected a sequence of frame indices"))
+        })?
+        .enumerate()
+    {
         let x = x?;
         let f: i64 = if let Ok(n) = x.extract::<i64>() {
             n
         } else if let Ok(f) = x.extract::<f64>() {
             if f.fract() != 0.0 || !f.is_finite() {
-                return Err(error(ErrorKind::WrongType, format!("{what}[{i}]: expected a whole frame index, found {f}")));
+                return Err(error(
+                    ErrorKind::WrongType,
+                    format!("{what}[{i}]: expected a whole frame index, found {f}"),
+                ));
             }
             f as i64
         } else {
-            return Err(error(ErrorKind::WrongType, format!("{what}[{i}]: expected a frame index, found {x}")));
+            return Err(error(
+                ErrorKind::WrongType,
+                format!("{what}[{i}]: expected a frame index, found {x}"),
+            ));
         };
         out.push(frame(f, what)?);
     }
@@ -200,7 +245,9 @@ pub fn frames(v: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<usize>> {
 }
 
 fn frame(f: i64, what: &str) -> PyResult<usize> {
-    usize::try_from(f).map_err(|_| error(ErrorKind::OutOfRange, format!("{what}: frame indices must be >= 0, found {f}")))
+    usize::try_from(f).map_err(|_| {
+        error(ErrorKind::OutOfRange, format!("{what}: frame indices must be >= 0, found {f}"))
+    })
 }
 
 /// Frames as a NumPy int64 array.

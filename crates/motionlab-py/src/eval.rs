@@ -13,30 +13,48 @@ use motionlab_match::{MatchingResult, RepetitionResult};
 
 use crate::convert::{frames, from_py, params, tables_to_py};
 use crate::motion::PyMotion;
-use crate::stages::{build, PySegmentation};
+use crate::stages::{PySegmentation, build};
 use crate::{detached, error};
 
 /// One sequence of segmentation results: `{"sequence", "motion", "truth", "methods"}`.
 fn sequence(v: &Bound<'_, PyAny>, k: usize) -> PyResult<SequenceResult> {
-    let d = v.cast::<PyDict>().map_err(|_| error(ErrorKind::WrongType, format!("results[{k}]: expected a dict with sequence, motion, truth and methods")))?;
+    let d = v.cast::<PyDict>().map_err(|_| {
+        error(
+            ErrorKind::WrongType,
+            format!("results[{k}]: expected a dict with sequence, motion, truth and methods"),
+        )
+    })?;
     let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
-        d.get_item(key)?.ok_or_else(|| error(ErrorKind::MissingKey, format!("results[{k}]: missing key {key:?}")))
+        d.get_item(key)?.ok_or_else(|| {
+            error(ErrorKind::MissingKey, format!("results[{k}]: missing key {key:?}"))
+        })
     };
     let motion = get("motion")?;
-    let motion: PyRef<'_, PyMotion> =
-        motion.extract().map_err(|_| error(ErrorKind::WrongType, format!("results[{k}].motion: expected a motionlab.Motion")))?;
+    let motion: PyRef<'_, PyMotion> = motion.extract().map_err(|_| {
+        error(ErrorKind::WrongType, format!("results[{k}].motion: expected a motionlab.Motion"))
+    })?;
     let truth = match d.get_item("truth")? {
         None => None,
         Some(t) if t.is_none() => None,
         Some(t) => match t.extract::<PyRef<'_, PySegmentation>>() {
             Ok(s) => Some(s.inner.clone()),
             Err(_) => {
-                return Err(error(ErrorKind::WrongType, format!("results[{k}].truth: expected a motionlab.Segmentation (motionlab.Segmentation(frames, rate) makes one)")));
+                return Err(error(
+                    ErrorKind::WrongType,
+                    format!(
+                        "results[{k}].truth: expected a motionlab.Segmentation (motionlab.Segmentation(frames, rate) makes one)"
+                    ),
+                ));
             }
         },
     };
     let methods = get("methods")?;
-    let methods = methods.cast::<PyDict>().map_err(|_| error(ErrorKind::WrongType, format!("results[{k}].methods: expected a dict {{method: frames}}")))?;
+    let methods = methods.cast::<PyDict>().map_err(|_| {
+        error(
+            ErrorKind::WrongType,
+            format!("results[{k}].methods: expected a dict {{method: frames}}"),
+        )
+    })?;
     let methods = methods
         .iter()
         .map(|(name, f)| {
@@ -58,7 +76,8 @@ fn sequence(v: &Bound<'_, PyAny>, k: usize) -> PyResult<SequenceResult> {
 fn matching(v: &Bound<'_, PyAny>, k: usize) -> PyResult<MatchingResult> {
     let what = format!("results[{k}]");
     let get = |key: &str| -> PyResult<Bound<'_, PyAny>> {
-        v.get_item(key).map_err(|_| error(ErrorKind::MissingKey, format!("{what}: missing key {key:?}")))
+        v.get_item(key)
+            .map_err(|_| error(ErrorKind::MissingKey, format!("{what}: missing key {key:?}")))
     };
     let repetitions = get("repetitions")?
         .try_iter()?
@@ -70,11 +89,18 @@ fn matching(v: &Bound<'_, PyAny>, k: usize) -> PyResult<MatchingResult> {
                 repetition: rep.get_item("repetition")?.extract()?,
                 window_start: rep.get_item("window_start")?.extract()?,
                 alignment: from_py(&rep.get_item("alignment")?, &format!("{at}.alignment"))?,
-                synchronisation: from_py(&rep.get_item("synchronisation")?, &format!("{at}.synchronisation"))?,
+                synchronisation: from_py(
+                    &rep.get_item("synchronisation")?,
+                    &format!("{at}.synchronisation"),
+                )?,
             })
         })
         .collect::<PyResult<Vec<_>>>()?;
-    Ok(MatchingResult { take: get("take")?.extract()?, point_names: get("point_names")?.extract()?, repetitions })
+    Ok(MatchingResult {
+        take: get("take")?.extract()?,
+        point_names: get("point_names")?.extract()?,
+        repetitions,
+    })
 }
 
 /// The evaluator `name` on results of the type it reads: a list of sequence dicts
@@ -82,21 +108,43 @@ fn matching(v: &Bound<'_, PyAny>, k: usize) -> PyResult<MatchingResult> {
 /// its tables (`[{"name", "title", "columns"}]`).
 #[pyfunction]
 #[pyo3(signature = (name, results, params=None))]
-fn evaluate<'py>(py: Python<'py>, name: String, results: &Bound<'py, PyAny>, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyList>> {
+fn evaluate<'py>(
+    py: Python<'py>,
+    name: String,
+    results: &Bound<'py, PyAny>,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyList>> {
     let p = self::params(params)?;
     let evaluator = detached(py, || build(&name, &p, registry::build_evaluator))?;
     let wants = evaluator.input_type();
     let tables = if wants == EvalInputType::segmentation() {
-        let seqs = results.try_iter()?.enumerate().map(|(k, s)| sequence(&s?, k)).collect::<PyResult<Vec<_>>>()?;
-        detached(py, move || evaluator.evaluate(EvalInput::new(&seqs)).map_err(|e| e.under_field(name.clone())))?
+        let seqs = results
+            .try_iter()?
+            .enumerate()
+            .map(|(k, s)| sequence(&s?, k))
+            .collect::<PyResult<Vec<_>>>()?;
+        detached(py, move || {
+            evaluator.evaluate(EvalInput::new(&seqs)).map_err(|e| e.under_field(name.clone()))
+        })?
     } else if wants == motionlab_match::matching_results() {
-        let takes = results.try_iter()?.enumerate().map(|(k, t)| matching(&t?, k)).collect::<PyResult<Vec<_>>>()?;
-        detached(py, move || evaluator.evaluate(EvalInput::new(&takes)).map_err(|e| e.under_field(name.clone())))?
+        let takes = results
+            .try_iter()?
+            .enumerate()
+            .map(|(k, t)| matching(&t?, k))
+            .collect::<PyResult<Vec<_>>>()?;
+        detached(py, move || {
+            evaluator.evaluate(EvalInput::new(&takes)).map_err(|e| e.under_field(name.clone()))
+        })?
     } else if wants == motionlab_gait::gait_study() {
         let study: GaitStudy = from_py(results, "results")?;
-        detached(py, move || evaluator.evaluate(EvalInput::new(&study)).map_err(|e| e.under_field(name.clone())))?
+        detached(py, move || {
+            evaluator.evaluate(EvalInput::new(&study)).map_err(|e| e.under_field(name.clone()))
+        })?
     } else {
-        return Err(error(ErrorKind::Mismatch, format!("{name} evaluates {}, which the Python binding cannot build yet", wants.name)));
+        return Err(error(
+            ErrorKind::Mismatch,
+            format!("{name} evaluates {}, which the Python binding cannot build yet", wants.name),
+        ));
     };
     tables_to_py(py, &tables)
 }
@@ -104,8 +152,16 @@ fn evaluate<'py>(py: Python<'py>, name: String, results: &Bound<'py, PyAny>, par
 /// TCPDBench's F1 (precision, recall) of `predictions` against one or more annotators' frames,
 /// with a margin in frames (`motionlab_eval::cpd_metrics::tcpd_f_measure`).
 #[pyfunction]
-fn tcpd_f1(annotators: Vec<Bound<'_, PyAny>>, predictions: &Bound<'_, PyAny>, margin_frames: usize) -> PyResult<(f64, f64, f64)> {
-    let annotators = annotators.iter().enumerate().map(|(k, a)| frames(a, &format!("annotators[{k}]"))).collect::<PyResult<Vec<_>>>()?;
+fn tcpd_f1(
+    annotators: Vec<Bound<'_, PyAny>>,
+    predictions: &Bound<'_, PyAny>,
+    margin_frames: usize,
+) -> PyResult<(f64, f64, f64)> {
+    let annotators = annotators
+        .iter()
+        .enumerate()
+        .map(|(k, a)| frames(a, &format!("annotators[{k}]")))
+        .collect::<PyResult<Vec<_>>>()?;
     let predictions = frames(predictions, "predictions")?;
     Ok(motionlab_eval::cpd_metrics::tcpd_f_measure(&annotators, &predictions, margin_frames))
 }
@@ -113,8 +169,16 @@ fn tcpd_f1(annotators: Vec<Bound<'_, PyAny>>, predictions: &Bound<'_, PyAny>, ma
 /// TCPDBench's segment covering of the annotators' partitions of `0..n_frames` by the
 /// predicted one (`motionlab_eval::cpd_metrics::covering`).
 #[pyfunction]
-fn covering(annotators: Vec<Bound<'_, PyAny>>, predictions: &Bound<'_, PyAny>, n_frames: usize) -> PyResult<f64> {
-    let annotators = annotators.iter().enumerate().map(|(k, a)| frames(a, &format!("annotators[{k}]"))).collect::<PyResult<Vec<_>>>()?;
+fn covering(
+    annotators: Vec<Bound<'_, PyAny>>,
+    predictions: &Bound<'_, PyAny>,
+    n_frames: usize,
+) -> PyResult<f64> {
+    let annotators = annotators
+        .iter()
+        .enumerate()
+        .map(|(k, a)| frames(a, &format!("annotators[{k}]")))
+        .collect::<PyResult<Vec<_>>>()?;
     let predictions = frames(predictions, "predictions")?;
     if n_frames == 0 {
         return Err(error(ErrorKind::OutOfRange, "n_frames: a covering needs at least one frame"));

@@ -12,7 +12,7 @@
 //! `motionlab.MotionlabError` carrying the CLI's one-line message, its kind and location; a
 //! panic inside motionlab becomes that exception too (it never unwinds into the interpreter).
 
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use pyo3::prelude::*;
 
@@ -53,7 +53,13 @@ pub(crate) fn to_py_err(e: motionlab_core::Error) -> PyErr {
         let value = err.value(py);
         let loc = e.location();
         let set = |k: &str, v: Bound<'_, PyAny>| value.setattr(k, v);
-        let _ = set("kind", format!("{:?}", e.kind()).into_pyobject(py).map(|v| v.into_any()).unwrap_or_else(|_| py.None().into_bound(py)));
+        let _ = set(
+            "kind",
+            format!("{:?}", e.kind())
+                .into_pyobject(py)
+                .map(|v| v.into_any())
+                .unwrap_or_else(|_| py.None().into_bound(py)),
+        );
         let _ = value.setattr("message", e.message());
         let _ = value.setattr("file", loc.file.as_ref().map(|f| f.display().to_string()));
         let _ = value.setattr("line", loc.line);
@@ -74,12 +80,17 @@ fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
         .map(|s| s.to_string())
         .or_else(|| payload.downcast_ref::<String>().cloned())
         .unwrap_or_else(|| "a panic without a message".to_string());
-    format!("internal error inside motionlab (a bug, please report it with the call that caused it): {what}")
+    format!(
+        "internal error inside motionlab (a bug, please report it with the call that caused it): {what}"
+    )
 }
 
 /// Runs `f` without the GIL (other Python threads run meanwhile), turning its error and any
 /// panic into a `MotionlabError`.
-pub(crate) fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> motionlab_core::Result<T> + Send) -> PyResult<T> {
+pub(crate) fn detached<T: Send>(
+    py: Python<'_>,
+    f: impl FnOnce() -> motionlab_core::Result<T> + Send,
+) -> PyResult<T> {
     match py.detach(|| catch_unwind(AssertUnwindSafe(f))) {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(e)) => Err(to_py_err(e)),

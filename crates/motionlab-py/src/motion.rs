@@ -30,7 +30,10 @@ fn axis(s: &str) -> PyResult<Axis> {
         "x" => Ok(Axis::X),
         "y" => Ok(Axis::Y),
         "z" => Ok(Axis::Z),
-        _ => Err(error(ErrorKind::WrongType, format!("up_axis: expected \"x\", \"y\" or \"z\", found {s:?}"))),
+        _ => Err(error(
+            ErrorKind::WrongType,
+            format!("up_axis: expected \"x\", \"y\" or \"z\", found {s:?}"),
+        )),
     }
 }
 
@@ -56,16 +59,27 @@ impl PyMotion {
     ) -> PyResult<Self> {
         let (values, shape) = read_f64(positions, 3, "positions")?;
         if shape[2] != 3 {
-            return Err(error(ErrorKind::WrongValueCount, format!("positions: expected frames × points × 3, found shape {shape:?}")));
+            return Err(error(
+                ErrorKind::WrongValueCount,
+                format!("positions: expected frames × points × 3, found shape {shape:?}"),
+            ));
         }
         let names = point_names.unwrap_or_else(|| (0..shape[1]).map(|k| format!("p{k}")).collect());
         if names.len() != shape[1] {
-            return Err(error(ErrorKind::WrongValueCount, format!("point_names: {} names for {} points", names.len(), shape[1])));
+            return Err(error(
+                ErrorKind::WrongValueCount,
+                format!("point_names: {} names for {} points", names.len(), shape[1]),
+            ));
         }
         let kind = match point_kind {
             "marker" => PointKind::Marker,
             "joint" => PointKind::Joint,
-            other => return Err(error(ErrorKind::WrongType, format!("point_kind: expected \"marker\" or \"joint\", found {other:?}"))),
+            other => {
+                return Err(error(
+                    ErrorKind::WrongType,
+                    format!("point_kind: expected \"marker\" or \"joint\", found {other:?}"),
+                ));
+            }
         };
         let flat: Vec<[f64; 3]> = values.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
         let (rate, up) = (self::rate(rate)?, axis(up_axis)?);
@@ -92,7 +106,9 @@ impl PyMotion {
         let units = units.unwrap_or_else(|| vec![String::new(); names.len()]);
         let rate = self::rate(rate)?;
         let name = name.to_string();
-        let m = detached(py, move || Motion::from_channels(name, rate, Channels::new(names, units, flat)?))?;
+        let m = detached(py, move || {
+            Motion::from_channels(name, rate, Channels::new(names, units, flat)?)
+        })?;
         Ok(PyMotion { inner: Arc::new(m) })
     }
 
@@ -185,7 +201,10 @@ impl PyMotion {
         let offsets: Vec<f64> = joints.iter().flat_map(|j| j.offset).collect();
         d.set_item("offsets", f64_array(py, offsets, &[joints.len(), 3])?)?;
         d.set_item("channel_names", s.skeleton.channel_names())?;
-        d.set_item("channel_values", borrowed(slf.as_any(), s.channel_values(), &[s.n_frames(), s.n_channels()])?)?;
+        d.set_item(
+            "channel_values",
+            borrowed(slf.as_any(), s.channel_values(), &[s.n_frames(), s.n_channels()])?,
+        )?;
         Ok(Some(d))
     }
 
@@ -254,13 +273,19 @@ impl PyMotion {
             let n = m.n_frames();
             cols.set_item("frame", i64_array(py, (0..n as i64).collect(), &[n])?)?;
             let rate = m.frame_rate();
-            cols.set_item("time_s", f64_array(py, (0..n).map(|i| rate.frame_to_seconds(i).value()).collect(), &[n])?)?;
+            cols.set_item(
+                "time_s",
+                f64_array(py, (0..n).map(|i| rate.frame_to_seconds(i).value()).collect(), &[n])?,
+            )?;
             let np = py.import("numpy")?;
             let positions = Self::positions(slf)?;
             for (k, name) in m.point_names().iter().enumerate() {
                 for (a, axis) in ["x", "y", "z"].iter().enumerate() {
                     let col = positions.call_method1("__getitem__", ((py.Ellipsis(), k, a),))?;
-                    cols.set_item(format!("{name}_{axis}_mm"), np.call_method1("ascontiguousarray", (col,))?)?;
+                    cols.set_item(
+                        format!("{name}_{axis}_mm"),
+                        np.call_method1("ascontiguousarray", (col,))?,
+                    )?;
                 }
             }
             if let Some(values) = Self::channels(slf)? {
@@ -281,10 +306,19 @@ impl PyMotion {
         let what = if m.n_points() == 0 {
             format!("{} channels", m.channels().n_channels())
         } else {
-            format!("{} {}s", m.n_points(), if m.point_kind() == PointKind::Joint { "joint" } else { "marker" })
+            format!(
+                "{} {}s",
+                m.n_points(),
+                if m.point_kind() == PointKind::Joint { "joint" } else { "marker" }
+            )
         };
         let fmt = if m.format.is_empty() { String::new() } else { format!(", {}", m.format) };
-        format!("<motionlab.Motion {:?}{fmt}: {} frames × {what} at {} Hz>", m.name, m.n_frames(), m.frame_rate().hz())
+        format!(
+            "<motionlab.Motion {:?}{fmt}: {} frames × {what} at {} Hz>",
+            m.name,
+            m.n_frames(),
+            m.frame_rate().hz()
+        )
     }
 
     fn __len__(&self) -> usize {
@@ -296,15 +330,25 @@ impl PyMotion {
 /// file's extension, as `motionlab inspect` picks it) and its parameters as a TOML table.
 #[pyfunction]
 #[pyo3(signature = (path, loader=None, params=None))]
-fn load(py: Python<'_>, path: PathBuf, loader: Option<&str>, params: Option<&Bound<'_, PyDict>>) -> PyResult<PyMotion> {
+fn load(
+    py: Python<'_>,
+    path: PathBuf,
+    loader: Option<&str>,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyMotion> {
     let params = crate::convert::params(params)?;
     let loader = loader.map(str::to_string);
     let m = detached(py, move || {
         let built = match loader {
-            Some(name) => motionlab_core::registry::build_loader(&name, &params).map_err(|e| e.under_field(name.clone()))?,
+            Some(name) => motionlab_core::registry::build_loader(&name, &params)
+                .map_err(|e| e.under_field(name.clone()))?,
             None => {
                 if params.as_table().is_some_and(|t| !t.is_empty()) {
-                    return Err(motionlab_core::Error::new(ErrorKind::MissingKey, "loader parameters need the loader's name (`loader=\"…\"`)").with_field("loader"));
+                    return Err(motionlab_core::Error::new(
+                        ErrorKind::MissingKey,
+                        "loader parameters need the loader's name (`loader=\"…\"`)",
+                    )
+                    .with_field("loader"));
                 }
                 motionlab_cli::inspect::loader_for(&path)?.1
             }

@@ -7,8 +7,8 @@ use std::sync::Arc;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use motionlab_engine::consent::{ExternalPolicy, TrustStore};
 use motionlab_engine::RunOptions;
+use motionlab_engine::consent::{ExternalPolicy, TrustStore};
 
 use crate::detached;
 
@@ -31,16 +31,29 @@ fn run<'py>(
     no_cache: bool,
     allow_external: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let progress: Arc<dyn motionlab_engine::Progress> = if !quiet && std::io::stderr().is_terminal() {
+    let progress: Arc<dyn motionlab_engine::Progress> = if !quiet && std::io::stderr().is_terminal()
+    {
         Arc::new(motionlab_cli::progress::Bars::default())
     } else {
         Arc::new(motionlab_engine::Silent)
     };
-    let command: Vec<String> = ["motionlab.run (Python)".to_string(), experiment.display().to_string()].into_iter().chain(overrides.iter().cloned()).collect();
+    let command: Vec<String> =
+        ["motionlab.run (Python)".to_string(), experiment.display().to_string()]
+            .into_iter()
+            .chain(overrides.iter().cloned())
+            .collect();
     let summary = detached(py, move || {
         let cache = if no_cache { None } else { motionlab_cache::Cache::open_default() };
         let external = ExternalPolicy { allow_external, trust: TrustStore::open_default() };
-        let opts = RunOptions { reports_dir: reports, threads, progress, command, cache, external, ..Default::default() };
+        let opts = RunOptions {
+            reports_dir: reports,
+            threads,
+            progress,
+            command,
+            cache,
+            external,
+            ..Default::default()
+        };
         motionlab_engine::run_file(&experiment, &overrides, &opts)
     })?;
     let d = PyDict::new(py);
@@ -58,13 +71,28 @@ fn run<'py>(
 /// (with the same consent check for the programs it names).
 #[pyfunction]
 #[pyo3(signature = (experiment, overrides=Vec::new(), allow_external=false))]
-fn validate<'py>(py: Python<'py>, experiment: PathBuf, overrides: Vec<String>, allow_external: bool) -> PyResult<Bound<'py, PyDict>> {
+fn validate<'py>(
+    py: Python<'py>,
+    experiment: PathBuf,
+    overrides: Vec<String>,
+    allow_external: bool,
+) -> PyResult<Bound<'py, PyDict>> {
     let (workflow, datasets, inputs, combos, items) = detached(py, move || {
         let plan = motionlab_engine::plan(&experiment, &overrides)?;
         let commands = motionlab_engine::consent::external_commands(&plan);
-        motionlab_engine::consent::check(&plan.source.path, &commands, &ExternalPolicy { allow_external, trust: TrustStore::open_default() })?;
+        motionlab_engine::consent::check(
+            &plan.source.path,
+            &commands,
+            &ExternalPolicy { allow_external, trust: TrustStore::open_default() },
+        )?;
         let items: usize = plan.built.iter().map(|b| b.workflow.items(&b.data).len()).sum();
-        Ok((plan.workflow.name.to_string(), plan.file.datasets.len(), plan.input_files().len(), plan.combos.len(), items))
+        Ok((
+            plan.workflow.name.to_string(),
+            plan.file.datasets.len(),
+            plan.input_files().len(),
+            plan.combos.len(),
+            items,
+        ))
     })?;
     let d = PyDict::new(py);
     d.set_item("workflow", workflow)?;

@@ -9,9 +9,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use motionlab_core::registry;
-use motionlab_core::{Boundary, ErrorKind, FeatureCache, FrameRate, MethodCandidates, Result, Segmentation};
-use motionlab_features::{build_gait_cycle_detector, build_waveform_analyzer, AngleCurves, GaitCycle};
-use motionlab_gait::{build_walk_synthesizer, WalkChanges};
+use motionlab_core::{
+    Boundary, ErrorKind, FeatureCache, FrameRate, MethodCandidates, Result, Segmentation,
+};
+use motionlab_features::{
+    AngleCurves, GaitCycle, build_gait_cycle_detector, build_waveform_analyzer,
+};
+use motionlab_gait::{WalkChanges, build_walk_synthesizer};
 use motionlab_match::{build_matcher, build_point_detector, build_synchroniser};
 
 use crate::convert::{f64s, frames, frames_to_py, from_py, params, to_py};
@@ -20,8 +24,13 @@ use crate::{detached, error, to_py_err};
 
 /// Builds a stage by name; a bad parameter's error names the plugin before the key path
 /// (`fastest_marker_speed.v_low: unknown variant …`), an unknown name says what is registered.
-pub fn build<T: ?Sized>(name: &str, params: &toml::Value, f: fn(&str, &toml::Value) -> Result<Box<T>>) -> Result<Box<T>> {
-    f(name, params).map_err(|e| if e.kind() == ErrorKind::UnknownPlugin { e } else { e.under_field(name) })
+pub fn build<T: ?Sized>(
+    name: &str,
+    params: &toml::Value,
+    f: fn(&str, &toml::Value) -> Result<Box<T>>,
+) -> Result<Box<T>> {
+    f(name, params)
+        .map_err(|e| if e.kind() == ErrorKind::UnknownPlugin { e } else { e.under_field(name) })
 }
 
 /// A ground-truth segmentation: boundary frames (with their annotated windows when the source
@@ -37,7 +46,11 @@ impl PySegmentation {
     /// of frames, as a consensus keeps them).
     #[new]
     #[pyo3(signature = (boundaries, rate, annotators=None))]
-    fn py_new(boundaries: &Bound<'_, PyAny>, rate: f64, annotators: Option<Vec<Bound<'_, PyAny>>>) -> PyResult<Self> {
+    fn py_new(
+        boundaries: &Bound<'_, PyAny>,
+        rate: f64,
+        annotators: Option<Vec<Bound<'_, PyAny>>>,
+    ) -> PyResult<Self> {
         let mut f = frames(boundaries, "boundaries")?;
         f.sort_unstable();
         let rate = FrameRate::new(rate).map_err(|e| to_py_err(e.with_field("rate")))?;
@@ -90,7 +103,12 @@ impl PySegmentation {
         self.inner.boundaries.len()
     }
     fn __repr__(&self) -> String {
-        format!("<motionlab.Segmentation: {} boundaries, {} segments at {} Hz>", self.inner.boundaries.len(), self.inner.segments.len(), self.inner.frame_rate.hz())
+        format!(
+            "<motionlab.Segmentation: {} boundaries, {} segments at {} Hz>",
+            self.inner.boundaries.len(),
+            self.inner.segments.len(),
+            self.inner.frame_rate.hz()
+        )
     }
 }
 
@@ -112,7 +130,13 @@ fn describe(py: Python<'_>, name: String) -> PyResult<String> {
 /// description): what `describe` prints.
 #[pyfunction]
 fn plugins<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-    let record = |name: &str, kind: &str, label: &str, crate_name: &str, params_type: &str, doc: String, params: Vec<registry::ParamDoc>| {
+    let record = |name: &str,
+                  kind: &str,
+                  label: &str,
+                  crate_name: &str,
+                  params_type: &str,
+                  doc: String,
+                  params: Vec<registry::ParamDoc>| {
         let d = PyDict::new(py);
         d.set_item("name", name)?;
         d.set_item("kind", kind)?;
@@ -157,10 +181,16 @@ fn workflows<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
 /// The preprocessor `name` applied to a motion (a new motion).
 #[pyfunction]
 #[pyo3(signature = (name, motion, params=None))]
-fn preprocess(py: Python<'_>, name: String, motion: &PyMotion, params: Option<&Bound<'_, PyDict>>) -> PyResult<PyMotion> {
+fn preprocess(
+    py: Python<'_>,
+    name: String,
+    motion: &PyMotion,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyMotion> {
     let p = self::params(params)?;
     let m = Arc::clone(&motion.inner);
-    let out = detached(py, move || build(&name, &p, registry::build_preprocessor)?.apply((*m).clone()))?;
+    let out =
+        detached(py, move || build(&name, &p, registry::build_preprocessor)?.apply((*m).clone()))?;
     Ok(PyMotion { inner: Arc::new(out) })
 }
 
@@ -168,10 +198,17 @@ fn preprocess(py: Python<'_>, name: String, motion: &PyMotion, params: Option<&B
 /// "labels": {name: [str]}}`.
 #[pyfunction]
 #[pyo3(signature = (name, motion, params=None))]
-fn features<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyDict>> {
+fn features<'py>(
+    py: Python<'py>,
+    name: String,
+    motion: &PyMotion,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
     let p = self::params(params)?;
     let m = Arc::clone(&motion.inner);
-    let set = detached(py, move || build(&name, &p, registry::build_feature_extractor)?.extract(&m, &FeatureCache::new()))?;
+    let set = detached(py, move || {
+        build(&name, &p, registry::build_feature_extractor)?.extract(&m, &FeatureCache::new())
+    })?;
     let (traces, units, labels) = (PyDict::new(py), PyDict::new(py), PyDict::new(py));
     for t in set.traces {
         units.set_item(&t.name, &t.unit)?;
@@ -191,12 +228,19 @@ fn features<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: Optio
 /// "flagged_frames"}`.
 #[pyfunction]
 #[pyo3(signature = (name, motion, params=None))]
-fn segment<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyDict>> {
+fn segment<'py>(
+    py: Python<'py>,
+    name: String,
+    motion: &PyMotion,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
     let p = self::params(params)?;
     let m = Arc::clone(&motion.inner);
     let out = detached(py, move || {
         let file = m.source.clone().unwrap_or_default();
-        build(&name, &p, registry::build_segmenter)?.segment(&m, &FeatureCache::new()).map_err(|e| e.in_file(&file))
+        build(&name, &p, registry::build_segmenter)?
+            .segment(&m, &FeatureCache::new())
+            .map_err(|e| e.in_file(&file))
     })?;
     let (traces, units) = (PyDict::new(py), PyDict::new(py));
     for t in out.traces {
@@ -215,13 +259,22 @@ fn segment<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: Option
 /// The fuser `name` on several methods' candidates (`{method: frames}`, in order).
 #[pyfunction]
 #[pyo3(signature = (name, motion, candidates, params=None))]
-fn fuse<'py>(py: Python<'py>, name: String, motion: &PyMotion, candidates: &Bound<'py, PyDict>, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+fn fuse<'py>(
+    py: Python<'py>,
+    name: String,
+    motion: &PyMotion,
+    candidates: &Bound<'py, PyDict>,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = self::params(params)?;
     let m = Arc::clone(&motion.inner);
-    let methods: Vec<(String, Vec<usize>)> =
-        candidates.iter().map(|(k, v)| Ok((k.extract::<String>()?, frames(&v, &format!("candidates[{k}]"))?))).collect::<PyResult<_>>()?;
+    let methods: Vec<(String, Vec<usize>)> = candidates
+        .iter()
+        .map(|(k, v)| Ok((k.extract::<String>()?, frames(&v, &format!("candidates[{k}]"))?)))
+        .collect::<PyResult<_>>()?;
     let fused = detached(py, move || {
-        let inputs: Vec<MethodCandidates<'_>> = methods.iter().map(|(n, f)| MethodCandidates { method: n, frames: f }).collect();
+        let inputs: Vec<MethodCandidates<'_>> =
+            methods.iter().map(|(n, f)| MethodCandidates { method: n, frames: f }).collect();
         build(&name, &p, registry::build_fuser)?.fuse(&m, &inputs)
     })?;
     frames_to_py(py, &fused)
@@ -230,10 +283,20 @@ fn fuse<'py>(py: Python<'py>, name: String, motion: &PyMotion, candidates: &Boun
 /// The ground-truth reader `name` on a file, for a motion (frames at the motion's rate).
 #[pyfunction]
 #[pyo3(signature = (name, path, motion, params=None))]
-fn read_truth(py: Python<'_>, name: String, path: PathBuf, motion: &PyMotion, params: Option<&Bound<'_, PyDict>>) -> PyResult<PySegmentation> {
+fn read_truth(
+    py: Python<'_>,
+    name: String,
+    path: PathBuf,
+    motion: &PyMotion,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PySegmentation> {
     let p = self::params(params)?;
     let m = Arc::clone(&motion.inner);
-    let s = detached(py, move || build(&name, &p, registry::build_ground_truth)?.read(&path, &m).map_err(|e| e.in_file(&path)))?;
+    let s = detached(py, move || {
+        build(&name, &p, registry::build_ground_truth)?
+            .read(&path, &m)
+            .map_err(|e| e.in_file(&path))
+    })?;
     Ok(PySegmentation { inner: s })
 }
 
@@ -241,7 +304,12 @@ fn read_truth(py: Python<'_>, name: String, path: PathBuf, motion: &PyMotion, pa
 /// "peaks", "windows"}`.
 #[pyfunction]
 #[pyo3(signature = (name, motion, params=None))]
-fn detect_points<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+fn detect_points<'py>(
+    py: Python<'py>,
+    name: String,
+    motion: &PyMotion,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = self::params(params)?;
     let m = Arc::clone(&motion.inner);
     let d = detached(py, move || build(&name, &p, build_point_detector)?.detect(&m))?;
@@ -252,7 +320,13 @@ fn detect_points<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: 
 /// (`start`, `end`, `point_distances`, `total_distance`, `paths`).
 #[pyfunction]
 #[pyo3(signature = (name, model, target, params=None))]
-fn align<'py>(py: Python<'py>, name: String, model: &PyMotion, target: &PyMotion, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+fn align<'py>(
+    py: Python<'py>,
+    name: String,
+    model: &PyMotion,
+    target: &PyMotion,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = self::params(params)?;
     let (s, t) = (Arc::clone(&model.inner), Arc::clone(&target.inner));
     let a = detached(py, move || build(&name, &p, build_matcher)?.align(&s, &t))?;
@@ -263,17 +337,29 @@ fn align<'py>(py: Python<'py>, name: String, model: &PyMotion, target: &PyMotion
 /// `model_frames` frames.
 #[pyfunction]
 #[pyo3(signature = (name, alignment, model_frames, params=None))]
-fn synchronise<'py>(py: Python<'py>, name: String, alignment: &Bound<'py, PyAny>, model_frames: usize, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+fn synchronise<'py>(
+    py: Python<'py>,
+    name: String,
+    alignment: &Bound<'py, PyAny>,
+    model_frames: usize,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = self::params(params)?;
     let a: motionlab_match::Alignment = from_py(alignment, "alignment")?;
-    let s = detached(py, move || build(&name, &p, build_synchroniser)?.synchronise(&a, model_frames))?;
+    let s =
+        detached(py, move || build(&name, &p, build_synchroniser)?.synchronise(&a, model_frames))?;
     to_py(py, &s)
 }
 
 /// The gait-cycle detector `name` on a walk: cycles as `{start, end, side}` records.
 #[pyfunction]
 #[pyo3(signature = (name, motion, params=None))]
-fn gait_cycles<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+fn gait_cycles<'py>(
+    py: Python<'py>,
+    name: String,
+    motion: &PyMotion,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = self::params(params)?;
     let m = Arc::clone(&motion.inner);
     let c = detached(py, move || build(&name, &p, build_gait_cycle_detector)?.cycles(&m))?;
@@ -284,11 +370,19 @@ fn gait_cycles<'py>(py: Python<'py>, name: String, motion: &PyMotion, params: Op
 /// cycles: `{channels, dc, amplitude, frequency_hz}`.
 #[pyfunction]
 #[pyo3(signature = (name, curves, cycles, params=None))]
-fn waveform_parameters<'py>(py: Python<'py>, name: String, curves: &Bound<'py, PyAny>, cycles: &Bound<'py, PyAny>, params: Option<&Bound<'_, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+fn waveform_parameters<'py>(
+    py: Python<'py>,
+    name: String,
+    curves: &Bound<'py, PyAny>,
+    cycles: &Bound<'py, PyAny>,
+    params: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
     let p = self::params(params)?;
     let curves: AngleCurves = from_py(curves, "curves")?;
     let cycles: Vec<GaitCycle> = from_py(cycles, "cycles")?;
-    let w = detached(py, move || build(&name, &p, build_waveform_analyzer)?.parameters(&curves, &cycles))?;
+    let w = detached(py, move || {
+        build(&name, &p, build_waveform_analyzer)?.parameters(&curves, &cycles)
+    })?;
     to_py(py, &w)
 }
 
@@ -308,7 +402,9 @@ fn synthesize_walk<'py>(
     let walk: AngleCurves = from_py(walk, "walk")?;
     let cycles: Vec<GaitCycle> = from_py(cycles, "cycles")?;
     let changes: WalkChanges = from_py(changes, "changes")?;
-    let out = detached(py, move || build(&name, &p, build_walk_synthesizer)?.synthesize(&walk, &cycles, &changes))?;
+    let out = detached(py, move || {
+        build(&name, &p, build_walk_synthesizer)?.synthesize(&walk, &cycles, &changes)
+    })?;
     to_py(py, &out)
 }
 

@@ -28,7 +28,10 @@ fn ensure_font() {
 
 // The specs are plain data in `motionlab-figure` (so workflows build them without plotters);
 // this module renders them.
-pub use motionlab_figure::{BarRow, Chart, CriticalDifference, Figure, FigureKind, Pose, RankedMethod, RefLine, Series, StickRow, StickStrip, TimelinePoses};
+pub use motionlab_figure::{
+    BarRow, Chart, CriticalDifference, Figure, FigureKind, Pose, RankedMethod, RefLine, Series,
+    StickRow, StickStrip, TimelinePoses,
+};
 
 /// The font family for a text: DejaVu Sans, or — only for text with CJK characters, which it
 /// lacks — the bundled Noto Sans CJK JP subset (which also draws Latin), so figures without
@@ -66,7 +69,9 @@ pub fn render(figure: &Figure, dir: &Path) -> Result<Vec<PathBuf>> {
             (SIZE.0, (90 + 34 * c.bar_rows.len() as u32).max(160))
         }
         FigureKind::Sticks(s) => (SIZE.0, 90 + 230 * s.rows.len().max(1) as u32),
-        FigureKind::TimelinePoses(t) => (1400, (90 + 34 * t.timeline.bar_rows.len() as u32).max(160) + 2 * POSE_ROW_PX + 30),
+        FigureKind::TimelinePoses(t) => {
+            (1400, (90 + 34 * t.timeline.bar_rows.len() as u32).max(160) + 2 * POSE_ROW_PX + 30)
+        }
         FigureKind::CriticalDifference(c) => (1000, cd_layout(c).height),
         _ => SIZE,
     };
@@ -101,8 +106,13 @@ fn finish_svg(path: &Path) -> Result<()> {
     if !crate::fonts::needs_cjk(&text) {
         return Ok(());
     }
-    let Some(open_end) = text.find("<svg").and_then(|i| text[i..].find('>').map(|j| i + j + 1)) else { return Ok(()) };
-    let style = crate::fonts::css_font_face().replace("<style>", "<defs><style><![CDATA[").replace("</style>", "]]></style></defs>");
+    let Some(open_end) = text.find("<svg").and_then(|i| text[i..].find('>').map(|j| i + j + 1))
+    else {
+        return Ok(());
+    };
+    let style = crate::fonts::css_font_face()
+        .replace("<style>", "<defs><style><![CDATA[")
+        .replace("</style>", "]]></style></defs>");
     let out = [&text[..open_end], "\n", &style, &text[open_end..]].concat();
     std::fs::write(path, out).map_err(|e| Error::io(path, e))
 }
@@ -114,7 +124,8 @@ fn is_invalid_in_xml(c: char) -> bool {
 }
 
 fn draw_error(path: &Path, e: impl std::fmt::Display) -> Error {
-    Error::new(ErrorKind::Report, format!("cannot draw figure: {e}")).with_location(Location::file(path))
+    Error::new(ErrorKind::Report, format!("cannot draw figure: {e}"))
+        .with_location(Location::file(path))
 }
 
 type DrawResult<T> = std::result::Result<T, Box<dyn std::error::Error>>;
@@ -155,7 +166,10 @@ fn cd_layout(c: &CriticalDifference) -> CdLayout {
 /// Demšar's diagram as Orange's `graph_ranks` lays it out: rank 1 on the left; the better
 /// half of the methods labelled on the left (best on top), the rest on the right (worst on
 /// top); the critical difference above the axis, each clique a thick line under it.
-fn draw_critical_difference<DB: DrawingBackend>(c: &CriticalDifference, root: &DrawingArea<DB, Shift>) -> DrawResult<()>
+fn draw_critical_difference<DB: DrawingBackend>(
+    c: &CriticalDifference,
+    root: &DrawingArea<DB, Shift>,
+) -> DrawResult<()>
 where
     DB::ErrorType: 'static,
 {
@@ -165,11 +179,14 @@ where
     root.draw(&Text::new(c.title.clone(), (12, 8), (family(&c.title), 22)))?;
     let k = c.methods.len().max(2);
     let (left, right) = (CD_MARGIN_PX, w as i32 - CD_MARGIN_PX);
-    let x_of = |rank: f64| left + ((rank - 1.0) / (k as f64 - 1.0) * (right - left) as f64).round() as i32;
+    let x_of =
+        |rank: f64| left + ((rank - 1.0) / (k as f64 - 1.0) * (right - left) as f64).round() as i32;
     let axis = layout.axis_y;
     let black = BLACK.stroke_width(1);
     root.draw(&PathElement::new(vec![(left, axis), (right, axis)], black))?;
-    let centred = |size: u32, text: &str| TextStyle::from((family(text), size).into_font()).pos(Pos::new(HPos::Center, VPos::Bottom));
+    let centred = |size: u32, text: &str| {
+        TextStyle::from((family(text), size).into_font()).pos(Pos::new(HPos::Center, VPos::Bottom))
+    };
     for r in 1..=k {
         let x = x_of(r as f64);
         root.draw(&PathElement::new(vec![(x, axis - 8), (x, axis)], black))?;
@@ -189,28 +206,37 @@ where
         root.draw(&Text::new(label.clone(), ((a + b) / 2, y - 6), centred(14, &label)))?;
     }
     let mut order: Vec<usize> = (0..c.methods.len()).collect();
-    order.sort_by(|&a, &b| c.methods[a].mean_rank.total_cmp(&c.methods[b].mean_rank).then(a.cmp(&b)));
+    order.sort_by(|&a, &b| {
+        c.methods[a].mean_rank.total_cmp(&c.methods[b].mean_rank).then(a.cmp(&b))
+    });
     let n_left = c.methods.len().div_ceil(2);
     let secondary = RGBColor(31, 119, 180);
     for (pos, &m) in order.iter().enumerate() {
         let method = &c.methods[m];
         let colour = if method.secondary { secondary } else { BLACK };
         let x = x_of(method.mean_rank);
-        let (row, on_left) = if pos < n_left { (pos, true) } else { (c.methods.len() - 1 - pos, false) };
+        let (row, on_left) =
+            if pos < n_left { (pos, true) } else { (c.methods.len() - 1 - pos, false) };
         let y = layout.first_row_y + row as i32 * CD_ROW_PX;
         let end = if on_left { left - 10 } else { right + 10 };
         root.draw(&PathElement::new(vec![(x, axis), (x, y), (end, y)], colour.stroke_width(1)))?;
         let label = format!("{} ({})", method.label, fmt_num(method.mean_rank));
         let anchor = if on_left { HPos::Right } else { HPos::Left };
-        let style = TextStyle::from((family(&label), 14).into_font()).pos(Pos::new(anchor, VPos::Center)).color(&colour);
+        let style = TextStyle::from((family(&label), 14).into_font())
+            .pos(Pos::new(anchor, VPos::Center))
+            .color(&colour);
         root.draw(&Text::new(label, (if on_left { end - 4 } else { end + 4 }, y), style))?;
     }
     for (j, clique) in c.cliques.iter().enumerate() {
         let ranks = clique.iter().filter_map(|&i| c.methods.get(i)).map(|m| m.mean_rank);
-        let (lo, hi) = ranks.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| (a.min(r), b.max(r)));
+        let (lo, hi) =
+            ranks.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| (a.min(r), b.max(r)));
         if lo.is_finite() {
             let y = axis + 12 + 7 * j as i32;
-            root.draw(&PathElement::new(vec![(x_of(lo) - 4, y), (x_of(hi) + 4, y)], BLACK.stroke_width(4)))?;
+            root.draw(&PathElement::new(
+                vec![(x_of(lo) - 4, y), (x_of(hi) + 4, y)],
+                BLACK.stroke_width(4),
+            ))?;
         }
     }
     let caption_y = layout.height as i32 - 22;
@@ -223,7 +249,10 @@ const POSE_ROW_PX: u32 = 150;
 
 /// The timeline on top; underneath, each pose centred on its instant. Poses that would overlap
 /// their left neighbour drop to a second row, so every one stays readable.
-fn draw_timeline_poses<DB: DrawingBackend>(t: &TimelinePoses, root: &DrawingArea<DB, Shift>) -> DrawResult<()>
+fn draw_timeline_poses<DB: DrawingBackend>(
+    t: &TimelinePoses,
+    root: &DrawingArea<DB, Shift>,
+) -> DrawResult<()>
 where
     DB::ErrorType: 'static,
 {
@@ -233,7 +262,8 @@ where
     let mut timeline = t.timeline.clone();
     timeline.lines.clear();
     timeline.points.clear();
-    let xs = timeline.bar_rows.iter().flat_map(|b| b.marks.iter()).chain(t.poses.iter().map(|p| &p.0));
+    let xs =
+        timeline.bar_rows.iter().flat_map(|b| b.marks.iter()).chain(t.poses.iter().map(|p| &p.0));
     let (x0, x1) = timeline.x_range.unwrap_or_else(|| range_of(xs, 0.01));
     timeline.x_range = Some((x0, x1));
     draw_chart(&timeline, &top)?;
@@ -259,24 +289,40 @@ where
         let (pxl, pxh) = range_of(pose.points.iter().map(|q| &q[0]), 0.0);
         let (pyl, pyh) = range_of(pose.points.iter().map(|q| &q[1]), 0.0);
         let half_w = (pxh - pxl) / 2.0 * px_per_mm + 4.0;
-        let row = if cx - half_w > last_right[0] { 0 } else if cx - half_w > last_right[1] { 1 } else { 0 };
+        let row = if cx - half_w > last_right[0] {
+            0
+        } else if cx - half_w > last_right[1] {
+            1
+        } else {
+            0
+        };
         last_right[row] = cx + half_w;
         let base = (row as f64 + 1.0) * POSE_ROW_PX as f64 - 18.0;
         let (mx, my) = ((pxl + pxh) / 2.0, pyl);
-        let to_px = |q: &[f64; 2]| ((cx + (q[0] - mx) * px_per_mm) as i32, (base - (q[1] - my) * px_per_mm) as i32);
+        let to_px = |q: &[f64; 2]| {
+            ((cx + (q[0] - mx) * px_per_mm) as i32, (base - (q[1] - my) * px_per_mm) as i32)
+        };
         for (a, b) in &t.bones {
             if let (Some(p), Some(q)) = (pose.points.get(*a), pose.points.get(*b))
                 && p.iter().chain(q).all(|v| v.is_finite())
             {
-                poses_area.draw(&PathElement::new(vec![to_px(p), to_px(q)], BLACK.stroke_width(1)))?;
+                poses_area
+                    .draw(&PathElement::new(vec![to_px(p), to_px(q)], BLACK.stroke_width(1)))?;
             }
         }
         for p in pose.points.iter().filter(|p| p[0].is_finite() && p[1].is_finite()) {
             poses_area.draw(&Circle::new(to_px(p), 1, color(0).filled()))?;
         }
-        poses_area.draw(&Text::new(pose.label.clone(), (cx as i32 - 14, base as i32 + 4), (family(&pose.label), 11)))?;
+        poses_area.draw(&Text::new(
+            pose.label.clone(),
+            (cx as i32 - 14, base as i32 + 4),
+            (family(&pose.label), 11),
+        ))?;
         // A tick from the pose up to the time axis, so each pose reads against its instant.
-        poses_area.draw(&PathElement::new(vec![(cx as i32, 0), (cx as i32, 6)], RGBColor(120, 120, 120)))?;
+        poses_area.draw(&PathElement::new(
+            vec![(cx as i32, 0), (cx as i32, 6)],
+            RGBColor(120, 120, 120),
+        ))?;
         let _ = pyh;
     }
     Ok(())
@@ -305,12 +351,11 @@ where
     DB::ErrorType: 'static,
 {
     let has_plot = !(c.lines.is_empty() && c.points.is_empty());
-    let xs = c
-        .lines
-        .iter()
-        .chain(&c.points)
-        .flat_map(|s| s.x.iter())
-        .chain(c.bar_rows.iter().flat_map(|b| b.marks.iter().chain(b.bands.iter().flat_map(|(a, z)| [a, z]))));
+    let xs = c.lines.iter().chain(&c.points).flat_map(|s| s.x.iter()).chain(
+        c.bar_rows
+            .iter()
+            .flat_map(|b| b.marks.iter().chain(b.bands.iter().flat_map(|(a, z)| [a, z]))),
+    );
     let (mut x0, mut x1) = c.x_range.unwrap_or_else(|| range_of(xs, 0.01));
     let root = root.titled(&c.title, (family(&c.title), 22))?;
     let rows = c.bar_rows.len();
@@ -325,7 +370,12 @@ where
     };
     let label_area = 150;
     if let Some(area) = plot_area {
-        let ys = c.lines.iter().chain(&c.points).flat_map(|s| s.y.iter()).chain(c.hlines.iter().map(|h| &h.value));
+        let ys = c
+            .lines
+            .iter()
+            .chain(&c.points)
+            .flat_map(|s| s.y.iter())
+            .chain(c.hlines.iter().map(|h| &h.value));
         let (mut y0, mut y1) = c.y_range.unwrap_or_else(|| range_of(ys, 0.05));
         if c.equal_aspect {
             // Widen the narrower axis so one mm is the same length on both.
@@ -365,9 +415,14 @@ where
                 if x.is_finite() && y.is_finite() {
                     segment.push((*x, *y));
                 } else if !segment.is_empty() {
-                    let series = chart.draw_series(LineSeries::new(std::mem::take(&mut segment), col.stroke_width(width)))?;
+                    let series = chart.draw_series(LineSeries::new(
+                        std::mem::take(&mut segment),
+                        col.stroke_width(width),
+                    ))?;
                     if first && !s.label.is_empty() {
-                        series.label(s.label.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], col.stroke_width(2)));
+                        series.label(s.label.clone()).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 18, y)], col.stroke_width(2))
+                        });
                         legend = true;
                     }
                     first = false;
@@ -376,31 +431,55 @@ where
         }
         for (i, s) in c.points.iter().enumerate() {
             let col = color(i + c.lines.len());
-            let pts: Vec<(f64, f64)> = s.x.iter().zip(&s.y).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(x, y)| (*x, *y)).collect();
+            let pts: Vec<(f64, f64)> =
+                s.x.iter()
+                    .zip(&s.y)
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .map(|(x, y)| (*x, *y))
+                    .collect();
             let series = chart.draw_series(pts.iter().map(|p| Circle::new(*p, 5, col.filled())))?;
             if !s.label.is_empty() {
-                series.label(s.label.clone()).legend(move |(x, y)| Circle::new((x + 9, y), 5, col.filled()));
+                series
+                    .label(s.label.clone())
+                    .legend(move |(x, y)| Circle::new((x + 9, y), 5, col.filled()));
                 legend = true;
             }
             for ((x, y), l) in s.x.iter().zip(&s.y).zip(&s.point_labels) {
                 if x.is_finite() && y.is_finite() && !l.is_empty() {
-                    chart.draw_series(std::iter::once(Text::new(l.clone(), (*x, *y), (family(l), 13))))?;
+                    chart.draw_series(std::iter::once(Text::new(
+                        l.clone(),
+                        (*x, *y),
+                        (family(l), 13),
+                    )))?;
                 }
             }
         }
         for (i, h) in c.hlines.iter().enumerate() {
             let col = RGBColor(90, 90, 90);
             let style = ShapeStyle { color: col.to_rgba(), filled: false, stroke_width: 1 };
-            let series = chart.draw_series(DashedLineSeries::new(vec![(x0, h.value), (x1, h.value)], 8, 5, style))?;
+            let series = chart.draw_series(DashedLineSeries::new(
+                vec![(x0, h.value), (x1, h.value)],
+                8,
+                5,
+                style,
+            ))?;
             if !h.label.is_empty() {
                 let lbl = format!("{} = {}", h.label, fmt_num(h.value));
-                series.label(lbl).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], col));
+                series
+                    .label(lbl)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], col));
                 legend = true;
             }
             let _ = i;
         }
         if legend {
-            let names: Vec<&str> = c.lines.iter().chain(&c.points).map(|s| s.label.as_str()).chain(c.hlines.iter().map(|h| h.label.as_str())).collect();
+            let names: Vec<&str> = c
+                .lines
+                .iter()
+                .chain(&c.points)
+                .map(|s| s.label.as_str())
+                .chain(c.hlines.iter().map(|h| h.label.as_str()))
+                .collect();
             let legend_family = family(&names.concat());
             chart
                 .configure_series_labels()
@@ -457,9 +536,14 @@ where
         let top = (rows - r) as f64 - 0.1;
         let bottom = (rows - r - 1) as f64 + 0.1;
         let col = color(r);
-        chart.draw_series(row.bands.iter().map(|(a, b)| Rectangle::new([(*a, bottom), (*b, top)], RGBColor(0, 0, 0).mix(0.18).filled())))?;
+        chart.draw_series(row.bands.iter().map(|(a, b)| {
+            Rectangle::new([(*a, bottom), (*b, top)], RGBColor(0, 0, 0).mix(0.18).filled())
+        }))?;
         chart.draw_series(
-            row.marks.iter().filter(|m| m.is_finite()).map(|m| PathElement::new(vec![(*m, bottom), (*m, top)], col.stroke_width(2))),
+            row.marks
+                .iter()
+                .filter(|m| m.is_finite())
+                .map(|m| PathElement::new(vec![(*m, bottom), (*m, top)], col.stroke_width(2))),
         )?;
     }
     Ok(())
@@ -484,7 +568,11 @@ where
     }
     for (row, area) in s.rows.iter().zip(rows) {
         let (label_area, poses_area) = area.split_horizontally(150);
-        label_area.draw(&Text::new(row.label.clone(), (6, (area.dim_in_pixel().1 / 2) as i32), (family(&row.label), 15)))?;
+        label_area.draw(&Text::new(
+            row.label.clone(),
+            (6, (area.dim_in_pixel().1 / 2) as i32),
+            (family(&row.label), 15),
+        ))?;
         let cells = poses_area.split_evenly((1, row.poses.len().max(1)));
         for (pose, cell) in row.poses.iter().zip(cells) {
             let (cx, cy) = {
@@ -494,14 +582,21 @@ where
             };
             let half = extent * 0.55;
             let (body, lbl) = cell.split_vertically(cell.dim_in_pixel().1 as i32 - 20);
-            let mut chart = ChartBuilder::on(&body).margin(4).build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)?;
+            let mut chart = ChartBuilder::on(&body)
+                .margin(4)
+                .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)?;
             let pts = &pose.points;
             chart.draw_series(s.bones.iter().filter_map(|(a, b)| {
                 let (p, q) = (pts.get(*a)?, pts.get(*b)?);
-                (p.iter().chain(q).all(|v| v.is_finite()))
-                    .then(|| PathElement::new(vec![(p[0], p[1]), (q[0], q[1])], BLACK.stroke_width(2)))
+                (p.iter().chain(q).all(|v| v.is_finite())).then(|| {
+                    PathElement::new(vec![(p[0], p[1]), (q[0], q[1])], BLACK.stroke_width(2))
+                })
             }))?;
-            chart.draw_series(pts.iter().filter(|p| p[0].is_finite() && p[1].is_finite()).map(|p| Circle::new((p[0], p[1]), 2, color(0).filled())))?;
+            chart.draw_series(
+                pts.iter()
+                    .filter(|p| p[0].is_finite() && p[1].is_finite())
+                    .map(|p| Circle::new((p[0], p[1]), 2, color(0).filled())),
+            )?;
             lbl.draw(&Text::new(pose.label.clone(), (4, 2), (family(&pose.label), 13)))?;
         }
     }
@@ -520,7 +615,8 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("mlab-fig-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let x: Vec<f64> = (0..100).map(|i| i as f64 / 10.0).collect();
-        let y: Vec<f64> = x.iter().map(|v| if (3.0..3.5).contains(v) { f64::NAN } else { v.sin() }).collect();
+        let y: Vec<f64> =
+            x.iter().map(|v| if (3.0..3.5).contains(v) { f64::NAN } else { v.sin() }).collect();
         let chart = Chart {
             title: "V with candidates".into(),
             x_label: "time (s)".into(),
@@ -544,7 +640,10 @@ mod tests {
             bones: vec![(0, 1), (1, 2)],
             rows: vec![StickRow {
                 label: "recorded".into(),
-                poses: vec![Pose { label: "f0".into(), points: vec![[0.0, 0.0], [0.0, 500.0], [200.0, 800.0]] }],
+                poses: vec![Pose {
+                    label: "f0".into(),
+                    points: vec![[0.0, 0.0], [0.0, 500.0], [200.0, 800.0]],
+                }],
             }],
             caption: "side view (x–z, mm)".into(),
         };
@@ -553,22 +652,41 @@ mod tests {
             figure: FigureKind::TimelinePoses(TimelinePoses {
                 timeline: timeline.clone(),
                 bones: sticks.bones.clone(),
-                poses: vec![(2.1, sticks.rows[0].poses[0].clone()), (2.2, sticks.rows[0].poses[0].clone())],
+                poses: vec![
+                    (2.1, sticks.rows[0].poses[0].clone()),
+                    (2.2, sticks.rows[0].poses[0].clone()),
+                ],
                 caption: "pose at each fused candidate".into(),
             }),
         };
-        let ranked = |label: &str, mean_rank: f64, secondary: bool| RankedMethod { label: label.into(), mean_rank, secondary };
+        let ranked = |label: &str, mean_rank: f64, secondary: bool| RankedMethod {
+            label: label.into(),
+            mean_rank,
+            secondary,
+        };
         let cd = Figure {
             name: "e".into(),
             figure: FigureKind::CriticalDifference(CriticalDifference {
                 title: "mean rank by covering".into(),
-                methods: vec![ranked("clasp", 1.4, false), ranked("ClaSP (published)", 1.5, true), ranked("window", 4.2, false), ranked("pelt", 2.9, false), ranked("bocpd", 4.0, false)],
+                methods: vec![
+                    ranked("clasp", 1.4, false),
+                    ranked("ClaSP (published)", 1.5, true),
+                    ranked("window", 4.2, false),
+                    ranked("pelt", 2.9, false),
+                    ranked("bocpd", 4.0, false),
+                ],
                 critical_difference: 0.9,
                 cliques: vec![vec![0, 1], vec![2, 4]],
                 caption: "Nemenyi, α = 0.05, 75 series".into(),
             }),
         };
-        for f in [Figure::chart("a", chart), Figure::chart("b", timeline), Figure::sticks("c", sticks), combined, cd] {
+        for f in [
+            Figure::chart("a", chart),
+            Figure::chart("b", timeline),
+            Figure::sticks("c", sticks),
+            combined,
+            cd,
+        ] {
             let paths = render(&f, &dir).unwrap();
             for p in paths {
                 let len = std::fs::metadata(&p).unwrap().len();
@@ -579,7 +697,9 @@ mod tests {
         assert!(svg.contains("V with candidates") && svg.contains("speed (mm/s)"));
         // The diagram labels every method with its mean rank, and the critical difference.
         let svg = std::fs::read_to_string(dir.join("e.svg")).unwrap();
-        for text in ["clasp (1.4)", "ClaSP (published) (1.5)", "window (4.2)", "CD = 0.9", "Nemenyi"] {
+        for text in
+            ["clasp (1.4)", "ClaSP (published) (1.5)", "window (4.2)", "CD = 0.9", "Nemenyi"]
+        {
             assert!(svg.contains(text), "{text} missing");
         }
         std::fs::remove_dir_all(&dir).ok();
@@ -591,15 +711,26 @@ mod tests {
         // kanji differ in pixels.
         let dir = std::env::temp_dir().join(format!("mlab-fig-jp-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let chart = |title: &str| Chart { title: title.into(), x_label: "time (s)".into(), bar_rows: vec![BarRow { label: "truth".into(), marks: vec![1.0], bands: vec![] }], ..Default::default() };
+        let chart = |title: &str| Chart {
+            title: title.into(),
+            x_label: "time (s)".into(),
+            bar_rows: vec![BarRow { label: "truth".into(), marks: vec![1.0], bands: vec![] }],
+            ..Default::default()
+        };
         render(&Figure::chart("left", chart("左膝X (left knee X)")), &dir).unwrap();
         render(&Figure::chart("right", chart("右膝X (left knee X)")), &dir).unwrap();
         render(&Figure::chart("plain", chart("knee X")), &dir).unwrap();
         let read = |n: &str| std::fs::read(dir.join(n)).unwrap();
         assert_ne!(read("left.png"), read("right.png"));
         let svg = String::from_utf8(read("left.svg")).unwrap();
-        assert!(svg.contains("@font-face") && svg.contains(crate::fonts::CJK_FAMILY), "the SVG carries its font");
-        assert!(!String::from_utf8(read("plain.svg")).unwrap().contains("@font-face"), "only where needed");
+        assert!(
+            svg.contains("@font-face") && svg.contains(crate::fonts::CJK_FAMILY),
+            "the SVG carries its font"
+        );
+        assert!(
+            !String::from_utf8(read("plain.svg")).unwrap().contains("@font-face"),
+            "only where needed"
+        );
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use minijinja::value::Serde;
-use minijinja::{context, Environment, Value};
+use minijinja::{Environment, Value, context};
 use polars::prelude::DataFrame;
 use serde::Serialize;
 
@@ -132,7 +132,13 @@ pub struct ComparisonRow {
 
 /// Matches published rows to rows of our table: a row matches when every text value of the
 /// published row equals our row's cell in that column. Numbers are then shown side by side.
-pub fn compare_published(table_name: &str, source: &str, note: &str, published: &[toml::Table], ours: Option<&Table>) -> Comparison {
+pub fn compare_published(
+    table_name: &str,
+    source: &str,
+    note: &str,
+    published: &[toml::Table],
+    ours: Option<&Table>,
+) -> Comparison {
     let mut key_columns: Vec<String> = Vec::new();
     let mut value_columns: Vec<String> = Vec::new();
     for row in published {
@@ -146,7 +152,10 @@ pub fn compare_published(table_name: &str, source: &str, note: &str, published: 
     let rows = published
         .iter()
         .map(|p| {
-            let keys: Vec<String> = key_columns.iter().map(|k| p.get(k).and_then(|v| v.as_str()).unwrap_or("").to_string()).collect();
+            let keys: Vec<String> = key_columns
+                .iter()
+                .map(|k| p.get(k).and_then(|v| v.as_str()).unwrap_or("").to_string())
+                .collect();
             let found = ours.and_then(|t| {
                 (0..t.n_rows()).find(|&r| {
                     key_columns.iter().zip(&keys).all(|(k, want)| match t.column(k) {
@@ -171,7 +180,14 @@ pub fn compare_published(table_name: &str, source: &str, note: &str, published: 
             ComparisonRow { keys, values }
         })
         .collect();
-    Comparison { table: table_name.to_string(), source: source.to_string(), note: note.to_string(), key_columns, value_columns, rows }
+    Comparison {
+        table: table_name.to_string(),
+        source: source.to_string(),
+        note: note.to_string(),
+        key_columns,
+        value_columns,
+        rows,
+    }
 }
 
 fn toml_number(v: &toml::Value) -> String {
@@ -211,7 +227,9 @@ pub fn ceiling_bars(table: &Table) -> Vec<CeilingBar> {
         Some(other) => other.cell(r).parse().unwrap_or(f64::NAN),
         None => f64::NAN,
     };
-    let pct = |v: f64| format!("{}", if v.is_finite() { (v.clamp(0.0, 1.0) * 1000.0).round() / 10.0 } else { 0.0 });
+    let pct = |v: f64| {
+        format!("{}", if v.is_finite() { (v.clamp(0.0, 1.0) * 1000.0).round() / 10.0 } else { 0.0 })
+    };
     let shown = |v: f64| if v.is_finite() { format!("{v:.3}") } else { "—".into() };
     (0..table.n_rows())
         .filter(|&r| text("sequence", r) == "pooled")
@@ -269,12 +287,17 @@ pub fn viewer_links(run_dir: &Path, prefix: &str) -> Vec<ViewerLink> {
     let mut names: Vec<String> = std::fs::read_dir(run_dir.join("viewers"))
         .map(|r| {
             r.filter_map(|e| e.ok())
-                .filter_map(|e| e.file_name().to_str().and_then(|n| n.strip_suffix(".html")).map(str::to_string))
+                .filter_map(|e| {
+                    e.file_name().to_str().and_then(|n| n.strip_suffix(".html")).map(str::to_string)
+                })
                 .collect()
         })
         .unwrap_or_default();
     names.sort();
-    names.into_iter().map(|n| ViewerLink { href: format!("{prefix}viewers/{n}.html"), name: n }).collect()
+    names
+        .into_iter()
+        .map(|n| ViewerLink { href: format!("{prefix}viewers/{n}.html"), name: n })
+        .collect()
 }
 
 /// Writes `<run_dir>/index.html`.
@@ -311,7 +334,11 @@ pub struct IndexEntry {
 }
 
 /// Writes `<reports>/index.html`.
-pub fn write_index(reports: &Path, entries: &[IndexEntry], screenshot: Option<&str>) -> Result<PathBuf> {
+pub fn write_index(
+    reports: &Path,
+    entries: &[IndexEntry],
+    screenshot: Option<&str>,
+) -> Result<PathBuf> {
     let html = env()?
         .get_template("index.html")
         .and_then(|t| t.render(context! { entries => Value::from(Serde(entries)), style => STYLE, screenshot => screenshot }))
@@ -347,7 +374,8 @@ pub fn write_compare_page(path: &Path, page: &ComparePage) -> Result<()> {
         .get_template("compare.html")
         .and_then(|t| t.render(context! { page => Value::from(Serde(page)), style => STYLE }))
         .map_err(template_error)?;
-    std::fs::write(path, crate::fonts::with_cjk_font(html)).map_err(|e| Error::io(path, e).with_location(Location::file(path)))
+    std::fs::write(path, crate::fonts::with_cjk_font(html))
+        .map_err(|e| Error::io(path, e).with_location(Location::file(path)))
 }
 
 #[cfg(test)]
@@ -375,7 +403,15 @@ mod tests {
     }
 
     fn ceiling_table() -> Table {
-        let row = |sequence, f1| CeilingRow { sequence, method: "fused", tolerance: "0.5 s", f1, chance_f1: 0.1, human_f1: 0.8, fraction_of_ceiling: (f1 - 0.1) / 0.7 };
+        let row = |sequence, f1| CeilingRow {
+            sequence,
+            method: "fused",
+            tolerance: "0.5 s",
+            f1,
+            chance_f1: 0.1,
+            human_f1: 0.8,
+            fraction_of_ceiling: (f1 - 0.1) / 0.7,
+        };
         Table::from_records("human_ceiling", "", &[row("86_01", 0.25), row("pooled", 0.4)]).unwrap()
     }
 
@@ -383,7 +419,10 @@ mod tests {
     fn ceiling_bars_are_the_pooled_rows_on_a_zero_to_one_scale() {
         let bars = ceiling_bars(&ceiling_table());
         assert_eq!(bars.len(), 1);
-        assert_eq!((bars[0].chance_pct.as_str(), bars[0].f1_pct.as_str(), bars[0].human_pct.as_str()), ("10", "40", "80"));
+        assert_eq!(
+            (bars[0].chance_pct.as_str(), bars[0].f1_pct.as_str(), bars[0].human_pct.as_str()),
+            ("10", "40", "80")
+        );
         assert_eq!((bars[0].f1.as_str(), bars[0].fraction_of_ceiling.as_str()), ("0.400", "0.429"));
         let mut other = ceiling_table();
         other.name = "table1_precision_recall".into();
@@ -402,7 +441,10 @@ mod tests {
         let ours = Table::from_records(
             "table1",
             "",
-            &[Row { method: "speed", precision: 0.5, recall: 0.25 }, Row { method: "fused", precision: 0.7, recall: 0.9 }],
+            &[
+                Row { method: "speed", precision: 0.5, recall: 0.25 },
+                Row { method: "fused", precision: 0.7, recall: 0.9 },
+            ],
         )
         .unwrap();
         let published: Vec<toml::Table> = vec![
@@ -412,13 +454,21 @@ mod tests {
         let c = compare_published("table1", "Table 1", "", &published, Some(&ours));
         assert_eq!(c.key_columns, vec!["method"]);
         assert_eq!(c.value_columns, vec!["precision", "recall"]);
-        assert_eq!(c.rows[0].values, vec![("0.72".into(), "0.7".into()), ("0.85".into(), "0.9".into())]);
+        assert_eq!(
+            c.rows[0].values,
+            vec![("0.72".into(), "0.7".into()), ("0.85".into(), "0.9".into())]
+        );
         assert_eq!(c.rows[1].values[0].1, "");
     }
 
     #[test]
     fn run_page_escapes_text_and_links_files() {
-        let t = Table::from_records("t1", "A <b>table</b>", &[Row { method: "x<y", precision: 1.0, recall: 0.0 }]).unwrap();
+        let t = Table::from_records(
+            "t1",
+            "A <b>table</b>",
+            &[Row { method: "x<y", precision: 1.0, recall: 0.0 }],
+        )
+        .unwrap();
         let page = RunPage {
             experiment: "e".into(),
             description: "d & e".into(),
@@ -428,27 +478,46 @@ mod tests {
             provenance: vec![("git_revision".into(), "abc".into())],
             inputs: vec![],
             tables: vec![HtmlTable::from_table(&t, "tables/").unwrap()],
-            figures: vec![HtmlFigure { name: "f".into(), title: "F".into(), svg: "figures/f.svg".into(), png: "figures/f.png".into() }],
+            figures: vec![HtmlFigure {
+                name: "f".into(),
+                title: "F".into(),
+                svg: "figures/f.svg".into(),
+                png: "figures/f.png".into(),
+            }],
             comparisons: vec![],
             index_link: "../../index.html".into(),
             screenshot: None,
             viewers: vec![ViewerLink { name: "86_01".into(), href: "viewers/86_01.html".into() }],
             ceiling: ceiling_bars(&ceiling_table()),
-            external_commands: vec![("segmentation.segmenter[1]".into(), "external".into(), "sh -c \"echo <b>\"".into())],
+            external_commands: vec![(
+                "segmentation.segmenter[1]".into(),
+                "external".into(),
+                "sh -c \"echo <b>\"".into(),
+            )],
         };
         let dir = std::env::temp_dir().join(format!("mlab-html-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = write_run_page(&dir, &page).unwrap();
         let html = std::fs::read_to_string(p).unwrap();
         assert!(html.contains("x&lt;y") && html.contains("d &amp; e"), "escaping");
-        assert!(html.contains("External programs") && html.contains("echo &lt;b&gt;"), "external commands listed, escaped");
+        assert!(
+            html.contains("External programs") && html.contains("echo &lt;b&gt;"),
+            "external commands listed, escaped"
+        );
         // minijinja escapes `/` as `&#x2f;` in attributes; browsers decode it back.
         let unescaped = html.replace("&#x2f;", "/");
-        assert!(unescaped.contains("href=\"tables/t1.csv\"") && unescaped.contains("src=\"figures/f.svg\""), "{html}");
+        assert!(
+            unescaped.contains("href=\"tables/t1.csv\"")
+                && unescaped.contains("src=\"figures/f.svg\""),
+            "{html}"
+        );
         assert!(unescaped.contains("href=\"viewers/86_01.html\""), "viewer link");
         // The fused method's pooled F1 0.4 between chance 0.1 and the humans' 0.8.
         assert!(html.contains("Between chance and the annotators"), "ceiling section");
-        assert!(html.contains("left:40%") && html.contains("width:10%") && html.contains("left:80%"), "{html}");
+        assert!(
+            html.contains("left:40%") && html.contains("width:10%") && html.contains("left:80%"),
+            "{html}"
+        );
         assert!(!html.contains("http://") && !html.contains("https://"), "no network references");
         std::fs::remove_dir_all(&dir).ok();
     }

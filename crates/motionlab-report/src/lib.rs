@@ -16,5 +16,7 @@ pub mod pages;
 pub mod tables;
 pub mod viewer;
 
-pub use figures::{BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip, TimelinePoses};
-pub use tables::{to_dataframe, write_table, WrittenTable};
+pub use figures::{
+    BarRow, Chart, Figure, FigureKind, Pose, RefLine, Series, StickRow, StickStrip, TimelinePoses,
+};
+pub use tables::{WrittenTable, to_dataframe, write_table};

@@ -45,7 +45,10 @@ pub struct FileLists {
 impl FileLists {
     pub fn of(written: &Written) -> FileLists {
         let text = |p: &PathBuf| p.to_string_lossy().into_owned();
-        FileLists { tables: written.tables.iter().map(text).collect(), figures: written.figures.iter().map(text).collect() }
+        FileLists {
+            tables: written.tables.iter().map(text).collect(),
+            figures: written.figures.iter().map(text).collect(),
+        }
     }
 }
 
@@ -77,7 +80,8 @@ pub fn write(run_dir: &Path, out: &Output) -> Result<Written> {
         let w = write_table(t, &tables_dir)?;
         tables.extend([w.csv, w.parquet, w.markdown].map(relative));
     }
-    let rendered: Vec<Vec<PathBuf>> = out.figures.par_iter().map(|f| render(f, &figures_dir)).collect::<Result<_>>()?;
+    let rendered: Vec<Vec<PathBuf>> =
+        out.figures.par_iter().map(|f| render(f, &figures_dir)).collect::<Result<_>>()?;
     let figures = rendered.into_iter().flatten().map(relative).collect();
     if !out.files.is_empty() {
         let dir = subdir(run_dir, "files")?;
@@ -88,9 +92,16 @@ pub fn write(run_dir: &Path, out: &Output) -> Result<Written> {
     }
     if !out.viewers.is_empty() {
         let dir = run_dir.join("viewers");
-        out.viewers.par_iter().map(|v| crate::viewer::write(&dir, v).map(|_| ())).collect::<Result<Vec<_>>>()?;
+        out.viewers
+            .par_iter()
+            .map(|v| crate::viewer::write(&dir, v).map(|_| ()))
+            .collect::<Result<Vec<_>>>()?;
     }
-    let listing = out.figures.iter().map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() }).collect();
+    let listing = out
+        .figures
+        .iter()
+        .map(|f| FigureEntry { name: f.name.clone(), title: f.title().to_string() })
+        .collect();
     Ok(Written { tables, figures, listing })
 }
 
@@ -113,21 +124,43 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("mlab-output-{}", std::process::id()));
         let mut t = Table::new("speeds", "Speeds");
         t.push_column("v", ColumnValues::F64(vec![1.0, 2.5])).unwrap();
-        let chart = Chart { title: "Speed".into(), x_label: "frame".into(), y_label: "mm/s".into(), lines: vec![Series::new("v", vec![0.0, 1.0], vec![1.0, 2.5])], ..Default::default() };
-        let out = Output { tables: vec![t], figures: vec![Figure::chart("speed", chart)], files: vec![("walk.bvh".into(), b"HIERARCHY".to_vec())], viewers: vec![], ..Output::default() };
+        let chart = Chart {
+            title: "Speed".into(),
+            x_label: "frame".into(),
+            y_label: "mm/s".into(),
+            lines: vec![Series::new("v", vec![0.0, 1.0], vec![1.0, 2.5])],
+            ..Default::default()
+        };
+        let out = Output {
+            tables: vec![t],
+            figures: vec![Figure::chart("speed", chart)],
+            files: vec![("walk.bvh".into(), b"HIERARCHY".to_vec())],
+            viewers: vec![],
+            ..Output::default()
+        };
         let w = write(&dir, &out).unwrap();
-        let names = |v: &[PathBuf]| v.iter().map(|p| p.to_string_lossy().into_owned()).collect::<Vec<_>>();
-        assert_eq!(names(&w.tables), ["tables/speeds.csv", "tables/speeds.parquet", "tables/speeds.md"]);
+        let names =
+            |v: &[PathBuf]| v.iter().map(|p| p.to_string_lossy().into_owned()).collect::<Vec<_>>();
+        assert_eq!(
+            names(&w.tables),
+            ["tables/speeds.csv", "tables/speeds.parquet", "tables/speeds.md"]
+        );
         assert_eq!(names(&w.figures), ["figures/speed.png", "figures/speed.svg"]);
         assert_eq!(w.listing.len(), 1);
         assert_eq!((w.listing[0].name.as_str(), w.listing[0].title.as_str()), ("speed", "Speed"));
-        assert_eq!(std::fs::read_to_string(dir.join("tables/speeds.csv")).unwrap(), "v\n1.0\n2.5\n");
+        assert_eq!(
+            std::fs::read_to_string(dir.join("tables/speeds.csv")).unwrap(),
+            "v\n1.0\n2.5\n"
+        );
         assert_eq!(std::fs::read(dir.join("files/walk.bvh")).unwrap(), b"HIERARCHY");
         assert!(dir.join("figures/speed.png").is_file() && !dir.join("viewers").exists());
         let twice = Written::concat([&w, &Written::default(), &w]);
         assert_eq!(twice.listing.len(), 2);
         let lists = FileLists::of(&twice);
-        assert_eq!(lists.figures, ["figures/speed.png", "figures/speed.svg", "figures/speed.png", "figures/speed.svg"]);
+        assert_eq!(
+            lists.figures,
+            ["figures/speed.png", "figures/speed.svg", "figures/speed.png", "figures/speed.svg"]
+        );
         assert_eq!(lists.tables.len(), 6);
         std::fs::remove_dir_all(&dir).unwrap();
     }

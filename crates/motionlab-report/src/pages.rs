@@ -8,7 +8,10 @@ use std::path::{Path, PathBuf};
 use motionlab_core::paths::safe_file_name;
 use motionlab_core::{ColumnValues, Error, ErrorKind, Result, Table};
 
-use crate::html::{ceiling_bars, compare_published, viewer_links, write_index, write_run_page, HtmlFigure, HtmlTable, IndexEntry, RunPage};
+use crate::html::{
+    HtmlFigure, HtmlTable, IndexEntry, RunPage, ceiling_bars, compare_published, viewer_links,
+    write_index, write_run_page,
+};
 use crate::output::{FigureEntry, Written};
 use motionlab_experiment::spec::{ExperimentFile, Headline};
 
@@ -24,9 +27,11 @@ pub fn write_run_html(
     outputs: &[&Written],
     run_id: &str,
 ) -> Result<PathBuf> {
-    let listing: Vec<FigureEntry> = outputs.iter().flat_map(|w| w.listing.iter().cloned()).collect();
+    let listing: Vec<FigureEntry> =
+        outputs.iter().flat_map(|w| w.listing.iter().cloned()).collect();
     let index = run_dir.join("figures").join("index.json");
-    let json = serde_json::to_vec_pretty(&listing).map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))?;
+    let json = serde_json::to_vec_pretty(&listing)
+        .map_err(|e| Error::new(ErrorKind::Report, format!("cannot write JSON: {e}")))?;
     std::fs::write(&index, json).map_err(|e| Error::io(&index, e))?;
     write_page(run_dir, file, config_toml, tables, &listing, run_id, false)
 }
@@ -53,18 +58,38 @@ fn write_page(
                 // Listed in a section of their own, escaped like every other text.
                 ("external_commands", serde_json::Value::Array(a)) => {
                     for c in a {
-                        let text = |key: &str| c.get(key).and_then(|x| x.as_str()).unwrap_or_default().to_string();
+                        let text = |key: &str| {
+                            c.get(key).and_then(|x| x.as_str()).unwrap_or_default().to_string()
+                        };
                         let args: Vec<String> = c
                             .get("command")
                             .and_then(|x| x.as_array())
-                            .map(|a| a.iter().map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).collect())
+                            .map(|a| {
+                                a.iter()
+                                    .map(|x| {
+                                        x.as_str()
+                                            .map(str::to_string)
+                                            .unwrap_or_else(|| x.to_string())
+                                    })
+                                    .collect()
+                            })
                             .unwrap_or_default();
-                        external_commands.push((text("at"), text("plugin"), motionlab_core::programs::command_line(&args)));
+                        external_commands.push((
+                            text("at"),
+                            text("plugin"),
+                            motionlab_core::programs::command_line(&args),
+                        ));
                     }
                 }
                 ("inputs", serde_json::Value::Array(a)) => {
                     for f in a {
-                        let g = |key: &str| f.get(key).map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).unwrap_or_default();
+                        let g = |key: &str| {
+                            f.get(key)
+                                .map(|x| {
+                                    x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())
+                                })
+                                .unwrap_or_default()
+                        };
                         inputs.push((g("path"), g("bytes"), g("sha256")));
                     }
                 }
@@ -72,17 +97,28 @@ fn write_page(
                 // The per-input record is for provenance.json; the page shows where and how much.
                 ("cache", serde_json::Value::Object(c)) => {
                     let dir = c.get("dir").and_then(|d| d.as_str()).unwrap_or("none (--no-cache)");
-                    provenance.push((k.clone(), format!("{dir}; stages {}", c.get("totals").map(|t| t.to_string()).unwrap_or_default())))
+                    provenance.push((
+                        k.clone(),
+                        format!(
+                            "{dir}; stages {}",
+                            c.get("totals").map(|t| t.to_string()).unwrap_or_default()
+                        ),
+                    ))
                 }
-                (_, serde_json::Value::Array(a)) => {
-                    provenance.push((k.clone(), a.iter().map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string())).collect::<Vec<_>>().join(" ")))
-                }
+                (_, serde_json::Value::Array(a)) => provenance.push((
+                    k.clone(),
+                    a.iter()
+                        .map(|x| x.as_str().map(str::to_string).unwrap_or_else(|| x.to_string()))
+                        .collect::<Vec<_>>()
+                        .join(" "),
+                )),
                 (_, serde_json::Value::String(s)) => provenance.push((k.clone(), s.clone())),
                 (_, other) => provenance.push((k.clone(), other.to_string())),
             }
         }
     }
-    let html_tables = tables.iter().map(|t| HtmlTable::from_table(t, "tables/")).collect::<Result<Vec<_>>>()?;
+    let html_tables =
+        tables.iter().map(|t| HtmlTable::from_table(t, "tables/")).collect::<Result<Vec<_>>>()?;
     let html_figures = figures
         .iter()
         .map(|f| {
@@ -98,7 +134,15 @@ fn write_page(
     let comparisons = file
         .published
         .iter()
-        .map(|p| compare_published(&p.table, &p.source, &p.note, &p.rows, tables.iter().find(|t| t.name == p.table)))
+        .map(|p| {
+            compare_published(
+                &p.table,
+                &p.source,
+                &p.note,
+                &p.rows,
+                tables.iter().find(|t| t.name == p.table),
+            )
+        })
         .collect();
     let page = RunPage {
         experiment: file.experiment.name.clone(),
@@ -169,14 +213,18 @@ pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()
         .filter(|p| p.extension().is_some_and(|e| e == "csv"))
         .collect();
     names.sort();
-    let stem_of = |p: &Path| p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem_of =
+        |p: &Path| p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     // A pattern that keeps no table is a typo; dropping tables silently would hide it.
     if let Some(patterns) = &file.experiment.record_tables {
         let stems: Vec<String> = names.iter().map(|p| stem_of(p)).collect();
         if let Some(p) = patterns.iter().find(|p| !stems.iter().any(|s| wildcard(p, s))) {
             return Err(motionlab_core::Error::new(
                 motionlab_core::ErrorKind::UnknownName,
-                format!("record_tables pattern {p:?} matches no table of the run; its tables are: {}", stems.join(", ")),
+                format!(
+                    "record_tables pattern {p:?} matches no table of the run; its tables are: {}",
+                    stems.join(", ")
+                ),
             )
             .with_field("experiment.record_tables"));
         }
@@ -190,7 +238,8 @@ pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()
         }
         for ext in ["csv", "md"] {
             let from = run.join("tables").join(format!("{stem}.{ext}"));
-            std::fs::copy(&from, tables_dir.join(format!("{stem}.{ext}"))).map_err(|e| io(&from, e))?;
+            std::fs::copy(&from, tables_dir.join(format!("{stem}.{ext}")))
+                .map_err(|e| io(&from, e))?;
         }
         if let Some(mut t) = read_table_csv(&csv, &stem) {
             // The Markdown's heading is the table's title.
@@ -204,7 +253,10 @@ pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok())
         .unwrap_or_default();
-    let kept: Vec<FigureEntry> = entries.into_iter().filter(|f| file.experiment.record_figures.iter().any(|p| wildcard(p, &f.name))).collect();
+    let kept: Vec<FigureEntry> = entries
+        .into_iter()
+        .filter(|f| file.experiment.record_figures.iter().any(|p| wildcard(p, &f.name)))
+        .collect();
     for f in &kept {
         let file = format!("{}.png", safe_file_name(&f.name));
         let from = run.join("figures").join(&file);
@@ -217,7 +269,10 @@ pub fn write_record(run: &Path, dest: &Path, file: &ExperimentFile) -> Result<()
         }
     }
     let config = std::fs::read_to_string(run.join("config.toml")).unwrap_or_default();
-    let run_id = format!("record of {}", run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+    let run_id = format!(
+        "record of {}",
+        run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+    );
     write_page(dest, file, &config, &tables, &kept, &run_id, true)?;
     Ok(())
 }
@@ -230,8 +285,12 @@ pub fn read_table_csv(path: &Path, name: &str) -> Option<Table> {
     let rows: Vec<Vec<String>> = lines.map(split_csv_line).collect();
     let mut t = Table::new(name, name);
     for (c, h) in header.iter().enumerate() {
-        let cells: Vec<&str> = rows.iter().map(|r| r.get(c).map(String::as_str).unwrap_or("")).collect();
-        let nums: Option<Vec<f64>> = cells.iter().map(|s| if s.is_empty() { Some(f64::NAN) } else { s.parse::<f64>().ok() }).collect();
+        let cells: Vec<&str> =
+            rows.iter().map(|r| r.get(c).map(String::as_str).unwrap_or("")).collect();
+        let nums: Option<Vec<f64>> = cells
+            .iter()
+            .map(|s| if s.is_empty() { Some(f64::NAN) } else { s.parse::<f64>().ok() })
+            .collect();
         let values = match nums {
             Some(v) if cells.iter().any(|s| !s.is_empty()) => ColumnValues::F64(v),
             _ => ColumnValues::Str(cells.iter().map(|s| Some(s.to_string())).collect()),
@@ -264,8 +323,12 @@ fn split_csv_line(line: &str) -> Vec<String> {
 
 /// The value of one headline cell in a run.
 fn headline_value(run: &Path, h: &Headline) -> Option<String> {
-    let t = read_table_csv(&run.join("tables").join(format!("{}.csv", safe_file_name(&h.table))), &h.table)?;
-    let row = (0..t.n_rows()).find(|&r| h.filter.iter().all(|(k, v)| t.column(k).is_some_and(|c| c.cell(r) == *v)))?;
+    let t = read_table_csv(
+        &run.join("tables").join(format!("{}.csv", safe_file_name(&h.table))),
+        &h.table,
+    )?;
+    let row = (0..t.n_rows())
+        .find(|&r| h.filter.iter().all(|(k, v)| t.column(k).is_some_and(|c| c.cell(r) == *v)))?;
     Some(match t.column(&h.column)? {
         ColumnValues::F64(v) => motionlab_core::table::fmt_num(v[row]),
         other => other.cell(row),
@@ -276,7 +339,11 @@ fn headline_value(run: &Path, h: &Headline) -> Option<String> {
 /// experiment links its latest run, or — with `prefer_record`, or when it never ran here — its
 /// committed run of record (`reports/<name>/record/`), so the committed index works on a fresh
 /// clone.
-pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_record: bool) -> Result<PathBuf> {
+pub fn write_reproduction_index(
+    experiments_dir: &Path,
+    reports: &Path,
+    prefer_record: bool,
+) -> Result<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(experiments_dir)
         .map_err(|e| motionlab_core::Error::io(experiments_dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -286,12 +353,22 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
     let mut entries = Vec::new();
     for f in files {
         // Bounded like any experiment file: the folder may hold one from someone else.
-        let Ok(motionlab_experiment::Source { text, .. }) = motionlab_experiment::Source::read(&f) else { continue };
+        let Ok(motionlab_experiment::Source { text, .. }) = motionlab_experiment::Source::read(&f)
+        else {
+            continue;
+        };
         // Only the fixed part of the schema: the workflow section is the workflow's own.
         let Ok(doc) = toml::from_str::<toml::Table>(&text) else { continue };
-        let Ok(file) = toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into::<ExperimentFile>() else { continue };
+        let Ok(file) =
+            toml::Value::Table(ExperimentFile::fixed_part(&doc)).try_into::<ExperimentFile>()
+        else {
+            continue;
+        };
         let exp_dir = reports.join(&file.experiment.name);
-        let latest = std::fs::read_to_string(exp_dir.join("latest")).ok().map(|s| s.trim().to_string()).filter(|s| !s.is_empty());
+        let latest = std::fs::read_to_string(exp_dir.join("latest"))
+            .ok()
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty());
         // Fall back to the committed run of record when nothing ran on this machine.
         let record = Some(exp_dir.join("record")).filter(|p| p.is_dir());
         let latest_run = latest.clone().map(|l| exp_dir.join(l)).filter(|p| p.is_dir());
@@ -300,7 +377,11 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
             .map(|r| {
                 // Runs made on this machine: not hidden (in-progress) folders, not the record.
                 r.filter_map(|e| e.ok())
-                    .filter(|e| e.path().is_dir() && !e.file_name().to_string_lossy().starts_with('.') && e.file_name() != "record")
+                    .filter(|e| {
+                        e.path().is_dir()
+                            && !e.file_name().to_string_lossy().starts_with('.')
+                            && e.file_name() != "record"
+                    })
                     .count()
             })
             .unwrap_or(0);
@@ -310,27 +391,46 @@ pub fn write_reproduction_index(experiments_dir: &Path, reports: &Path, prefer_r
         });
         let ceiling = run
             .as_ref()
-            .and_then(|r| read_table_csv(&r.join("tables").join("human_ceiling.csv"), "human_ceiling"))
+            .and_then(|r| {
+                read_table_csv(&r.join("tables").join("human_ceiling.csv"), "human_ceiling")
+            })
             .map(|t| ceiling_bars(&t))
             .unwrap_or_default();
         let (latest_link, latest_id, finished_utc, headline, comparisons) = match &run {
             Some(run) => {
-                let id = run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                let id =
+                    run.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
                 let finished = std::fs::read(run.join("provenance.json"))
                     .ok()
                     .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-                    .and_then(|v| v.get("finished_utc").and_then(|x| x.as_str()).map(str::to_string))
+                    .and_then(|v| {
+                        v.get("finished_utc").and_then(|x| x.as_str()).map(str::to_string)
+                    })
                     .unwrap_or_default();
-                let headline = file.experiment.headline.iter().filter_map(|h| Some((h.label.clone(), headline_value(run, h)?))).collect();
+                let headline = file
+                    .experiment
+                    .headline
+                    .iter()
+                    .filter_map(|h| Some((h.label.clone(), headline_value(run, h)?)))
+                    .collect();
                 let comparisons = file
                     .published
                     .iter()
                     .map(|p| {
-                        let ours = read_table_csv(&run.join("tables").join(format!("{}.csv", safe_file_name(&p.table))), &p.table);
+                        let ours = read_table_csv(
+                            &run.join("tables").join(format!("{}.csv", safe_file_name(&p.table))),
+                            &p.table,
+                        );
                         compare_published(&p.table, &p.source, &p.note, &p.rows, ours.as_ref())
                     })
                     .collect();
-                (format!("{}/{id}/index.html", file.experiment.name), id, finished, headline, comparisons)
+                (
+                    format!("{}/{id}/index.html", file.experiment.name),
+                    id,
+                    finished,
+                    headline,
+                    comparisons,
+                )
             }
             None => (String::new(), String::new(), String::new(), Vec::new(), Vec::new()),
         };

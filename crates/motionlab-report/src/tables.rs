@@ -51,7 +51,9 @@ pub fn write_table(table: &Table, dir: &Path) -> Result<WrittenTable> {
     let parquet = dir.join(format!("{stem}.parquet"));
     let markdown = dir.join(format!("{stem}.md"));
     let create = |p: &Path| File::create(p).map_err(|e| Error::io(p, e));
-    CsvWriter::new(create(&csv)?).finish(&mut df).map_err(|e| polars_error(&table.name, e).with_location(Location::file(&csv)))?;
+    CsvWriter::new(create(&csv)?)
+        .finish(&mut df)
+        .map_err(|e| polars_error(&table.name, e).with_location(Location::file(&csv)))?;
     ParquetWriter::new(create(&parquet)?)
         .finish(&mut df)
         .map_err(|e| polars_error(&table.name, e).with_location(Location::file(&parquet)))?;
@@ -76,14 +78,20 @@ pub fn format_cell(v: &AnyValue<'_>) -> String {
 /// Rows of formatted cells, for Markdown and HTML.
 pub fn formatted_rows(df: &DataFrame) -> Vec<Vec<String>> {
     (0..df.height())
-        .map(|r| df.columns().iter().map(|c| c.get(r).map(|v| format_cell(&v)).unwrap_or_default()).collect())
+        .map(|r| {
+            df.columns()
+                .iter()
+                .map(|c| c.get(r).map(|v| format_cell(&v)).unwrap_or_default())
+                .collect()
+        })
         .collect()
 }
 
 /// A GitHub-flavoured Markdown table of a DataFrame.
 pub fn markdown_of(df: &DataFrame) -> String {
     let names: Vec<String> = df.get_column_names().iter().map(|n| n.to_string()).collect();
-    let numeric: Vec<bool> = df.columns().iter().map(|c| c.dtype().is_primitive_numeric()).collect();
+    let numeric: Vec<bool> =
+        df.columns().iter().map(|c| c.dtype().is_primitive_numeric()).collect();
     let mut out = format!("| {} |\n", names.join(" | "));
     out.push_str(&format!(
         "|{}|\n",
@@ -91,7 +99,8 @@ pub fn markdown_of(df: &DataFrame) -> String {
     ));
     for row in formatted_rows(df) {
         // A `|` or a line break inside a cell (a method or annotator name) would break the table.
-        let cells: Vec<String> = row.into_iter().map(|c| c.replace('|', "\\|").replace(['\n', '\r'], " ")).collect();
+        let cells: Vec<String> =
+            row.into_iter().map(|c| c.replace('|', "\\|").replace(['\n', '\r'], " ")).collect();
         out.push_str(&format!("| {} |\n", cells.join(" | ")));
     }
     out
@@ -114,7 +123,10 @@ mod tests {
         let t = Table::from_records(
             "table1",
             "Table 1",
-            &[Row { method: "speed", precision: 0.64, n: 3, ok: true }, Row { method: "fused|x", precision: f64::NAN, n: 4, ok: false }],
+            &[
+                Row { method: "speed", precision: 0.64, n: 3, ok: true },
+                Row { method: "fused|x", precision: f64::NAN, n: 4, ok: false },
+            ],
         )
         .unwrap();
         let dir = std::env::temp_dir().join(format!("mlab-tab-{}", std::process::id()));
@@ -136,16 +148,34 @@ mod tests {
     /// parses back to the same bits (zmij), which this pins.
     #[test]
     fn csv_floats_parse_back_to_the_same_bits() {
-        let xs = [0.1 + 0.2, 1.0 / 3.0, -123456.789e-300, 2f64.sqrt() * 1e17, 5e-324, f64::MAX, -0.0, 10.258403953060842, f64::NAN, f64::INFINITY];
+        let xs = [
+            0.1 + 0.2,
+            1.0 / 3.0,
+            -123456.789e-300,
+            2f64.sqrt() * 1e17,
+            5e-324,
+            f64::MAX,
+            -0.0,
+            10.258403953060842,
+            f64::NAN,
+            f64::INFINITY,
+        ];
         let mut t = Table::new("floats", "floats");
         t.push_column("x", ColumnValues::F64(xs.to_vec())).unwrap();
         let dir = std::env::temp_dir().join(format!("mlab-floats-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let csv = std::fs::read_to_string(write_table(&t, &dir).unwrap().csv).unwrap();
-        let back: Vec<f64> = csv.lines().skip(1).map(|l| l.parse::<f64>().unwrap_or_else(|e| panic!("{l:?}: {e}"))).collect();
+        let back: Vec<f64> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.parse::<f64>().unwrap_or_else(|e| panic!("{l:?}: {e}")))
+            .collect();
         assert_eq!(back.len(), xs.len());
         for (a, b) in xs.iter().zip(&back) {
-            assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{a:e} written as {b:e}\n{csv}");
+            assert!(
+                a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                "{a:e} written as {b:e}\n{csv}"
+            );
         }
         std::fs::remove_dir_all(&dir).ok();
     }

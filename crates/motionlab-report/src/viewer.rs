@@ -30,7 +30,9 @@ use std::path::{Path, PathBuf};
 use base64::Engine;
 use serde::Serialize;
 
-use motionlab_core::viewer::{AnnotationSpec, EventKind, IntervalKind, Lane, MarkStatus, ViewerSpec};
+use motionlab_core::viewer::{
+    AnnotationSpec, EventKind, IntervalKind, Lane, MarkStatus, ViewerSpec,
+};
 use motionlab_core::{Error, ErrorKind, Location, Result};
 
 const TEMPLATE: &str = include_str!("../templates/viewer.html");
@@ -46,7 +48,11 @@ struct Quant {
 }
 
 /// Quantises one channel to codes, delta-coded, appended to the low- and high-byte planes.
-fn encode_channel(values: &mut dyn Iterator<Item = f64>, lo: &mut Vec<u8>, hi: &mut Vec<u8>) -> Quant {
+fn encode_channel(
+    values: &mut dyn Iterator<Item = f64>,
+    lo: &mut Vec<u8>,
+    hi: &mut Vec<u8>,
+) -> Quant {
     let values: Vec<f64> = values.collect();
     let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.iter().copied().filter(|v| v.is_finite()) {
@@ -60,7 +66,11 @@ fn encode_channel(values: &mut dyn Iterator<Item = f64>, lo: &mut Vec<u8>, hi: &
     };
     let mut prev: u16 = 0;
     for v in values {
-        let code: u16 = if v.is_finite() { 1 + ((v - q.offset) / q.step).round().clamp(0.0, 65534.0) as u16 } else { 0 };
+        let code: u16 = if v.is_finite() {
+            1 + ((v - q.offset) / q.step).round().clamp(0.0, 65534.0) as u16
+        } else {
+            0
+        };
         let d = code.wrapping_sub(prev);
         prev = code;
         lo.push(d as u8);
@@ -149,7 +159,11 @@ fn encode(spec: &ViewerSpec, back_link: Option<&str>) -> Result<(String, String)
                 tolerance_frames: l.tolerance_frames,
                 windows: &l.windows,
                 judged_against: l.judged_against.as_deref(),
-                marks: l.marks.iter().map(|k| MetaMark { frame: k.frame, label: &k.label, status: k.status }).collect(),
+                marks: l
+                    .marks
+                    .iter()
+                    .map(|k| MetaMark { frame: k.frame, label: &k.label, status: k.status })
+                    .collect(),
             },
             Lane::Trace(l) => MetaLane::Trace {
                 name: &l.name,
@@ -181,16 +195,26 @@ fn encode(spec: &ViewerSpec, back_link: Option<&str>) -> Result<(String, String)
         lanes,
         annotation: spec.annotation.as_ref(),
     };
-    let json = serde_json::to_string(&meta).map_err(|e| Error::new(ErrorKind::Report, format!("viewer metadata: {e}")))?;
-    let mut gz = flate2::write::GzEncoder::new(Vec::with_capacity(planes.len() / 3), flate2::Compression::new(6));
-    gz.write_all(&planes).map_err(|e| Error::new(ErrorKind::Report, format!("viewer data: {e}")))?;
-    let packed = gz.finish().map_err(|e| Error::new(ErrorKind::Report, format!("viewer data: {e}")))?;
+    let json = serde_json::to_string(&meta)
+        .map_err(|e| Error::new(ErrorKind::Report, format!("viewer metadata: {e}")))?;
+    let mut gz = flate2::write::GzEncoder::new(
+        Vec::with_capacity(planes.len() / 3),
+        flate2::Compression::new(6),
+    );
+    gz.write_all(&planes)
+        .map_err(|e| Error::new(ErrorKind::Report, format!("viewer data: {e}")))?;
+    let packed =
+        gz.finish().map_err(|e| Error::new(ErrorKind::Report, format!("viewer data: {e}")))?;
     Ok((json, base64::engine::general_purpose::STANDARD.encode(packed)))
 }
 
 /// Text safe inside HTML element content.
 fn escape_html(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('{', "&#123;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('{', "&#123;")
 }
 
 /// The whole page as text. `back_link` is a relative link shown as "run page".
@@ -203,7 +227,9 @@ pub fn render_page(spec: &ViewerSpec, back_link: Option<&str>) -> Result<String>
     let json = json.replace('<', "\\u003c").replace('>', "\\u003e").replace('&', "\\u0026");
     // Split at the data's place first: no text from the spec can then be taken for a placeholder.
     let (head, tail) = TEMPLATE.split_once("{{DATA}}").unwrap_or((TEMPLATE, ""));
-    let head = crate::fonts::with_cjk_font(head.replace("{{TITLE}}", &escape_html(&spec.title)).replace("{{META}}", &json));
+    let head = crate::fonts::with_cjk_font(
+        head.replace("{{TITLE}}", &escape_html(&spec.title)).replace("{{META}}", &json),
+    );
     // Pages without annotation mode (matching, gait) get the few names the player calls.
     let annotate = if spec.annotation.is_some() { ANNOTATE_SCRIPT } else { NO_ANNOTATION };
     let script = SCRIPT.replace("/*{{ANNOTATE}}*/", annotate);
@@ -216,19 +242,24 @@ pub fn write(dir: &Path, spec: &ViewerSpec) -> Result<PathBuf> {
 }
 
 /// [`write`] with a chosen link back (or none).
-pub fn write_with_back_link(dir: &Path, spec: &ViewerSpec, back_link: Option<&str>) -> Result<PathBuf> {
+pub fn write_with_back_link(
+    dir: &Path,
+    spec: &ViewerSpec,
+    back_link: Option<&str>,
+) -> Result<PathBuf> {
     let page = render_page(spec, back_link)?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let path = dir.join(format!("{}.html", motionlab_core::paths::safe_file_name(&spec.name)));
-    std::fs::write(&path, page).map_err(|e| Error::io(&path, e).with_location(Location::file(&path)))?;
+    std::fs::write(&path, page)
+        .map_err(|e| Error::io(&path, e).with_location(Location::file(&path)))?;
     Ok(path)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::viewer::{EventLane, TraceLane, TraceSeries, ViewerMotion};
     use motionlab_core::Axis;
+    use motionlab_core::viewer::{EventLane, TraceLane, TraceSeries, ViewerMotion};
     use std::io::Read;
 
     fn decode(lo: &[u8], hi: &[u8], q: Quant) -> Vec<f64> {
@@ -244,7 +275,9 @@ mod tests {
 
     #[test]
     fn channels_round_trip_within_half_a_step_and_keep_nan() {
-        let values: Vec<f64> = (0..500).map(|i| if i % 97 == 5 { f64::NAN } else { 1000.0 * (i as f64 * 0.05).sin() - 300.0 }).collect();
+        let values: Vec<f64> = (0..500)
+            .map(|i| if i % 97 == 5 { f64::NAN } else { 1000.0 * (i as f64 * 0.05).sin() - 300.0 })
+            .collect();
         let (mut lo, mut hi) = (Vec::new(), Vec::new());
         let q = encode_channel(&mut values.iter().copied(), &mut lo, &mut hi);
         let back = decode(&lo, &hi, q);
@@ -260,7 +293,10 @@ mod tests {
             let (mut lo, mut hi) = (Vec::new(), Vec::new());
             let q = encode_channel(&mut vals.iter().copied(), &mut lo, &mut hi);
             let back = decode(&lo, &hi, q);
-            assert!(vals.iter().zip(&back).all(|(a, b)| a == b || (a.is_nan() && b.is_nan())), "{back:?}");
+            assert!(
+                vals.iter().zip(&back).all(|(a, b)| a == b || (a.is_nan() && b.is_nan())),
+                "{back:?}"
+            );
         }
     }
 
@@ -270,7 +306,11 @@ mod tests {
             .flat_map(|f| {
                 (0..points).map(move |k| {
                     let t = f as f32 / 120.0;
-                    [1000.0 * t + 30.0 * (t * 7.0 + k as f32).sin(), 200.0 * (k as f32 * 0.3).cos(), 50.0 * k as f32 + 20.0 * (t * 5.0).sin()]
+                    [
+                        1000.0 * t + 30.0 * (t * 7.0 + k as f32).sin(),
+                        200.0 * (k as f32 * 0.3).cos(),
+                        50.0 * k as f32 + 20.0 * (t * 5.0).sin(),
+                    ]
                 })
             })
             .collect();
@@ -288,7 +328,10 @@ mod tests {
         s.lanes.push(Lane::Trace(TraceLane {
             name: "speed".into(),
             unit: "mm/s".into(),
-            series: vec![TraceSeries { name: "V".into(), values: (0..n).map(|f| (f as f64 * 0.01).sin().abs() * 900.0).collect() }],
+            series: vec![TraceSeries {
+                name: "V".into(),
+                values: (0..n).map(|f| (f as f64 * 0.01).sin().abs() * 900.0).collect(),
+            }],
             thresholds: vec![],
         }));
         s
@@ -304,7 +347,10 @@ mod tests {
         let meta: serde_json::Value = serde_json::from_str(&json).unwrap();
         assert_eq!(meta["lanes"][0]["marks"][1]["frame"], 150);
         assert!(meta["annotation"].is_null());
-        assert!(!page.contains("{{ANNOTATE}}") && !page.contains("function annoEafText"), "no annotation script without annotation mode");
+        assert!(
+            !page.contains("{{ANNOTATE}}") && !page.contains("function annoEafText"),
+            "no annotation script without annotation mode"
+        );
         let packed = base64::engine::general_purpose::STANDARD.decode(data).unwrap();
         let mut planes = Vec::new();
         flate2::read::GzDecoder::new(&packed[..]).read_to_end(&mut planes).unwrap();
@@ -316,9 +362,13 @@ mod tests {
             offset: meta["positions"][3][2]["offset"].as_f64().unwrap(),
             step: meta["positions"][3][2]["step"].as_f64().unwrap(),
         };
-        let back = decode(&planes[c * 600..c * 600 + 300], &planes[c * 600 + 300..c * 600 + 600], q);
+        let back =
+            decode(&planes[c * 600..c * 600 + 300], &planes[c * 600 + 300..c * 600 + 600], q);
         for f in [0, 77, 299] {
-            assert!((back[f] - s.motion.positions_mm[f * 5 + 3][2] as f64).abs() <= q.step, "frame {f}");
+            assert!(
+                (back[f] - s.motion.positions_mm[f * 5 + 3][2] as f64).abs() <= q.step,
+                "frame {f}"
+            );
         }
     }
 
@@ -333,10 +383,17 @@ mod tests {
     #[test]
     fn the_annotation_section_reaches_the_page() {
         let mut s = spec(50, 2);
-        s.annotation = Some(AnnotationSpec { sequence: "take".into(), input_sha256: "0f".repeat(32), tolerance_frames: Some(6.0) });
+        s.annotation = Some(AnnotationSpec {
+            sequence: "take".into(),
+            input_sha256: "0f".repeat(32),
+            tolerance_frames: Some(6.0),
+        });
         let (json, _) = encode(&s, None).unwrap();
         let meta: serde_json::Value = serde_json::from_str(&json).unwrap();
-        assert!(render_page(&s, None).unwrap().contains("function annoEafText"), "the annotation script is spliced in");
+        assert!(
+            render_page(&s, None).unwrap().contains("function annoEafText"),
+            "the annotation script is spliced in"
+        );
         assert_eq!(meta["annotation"]["input_sha256"], "0f".repeat(32));
         assert_eq!(meta["annotation"]["tolerance_frames"], 6.0);
         s.annotation.as_mut().unwrap().input_sha256 = "xyz".into();

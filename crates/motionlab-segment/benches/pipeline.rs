@@ -24,18 +24,31 @@ fn data(relative: &str) -> std::path::PathBuf {
 }
 
 static TAKE: LazyLock<Motion> = LazyLock::new(|| {
-    motionlab_io::asf_amc::load_asf_amc(&data("cmu86/86_01.amc.gz"), &data("cmu86/86.asf"), FrameRate::new(120.0).unwrap())
-        .expect("86_01 loads")
+    motionlab_io::asf_amc::load_asf_amc(
+        &data("cmu86/86_01.amc.gz"),
+        &data("cmu86/86.asf"),
+        FrameRate::new(120.0).unwrap(),
+    )
+    .expect("86_01 loads")
 });
 
 /// 86_01 repeated `times` times, end to end.
 fn repeated(times: usize) -> Motion {
     let m = &*TAKE;
     let positions: Vec<[f64; 3]> = (0..times).flat_map(|_| m.positions().iter().copied()).collect();
-    Motion::new(m.name.clone(), m.frame_rate(), m.up_axis(), m.point_kind(), m.point_names().to_vec(), positions).unwrap()
+    Motion::new(
+        m.name.clone(),
+        m.frame_rate(),
+        m.up_axis(),
+        m.point_kind(),
+        m.point_names().to_vec(),
+        positions,
+    )
+    .unwrap()
 }
 
-static REPEATED: LazyLock<Vec<(usize, Motion)>> = LazyLock::new(|| [1, 10, 100].into_iter().map(|t| (t, repeated(t))).collect());
+static REPEATED: LazyLock<Vec<(usize, Motion)>> =
+    LazyLock::new(|| [1, 10, 100].into_iter().map(|t| (t, repeated(t))).collect());
 
 struct Pipeline {
     segmenters: Vec<(&'static str, Box<dyn Segmenter>)>,
@@ -55,8 +68,10 @@ fn pipeline() -> Pipeline {
 
 fn run(p: &Pipeline, m: &Motion) -> Vec<usize> {
     let cache = FeatureCache::new();
-    let found: Vec<(&str, Vec<usize>)> = p.segmenters.iter().map(|(n, s)| (*n, s.segment(m, &cache).unwrap().candidates)).collect();
-    let inputs: Vec<MethodCandidates> = found.iter().map(|(method, frames)| MethodCandidates { method, frames }).collect();
+    let found: Vec<(&str, Vec<usize>)> =
+        p.segmenters.iter().map(|(n, s)| (*n, s.segment(m, &cache).unwrap().candidates)).collect();
+    let inputs: Vec<MethodCandidates> =
+        found.iter().map(|(method, frames)| MethodCandidates { method, frames }).collect();
     p.fuser.fuse(m, &inputs).unwrap()
 }
 
@@ -107,8 +122,10 @@ fn stage_hull_volumes_rebuilt(bencher: Bencher) {
 fn pipeline_without_hull(bencher: Bencher) {
     let empty = toml::Value::Table(Default::default());
     let p = pipeline();
-    let segs: Vec<(&str, Box<dyn Segmenter>)> =
-        ["fastest_marker_speed", "direction_change"].into_iter().map(|n| (n, build_segmenter(n, &empty).unwrap())).collect();
+    let segs: Vec<(&str, Box<dyn Segmenter>)> = ["fastest_marker_speed", "direction_change"]
+        .into_iter()
+        .map(|n| (n, build_segmenter(n, &empty).unwrap()))
+        .collect();
     let p = Pipeline { segmenters: segs, fuser: p.fuser };
     bencher.counter(ItemsCount::new(TAKE.n_frames())).bench(|| run(&p, &TAKE));
 }

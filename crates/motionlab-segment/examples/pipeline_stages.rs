@@ -18,13 +18,18 @@ use motionlab_core::{FeatureCache, FrameRate, MethodCandidates};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/cmu86");
-    let motion = motionlab_io::asf_amc::load_asf_amc(&dir.join("86_01.amc.gz"), &dir.join("86.asf"), FrameRate::new(120.0)?)?;
+    let motion = motionlab_io::asf_amc::load_asf_amc(
+        &dir.join("86_01.amc.gz"),
+        &dir.join("86.asf"),
+        FrameRate::new(120.0)?,
+    )?;
     let runs: usize = std::env::args().nth(1).map(|s| s.parse()).transpose()?.unwrap_or(100);
     let empty = toml::Value::Table(Default::default());
     // Name something in this crate so it is linked and its plugins are registered.
     let _ = motionlab_segment::union_merge::cumulative_path_mm(std::iter::empty());
     let names = ["fastest_marker_speed", "direction_change", "hull_volume_change"];
-    let segmenters = names.iter().map(|n| build_segmenter(n, &empty)).collect::<Result<Vec<_>, _>>()?;
+    let segmenters =
+        names.iter().map(|n| build_segmenter(n, &empty)).collect::<Result<Vec<_>, _>>()?;
     let fuser = build_fuser("union_merge", &empty)?;
     let mut fastest_ms = [f64::INFINITY; 4];
     let mut fused = 0;
@@ -38,7 +43,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             found.push(candidates);
         }
         let t = std::time::Instant::now();
-        let inputs: Vec<MethodCandidates> = names.iter().zip(&found).map(|(method, frames)| MethodCandidates { method, frames }).collect();
+        let inputs: Vec<MethodCandidates> = names
+            .iter()
+            .zip(&found)
+            .map(|(method, frames)| MethodCandidates { method, frames })
+            .collect();
         fused = fuser.fuse(&motion, &inputs)?.len();
         fastest_ms[3] = fastest_ms[3].min(t.elapsed().as_secs_f64() * 1e3);
     }

@@ -4,7 +4,10 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Axis, Error, ErrorKind, FeatureCache, Motion, Result, SegmenterOutput, Segmenter, Threshold, TimeSpan, Trace};
+use motionlab_core::{
+    Axis, Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, SegmenterOutput, Threshold,
+    TimeSpan, Trace,
+};
 use motionlab_features::curvature::CurvatureSpec;
 use motionlab_features::signal::is_local_max;
 
@@ -78,8 +81,11 @@ impl ParamGuard for DirectionChangeParams {
     type Checked = DirectionChange;
     fn check(self) -> Result<DirectionChange> {
         if !(self.c_min.is_finite() && (-1.0..=1.0).contains(&self.c_min)) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be a cosine in [-1, 1], found {}", self.c_min))
-                .with_field("c_min"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a cosine in [-1, 1], found {}", self.c_min),
+            )
+            .with_field("c_min"));
         }
         let curvature = CurvatureSpec::new(self.root, self.lag, self.min_leg_mm, self.up_axis)?;
         Ok(DirectionChange { curvature, c_min: self.c_min })
@@ -90,11 +96,16 @@ impl Segmenter for DirectionChange {
     fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput> {
         motion.require_frames(2 * self.curvature.lag_frames(motion) + 3, "direction_change")?;
         let c = self.curvature.compute(motion, cache)?;
-        let candidates = (0..c.len()).filter(|&i| c[i] >= self.c_min && is_local_max(&c, i)).collect();
+        let candidates =
+            (0..c.len()).filter(|&i| c[i] >= self.c_min && is_local_max(&c, i)).collect();
         Ok(SegmenterOutput {
             candidates,
             traces: vec![Trace::new("C", "", c.to_vec())],
-            thresholds: vec![Threshold { name: "c_min".into(), trace: "C".into(), value: self.c_min }],
+            thresholds: vec![Threshold {
+                name: "c_min".into(),
+                trace: "C".into(),
+                value: self.c_min,
+            }],
             flagged_frames: Vec::new(),
         })
     }
@@ -132,7 +143,9 @@ mod tests {
             from = *c;
         }
         at.pop();
-        let m = named_motion(q.len(), 120.0, &["root", "head"], |i, k| [q[i][0], q[i][1], 1000.0 + 700.0 * k as f64]);
+        let m = named_motion(q.len(), 120.0, &["root", "head"], |i, k| {
+            [q[i][0], q[i][1], 1000.0 + 700.0 * k as f64]
+        });
         (m, at)
     }
 
@@ -146,8 +159,12 @@ mod tests {
         assert_eq!(out.candidates, corners);
         assert_eq!(corners, vec![50, 150, 250, 350]);
         // 90° turns: C = 0 exactly at the corners, so c_min above 0 rejects them all.
-        let strict: toml::Value = toml::from_str("c_min = 0.01\nlag = { seconds = 0.125 }").unwrap();
-        let out = build_segmenter("direction_change", &strict).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let strict: toml::Value =
+            toml::from_str("c_min = 0.01\nlag = { seconds = 0.125 }").unwrap();
+        let out = build_segmenter("direction_change", &strict)
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap();
         assert!(out.candidates.is_empty(), "{:?}", out.candidates);
     }
 
@@ -167,7 +184,11 @@ mod tests {
 
     #[test]
     fn parameters_are_validated() {
-        for (toml_text, field) in [("c_min = 1.5", "c_min"), ("lag = { frames = 0 }", "lag"), ("min_leg_mm = -5.0", "min_leg_mm")] {
+        for (toml_text, field) in [
+            ("c_min = 1.5", "c_min"),
+            ("lag = { frames = 0 }", "lag"),
+            ("min_leg_mm = -5.0", "min_leg_mm"),
+        ] {
             let v: toml::Value = toml::from_str(toml_text).unwrap();
             let e = build_segmenter("direction_change", &v).err().unwrap();
             assert_eq!(e.location().field.as_deref(), Some(field), "{toml_text}");
@@ -177,7 +198,10 @@ mod tests {
     #[test]
     fn real_straight_walk_has_no_turn_and_gaps_leave_curvature_undefined() {
         let m = crate::test_data::walk1();
-        let out = build_segmenter("direction_change", &paper()).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let out = build_segmenter("direction_change", &paper())
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap();
         // A straight walk: C near −1 wherever defined, so no candidate.
         let c = &out.traces[0].values;
         assert!(c.iter().filter(|v| v.is_finite()).count() > 200);
@@ -185,8 +209,12 @@ mod tests {
         assert!(out.candidates.is_empty());
         // With a root that has gaps (Shoulder_R, missing at 304–319), C is undefined exactly
         // where i−L, i or i+L is missing (L = 8 frames at 60 Hz), besides slow stretches and ends.
-        let p: toml::Value = toml::from_str("root = \"Shoulder_R\"\nlag = { seconds = 0.125 }").unwrap();
-        let out = build_segmenter("direction_change", &p).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let p: toml::Value =
+            toml::from_str("root = \"Shoulder_R\"\nlag = { seconds = 0.125 }").unwrap();
+        let out = build_segmenter("direction_change", &p)
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap();
         let c = &out.traces[0].values;
         let k = m.point_index("Shoulder_R").unwrap();
         for (i, ci) in c.iter().enumerate().take(m.n_frames() - 8).skip(8) {
@@ -197,5 +225,4 @@ mod tests {
         }
         assert!(c[296].is_nan() && c[327].is_nan() && c[295].is_finite() && c[328].is_finite());
     }
-
 }

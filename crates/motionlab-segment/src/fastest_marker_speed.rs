@@ -5,7 +5,10 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, FeatureCache, Motion, Result, SegmenterOutput, Segmenter, Threshold, TimeSpan, Trace};
+use motionlab_core::{
+    Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, SegmenterOutput, Threshold,
+    TimeSpan, Trace,
+};
 use motionlab_features::signal::is_local_max;
 use motionlab_features::speed::{MarkerSpeeds, cached_marker_speeds};
 
@@ -36,7 +39,11 @@ pub struct Tracking {
 pub fn track_fastest_marker(speeds: &MarkerSpeeds, v_high: f64, v_low: f64) -> Tracking {
     let v = &speeds.fastest;
     let n = v.len();
-    let mut out = Tracking { candidates: Vec::new(), tracked_speed: vec![f64::NAN; n], tracked_marker: vec![None; n] };
+    let mut out = Tracking {
+        candidates: Vec::new(),
+        tracked_speed: vec![f64::NAN; n],
+        tracked_marker: vec![None; n],
+    };
     let mut s = 1;
     while s + 1 < n {
         let Some(i) = (s..n - 1).find(|&i| v[i] >= v_high && is_local_max(v, i)) else { break };
@@ -143,8 +150,11 @@ impl ParamGuard for FastestMarkerSpeedParams {
             _ => false, // mixed kinds are compared once resolved, in `segment`
         };
         if inverted {
-            return Err(Error::new(ErrorKind::InvalidParameter, format!("v_low ({v_low:?}) must be below v_high ({v_high:?})"))
-                .with_field("v_low"));
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                format!("v_low ({v_low:?}) must be below v_high ({v_high:?})"),
+            )
+            .with_field("v_low"));
         }
         let smoothing = self.smoothing.map(|s| s.check("smoothing", false)).transpose()?;
         Ok(FastestMarkerSpeed { v_high, v_low, smoothing })
@@ -161,7 +171,10 @@ impl Segmenter for FastestMarkerSpeed {
         if v_low >= v_high {
             return Err(Error::new(
                 ErrorKind::InvalidParameter,
-                format!("on {} v_low resolves to {v_low:.1} mm/s, not below v_high = {v_high:.1} mm/s", motion.name),
+                format!(
+                    "on {} v_low resolves to {v_low:.1} mm/s, not below v_high = {v_high:.1} mm/s",
+                    motion.name
+                ),
             )
             .with_field("v_low"));
         }
@@ -199,10 +212,14 @@ mod tests {
     /// at frames 160 and 280: the two real stops.
     fn stop_go() -> Motion {
         let bump = |t: f64, c: f64, w: f64| (-((t - c) / w).powi(2)).exp();
-        let base = |t: f64| 5.0 + 10.0 * (1.0 - (2.0 * std::f64::consts::PI * (t - 160.0) / 120.0).cos());
+        let base =
+            |t: f64| 5.0 + 10.0 * (1.0 - (2.0 * std::f64::consts::PI * (t - 160.0) / 120.0).cos());
         let speed = |k: usize, t: f64| {
             if k == 0 {
-                1000.0 * bump(t, 60.0, 8.0) + 100.0 * bump(t, 97.0, 4.0) + 1000.0 * bump(t, 230.0, 12.0) + base(t)
+                1000.0 * bump(t, 60.0, 8.0)
+                    + 100.0 * bump(t, 97.0, 4.0)
+                    + 1000.0 * bump(t, 230.0, 12.0)
+                    + base(t)
             } else {
                 1000.0 * bump(t, 100.0, 12.0) + base(t)
             }
@@ -221,7 +238,10 @@ mod tests {
 
     fn run(params: &str, m: &Motion) -> SegmenterOutput {
         let v: toml::Value = toml::from_str(params).unwrap();
-        build_segmenter("fastest_marker_speed", &v).unwrap().segment(m, &FeatureCache::new()).unwrap()
+        build_segmenter("fastest_marker_speed", &v)
+            .unwrap()
+            .segment(m, &FeatureCache::new())
+            .unwrap()
     }
 
     /// Without the default smoothing: the rule itself on the hand-made speeds.
@@ -239,9 +259,15 @@ mod tests {
         // The plain rule does fire at the switch: V has a local minimum under v_low at 76, where
         // the fastest marker changes from A to B.
         let s = marker_speeds(&m, 0);
-        assert!(is_local_min(&s.fastest, 76) && s.fastest[76] <= 100.0, "V[76] = {}", s.fastest[76]);
+        assert!(
+            is_local_min(&s.fastest, 76) && s.fastest[76] <= 100.0,
+            "V[76] = {}",
+            s.fastest[76]
+        );
         assert_eq!((s.fastest_marker[76], s.fastest_marker[77]), (Some(0), Some(1)));
-        let plain = SpeedMinimaParams { v_low: SpeedThreshold::MmPerS(100.0), smoothing: None }.check().unwrap();
+        let plain = SpeedMinimaParams { v_low: SpeedThreshold::MmPerS(100.0), smoothing: None }
+            .check()
+            .unwrap();
         let plain = plain.segment(&m, &FeatureCache::new()).unwrap();
         assert!(plain.candidates.contains(&76), "{:?}", plain.candidates);
         assert!(plain.candidates.contains(&160) && plain.candidates.contains(&280));
@@ -255,7 +281,10 @@ mod tests {
         assert!(t.tracked_speed[10].is_nan() && t.tracked_speed[200].is_nan());
         assert_eq!(t.tracked_speed[120], s.speed(120, 1));
         let a_min = (61..100).find(|&f| t.tracked_marker[f + 1] != Some(0)).unwrap();
-        assert!(is_local_min(&s.marker_speed(0), a_min) && s.fastest[a_min] > 100.0, "A's minimum at {a_min}");
+        assert!(
+            is_local_min(&s.marker_speed(0), a_min) && s.fastest[a_min] > 100.0,
+            "A's minimum at {a_min}"
+        );
         // Outputs carry V, the followed speed and both thresholds.
         assert_eq!(out.traces[1].name, "tracked_speed_mm_per_s");
         assert_eq!(out.thresholds.iter().map(|t| t.value).collect::<Vec<_>>(), vec![500.0, 100.0]);
@@ -271,7 +300,8 @@ mod tests {
             pos[f * 2 + 1] = [f64::NAN; 3];
         }
         let gappy = motion_from_fn(320, 100.0, 2, |i, k| pos[i * 2 + k]);
-        let out = run_unsmoothed("v_high = { mm_per_s = 500.0 }\nv_low = { mm_per_s = 100.0 }", &gappy);
+        let out =
+            run_unsmoothed("v_high = { mm_per_s = 500.0 }\nv_low = { mm_per_s = 100.0 }", &gappy);
         assert!(!out.candidates.iter().any(|c| (157..=163).contains(c)), "{:?}", out.candidates);
         assert!(out.candidates.contains(&280));
     }
@@ -283,15 +313,26 @@ mod tests {
         // Default smoothing 0.2 s: the thresholds scale the smoothed V.
         let smoothing = TimeSpan::Seconds(0.2).whole_frames_at(m.frame_rate());
         assert!(smoothing > 0);
-        let p90 = motionlab_features::signal::percentile(&marker_speeds(&m, smoothing).fastest, 90.0).unwrap();
+        let p90 =
+            motionlab_features::signal::percentile(&marker_speeds(&m, smoothing).fastest, 90.0)
+                .unwrap();
         assert!((out.thresholds[0].value - 0.5 * p90).abs() < 1e-9);
         assert!((out.thresholds[1].value - 0.45 * p90).abs() < 1e-9);
-        let bad: toml::Value = toml::from_str("v_high = { mm_per_s = 50.0 }\nv_low = { mm_per_s = 100.0 }").unwrap();
+        let bad: toml::Value =
+            toml::from_str("v_high = { mm_per_s = 50.0 }\nv_low = { mm_per_s = 100.0 }").unwrap();
         let e = build_segmenter("fastest_marker_speed", &bad).err().unwrap();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, Some("v_low")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::InvalidParameter, Some("v_low"))
+        );
         // Mixed kinds are compared once resolved.
-        let mixed: toml::Value = toml::from_str("v_high = { mm_per_s = 1.0 }\nv_low = { fraction_of_p90 = 0.15 }").unwrap();
-        let e = build_segmenter("fastest_marker_speed", &mixed).unwrap().segment(&m, &FeatureCache::new()).unwrap_err();
+        let mixed: toml::Value =
+            toml::from_str("v_high = { mm_per_s = 1.0 }\nv_low = { fraction_of_p90 = 0.15 }")
+                .unwrap();
+        let e = build_segmenter("fastest_marker_speed", &mixed)
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("v_low"));
     }
 
@@ -314,7 +355,10 @@ mod tests {
             assert!(!m.is_missing(j, k) && !m.is_missing(j + 1, k));
         }
         // Through the plugin with the same thresholds in mm/s: the same frames.
-        let out = run_unsmoothed(&format!("v_high = {{ mm_per_s = {hi} }}\nv_low = {{ mm_per_s = {lo} }}"), &m);
+        let out = run_unsmoothed(
+            &format!("v_high = {{ mm_per_s = {hi} }}\nv_low = {{ mm_per_s = {lo} }}"),
+            &m,
+        );
         assert_eq!(out.candidates, t.candidates);
     }
 
@@ -324,12 +368,24 @@ mod tests {
         // wobble of a slow stretch; the tracker keeps only ends of followed movements.
         let m = crate::test_data::load("cmu86/86_01.amc.gz");
         let cache = FeatureCache::new();
-        let same: toml::Value = toml::from_str("v_low = { fraction_of_p90 = 0.15 }\nsmoothing = { seconds = 0.0 }").unwrap();
-        let tracked = build_segmenter("fastest_marker_speed", &same).unwrap().segment(&m, &cache).unwrap();
-        let plain = SpeedMinimaParams { v_low: SpeedThreshold::FractionOfP90(0.15), smoothing: None }.check().unwrap().segment(&m, &cache).unwrap();
+        let same: toml::Value =
+            toml::from_str("v_low = { fraction_of_p90 = 0.15 }\nsmoothing = { seconds = 0.0 }")
+                .unwrap();
+        let tracked =
+            build_segmenter("fastest_marker_speed", &same).unwrap().segment(&m, &cache).unwrap();
+        let plain =
+            SpeedMinimaParams { v_low: SpeedThreshold::FractionOfP90(0.15), smoothing: None }
+                .check()
+                .unwrap()
+                .segment(&m, &cache)
+                .unwrap();
         assert_eq!(tracked.thresholds[1].value, plain.thresholds[0].value);
         assert!(!tracked.candidates.is_empty());
-        assert!(tracked.candidates.len() * 10 < plain.candidates.len(), "{} vs {}", tracked.candidates.len(), plain.candidates.len());
+        assert!(
+            tracked.candidates.len() * 10 < plain.candidates.len(),
+            "{} vs {}",
+            tracked.candidates.len(),
+            plain.candidates.len()
+        );
     }
-
 }

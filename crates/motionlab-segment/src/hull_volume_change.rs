@@ -4,7 +4,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{FeatureCache, Motion, Result, SegmenterOutput, Segmenter, Threshold, Trace};
+use motionlab_core::{FeatureCache, Motion, Result, Segmenter, SegmenterOutput, Threshold, Trace};
 use motionlab_features::hull::cached_hull_volumes;
 use motionlab_features::signal::is_local_min;
 
@@ -12,7 +12,9 @@ use crate::thresholds::VolumeChangeThreshold;
 
 /// Candidates `i` where `D` has a strict local minimum and `D[i] < t < D[i+1]`.
 pub fn volume_change_candidates(d: &[f64], t: f64) -> Vec<usize> {
-    (0..d.len().saturating_sub(1)).filter(|&i| is_local_min(d, i) && d[i] < t && t < d[i + 1]).collect()
+    (0..d.len().saturating_sub(1))
+        .filter(|&i| is_local_min(d, i) && d[i] < t && t < d[i + 1])
+        .collect()
 }
 
 /// Candidates where the volume of the body's 3-D convex hull starts to change quickly
@@ -75,8 +77,15 @@ impl Segmenter for HullVolumeChange {
         let t = self.t.resolve(d, motion.frame_rate())?;
         Ok(SegmenterOutput {
             candidates: volume_change_candidates(d, t),
-            traces: vec![Trace::new("Vol_mm3", "mm³", h.volume_mm3.clone()), Trace::new("D_mm3_per_frame", "mm³/frame", d.clone())],
-            thresholds: vec![Threshold { name: "t".into(), trace: "D_mm3_per_frame".into(), value: t }],
+            traces: vec![
+                Trace::new("Vol_mm3", "mm³", h.volume_mm3.clone()),
+                Trace::new("D_mm3_per_frame", "mm³/frame", d.clone()),
+            ],
+            thresholds: vec![Threshold {
+                name: "t".into(),
+                trace: "D_mm3_per_frame".into(),
+                value: t,
+            }],
             flagged_frames: h.flagged_frames(),
         })
     }
@@ -97,10 +106,19 @@ mod tests {
         for &x in &d[1..] {
             len.push(len.last().unwrap() + x / 1e4);
         }
-        motion_from_fn(d.len(), rate, 8, |i, k| [if k & 1 == 1 { len[i] } else { 0.0 }, 100.0 * ((k >> 1) & 1) as f64, 100.0 * (k >> 2) as f64])
+        motion_from_fn(d.len(), rate, 8, |i, k| {
+            [
+                if k & 1 == 1 { len[i] } else { 0.0 },
+                100.0 * ((k >> 1) & 1) as f64,
+                100.0 * (k >> 2) as f64,
+            ]
+        })
     }
 
-    const D: [f64; 16] = [0.0, 50.0, 40.0, 30.0, 20.0, 10.0, 500.0, 600.0, 700.0, 650.0, 300.0, 200.0, 100.0, 150.0, 900.0, 800.0];
+    const D: [f64; 16] = [
+        0.0, 50.0, 40.0, 30.0, 20.0, 10.0, 500.0, 600.0, 700.0, 650.0, 300.0, 200.0, 100.0, 150.0,
+        900.0, 800.0,
+    ];
 
     #[test]
     fn known_answer_on_a_box_with_prescribed_volume_changes() {
@@ -112,7 +130,10 @@ mod tests {
         // Through the plugin: the box's hull volumes reproduce D, t given as a rate at 50 Hz.
         let m = growing_box(&D, 50.0);
         let t: toml::Value = toml::from_str("t = { mm3_per_s = 12500.0 }").unwrap(); // 250 mm³/frame
-        let out = build_segmenter("hull_volume_change", &t).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let out = build_segmenter("hull_volume_change", &t)
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap();
         assert_eq!(out.candidates, vec![5]);
         assert_eq!(out.thresholds[0].value, 250.0);
         let dd = &out.traces[1].values;
@@ -122,7 +143,10 @@ mod tests {
         }
         // The same physical rate at 100 Hz is half as much per frame.
         let m100 = growing_box(&D, 100.0);
-        let out = build_segmenter("hull_volume_change", &t).unwrap().segment(&m100, &FeatureCache::new()).unwrap();
+        let out = build_segmenter("hull_volume_change", &t)
+            .unwrap()
+            .segment(&m100, &FeatureCache::new())
+            .unwrap();
         assert_eq!((out.thresholds[0].value, out.candidates.clone()), (125.0, vec![5, 12]));
     }
 
@@ -137,7 +161,10 @@ mod tests {
         }
         let flat = motion_from_fn(D.len(), 50.0, 8, |i, k| pos[i * 8 + k]);
         let t: toml::Value = toml::from_str("t = { mm3_per_s = 6000.0 }").unwrap(); // 120 mm³/frame
-        let out = build_segmenter("hull_volume_change", &t).unwrap().segment(&flat, &FeatureCache::new()).unwrap();
+        let out = build_segmenter("hull_volume_change", &t)
+            .unwrap()
+            .segment(&flat, &FeatureCache::new())
+            .unwrap();
         assert_eq!(out.flagged_frames, vec![5]);
         assert_eq!(out.traces[0].values[5], 0.0);
         assert!(out.traces[1].values[5].is_nan() && out.traces[1].values[6].is_nan());
@@ -153,17 +180,23 @@ mod tests {
         pos[5 * 8 + 7] = [f64::NAN; 3];
         pos[6 * 8 + 7] = [f64::NAN; 3];
         let gappy = motion_from_fn(D.len(), 50.0, 8, |i, k| pos[i * 8 + k]);
-        let out = build_segmenter("hull_volume_change", &toml::from_str::<toml::Value>("t = { mm3_per_s = 6000.0 }").unwrap())
-            .unwrap()
-            .segment(&gappy, &FeatureCache::new())
-            .unwrap();
+        let out = build_segmenter(
+            "hull_volume_change",
+            &toml::from_str::<toml::Value>("t = { mm3_per_s = 6000.0 }").unwrap(),
+        )
+        .unwrap()
+        .segment(&gappy, &FeatureCache::new())
+        .unwrap();
         let dd = &out.traces[1].values;
         assert!(dd[5].is_nan() && dd[7].is_nan() && dd[6].is_finite());
         assert!(out.flagged_frames.is_empty());
         assert_eq!(out.candidates, vec![12]);
-        let e = build_segmenter("hull_volume_change", &toml::from_str::<toml::Value>("t = { fraction_of_p90 = -1.0 }").unwrap())
-            .err()
-            .unwrap();
+        let e = build_segmenter(
+            "hull_volume_change",
+            &toml::from_str::<toml::Value>("t = { fraction_of_p90 = -1.0 }").unwrap(),
+        )
+        .err()
+        .unwrap();
         assert_eq!(e.location().field.as_deref(), Some("t"));
     }
 
@@ -188,5 +221,4 @@ mod tests {
             assert!(d[i - 1] > d[i] && d[i] < d[i + 1] && d[i] < t && t < d[i + 1], "frame {i}");
         }
     }
-
 }

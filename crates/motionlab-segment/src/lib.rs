@@ -24,12 +24,12 @@ pub const SONODA_DEFAULTS_TUNED_ON: [&str; 7] = [
     "4bb31962cb2a7fd7758f97dfe3778609ada26a5904a51793130808291b5dc72a",
 ];
 
-pub mod speed_minima;
-pub mod thresholds;
-pub mod fastest_marker_speed;
 pub mod direction_change;
+pub mod fastest_marker_speed;
 pub mod hull_volume_change;
 pub mod pca_error_rise;
-pub mod union_merge;
+pub mod speed_minima;
 #[cfg(test)]
 mod test_data;
+pub mod thresholds;
+pub mod union_merge;

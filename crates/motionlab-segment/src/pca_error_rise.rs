@@ -8,7 +8,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, FeatureCache, Motion, Result, SegmenterOutput, Segmenter, Trace, TimeSpan};
+use motionlab_core::{
+    Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, SegmenterOutput, TimeSpan, Trace,
+};
 
 /// Frame vectors: every point's position minus the frame's centroid (translation removed),
 /// `3M` values per frame; None for frames with any missing sample.
@@ -107,7 +109,8 @@ pub fn pca_error_rise(motion: &Motion, p: PcaErrorRiseFrames) -> (Vec<usize>, Ve
             // Scaled to the frames spanned, so frames left out (missing samples) do not slow the
             // error's growth and fake a rise when they end.
             let spanned = (i + 1 - start) as f64;
-            let e: f64 = if m.n > 0.0 { ev.iter().skip(r).sum::<f64>() * spanned / m.n } else { 0.0 };
+            let e: f64 =
+                if m.n > 0.0 { ev.iter().skip(r).sum::<f64>() * spanned / m.n } else { 0.0 };
             error[i] = e;
             e_at.push((i, e));
             // d_i = e_i − e_{i−ℓ}; a cut when it exceeds the mean of the earlier d by k_σ s.d.
@@ -117,7 +120,8 @@ pub fn pca_error_rise(motion: &Motion, p: PcaErrorRiseFrames) -> (Vec<usize>, Ve
                 // Mean and s.d. need a lag's worth of earlier rises to mean anything.
                 if rises.len() >= back.max(2) {
                     let mean = rises.iter().sum::<f64>() / rises.len() as f64;
-                    let var = rises.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / rises.len() as f64;
+                    let var =
+                        rises.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / rises.len() as f64;
                     if rise > mean + p.k_sigma * var.sqrt() {
                         cuts.push(i);
                         start = i;
@@ -204,12 +208,18 @@ impl ParamGuard for PcaErrorRiseParams {
     type Checked = PcaErrorRise;
     fn check(self) -> Result<PcaErrorRise> {
         if !(self.variance_kept > 0.0 && self.variance_kept <= 1.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be in (0, 1], found {}", self.variance_kept))
-                .with_field("variance_kept"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be in (0, 1], found {}", self.variance_kept),
+            )
+            .with_field("variance_kept"));
         }
         if !(self.k_sigma.is_finite() && self.k_sigma >= 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be finite and >= 0, found {}", self.k_sigma))
-                .with_field("k_sigma"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be finite and >= 0, found {}", self.k_sigma),
+            )
+            .with_field("k_sigma"));
         }
         Ok(PcaErrorRise {
             initial: self.initial.check("initial", true)?,
@@ -227,7 +237,13 @@ impl PcaErrorRise {
         let step = self.step.whole_frames_at(rate).max(1);
         // The lag is a whole number of steps so e_{i−ℓ} was evaluated.
         let lag = self.lag.whole_frames_at(rate).max(1).div_ceil(step) * step;
-        PcaErrorRiseFrames { initial: self.initial.whole_frames_at(rate).max(2), lag, step, variance_kept: self.variance_kept, k_sigma: self.k_sigma }
+        PcaErrorRiseFrames {
+            initial: self.initial.whole_frames_at(rate).max(2),
+            lag,
+            step,
+            variance_kept: self.variance_kept,
+            k_sigma: self.k_sigma,
+        }
     }
 }
 
@@ -257,7 +273,9 @@ mod tests {
     /// different one along y and z (new directions the first subspace cannot represent).
     fn two_behaviours() -> Motion {
         let mut rng = Rng::new(9);
-        let offsets: Vec<[f64; 3]> = (0..6).map(|_| [rng.normal() * 200.0, rng.normal() * 200.0, rng.normal() * 200.0]).collect();
+        let offsets: Vec<[f64; 3]> = (0..6)
+            .map(|_| [rng.normal() * 200.0, rng.normal() * 200.0, rng.normal() * 200.0])
+            .collect();
         let noise: Vec<f64> = (0..600 * 6 * 3).map(|_| rng.normal() * 0.5).collect();
         motion_from_fn(600, 100.0, 6, |i, k| {
             let t = i as f64 / 100.0;
@@ -265,7 +283,11 @@ mod tests {
             let (dx, dy, dz) = if i < 300 {
                 (if k % 2 == 0 { 80.0 } else { -80.0 } * (3.0 * t).sin(), 0.0, 0.0)
             } else {
-                (0.0, 90.0 * (2.0 * t).sin() * (k as f64 - 2.5), 70.0 * (5.0 * t).cos() * if k < 3 { 1.0 } else { -1.0 })
+                (
+                    0.0,
+                    90.0 * (2.0 * t).sin() * (k as f64 - 2.5),
+                    70.0 * (5.0 * t).cos() * if k < 3 { 1.0 } else { -1.0 },
+                )
             };
             let n = &noise[(i * 6 + k) * 3..];
             [o[0] + dx + n[0], o[1] + dy + n[1], o[2] + dz + n[2]]
@@ -275,7 +297,8 @@ mod tests {
     #[test]
     fn detects_the_change_of_behaviour_and_nothing_before_it() {
         let m = two_behaviours();
-        let seg = build_segmenter("pca_error_rise", &toml::Value::Table(Default::default())).unwrap();
+        let seg =
+            build_segmenter("pca_error_rise", &toml::Value::Table(Default::default())).unwrap();
         let out = seg.segment(&m, &FeatureCache::new()).unwrap();
         let first = *out.candidates.first().expect("a cut");
         // The change is at 300; the error derivative over a 0.5 s lag rises within it.
@@ -298,7 +321,9 @@ mod tests {
         let ev = mo.scatter_eigenvalues();
         let r = 2;
         let e_eig: f64 = ev.iter().skip(r).sum();
-        let mean = frames.iter().fold(vec![0.0; 18], |a, x| a.iter().zip(x).map(|(a, b)| a + b / frames.len() as f64).collect());
+        let mean = frames.iter().fold(vec![0.0; 18], |a, x| {
+            a.iter().zip(x).map(|(a, b)| a + b / frames.len() as f64).collect()
+        });
         let x = DMatrix::from_fn(frames.len(), 18, |i, j| frames[i][j] - mean[j]);
         let svd = x.clone().svd(false, true);
         let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
@@ -319,12 +344,24 @@ mod tests {
             pos[f * 6 + 2] = [f64::NAN; 3];
         }
         let gappy = motion_from_fn(600, 100.0, 6, |i, k| pos[i * 6 + k]);
-        let seg = build_segmenter("pca_error_rise", &toml::Value::Table(Default::default())).unwrap();
+        let seg =
+            build_segmenter("pca_error_rise", &toml::Value::Table(Default::default())).unwrap();
         let out = seg.segment(&gappy, &FeatureCache::new()).unwrap();
-        assert!((300..=330).contains(out.candidates.first().expect("a cut")), "{:?}", out.candidates);
-        for (text, field) in [("variance_kept = 1.5", "variance_kept"), ("k_sigma = -1.0", "k_sigma"), ("step = { frames = 0 }", "step")] {
+        assert!(
+            (300..=330).contains(out.candidates.first().expect("a cut")),
+            "{:?}",
+            out.candidates
+        );
+        for (text, field) in [
+            ("variance_kept = 1.5", "variance_kept"),
+            ("k_sigma = -1.0", "k_sigma"),
+            ("step = { frames = 0 }", "step"),
+        ] {
             let v: toml::Value = toml::from_str(text).unwrap();
-            assert_eq!(build_segmenter("pca_error_rise", &v).err().unwrap().location().field.as_deref(), Some(field));
+            assert_eq!(
+                build_segmenter("pca_error_rise", &v).err().unwrap().location().field.as_deref(),
+                Some(field)
+            );
         }
     }
 
@@ -335,11 +372,18 @@ mod tests {
         let m = crate::test_data::load("cmu86/86_01.amc.gz");
         // A coarse step keeps this debug-build test short (one eigen-decomposition per step).
         let p: toml::Value = toml::from_str("step = { seconds = 0.25 }").unwrap();
-        let out = build_segmenter("pca_error_rise", &p).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let out = build_segmenter("pca_error_rise", &p)
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap();
         let truth = crate::test_data::cmu86_01_boundaries();
         assert_eq!(truth, vec![549, 1149, 1979, 2499, 3199, 4064]);
         for b in &truth {
-            assert!(out.candidates.iter().any(|c| c.abs_diff(*b) <= 240), "boundary {b}: cuts {:?}", out.candidates);
+            assert!(
+                out.candidates.iter().any(|c| c.abs_diff(*b) <= 240),
+                "boundary {b}: cuts {:?}",
+                out.candidates
+            );
         }
         assert!(out.candidates.len() <= 2 * truth.len(), "{:?}", out.candidates);
     }
@@ -348,9 +392,11 @@ mod tests {
     fn real_steady_walk_with_missing_samples_is_one_behaviour() {
         // walk1 (27 missing samples, left out): one steady walk, so no cut.
         let m = crate::test_data::walk1();
-        let out = build_segmenter("pca_error_rise", &toml::Value::Table(Default::default())).unwrap().segment(&m, &FeatureCache::new()).unwrap();
+        let out = build_segmenter("pca_error_rise", &toml::Value::Table(Default::default()))
+            .unwrap()
+            .segment(&m, &FeatureCache::new())
+            .unwrap();
         assert!(out.candidates.is_empty(), "{:?}", out.candidates);
         assert!(out.traces[0].values.iter().filter(|v| v.is_finite()).count() > 20);
     }
-
 }

@@ -8,7 +8,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{FeatureCache, Motion, Result, SegmenterOutput, Segmenter, Threshold, TimeSpan, Trace};
+use motionlab_core::{
+    FeatureCache, Motion, Result, Segmenter, SegmenterOutput, Threshold, TimeSpan, Trace,
+};
 use motionlab_features::signal::is_local_min;
 use motionlab_features::speed::cached_marker_speeds;
 
@@ -79,7 +81,11 @@ impl Segmenter for SpeedMinima {
         Ok(SegmenterOutput {
             candidates,
             traces: vec![Trace::new("V_mm_per_s", "mm/s", v.clone())],
-            thresholds: vec![Threshold { name: "v_low".into(), trace: "V_mm_per_s".into(), value: v_low }],
+            thresholds: vec![Threshold {
+                name: "v_low".into(),
+                trace: "V_mm_per_s".into(),
+                value: v_low,
+            }],
             flagged_frames: Vec::new(),
         })
     }
@@ -96,9 +102,14 @@ mod tests {
     #[test]
     fn finds_the_minima_under_the_threshold_only() {
         // One marker whose per-frame step follows |sin|: speed minima at the zeros of sin.
-        let step = |i: usize| (i as f64 * std::f64::consts::PI / 10.0).sin().abs() * 10.0 + if i == 30 { 5.0 } else { 0.0 };
+        let step = |i: usize| {
+            (i as f64 * std::f64::consts::PI / 10.0).sin().abs() * 10.0
+                + if i == 30 { 5.0 } else { 0.0 }
+        };
         let m = motion_from_fn(41, 10.0, 1, |i, _| [(0..i).map(step).sum::<f64>(), 0.0, 0.0]);
-        let stage = SpeedMinimaParams { v_low: SpeedThreshold::MmPerS(20.0), smoothing: None }.check().unwrap();
+        let stage = SpeedMinimaParams { v_low: SpeedThreshold::MmPerS(20.0), smoothing: None }
+            .check()
+            .unwrap();
         let out = stage.segment(&m, &FeatureCache::new()).unwrap();
         // Minima of the step at 10, 20, 30, but frame 30's speed is lifted to 50 mm/s > 20.
         assert_eq!(out.candidates, vec![10, 20]);

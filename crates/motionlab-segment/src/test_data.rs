@@ -9,12 +9,18 @@ use motionlab_core::{Axis, FrameRate, Motion};
 pub fn load(relative: &str) -> Motion {
     let path = motionlab_testkit::data_path(relative);
     if relative.contains(".amc") {
-        let asf = motionlab_io::asf_amc::asf_candidates(&path).into_iter().find(|p| p.exists()).expect("ASF next to the AMC");
+        let asf = motionlab_io::asf_amc::asf_candidates(&path)
+            .into_iter()
+            .find(|p| p.exists())
+            .expect("ASF next to the AMC");
         motionlab_io::asf_amc::load_asf_amc(&path, &asf, FrameRate::new(120.0).unwrap()).unwrap()
     } else {
         let text = motionlab_io::read::read_text(&path).unwrap();
         let m = motionlab_io::qualisys_tsv::parse_qualisys_tsv(&text, &path, Axis::Z).unwrap();
-        let p: toml::Value = toml::from_str("name = \"root\"\nmarkers = [\"Hip_FL\", \"Hip_FR\", \"Hip_BL\", \"Hip_BR\"]").unwrap();
+        let p: toml::Value = toml::from_str(
+            "name = \"root\"\nmarkers = [\"Hip_FL\", \"Hip_FR\", \"Hip_BL\", \"Hip_BR\"]",
+        )
+        .unwrap();
         build_preprocessor("add_centroid", &p).unwrap().apply(m).unwrap()
     }
 }
@@ -58,7 +64,9 @@ fn plugins_of_this_work_are_registered_and_documented() {
     for m in mine {
         assert!(names.contains(&m), "{m} is not registered: {names:?}");
     }
-    let problems: Vec<String> =
-        motionlab_core::registry::check_registry().into_iter().filter(|p| mine.iter().any(|m| p.contains(&format!("{m:?}")))).collect();
+    let problems: Vec<String> = motionlab_core::registry::check_registry()
+        .into_iter()
+        .filter(|p| mine.iter().any(|m| p.contains(&format!("{m:?}"))))
+        .collect();
     assert!(problems.is_empty(), "{problems:#?}");
 }

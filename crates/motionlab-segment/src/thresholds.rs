@@ -49,15 +49,23 @@ impl SpeedThreshold {
         if v.is_finite() && v > 0.0 {
             Ok(self)
         } else {
-            Err(Error::new(ErrorKind::OutOfRange, format!("speed threshold must be finite and > 0, found {v}")).with_field(field))
+            Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("speed threshold must be finite and > 0, found {v}"),
+            )
+            .with_field(field))
         }
     }
 }
 
 /// The 90th percentile of the fastest-marker speed `v` (finite values).
 fn speed_p90(v: &[f64]) -> Result<f64> {
-    percentile(v, 90.0)
-        .ok_or_else(|| Error::new(ErrorKind::MissingData, "the fastest-marker speed has no finite value to take a percentile of"))
+    percentile(v, 90.0).ok_or_else(|| {
+        Error::new(
+            ErrorKind::MissingData,
+            "the fastest-marker speed has no finite value to take a percentile of",
+        )
+    })
 }
 
 /// A threshold on the per-frame change of the hull volume `D` (mm³ per frame) that transfers
@@ -77,9 +85,14 @@ impl VolumeChangeThreshold {
     pub fn resolve(self, d: &[f64], rate: FrameRate) -> Result<f64> {
         match self {
             VolumeChangeThreshold::Mm3PerS(x) => Ok(x / rate.hz()),
-            VolumeChangeThreshold::FractionOfP90(f) => percentile(d, 90.0).map(|p90| f * p90).ok_or_else(|| {
-                Error::new(ErrorKind::MissingData, "the hull-volume change D has no finite value to take a percentile of")
-            }),
+            VolumeChangeThreshold::FractionOfP90(f) => {
+                percentile(d, 90.0).map(|p90| f * p90).ok_or_else(|| {
+                    Error::new(
+                        ErrorKind::MissingData,
+                        "the hull-volume change D has no finite value to take a percentile of",
+                    )
+                })
+            }
         }
     }
     /// Checks the value is finite and > 0.
@@ -90,8 +103,11 @@ impl VolumeChangeThreshold {
         if v.is_finite() && v > 0.0 {
             Ok(self)
         } else {
-            Err(Error::new(ErrorKind::OutOfRange, format!("volume-change threshold must be finite and > 0, found {v}"))
-                .with_field(field))
+            Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("volume-change threshold must be finite and > 0, found {v}"),
+            )
+            .with_field(field))
         }
     }
 }
@@ -105,14 +121,33 @@ mod tests {
         let v: Vec<f64> = (0..=10).map(|i| i as f64 * 100.0).chain([f64::NAN]).collect();
         assert_eq!(SpeedThreshold::MmPerS(80.0).resolve(&v).unwrap(), 80.0);
         assert!((SpeedThreshold::FractionOfP90(0.5).resolve(&v).unwrap() - 450.0).abs() < 1e-9);
-        let pair = SpeedThreshold::resolve_pair(SpeedThreshold::FractionOfP90(0.5), SpeedThreshold::MmPerS(80.0), &v).unwrap();
+        let pair = SpeedThreshold::resolve_pair(
+            SpeedThreshold::FractionOfP90(0.5),
+            SpeedThreshold::MmPerS(80.0),
+            &v,
+        )
+        .unwrap();
         assert!((pair.0 - 450.0).abs() < 1e-9 && pair.1 == 80.0);
-        let pair = SpeedThreshold::resolve_pair(SpeedThreshold::FractionOfP90(0.5), SpeedThreshold::FractionOfP90(0.1), &v).unwrap();
+        let pair = SpeedThreshold::resolve_pair(
+            SpeedThreshold::FractionOfP90(0.5),
+            SpeedThreshold::FractionOfP90(0.1),
+            &v,
+        )
+        .unwrap();
         assert!((pair.0 - 450.0).abs() < 1e-9 && (pair.1 - 90.0).abs() < 1e-9);
-        assert!(SpeedThreshold::resolve_pair(SpeedThreshold::MmPerS(1.0), SpeedThreshold::FractionOfP90(0.1), &[f64::NAN]).is_err());
+        assert!(
+            SpeedThreshold::resolve_pair(
+                SpeedThreshold::MmPerS(1.0),
+                SpeedThreshold::FractionOfP90(0.1),
+                &[f64::NAN]
+            )
+            .is_err()
+        );
         let r = FrameRate::new(120.0).unwrap();
         assert_eq!(VolumeChangeThreshold::Mm3PerS(1.2e6).resolve(&v, r).unwrap(), 1e4);
-        assert!((VolumeChangeThreshold::FractionOfP90(0.1).resolve(&v, r).unwrap() - 90.0).abs() < 1e-9);
+        assert!(
+            (VolumeChangeThreshold::FractionOfP90(0.1).resolve(&v, r).unwrap() - 90.0).abs() < 1e-9
+        );
         assert!(VolumeChangeThreshold::FractionOfP90(0.1).resolve(&[f64::NAN], r).is_err());
         let e = VolumeChangeThreshold::Mm3PerS(0.0).check("t").unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("t"));

@@ -31,7 +31,8 @@ pub fn cumulative_path_mm(trajectory: impl Iterator<Item = [f64; 3]>) -> Vec<f64
     for p in trajectory {
         if p.iter().all(|c| c.is_finite()) {
             if let Some(q) = last {
-                total += ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
+                total +=
+                    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
             }
             last = Some(p);
         }
@@ -44,7 +45,12 @@ pub fn cumulative_path_mm(trajectory: impl Iterator<Item = [f64; 3]>) -> Vec<f64
 /// belong to one group when the root travels less than `merge_mm` between them
 /// (`cum[b] − cum[a] < merge_mm`; single linkage, so a group may span more than `merge_mm` in
 /// all). Each group is replaced by its representative frame. Frames outside `cum` are dropped.
-pub fn merge_candidates(cum: &[f64], frames: impl IntoIterator<Item = usize>, merge_mm: f64, rep: Representative) -> Vec<usize> {
+pub fn merge_candidates(
+    cum: &[f64],
+    frames: impl IntoIterator<Item = usize>,
+    merge_mm: f64,
+    rep: Representative,
+) -> Vec<usize> {
     let mut all: Vec<usize> = frames.into_iter().filter(|&f| f < cum.len()).collect();
     all.sort_unstable();
     all.dedup();
@@ -130,13 +136,21 @@ impl ParamGuard for UnionMergeParams {
     type Checked = UnionMerge;
     fn check(self) -> Result<UnionMerge> {
         if !(self.merge_mm.is_finite() && self.merge_mm >= 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("must be a finite length >= 0 mm, found {}", self.merge_mm))
-                .with_field("merge_mm"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("must be a finite length >= 0 mm, found {}", self.merge_mm),
+            )
+            .with_field("merge_mm"));
         }
         if self.root.is_empty() {
-            return Err(Error::new(ErrorKind::InvalidParameter, "must name a marker or joint").with_field("root"));
+            return Err(Error::new(ErrorKind::InvalidParameter, "must name a marker or joint")
+                .with_field("root"));
         }
-        Ok(UnionMerge { root: self.root, merge_mm: self.merge_mm, representative: self.representative })
+        Ok(UnionMerge {
+            root: self.root,
+            merge_mm: self.merge_mm,
+            representative: self.representative,
+        })
     }
 }
 
@@ -144,13 +158,27 @@ impl Fuser for UnionMerge {
     fn fuse(&self, motion: &Motion, inputs: &[MethodCandidates<'_>]) -> Result<Vec<usize>> {
         let root = motion.point_index(&self.root).map_err(|e| e.with_field("root"))?;
         let cum = cumulative_path_mm(motion.trajectory(root));
-        if let Some(bad) = inputs.iter().find_map(|m| m.frames.iter().find(|&&f| f >= cum.len()).map(|f| (m.method, *f))) {
+        if let Some(bad) = inputs
+            .iter()
+            .find_map(|m| m.frames.iter().find(|&&f| f >= cum.len()).map(|f| (m.method, *f)))
+        {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
-                format!("method {:?} gave frame {} but {} has {} frames", bad.0, bad.1, motion.name, cum.len()),
+                format!(
+                    "method {:?} gave frame {} but {} has {} frames",
+                    bad.0,
+                    bad.1,
+                    motion.name,
+                    cum.len()
+                ),
             ));
         }
-        Ok(merge_candidates(&cum, inputs.iter().flat_map(|m| m.frames.iter().copied()), self.merge_mm, self.representative))
+        Ok(merge_candidates(
+            &cum,
+            inputs.iter().flat_map(|m| m.frames.iter().copied()),
+            self.merge_mm,
+            self.representative,
+        ))
     }
 }
 
@@ -165,7 +193,13 @@ mod tests {
     /// Root moving 10 mm per frame along x, except standing still over frames 20..=40.
     fn walk_with_pause() -> Motion {
         named_motion(100, 100.0, &["root"], |i, _| {
-            let x = if i <= 20 { i as f64 * 10.0 } else if i <= 40 { 200.0 } else { 200.0 + (i - 40) as f64 * 10.0 };
+            let x = if i <= 20 {
+                i as f64 * 10.0
+            } else if i <= 40 {
+                200.0
+            } else {
+                200.0 + (i - 40) as f64 * 10.0
+            };
             [x, 0.0, 900.0]
         })
     }
@@ -175,7 +209,8 @@ mod tests {
         let m = walk_with_pause();
         let fuse = |params: &str, lists: &[(&str, &[usize])]| {
             let p: toml::Value = toml::from_str(params).unwrap();
-            let inputs: Vec<MethodCandidates> = lists.iter().map(|(method, frames)| MethodCandidates { method, frames }).collect();
+            let inputs: Vec<MethodCandidates> =
+                lists.iter().map(|(method, frames)| MethodCandidates { method, frames }).collect();
             build_fuser("union_merge", &p).unwrap().fuse(&m, &inputs).unwrap()
         };
         let speed: &[usize] = &[5, 22, 38, 80];
@@ -186,9 +221,15 @@ mod tests {
         let lists = [("speed", speed), ("direction", direction), ("hull", hull)];
         // At the paper's merge_mm = 100 mm:
         assert_eq!(fuse("merge_mm = 100.0", &lists), vec![5, 22, 80, 95]);
-        assert_eq!(fuse("merge_mm = 100.0\nrepresentative = \"latest\"", &lists), vec![5, 50, 81, 95]);
+        assert_eq!(
+            fuse("merge_mm = 100.0\nrepresentative = \"latest\"", &lists),
+            vec![5, 50, 81, 95]
+        );
         // Group 22..50 = {22, 24, 30, 38, 43, 50}: midpoint 36, nearest 38.
-        assert_eq!(fuse("merge_mm = 100.0\nrepresentative = \"middle\"", &lists), vec![5, 38, 80, 95]);
+        assert_eq!(
+            fuse("merge_mm = 100.0\nrepresentative = \"middle\"", &lists),
+            vec![5, 38, 80, 95]
+        );
         // The default, 200 mm, also chains 5→22 (150 mm) and 81→95 (140 mm).
         assert_eq!(fuse("", &lists), vec![5, 80]);
         // merge_mm = 0 keeps every distinct frame; a huge one merges everything.
@@ -203,7 +244,9 @@ mod tests {
     #[test]
     fn gaps_in_the_root_are_bridged_and_bad_inputs_rejected() {
         // Root missing over 50..=59: the path over the gap is the straight segment 49 → 60.
-        let cum = cumulative_path_mm((0..70).map(|i| if (50..60).contains(&i) { [f64::NAN; 3] } else { [i as f64 * 10.0, 0.0, 0.0] }));
+        let cum = cumulative_path_mm((0..70).map(|i| {
+            if (50..60).contains(&i) { [f64::NAN; 3] } else { [i as f64 * 10.0, 0.0, 0.0] }
+        }));
         assert_eq!(cum[49], 490.0);
         assert_eq!(cum[55], 490.0);
         assert_eq!(cum[60], 600.0);
@@ -218,7 +261,10 @@ mod tests {
             .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::OutOfRange);
         let neg: toml::Value = toml::from_str("merge_mm = -1.0").unwrap();
-        assert_eq!(build_fuser("union_merge", &neg).err().unwrap().location().field.as_deref(), Some("merge_mm"));
+        assert_eq!(
+            build_fuser("union_merge", &neg).err().unwrap().location().field.as_deref(),
+            Some("merge_mm")
+        );
     }
 
     #[test]
@@ -230,9 +276,17 @@ mod tests {
             let cache = FeatureCache::new();
             let empty = toml::Value::Table(Default::default());
             let names = ["fastest_marker_speed", "direction_change", "hull_volume_change"];
-            let found: Vec<Vec<usize>> =
-                names.iter().map(|n| build_segmenter(n, &empty).unwrap().segment(&m, &cache).unwrap().candidates).collect();
-            let inputs: Vec<MethodCandidates> = names.iter().zip(&found).map(|(method, f)| MethodCandidates { method, frames: f }).collect();
+            let found: Vec<Vec<usize>> = names
+                .iter()
+                .map(|n| {
+                    build_segmenter(n, &empty).unwrap().segment(&m, &cache).unwrap().candidates
+                })
+                .collect();
+            let inputs: Vec<MethodCandidates> = names
+                .iter()
+                .zip(&found)
+                .map(|(method, f)| MethodCandidates { method, frames: f })
+                .collect();
             let fused = build_fuser("union_merge", &empty).unwrap().fuse(&m, &inputs).unwrap();
             let mut union: Vec<usize> = found.concat();
             union.sort_unstable();
@@ -243,13 +297,22 @@ mod tests {
             let merge_mm = default_merge_mm();
             let cum = cumulative_path_mm(m.trajectory(m.point_index("root").unwrap()));
             assert!(fused.iter().all(|f| union.contains(f)));
-            assert!(fused.windows(2).all(|w| cum[w[1]] - cum[w[0]] >= merge_mm), "{file}: {fused:?}");
+            assert!(
+                fused.windows(2).all(|w| cum[w[1]] - cum[w[0]] >= merge_mm),
+                "{file}: {fused:?}"
+            );
             for c in &union {
-                let g = fused.iter().rev().find(|&&f| f <= *c).expect("a group starts at or before every candidate");
+                let g = fused
+                    .iter()
+                    .rev()
+                    .find(|&&f| f <= *c)
+                    .expect("a group starts at or before every candidate");
                 let chain: Vec<&usize> = union.iter().filter(|&&u| u >= *g && u <= *c).collect();
-                assert!(chain.windows(2).all(|w| cum[*w[1]] - cum[*w[0]] < merge_mm), "{file}: {c} is not chained to {g}");
+                assert!(
+                    chain.windows(2).all(|w| cum[*w[1]] - cum[*w[0]] < merge_mm),
+                    "{file}: {c} is not chained to {g}"
+                );
             }
         }
     }
-
 }

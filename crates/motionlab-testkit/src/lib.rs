@@ -9,17 +9,38 @@ use motionlab_core::{Axis, FrameRate, Motion, Point3, PointKind};
 
 /// A motion of `n_points` markers named `m0, m1, …` whose position at (frame, point) is `f`.
 /// Z is up.
-pub fn motion_from_fn(n_frames: usize, rate_hz: f64, n_points: usize, f: impl Fn(usize, usize) -> Point3) -> Motion {
+pub fn motion_from_fn(
+    n_frames: usize,
+    rate_hz: f64,
+    n_points: usize,
+    f: impl Fn(usize, usize) -> Point3,
+) -> Motion {
     let names = (0..n_points).map(|k| format!("m{k}")).collect();
-    let positions = (0..n_frames).flat_map(|i| (0..n_points).map(move |k| (i, k))).map(|(i, k)| f(i, k)).collect();
-    Motion::new("synthetic", FrameRate::new(rate_hz).expect("test rate > 0"), Axis::Z, PointKind::Marker, names, positions)
-        .expect("synthetic motion is well formed")
+    let positions = (0..n_frames)
+        .flat_map(|i| (0..n_points).map(move |k| (i, k)))
+        .map(|(i, k)| f(i, k))
+        .collect();
+    Motion::new(
+        "synthetic",
+        FrameRate::new(rate_hz).expect("test rate > 0"),
+        Axis::Z,
+        PointKind::Marker,
+        names,
+        positions,
+    )
+    .expect("synthetic motion is well formed")
 }
 
 /// Like [`motion_from_fn`] with explicit marker names.
-pub fn named_motion(n_frames: usize, rate_hz: f64, names: &[&str], f: impl Fn(usize, usize) -> Point3) -> Motion {
+pub fn named_motion(
+    n_frames: usize,
+    rate_hz: f64,
+    names: &[&str],
+    f: impl Fn(usize, usize) -> Point3,
+) -> Motion {
     let m = names.len();
-    let positions = (0..n_frames).flat_map(|i| (0..m).map(move |k| (i, k))).map(|(i, k)| f(i, k)).collect();
+    let positions =
+        (0..n_frames).flat_map(|i| (0..m).map(move |k| (i, k))).map(|(i, k)| f(i, k)).collect();
     Motion::new(
         "synthetic",
         FrameRate::new(rate_hz).expect("test rate > 0"),
@@ -65,7 +86,9 @@ pub fn repo_root() -> PathBuf {
     cwd.ancestors()
         .find(|dir| dir.join("Cargo.toml").is_file() && dir.join("experiments").is_dir())
         .map(PathBuf::from)
-        .unwrap_or_else(|| panic!("no repository root above {} or {}", compiled.display(), cwd.display()))
+        .unwrap_or_else(|| {
+            panic!("no repository root above {} or {}", compiled.display(), cwd.display())
+        })
 }
 
 /// A tiny deterministic PRNG (xorshift64*) so tests need no extra dependency and stay
@@ -108,23 +131,38 @@ pub fn viewer_pages(run: &std::path::Path) -> Vec<(String, serde_json::Value)> {
         .filter(|p| p.extension().is_some_and(|x| x == "html"))
         .map(|p| {
             let page = std::fs::read_to_string(&p).unwrap();
-            let start = page.find(r#"id="viewer-meta">"#).unwrap_or_else(|| panic!("{}: no viewer-meta", p.display())) + 17;
+            let start = page
+                .find(r#"id="viewer-meta">"#)
+                .unwrap_or_else(|| panic!("{}: no viewer-meta", p.display()))
+                + 17;
             let end = start + page[start..].find("</script>").unwrap();
-            let meta: serde_json::Value = serde_json::from_str(&page[start..end].replace("<\\/", "</")).unwrap();
+            let meta: serde_json::Value =
+                serde_json::from_str(&page[start..end].replace("<\\/", "</")).unwrap();
             (p.file_name().unwrap().to_string_lossy().into_owned(), meta)
         })
         .collect();
     pages.sort_by(|a, b| a.0.cmp(&b.0));
     for (name, meta) in &pages {
         let n = meta["n_frames"].as_u64().unwrap_or_else(|| panic!("{name}: no n_frames"));
-        assert!(n > 0 && !meta["point_names"].as_array().unwrap().is_empty(), "{name}: empty motion");
+        assert!(
+            n > 0 && !meta["point_names"].as_array().unwrap().is_empty(),
+            "{name}: empty motion"
+        );
         for lane in meta["lanes"].as_array().unwrap() {
             for m in lane["marks"].as_array().into_iter().flatten() {
-                assert!(m["frame"].as_u64().unwrap() < n, "{name}: lane {}: mark {m} outside 0..{n}", lane["name"]);
+                assert!(
+                    m["frame"].as_u64().unwrap() < n,
+                    "{name}: lane {}: mark {m} outside 0..{n}",
+                    lane["name"]
+                );
             }
             for i in lane["intervals"].as_array().into_iter().flatten() {
                 let (a, b) = (i[0].as_u64().unwrap(), i[1].as_u64().unwrap());
-                assert!(a <= b && b < n, "{name}: lane {}: interval [{a}, {b}] outside 0..{n}", lane["name"]);
+                assert!(
+                    a <= b && b < n,
+                    "{name}: lane {}: interval [{a}, {b}] outside 0..{n}",
+                    lane["name"]
+                );
             }
         }
     }
@@ -133,5 +171,10 @@ pub fn viewer_pages(run: &std::path::Path) -> Vec<(String, serde_json::Value)> {
 
 /// The lane named `name` of a viewer page's metadata (see [`viewer_pages`]).
 pub fn viewer_lane<'a>(meta: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
-    meta["lanes"].as_array().unwrap().iter().find(|l| l["name"] == name).unwrap_or_else(|| panic!("no lane {name:?} in {}", meta["title"]))
+    meta["lanes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|l| l["name"] == name)
+        .unwrap_or_else(|| panic!("no lane {name:?} in {}", meta["title"]))
 }

@@ -8,7 +8,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
-use motionlab_core::{Error, ErrorKind, FeatureCache, Fuser, MethodCandidates, Result, Table, TimeSpan};
+use motionlab_core::{
+    Error, ErrorKind, FeatureCache, Fuser, MethodCandidates, Result, Table, TimeSpan,
+};
 use motionlab_eval::boundaries::tolerance_frames;
 use motionlab_eval::chance::{ALPHA, ChanceSettings, row_seed};
 use motionlab_eval::ranks::{RankComparison, Ties, compare_methods};
@@ -20,7 +22,9 @@ use crate::parameter_choice::{MethodChoices, StageChoice};
 use motionlab_experiment::segmenters::{NamedSegmenter, build_segmenters};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
-use motionlab_experiment::workflow::{BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin};
+use motionlab_experiment::workflow::{
+    BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin,
+};
 use motionlab_experiment::{Datasets, build_stage};
 
 /// A segmentation benchmark: every segmenter of `segmenter` (built-in, an `external` program or
@@ -155,7 +159,9 @@ impl WorkflowPlugin for BenchmarkWorkflow {
     type Section = BenchmarkSection;
     fn build(section: BenchmarkSection, cx: &BuildContext<'_>) -> Result<Self> {
         let root = cx.root.clone();
-        let invalid = |msg: String, at: KeyPath| Err(cx.locate(Error::new(ErrorKind::InvalidParameter, msg), at));
+        let invalid = |msg: String, at: KeyPath| {
+            Err(cx.locate(Error::new(ErrorKind::InvalidParameter, msg), at))
+        };
         if section.segmenters.is_empty() {
             return Err(cx.locate(Error::new(ErrorKind::MissingKey, "lists no segmenter; expected at least one (`segmenter = [{ type = \"clasp\" }]`)"), root.key("segmenter")));
         }
@@ -176,19 +182,34 @@ impl WorkflowPlugin for BenchmarkWorkflow {
             m.check(&format!("margins[{i}]"), false).map_err(|e| cx.locate(e, &root))?;
         }
         if section.margins.is_empty() {
-            return invalid("lists no margin; expected at least one (`margins = [{ frames = 5 }]`)".into(), root.key("margins"));
+            return invalid(
+                "lists no margin; expected at least one (`margins = [{ frames = 5 }]`)".into(),
+                root.key("margins"),
+            );
         }
         if !(section.alpha > 0.0 && section.alpha < 1.0) {
-            return invalid(format!("must lie in (0, 1), found {}", section.alpha), root.key("alpha"));
+            return invalid(
+                format!("must lie in (0, 1), found {}", section.alpha),
+                root.key("alpha"),
+            );
         }
-        let chance = ChanceSettings::checked(section.chance_draws, section.chance_seed).map_err(|e| cx.locate(e, &root))?;
+        let chance = ChanceSettings::checked(section.chance_draws, section.chance_seed)
+            .map_err(|e| cx.locate(e, &root))?;
         let fuse = match &section.fuse {
             None => (0..segmenters.len()).collect(),
             Some(names) => names
                 .iter()
                 .map(|n| {
                     segmenters.iter().position(|s| s.name == *n).ok_or_else(|| {
-                        cx.locate(Error::new(ErrorKind::UnknownName, format!("fuse names {n:?}, which is not a segmenter of this benchmark")), root.key("fuse"))
+                        cx.locate(
+                            Error::new(
+                                ErrorKind::UnknownName,
+                                format!(
+                                    "fuse names {n:?}, which is not a segmenter of this benchmark"
+                                ),
+                            ),
+                            root.key("fuse"),
+                        )
                     })
                 })
                 .collect::<Result<Vec<_>>>()?,
@@ -199,27 +220,48 @@ impl WorkflowPlugin for BenchmarkWorkflow {
                 if segmenters.iter().any(|s| s.name == name) {
                     return Err(cx.locate(Error::new(ErrorKind::DuplicateName, format!("the fuser is named {name:?} like a segmenter; give it another `name`")), root.key("fuser")));
                 }
-                Some((name, build_stage(cx.source, cx.combo, f, &root.key("fuser"), registry::build_fuser)?))
+                Some((
+                    name,
+                    build_stage(cx.source, cx.combo, f, &root.key("fuser"), registry::build_fuser)?,
+                ))
             }
             None => None,
         };
-        let method_names: Vec<String> = segmenters.iter().map(|s| s.name.clone()).chain(fuser.iter().map(|(n, _)| n.clone())).collect();
+        let method_names: Vec<String> = segmenters
+            .iter()
+            .map(|s| s.name.clone())
+            .chain(fuser.iter().map(|(n, _)| n.clone()))
+            .collect();
         let published = match &section.published {
             None => None,
             Some(p) => {
                 let at = root.key("published");
                 let path = cx.source.base_dir().join(&p.file);
-                let scores = read_scores_csv(&path).map_err(|e| cx.locate(Error::new(e.kind(), e.to_string()), at.key("file")))?;
+                let scores = read_scores_csv(&path)
+                    .map_err(|e| cx.locate(Error::new(e.kind(), e.to_string()), at.key("file")))?;
                 for (ours, theirs) in &p.methods {
                     if !method_names.contains(ours) {
                         return Err(cx.locate(
-                            Error::new(ErrorKind::UnknownName, format!("names {ours:?}, which is not a method of this benchmark ({})", method_names.join(", "))),
+                            Error::new(
+                                ErrorKind::UnknownName,
+                                format!(
+                                    "names {ours:?}, which is not a method of this benchmark ({})",
+                                    method_names.join(", ")
+                                ),
+                            ),
                             at.key("methods"),
                         ));
                     }
                     if scores.method_index(theirs).is_none() {
                         return Err(cx.locate(
-                            Error::new(ErrorKind::UnknownName, format!("{theirs:?} is not a column of {} ({})", path.display(), scores.methods.join(", "))),
+                            Error::new(
+                                ErrorKind::UnknownName,
+                                format!(
+                                    "{theirs:?} is not a column of {} ({})",
+                                    path.display(),
+                                    scores.methods.join(", ")
+                                ),
+                            ),
                             at.key("methods").key(ours),
                         ));
                     }
@@ -227,19 +269,50 @@ impl WorkflowPlugin for BenchmarkWorkflow {
                 Some((scores, p.clone()))
             }
         };
-        let swept: Vec<String> = cx.combo.params.iter().map(|(k, _)| KeyPath::parse(k).map_or_else(|_| k.clone(), |p| p.to_string())).collect();
+        let swept: Vec<String> = cx
+            .combo
+            .params
+            .iter()
+            .map(|(k, _)| KeyPath::parse(k).map_or_else(|_| k.clone(), |p| p.to_string()))
+            .collect();
         let stage_choices: Vec<StageChoice> = section
             .segmenters
             .iter()
             .enumerate()
-            .map(|(k, s)| StageChoice::of(s, &[format!("{}[{}]", root.key("segmenter"), s.display_name()), root.key("segmenter").index(k).to_string()], &swept))
+            .map(|(k, s)| {
+                StageChoice::of(
+                    s,
+                    &[
+                        format!("{}[{}]", root.key("segmenter"), s.display_name()),
+                        root.key("segmenter").index(k).to_string(),
+                    ],
+                    &swept,
+                )
+            })
             .collect();
-        let mut methods: Vec<(String, Vec<StageChoice>)> = segmenters.iter().zip(&stage_choices).map(|(s, c)| (s.name.clone(), vec![c.clone()])).collect();
+        let mut methods: Vec<(String, Vec<StageChoice>)> = segmenters
+            .iter()
+            .zip(&stage_choices)
+            .map(|(s, c)| (s.name.clone(), vec![c.clone()]))
+            .collect();
         if let (Some((name, _)), Some(spec)) = (&fuser, &section.fuser) {
             let own = StageChoice::of(spec, &[root.key("fuser").to_string()], &swept);
-            methods.push((name.clone(), std::iter::once(own).chain(fuse.iter().map(|&i| stage_choices[i].clone())).collect()));
+            methods.push((
+                name.clone(),
+                std::iter::once(own)
+                    .chain(fuse.iter().map(|&i| stage_choices[i].clone()))
+                    .collect(),
+            ));
         }
-        Ok(BenchmarkWorkflow { section, segmenters, fuser, fuse, chance, published, choices: MethodChoices { methods } })
+        Ok(BenchmarkWorkflow {
+            section,
+            segmenters,
+            fuser,
+            fuse,
+            chance,
+            published,
+            choices: MethodChoices { methods },
+        })
     }
 }
 
@@ -251,57 +324,114 @@ impl Workflow for BenchmarkWorkflow {
         let motion = &loaded.motion;
         let file = motion.source.clone().unwrap_or_default();
         let truth = loaded.truth.as_ref().ok_or_else(|| {
-            Error::new(ErrorKind::MissingData, format!("sequence {} has no ground truth; a benchmark scores every sequence against it", loaded.name)).with_location(motionlab_core::Location::file(&file))
+            Error::new(
+                ErrorKind::MissingData,
+                format!(
+                    "sequence {} has no ground truth; a benchmark scores every sequence against it",
+                    loaded.name
+                ),
+            )
+            .with_location(motionlab_core::Location::file(&file))
         })?;
         let annotators = truth.annotator_frames();
         let n_frames = motion.n_frames();
         let rate = motion.frame_rate();
-        let margins: Vec<usize> = self.section.margins.iter().map(|&m| tolerance_frames(m, rate).floor() as usize).collect();
+        let margins: Vec<usize> = self
+            .section
+            .margins
+            .iter()
+            .map(|&m| tolerance_frames(m, rate).floor() as usize)
+            .collect();
         let mut runs: Vec<(String, TimedCandidates)> = Vec::new();
         for s in &self.segmenters {
             let name = &s.name;
-            let timed = data.stage_cached(&loaded, (item.dataset, item.file), &format!("segmenter {name}"), "benchmark_segmenter", &s.cache_key, || {
-                // A cache of its own: each method's time includes the features it reads.
-                let cache = FeatureCache::new();
-                let start = Instant::now();
-                let out = s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
-                Ok(TimedCandidates { candidates: out.candidates, seconds: start.elapsed().as_secs_f64() })
-            })?;
+            let timed = data.stage_cached(
+                &loaded,
+                (item.dataset, item.file),
+                &format!("segmenter {name}"),
+                "benchmark_segmenter",
+                &s.cache_key,
+                || {
+                    // A cache of its own: each method's time includes the features it reads.
+                    let cache = FeatureCache::new();
+                    let start = Instant::now();
+                    let out = s
+                        .segment(motion, &cache)
+                        .map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
+                    Ok(TimedCandidates {
+                        candidates: out.candidates,
+                        seconds: start.elapsed().as_secs_f64(),
+                    })
+                },
+            )?;
             runs.push((name.clone(), timed));
         }
         if let Some((name, fuser)) = &self.fuser {
-            let inputs: Vec<MethodCandidates<'_>> = self.fuse.iter().map(|&i| MethodCandidates { method: &runs[i].0, frames: &runs[i].1.candidates }).collect();
+            let inputs: Vec<MethodCandidates<'_>> = self
+                .fuse
+                .iter()
+                .map(|&i| MethodCandidates { method: &runs[i].0, frames: &runs[i].1.candidates })
+                .collect();
             let start = Instant::now();
-            let fused = fuser.fuse(motion, &inputs).map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
-            let seconds = start.elapsed().as_secs_f64() + self.fuse.iter().map(|&i| runs[i].1.seconds).sum::<f64>();
-            data.record(item.dataset, item.file, &format!("fuser {name}"), motionlab_experiment::Origin::Computed);
+            let fused = fuser
+                .fuse(motion, &inputs)
+                .map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
+            let seconds = start.elapsed().as_secs_f64()
+                + self.fuse.iter().map(|&i| runs[i].1.seconds).sum::<f64>();
+            data.record(
+                item.dataset,
+                item.file,
+                &format!("fuser {name}"),
+                motionlab_experiment::Origin::Computed,
+            );
             runs.push((name.clone(), TimedCandidates { candidates: fused, seconds }));
         }
         let methods = runs
             .into_iter()
             .map(|(method, t)| {
                 let seed = row_seed(self.chance.seed, &loaded.name, &method);
-                let scores = score_series(&annotators, &t.candidates, n_frames, &margins, self.chance, seed);
+                let scores =
+                    score_series(&annotators, &t.candidates, n_frames, &margins, self.chance, seed);
                 MethodRun { method, seconds: t.seconds, scores }
             })
             .collect();
-        let result = ItemResult { sequence: loaded.name.clone(), n_truth: truth.boundaries.len(), methods };
+        let result =
+            ItemResult { sequence: loaded.name.clone(), n_truth: truth.boundaries.len(), methods };
         Ok(ItemOutput::new(ItemData::encode(&result)?, Vec::new()))
     }
 
-    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, _draw: bool) -> Result<Output> {
-        let results: Vec<ItemResult> = items.iter().map(|(_, v)| v.decode()).collect::<Result<_>>()?;
+    fn finish(
+        &self,
+        items: &[(WorkItem, ItemData)],
+        data: &Datasets,
+        _draw: bool,
+    ) -> Result<Output> {
+        let results: Vec<ItemResult> =
+            items.iter().map(|(_, v)| v.decode()).collect::<Result<_>>()?;
         let mut inputs: Vec<(String, String)> = Vec::new();
         for ((item, _), r) in items.iter().zip(&results) {
             let sha = data.cache.file_sha256(&data.datasets[item.dataset].files[item.file])?;
             inputs.push((r.sequence.clone(), motionlab_experiment::run_cache::hex(&sha)));
         }
-        let methods: Vec<String> = self.segmenters.iter().map(|s| s.name.clone()).chain(self.fuser.iter().map(|(n, _)| n.clone())).collect();
+        let methods: Vec<String> = self
+            .segmenters
+            .iter()
+            .map(|s| s.name.clone())
+            .chain(self.fuser.iter().map(|(n, _)| n.clone()))
+            .collect();
         let scores_of = |m: &str| -> Vec<(&str, &MethodRun)> {
-            results.iter().filter_map(|r| r.methods.iter().find(|x| x.method == m).map(|x| (r.sequence.as_str(), x))).collect()
+            results
+                .iter()
+                .filter_map(|r| {
+                    r.methods.iter().find(|x| x.method == m).map(|x| (r.sequence.as_str(), x))
+                })
+                .collect()
         };
         let mut out = Output::default();
-        let mut tables = vec![self.covering_table(&results, &methods, &scores_of)?, self.f1_table(&results, &methods, &scores_of)?];
+        let mut tables = vec![
+            self.covering_table(&results, &methods, &scores_of)?,
+            self.f1_table(&results, &methods, &scores_of)?,
+        ];
         let (ranks, test, figure) = self.rank_tables(&results, &methods)?;
         tables.push(ranks);
         self.choices.annotate(&mut tables, &inputs);
@@ -346,7 +476,13 @@ struct F1Row {
 }
 
 fn above(p: f64) -> &'static str {
-    if p.is_nan() { "" } else if p < ALPHA { "yes" } else { "no" }
+    if p.is_nan() {
+        ""
+    } else if p < ALPHA {
+        "yes"
+    } else {
+        "no"
+    }
 }
 
 /// The label of a margin (`5 frames`, `0.5 s`).
@@ -368,7 +504,12 @@ impl BenchmarkWorkflow {
         Some((column.clone(), scores.series(sequence).map_or(f64::NAN, |v| v[j])))
     }
 
-    fn covering_table<'a>(&self, results: &'a [ItemResult], methods: &[String], scores_of: &ScoresOf<'a>) -> Result<Table> {
+    fn covering_table<'a>(
+        &self,
+        results: &'a [ItemResult],
+        methods: &[String],
+        scores_of: &ScoresOf<'a>,
+    ) -> Result<Table> {
         let mut rows = Vec::new();
         for r in results {
             for m in &r.methods {
@@ -393,16 +534,25 @@ impl BenchmarkWorkflow {
         for method in methods {
             let runs = scores_of(method);
             let mean = ScoreWithChance::mean(runs.iter().map(|(_, m)| &m.scores.covering));
-            let published: Option<(String, Vec<f64>)> = runs.iter().map(|(seq, _)| self.published_of(method, seq)).collect::<Option<Vec<_>>>().and_then(|v| {
-                let column = v.first()?.0.clone();
-                Some((column, v.into_iter().map(|p| p.1).collect()))
-            });
-            let published_mean = published.as_ref().map(|(_, v)| v.iter().sum::<f64>() / v.len() as f64);
+            let published: Option<(String, Vec<f64>)> = runs
+                .iter()
+                .map(|(seq, _)| self.published_of(method, seq))
+                .collect::<Option<Vec<_>>>()
+                .and_then(|v| {
+                    let column = v.first()?.0.clone();
+                    Some((column, v.into_iter().map(|p| p.1).collect()))
+                });
+            let published_mean =
+                published.as_ref().map(|(_, v)| v.iter().sum::<f64>() / v.len() as f64);
             rows.push(CoveringRow {
                 sequence: "mean".into(),
                 method: method.clone(),
                 n_samples: runs.iter().map(|(_, m)| m.scores.n_frames).sum(),
-                n_truth: runs.iter().filter_map(|(seq, _)| results.iter().find(|r| r.sequence == *seq)).map(|r| r.n_truth).sum(),
+                n_truth: runs
+                    .iter()
+                    .filter_map(|(seq, _)| results.iter().find(|r| r.sequence == *seq))
+                    .map(|r| r.n_truth)
+                    .sum(),
                 n_found: Some(runs.iter().map(|(_, m)| m.scores.n_found).sum()),
                 covering: mean.value,
                 chance_covering: mean.chance,
@@ -413,14 +563,24 @@ impl BenchmarkWorkflow {
                 published_method: published.map(|p| p.0),
             });
         }
-        let mut t = Table::from_records("benchmark_covering", "Segment covering per sequence and method, beside chance (and the published score), then the mean over sequences", &rows)?;
+        let mut t = Table::from_records(
+            "benchmark_covering",
+            "Segment covering per sequence and method, beside chance (and the published score), then the mean over sequences",
+            &rows,
+        )?;
         if self.published.is_none() {
-            t.columns.retain(|c| !c.name.starts_with("published") && !c.name.ends_with("published"));
+            t.columns
+                .retain(|c| !c.name.starts_with("published") && !c.name.ends_with("published"));
         }
         Ok(t)
     }
 
-    fn f1_table<'a>(&self, results: &'a [ItemResult], methods: &[String], scores_of: &ScoresOf<'a>) -> Result<Table> {
+    fn f1_table<'a>(
+        &self,
+        results: &'a [ItemResult],
+        methods: &[String],
+        scores_of: &ScoresOf<'a>,
+    ) -> Result<Table> {
         let mut rows = Vec::new();
         for r in results {
             for m in &r.methods {
@@ -460,20 +620,32 @@ impl BenchmarkWorkflow {
                 });
             }
         }
-        Table::from_records("benchmark_f1", "TCPDBench F1 per sequence, method and margin, beside chance, then the mean over sequences", &rows)
+        Table::from_records(
+            "benchmark_f1",
+            "TCPDBench F1 per sequence, method and margin, beside chance, then the mean over sequences",
+            &rows,
+        )
     }
 
     /// Mean ranks by covering (ours and the published methods), the tests, and the diagram.
-    fn rank_tables(&self, results: &[ItemResult], methods: &[String]) -> Result<(Table, Table, Option<Figure>)> {
+    fn rank_tables(
+        &self,
+        results: &[ItemResult],
+        methods: &[String],
+    ) -> Result<(Table, Table, Option<Figure>)> {
         let published = self.published.as_ref().map(|(s, _)| s);
-        let mut labels: Vec<(String, &'static str)> = methods.iter().map(|m| (m.clone(), "ours")).collect();
+        let mut labels: Vec<(String, &'static str)> =
+            methods.iter().map(|m| (m.clone(), "ours")).collect();
         if let Some(p) = published {
             labels.extend(p.methods.iter().map(|m| (format!("{m} (published)"), "published")));
         }
         // Sequences every method scored (and the published sheet lists, when given).
         let mut scores: Vec<Vec<f64>> = Vec::new();
         for r in results {
-            let ours: Option<Vec<f64>> = methods.iter().map(|m| r.methods.iter().find(|x| x.method == *m).map(|x| x.scores.covering.value)).collect();
+            let ours: Option<Vec<f64>> = methods
+                .iter()
+                .map(|m| r.methods.iter().find(|x| x.method == *m).map(|x| x.scores.covering.value))
+                .collect();
             let theirs: Option<Vec<f64>> = match published {
                 None => Some(Vec::new()),
                 Some(p) => p.series(&r.sequence).map(<[f64]>::to_vec),
@@ -504,7 +676,8 @@ impl BenchmarkWorkflow {
             critical_difference: f64,
             cliques: String,
         }
-        let c: RankComparison = compare_methods(&scores, true, self.section.ties, self.section.alpha);
+        let c: RankComparison =
+            compare_methods(&scores, true, self.section.ties, self.section.alpha);
         let n = scores.len();
         let rows: Vec<RankRow> = labels
             .iter()
@@ -518,7 +691,12 @@ impl BenchmarkWorkflow {
                 mean_covering: scores.iter().map(|row| row[j]).sum::<f64>() / n as f64,
             })
             .collect();
-        let cliques = c.cliques.iter().map(|g| g.iter().map(|&i| labels[i].0.clone()).collect::<Vec<_>>().join(" = ")).collect::<Vec<_>>().join("; ");
+        let cliques = c
+            .cliques
+            .iter()
+            .map(|g| g.iter().map(|&i| labels[i].0.clone()).collect::<Vec<_>>().join(" = "))
+            .collect::<Vec<_>>()
+            .join("; ");
         let ties = match self.section.ties {
             Ties::Average => "average",
             Ties::Min => "min",
@@ -534,8 +712,16 @@ impl BenchmarkWorkflow {
             critical_difference: c.critical_difference,
             cliques,
         };
-        let ranks = Table::from_records("benchmark_ranks", "Mean rank by covering per method (1 = best) over the sequences every method scored", &rows)?;
-        let test = Table::from_records("benchmark_rank_test", "Friedman's test and Nemenyi's critical difference of the mean ranks", &[test])?;
+        let ranks = Table::from_records(
+            "benchmark_ranks",
+            "Mean rank by covering per method (1 = best) over the sequences every method scored",
+            &rows,
+        )?;
+        let test = Table::from_records(
+            "benchmark_rank_test",
+            "Friedman's test and Nemenyi's critical difference of the mean ranks",
+            &[test],
+        )?;
         let figure = (labels.len() >= 2 && n > 0).then(|| Figure {
             name: "critical_difference".into(),
             figure: FigureKind::CriticalDifference(CriticalDifference {
@@ -568,14 +754,31 @@ fn runtime_table(results: &[ItemResult], methods: &[String]) -> Result<Table> {
     for r in results {
         for m in &r.methods {
             let n = m.scores.n_frames;
-            rows.push(Row { sequence: r.sequence.clone(), method: m.method.clone(), n_samples: n, seconds: m.seconds, microseconds_per_sample: m.seconds * 1e6 / n.max(1) as f64 });
+            rows.push(Row {
+                sequence: r.sequence.clone(),
+                method: m.method.clone(),
+                n_samples: n,
+                seconds: m.seconds,
+                microseconds_per_sample: m.seconds * 1e6 / n.max(1) as f64,
+            });
         }
     }
     for method in methods {
-        let runs: Vec<&MethodRun> = results.iter().flat_map(|r| &r.methods).filter(|m| m.method == *method).collect();
+        let runs: Vec<&MethodRun> =
+            results.iter().flat_map(|r| &r.methods).filter(|m| m.method == *method).collect();
         let n: usize = runs.iter().map(|m| m.scores.n_frames).sum();
         let seconds: f64 = runs.iter().map(|m| m.seconds).sum();
-        rows.push(Row { sequence: "total".into(), method: method.clone(), n_samples: n, seconds, microseconds_per_sample: seconds * 1e6 / n.max(1) as f64 });
+        rows.push(Row {
+            sequence: "total".into(),
+            method: method.clone(),
+            n_samples: n,
+            seconds,
+            microseconds_per_sample: seconds * 1e6 / n.max(1) as f64,
+        });
     }
-    Table::from_records("benchmark_runtime", "Wall time of each segmenter per sequence (feature extraction included), as measured where it was computed", &rows)
+    Table::from_records(
+        "benchmark_runtime",
+        "Wall time of each segmenter per sequence (feature extraction included), as measured where it was computed",
+        &rows,
+    )
 }

@@ -22,14 +22,22 @@ pub fn label_of(name: &str) -> String {
 /// Charts of a stage's traces against time with its thresholds and candidate bars (the papers'
 /// "graph with vertical bars below it"): one chart per unit, the one whose traces carry the
 /// thresholds first (that is the signal the stage decided on).
-pub fn traces_charts(title: &str, time: &[f64], traces: &[Trace], thresholds: &[Threshold], bars: Vec<BarRow>) -> Vec<Chart> {
+pub fn traces_charts(
+    title: &str,
+    time: &[f64],
+    traces: &[Trace],
+    thresholds: &[Threshold],
+    bars: Vec<BarRow>,
+) -> Vec<Chart> {
     let mut units: Vec<&str> = Vec::new();
     for t in traces {
         if !units.contains(&t.unit.as_str()) {
             units.push(&t.unit);
         }
     }
-    let decides = |u: &str| traces.iter().any(|t| t.unit == u && thresholds.iter().any(|h| h.trace == t.name));
+    let decides = |u: &str| {
+        traces.iter().any(|t| t.unit == u && thresholds.iter().any(|h| h.trace == t.name))
+    };
     units.sort_by_key(|u| !decides(u));
     units
         .into_iter()
@@ -37,7 +45,13 @@ pub fn traces_charts(title: &str, time: &[f64], traces: &[Trace], thresholds: &[
             let group: Vec<&Trace> = traces.iter().filter(|t| t.unit == unit).collect();
             let lines: Vec<Series> = group
                 .iter()
-                .map(|t| Series::new(label_of(&t.name), time[..t.values.len().min(time.len())].to_vec(), t.values.clone()))
+                .map(|t| {
+                    Series::new(
+                        label_of(&t.name),
+                        time[..t.values.len().min(time.len())].to_vec(),
+                        t.values.clone(),
+                    )
+                })
                 .collect();
             let hlines = thresholds
                 .iter()
@@ -46,23 +60,43 @@ pub fn traces_charts(title: &str, time: &[f64], traces: &[Trace], thresholds: &[
                 .collect();
             let first = group.first().map(|t| label_of(&t.name)).unwrap_or_default();
             let y_label = if unit.is_empty() { first } else { format!("{first} ({unit})") };
-            Chart { title: title.to_string(), x_label: "time (s)".into(), y_label, lines, hlines, bar_rows: bars.clone(), ..Default::default() }
+            Chart {
+                title: title.to_string(),
+                x_label: "time (s)".into(),
+                y_label,
+                lines,
+                hlines,
+                bar_rows: bars.clone(),
+                ..Default::default()
+            }
         })
         .collect()
 }
 
 /// A side-view stick strip of `n` evenly spaced frames of `[start, end]`: each pose drawn in
 /// the plane of the floor axis along which the root travels most and the up axis.
-pub fn stick_row(motion: &Motion, label: &str, start: usize, end: usize, n: usize, horizontal_axis: usize) -> StickRow {
+pub fn stick_row(
+    motion: &Motion,
+    label: &str,
+    start: usize,
+    end: usize,
+    n: usize,
+    horizontal_axis: usize,
+) -> StickRow {
     let up = motion.up_axis().index();
     let n = n.max(2);
-    let frames: Vec<usize> = (0..n).map(|k| start + (end.saturating_sub(start)) * k / (n - 1)).collect();
+    let frames: Vec<usize> =
+        (0..n).map(|k| start + (end.saturating_sub(start)) * k / (n - 1)).collect();
     let rate = motion.frame_rate().hz();
     let poses = frames
         .iter()
         .map(|&f| Pose {
             label: format!("{f} ({:.2} s)", f as f64 / rate),
-            points: motion.frame(f.min(motion.n_frames() - 1)).iter().map(|p: &Point3| [p[horizontal_axis], p[up]]).collect(),
+            points: motion
+                .frame(f.min(motion.n_frames() - 1))
+                .iter()
+                .map(|p: &Point3| [p[horizontal_axis], p[up]])
+                .collect(),
         })
         .collect();
     StickRow { label: label.to_string(), poses }
@@ -77,7 +111,11 @@ pub fn stick_row_at(motion: &Motion, frames: &[usize], horizontal_axis: usize) -
         .iter()
         .map(|&f| Pose {
             label: f.to_string(),
-            points: motion.frame(f.min(last)).iter().map(|p: &Point3| [p[horizontal_axis], p[up]]).collect(),
+            points: motion
+                .frame(f.min(last))
+                .iter()
+                .map(|p: &Point3| [p[horizontal_axis], p[up]])
+                .collect(),
         })
         .collect();
     StickRow { label: String::new(), poses }
@@ -88,7 +126,10 @@ pub fn main_floor_axis(motion: &Motion, point: Option<usize>, start: usize, end:
     let [a, b] = motion.up_axis().others();
     let Some(k) = point else { return a };
     let range = |axis: usize| {
-        let vals: Vec<f64> = (start..=end.min(motion.n_frames() - 1)).map(|f| motion.position(f, k)[axis]).filter(|v| v.is_finite()).collect();
+        let vals: Vec<f64> = (start..=end.min(motion.n_frames() - 1))
+            .map(|f| motion.position(f, k)[axis])
+            .filter(|v| v.is_finite())
+            .collect();
         let lo = vals.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = vals.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
         if hi > lo { hi - lo } else { 0.0 }
@@ -99,13 +140,21 @@ pub fn main_floor_axis(motion: &Motion, point: Option<usize>, start: usize, end:
 /// Bones for stick figures: from the skeleton when there is one, else from name pairs.
 pub fn bones_for(motion: &Motion, pairs: &[[String; 2]]) -> Result<Vec<(usize, usize)>> {
     if !pairs.is_empty() {
-        return pairs.iter().map(|[a, b]| Ok((motion.point_index(a)?, motion.point_index(b)?))).collect();
+        return pairs
+            .iter()
+            .map(|[a, b]| Ok((motion.point_index(a)?, motion.point_index(b)?)))
+            .collect();
     }
     Ok(motion.skeleton.as_ref().map(|s| s.skeleton.bones()).unwrap_or_default())
 }
 
 /// A stick strip figure spec.
-pub fn stick_strip(title: String, bones: Vec<(usize, usize)>, rows: Vec<StickRow>, caption: String) -> StickStrip {
+pub fn stick_strip(
+    title: String,
+    bones: Vec<(usize, usize)>,
+    rows: Vec<StickRow>,
+    caption: String,
+) -> StickStrip {
     StickStrip { title, bones, rows, caption }
 }
 
@@ -134,7 +183,8 @@ pub fn bones_of_merged_skeleton(raw: &Motion, kept: &Motion) -> Vec<[String; 2]>
         (0..names.len()).find_map(|k| {
             let q = raw.position(0, k);
             let d = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
-            (k != j && d <= 1e-3 && kept.point_names().contains(&names[k])).then(|| names[k].clone())
+            (k != j && d <= 1e-3 && kept.point_names().contains(&names[k]))
+                .then(|| names[k].clone())
         })
     };
     let mut out: Vec<[String; 2]> = Vec::new();

@@ -55,8 +55,10 @@ fn chance_at(method: &str, parts: &[(&Point, &str)]) -> ChanceScores {
     let mut draws = Vec::new();
     let mut counts = Counts::default();
     for (p, seq) in parts {
-        let (Some((_, c)), Some((_, setup))) = (p.per_sequence.iter().find(|(s, _)| s == seq), p.chance.iter().find(|(s, _)| s == seq))
-        else {
+        let (Some((_, c)), Some((_, setup))) = (
+            p.per_sequence.iter().find(|(s, _)| s == seq),
+            p.chance.iter().find(|(s, _)| s == seq),
+        ) else {
             return ChanceScores::none();
         };
         counts = counts.add(*c);
@@ -122,7 +124,10 @@ pub struct Summary {
 pub const ORACLE: &str = "oracle (chosen on the evaluation data)";
 
 fn pooled(p: &Point, sequences: &[String]) -> Counts {
-    p.per_sequence.iter().filter(|(s, _)| sequences.contains(s)).fold(Counts::default(), |acc, (_, c)| acc.add(*c))
+    p.per_sequence
+        .iter()
+        .filter(|(s, _)| sequences.contains(s))
+        .fold(Counts::default(), |acc, (_, c)| acc.add(*c))
 }
 
 /// Each sweep point's per-sequence counts and chance null models, from the boundary
@@ -133,7 +138,14 @@ pub fn curves_from(combos: &[ComboOutput<'_>]) -> Vec<Curve> {
     for co in combos {
         let Some(judged) = co.output.analysis::<BoundaryAnalysis>() else { continue };
         let sweep = co.combo.sweep.clone().unwrap_or_default();
-        add_points(&mut curves, co.combo.index, &sweep, co.combo.focus.as_deref(), &co.combo.label(), &judged);
+        add_points(
+            &mut curves,
+            co.combo.index,
+            &sweep,
+            co.combo.focus.as_deref(),
+            &co.combo.label(),
+            &judged,
+        );
     }
     for c in &mut curves {
         c.points.sort_by_key(|p| p.combination);
@@ -142,8 +154,16 @@ pub fn curves_from(combos: &[ComboOutput<'_>]) -> Vec<Curve> {
 }
 
 /// Adds one combination's points (its boundary evaluation) to the curves.
-fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: Option<&str>, label: &str, judged: &BoundaryAnalysis) {
-    let chance: Vec<(String, ChanceSetup)> = judged.sequences.iter().map(|s| (s.sequence.clone(), s.chance.clone())).collect();
+fn add_points(
+    curves: &mut Vec<Curve>,
+    combination: usize,
+    sweep: &str,
+    focus: Option<&str>,
+    label: &str,
+    judged: &BoundaryAnalysis,
+) {
+    let chance: Vec<(String, ChanceSetup)> =
+        judged.sequences.iter().map(|s| (s.sequence.clone(), s.chance.clone())).collect();
     for seq in &judged.sequences {
         for m in &seq.methods {
             if focus.is_some_and(|fm| fm != m.method) {
@@ -152,7 +172,11 @@ fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: O
             let ci = match curves.iter().position(|c| c.method == m.method && c.sweep == sweep) {
                 Some(ci) => ci,
                 None => {
-                    curves.push(Curve { method: m.method.clone(), sweep: sweep.to_string(), points: Vec::new() });
+                    curves.push(Curve {
+                        method: m.method.clone(),
+                        sweep: sweep.to_string(),
+                        points: Vec::new(),
+                    });
                     curves.len() - 1
                 }
             };
@@ -160,7 +184,12 @@ fn add_points(curves: &mut Vec<Curve>, combination: usize, sweep: &str, focus: O
             let pi = match points.iter().position(|p| p.combination == combination) {
                 Some(pi) => pi,
                 None => {
-                    points.push(Point { combination, parameters: label.to_string(), per_sequence: Vec::new(), chance: chance.clone() });
+                    points.push(Point {
+                        combination,
+                        parameters: label.to_string(),
+                        per_sequence: Vec::new(),
+                        chance: chance.clone(),
+                    });
                     points.len() - 1
                 }
             };
@@ -183,25 +212,38 @@ pub fn folds(selection: &Selection, sequences: &[String]) -> Result<(String, Vec
             if sequences.len() < 2 {
                 return Err(Error::new(
                     ErrorKind::InvalidParameter,
-                    format!("leave_one_sequence_out needs at least 2 evaluated sequences, found {}", sequences.len()),
+                    format!(
+                        "leave_one_sequence_out needs at least 2 evaluated sequences, found {}",
+                        sequences.len()
+                    ),
                 ));
             }
-            let folds = sequences.iter().map(|s| (vec![s.clone()], sequences.iter().filter(|o| *o != s).cloned().collect())).collect();
+            let folds = sequences
+                .iter()
+                .map(|s| (vec![s.clone()], sequences.iter().filter(|o| *o != s).cloned().collect()))
+                .collect();
             Ok(("held-out (leave-one-sequence-out)".into(), folds))
         }
         Selection::Train(train) => {
             if let Some(unknown) = train.iter().find(|t| !sequences.contains(t)) {
                 return Err(Error::new(
                     ErrorKind::UnknownName,
-                    format!("{unknown:?} is not an evaluated sequence; expected some of {}", sequences.join(", ")),
+                    format!(
+                        "{unknown:?} is not an evaluated sequence; expected some of {}",
+                        sequences.join(", ")
+                    ),
                 )
                 .with_field("train"));
             }
-            let test: Vec<String> = sequences.iter().filter(|s| !train.contains(s)).cloned().collect();
+            let test: Vec<String> =
+                sequences.iter().filter(|s| !train.contains(s)).cloned().collect();
             if train.is_empty() || test.is_empty() {
                 return Err(Error::new(
                     ErrorKind::InvalidParameter,
-                    format!("must name at least one sequence and leave at least one of {} to test on", sequences.join(", ")),
+                    format!(
+                        "must name at least one sequence and leave at least one of {} to test on",
+                        sequences.join(", ")
+                    ),
                 )
                 .with_field("train"));
             }
@@ -243,14 +285,22 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
     let mut summaries = Vec::new();
     for c in curves {
         let oracle = best_on(c, &sequences).map(|(k, _)| k);
-        let fold_choices: Vec<Option<(usize, f64)>> = folds.iter().map(|(_, train)| best_on(c, train)).collect();
+        let fold_choices: Vec<Option<(usize, f64)>> =
+            folds.iter().map(|(_, train)| best_on(c, train)).collect();
         let n_folds = fold_choices.iter().flatten().count();
         let agreeing = fold_choices.iter().flatten().filter(|(k, _)| Some(*k) == oracle).count();
         if let Some(k) = oracle {
             let p = &c.points[k];
             let parts: Vec<(&Point, &str)> = sequences.iter().map(|s| (p, s.as_str())).collect();
             let chance = chance_at(&c.method, &parts);
-            summaries.push(summary(c, ORACLE, p.parameters.clone(), (agreeing, n_folds), pooled(p, &sequences), chance));
+            summaries.push(summary(
+                c,
+                ORACLE,
+                p.parameters.clone(),
+                (agreeing, n_folds),
+                pooled(p, &sequences),
+                chance,
+            ));
         }
         let mut total = Counts::default();
         let mut parts: Vec<(&Point, &str)> = Vec::new();
@@ -274,12 +324,26 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
             });
         }
         let chance = chance_at(&c.method, &parts);
-        summaries.push(summary(c, &label, "per fold: heldout_choices".into(), (agreeing, n_folds), total, chance));
+        summaries.push(summary(
+            c,
+            &label,
+            "per fold: heldout_choices".into(),
+            (agreeing, n_folds),
+            total,
+            chance,
+        ));
     }
     Ok((choices, summaries))
 }
 
-fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, usize), counts: Counts, chance: ChanceScores) -> Summary {
+fn summary(
+    c: &Curve,
+    selection: &str,
+    parameters: String,
+    agreement: (usize, usize),
+    counts: Counts,
+    chance: ChanceScores,
+) -> Summary {
     Summary {
         method: c.method.clone(),
         sweep: c.sweep.clone(),
@@ -294,7 +358,11 @@ fn summary(c: &Curve, selection: &str, parameters: String, agreement: (usize, us
 
 /// The `heldout_f1` and `heldout_choices` tables (none under `Oracle`), methods in `methods`
 /// order; errors as [`folds`] gives them.
-pub fn heldout_tables(combos: &[ComboOutput<'_>], methods: &[String], selection: &Selection) -> Result<Vec<Table>> {
+pub fn heldout_tables(
+    combos: &[ComboOutput<'_>],
+    methods: &[String],
+    selection: &Selection,
+) -> Result<Vec<Table>> {
     if *selection == Selection::Oracle {
         return Ok(Vec::new());
     }
@@ -323,9 +391,19 @@ mod tests {
     fn leave_one_out_needs_two_sequences() {
         let seqs = vec!["a".to_string(), "b".to_string()];
         let e = folds(&Selection::LeaveOneSequenceOut, &seqs[..1]).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, None), "{e}");
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::InvalidParameter, None),
+            "{e}"
+        );
         let (_, two) = folds(&Selection::LeaveOneSequenceOut, &seqs).unwrap();
-        assert_eq!(two, vec![(vec!["a".to_string()], vec!["b".to_string()]), (vec!["b".to_string()], vec!["a".to_string()])]);
+        assert_eq!(
+            two,
+            vec![
+                (vec!["a".to_string()], vec!["b".to_string()]),
+                (vec!["b".to_string()], vec!["a".to_string()])
+            ]
+        );
     }
 
     fn c(n_truth: usize, n_found: usize, n_matched: usize) -> Counts {
@@ -368,14 +446,37 @@ mod tests {
         let (choices, summaries) = heldout(&[curve()], &Selection::LeaveOneSequenceOut).unwrap();
         assert_eq!(summaries.len(), 2);
         assert_eq!(summaries[0].selection, ORACLE);
-        assert_eq!((summaries[0].scores.n_matched, summaries[0].scores.n_found, summaries[0].scores.n_truth), (12, 20, 20));
+        assert_eq!(
+            (
+                summaries[0].scores.n_matched,
+                summaries[0].scores.n_found,
+                summaries[0].scores.n_truth
+            ),
+            (12, 20, 20)
+        );
         assert!((summaries[0].scores.f1 - 0.6).abs() < 1e-12);
         assert_eq!(summaries[1].selection, "held-out (leave-one-sequence-out)");
-        assert_eq!((summaries[1].scores.n_matched, summaries[1].scores.n_found, summaries[1].scores.n_truth), (6, 20, 20));
-        assert!((summaries[1].scores.f1 - 0.3).abs() < 1e-12 && (summaries[1].scores.precision - 0.3).abs() < 1e-12 && (summaries[1].scores.recall - 0.3).abs() < 1e-12);
+        assert_eq!(
+            (
+                summaries[1].scores.n_matched,
+                summaries[1].scores.n_found,
+                summaries[1].scores.n_truth
+            ),
+            (6, 20, 20)
+        );
+        assert!(
+            (summaries[1].scores.f1 - 0.3).abs() < 1e-12
+                && (summaries[1].scores.precision - 0.3).abs() < 1e-12
+                && (summaries[1].scores.recall - 0.3).abs() < 1e-12
+        );
         assert_eq!(choices.len(), 2);
-        assert_eq!((choices[0].held_out.as_str(), choices[0].combination, choices[0].parameters.as_str()), ("A", 1, "v=0.2"));
-        assert!((choices[0].train_f1 - 0.6).abs() < 1e-12 && (choices[0].scores.f1 - 0.6).abs() < 1e-12);
+        assert_eq!(
+            (choices[0].held_out.as_str(), choices[0].combination, choices[0].parameters.as_str()),
+            ("A", 1, "v=0.2")
+        );
+        assert!(
+            (choices[0].train_f1 - 0.6).abs() < 1e-12 && (choices[0].scores.f1 - 0.6).abs() < 1e-12
+        );
         assert_eq!((choices[1].held_out.as_str(), choices[1].combination), ("B", 0));
         assert!((choices[1].train_f1 - 1.0).abs() < 1e-12 && choices[1].scores.f1 == 0.0);
     }
@@ -383,9 +484,13 @@ mod tests {
     #[test]
     fn explicit_split_and_ties_take_last_in_grid_order() {
         // Train on B: comb 0 F1 0, comb 1 0.6 → comb 1; test on A: 6/10.
-        let (choices, summaries) = heldout(&[curve()], &Selection::Train(vec!["B".into()])).unwrap();
+        let (choices, summaries) =
+            heldout(&[curve()], &Selection::Train(vec!["B".into()])).unwrap();
         assert_eq!(choices.len(), 1);
-        assert_eq!((choices[0].held_out.as_str(), choices[0].combination, choices[0].scores.n_matched), ("A", 1, 6));
+        assert_eq!(
+            (choices[0].held_out.as_str(), choices[0].combination, choices[0].scores.n_matched),
+            ("A", 1, 6)
+        );
         assert_eq!(summaries[1].selection, "held-out (chosen on B)");
         // Two identical points: the last wins, as in best_f1.
         let mut tie = curve();
@@ -404,7 +509,10 @@ mod tests {
         assert!(e.to_string().contains("\"C\""), "{e}");
         assert_eq!(e.location().field.as_deref(), Some("train"));
         let e = heldout(&[curve()], &Selection::Train(vec!["A".into(), "B".into()])).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::InvalidParameter, Some("train")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::InvalidParameter, Some("train"))
+        );
     }
 
     #[test]
@@ -430,22 +538,30 @@ mod tests {
     /// row pooled over every sequence at one combination equals its `pooled` row.
     #[test]
     fn chance_columns_are_boundary_prs_own_draws() {
-        use motionlab_core::{EvalInput, FrameRate, MethodResult, Segment, Segmentation, SequenceResult};
+        use motionlab_core::{
+            EvalInput, FrameRate, MethodResult, Segment, Segmentation, SequenceResult,
+        };
         fn seq(name: &str, cuts: &[usize], found: &[usize]) -> SequenceResult {
             let mut motion = motionlab_testkit::motion_from_fn(400, 100.0, 1, |_, _| [0.0; 3]);
             motion.name = name.into();
             let mut bounds = vec![0];
             bounds.extend_from_slice(cuts);
             bounds.push(400);
-            let segments = bounds.windows(2).map(|w| Segment { start: w[0], end: w[1], label: "x".into() }).collect();
+            let segments = bounds
+                .windows(2)
+                .map(|w| Segment { start: w[0], end: w[1], label: "x".into() })
+                .collect();
             SequenceResult {
                 sequence: name.into(),
                 motion: std::sync::Arc::new(motion),
-                truth: Some(Segmentation::from_segments(FrameRate::new(100.0).unwrap(), segments).unwrap()),
+                truth: Some(
+                    Segmentation::from_segments(FrameRate::new(100.0).unwrap(), segments).unwrap(),
+                ),
                 methods: vec![MethodResult { method: "speed".into(), candidates: found.to_vec() }],
             }
         }
-        let v: toml::Value = toml::from_str("tolerance = { frames = 4 }\nchance_draws = 500").unwrap();
+        let v: toml::Value =
+            toml::from_str("tolerance = { frames = 4 }\nchance_draws = 500").unwrap();
         let pr = motionlab_core::registry::build_evaluator("boundary_pr", &v).unwrap();
         // Two combinations: the first finds the truths of A only, the second a bit of both.
         let combos = [
@@ -456,14 +572,24 @@ mod tests {
         let mut tables = Vec::new();
         for (i, seqs) in combos.iter().enumerate() {
             let e = pr.evaluate_with_analysis(EvalInput::segmentation(seqs)).unwrap();
-            add_points(&mut curves, i, "grid", Some("speed"), &format!("c={i}"), e.analysis::<BoundaryAnalysis>().unwrap());
+            add_points(
+                &mut curves,
+                i,
+                "grid",
+                Some("speed"),
+                &format!("c={i}"),
+                e.analysis::<BoundaryAnalysis>().unwrap(),
+            );
             tables.push(e.tables);
         }
         assert_eq!(curves[0].points[0].chance.len(), 2);
         assert_eq!(curves[0].points[0].chance[0].1.windows.len(), 2);
         let (choices, summaries) = heldout(&curves, &Selection::LeaveOneSequenceOut).unwrap();
-        let row = |t: &Table, r: usize, c: &str| t.column(c).unwrap().cell(r).parse::<f64>().unwrap();
-        let seq_row = |t: &Table, s: &str| (0..t.n_rows()).find(|&r| t.column("sequence").unwrap().cell(r) == s).unwrap();
+        let row =
+            |t: &Table, r: usize, c: &str| t.column(c).unwrap().cell(r).parse::<f64>().unwrap();
+        let seq_row = |t: &Table, s: &str| {
+            (0..t.n_rows()).find(|&r| t.column("sequence").unwrap().cell(r) == s).unwrap()
+        };
         for ch in &choices {
             let t = &tables[ch.combination][0];
             let r = seq_row(t, &ch.held_out);
@@ -477,7 +603,10 @@ mod tests {
         let k: usize = oracle.parameters.trim_start_matches("c=").parse().unwrap();
         let t = &tables[k][0];
         let r = seq_row(t, "pooled");
-        assert_eq!((oracle.chance.f1, oracle.chance.p_value, oracle.chance.recall), (row(t, r, "chance_f1"), row(t, r, "p_value"), row(t, r, "chance_recall")));
+        assert_eq!(
+            (oracle.chance.f1, oracle.chance.p_value, oracle.chance.recall),
+            (row(t, r, "chance_f1"), row(t, r, "p_value"), row(t, r, "chance_recall"))
+        );
         // By hand: A's truths 100 and 250 with tolerance 4 are windows of 9 frames in 0..400; 2
         // random frames hit a given window with probability 1 − (391·390)/(400·399).
         let a = seq_row(&tables[0][0], "A");
@@ -487,6 +616,11 @@ mod tests {
         assert_eq!((held.n_folds, oracle.n_folds), (2, 2));
         // Combination 1 (the oracle's) was chosen when A was held out, not when B was.
         assert_eq!((held.folds_choosing_it, oracle.folds_choosing_it), (1, 1));
-        assert!(held.chance.f1 > 0.0 && held.chance.f1 < held.scores.f1 && held.chance.p_value > 0.0 && held.chance.p_value <= 1.0);
+        assert!(
+            held.chance.f1 > 0.0
+                && held.chance.f1 < held.scores.f1
+                && held.chance.p_value > 0.0
+                && held.chance.p_value <= 1.0
+        );
     }
 }

@@ -33,7 +33,9 @@ pub enum StageChoice {
     Experiment,
     /// Every parameter at the plugin's default; the inputs (SHA-256, lower-case hex) those
     /// defaults were tuned on, if any.
-    Defaults { tuned_on: Vec<String> },
+    Defaults {
+        tuned_on: Vec<String>,
+    },
 }
 
 impl StageChoice {
@@ -41,7 +43,12 @@ impl StageChoice {
     /// `segmentation.segmenter[0]`, `segmentation.fuser`), in a combination whose swept key
     /// paths are `swept_keys`.
     pub fn of(spec: &StageSpec, places: &[String], swept_keys: &[String]) -> StageChoice {
-        if swept_keys.iter().any(|k| places.iter().any(|p| k.strip_prefix(p.as_str()).is_some_and(|rest| rest.is_empty() || rest.starts_with('.')))) {
+        if swept_keys.iter().any(|k| {
+            places.iter().any(|p| {
+                k.strip_prefix(p.as_str())
+                    .is_some_and(|rest| rest.is_empty() || rest.starts_with('.'))
+            })
+        }) {
             return StageChoice::Swept;
         }
         let Ok(entry) = registry::find(&spec.kind) else { return StageChoice::Experiment };
@@ -52,7 +59,11 @@ impl StageChoice {
             let default = defaults.and_then(|p| p.get(k)).and_then(|p| p.get("default"));
             default.is_some_and(|d| serde_json::to_value(v).is_ok_and(|v| same_value(&v, d)))
         });
-        if at_default { StageChoice::Defaults { tuned_on: registry::defaults_tuned_on(&schema) } } else { StageChoice::Experiment }
+        if at_default {
+            StageChoice::Defaults { tuned_on: registry::defaults_tuned_on(&schema) }
+        } else {
+            StageChoice::Experiment
+        }
     }
 }
 
@@ -61,8 +72,12 @@ fn same_value(a: &serde_json::Value, b: &serde_json::Value) -> bool {
     use serde_json::Value::{Array, Number, Object};
     match (a, b) {
         (Number(x), Number(y)) => x.as_f64() == y.as_f64(),
-        (Array(x), Array(y)) => x.len() == y.len() && x.iter().zip(y).all(|(p, q)| same_value(p, q)),
-        (Object(x), Object(y)) => x.len() == y.len() && x.iter().all(|(k, v)| y.get(k).is_some_and(|w| same_value(v, w))),
+        (Array(x), Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(p, q)| same_value(p, q))
+        }
+        (Object(x), Object(y)) => {
+            x.len() == y.len() && x.iter().all(|(k, v)| y.get(k).is_some_and(|w| same_value(v, w)))
+        }
         _ => a == b,
     }
 }
@@ -80,7 +95,9 @@ enum Label {
 impl Label {
     fn text(self) -> &'static str {
         match self {
-            Label::Swept => "swept: one point of this run's grid (its best point picked on these sequences is an oracle)",
+            Label::Swept => {
+                "swept: one point of this run's grid (its best point picked on these sequences is an oracle)"
+            }
             Label::TunedOnThis => "plugin defaults tuned on this sequence (oracle)",
             Label::Experiment => "set in the experiment",
             Label::HeldOutDefaults => "plugin defaults tuned on other data (held-out)",
@@ -93,7 +110,9 @@ impl Label {
             StageChoice::Swept => Label::Swept,
             StageChoice::Experiment => Label::Experiment,
             StageChoice::Defaults { tuned_on } if tuned_on.is_empty() => Label::Defaults,
-            StageChoice::Defaults { tuned_on } if tuned_on.iter().any(|h| h == input_sha256) => Label::TunedOnThis,
+            StageChoice::Defaults { tuned_on } if tuned_on.iter().any(|h| h == input_sha256) => {
+                Label::TunedOnThis
+            }
             StageChoice::Defaults { .. } => Label::HeldOutDefaults,
         }
     }
@@ -118,7 +137,9 @@ impl MethodChoices {
     /// (or any other sequence not in `inputs`) pools the method's labels over all of them.
     pub fn annotate(&self, tables: &mut [Table], inputs: &[(String, String)]) {
         for table in tables {
-            let (Some(ColumnValues::Str(sequences)), Some(ColumnValues::Str(methods))) = (table.column("sequence"), table.column("method")) else {
+            let (Some(ColumnValues::Str(sequences)), Some(ColumnValues::Str(methods))) =
+                (table.column("sequence"), table.column("method"))
+            else {
                 continue;
             };
             let cells: Vec<Option<String>> = sequences
@@ -135,23 +156,39 @@ impl MethodChoices {
             if cells.iter().all(Option::is_none) {
                 continue;
             }
-            let at = table.columns.iter().position(|c| c.name == "method").map_or(table.columns.len(), |i| i + 1);
-            table.columns.insert(at, motionlab_core::Column { name: COLUMN.to_string(), values: ColumnValues::Str(cells) });
+            let at = table
+                .columns
+                .iter()
+                .position(|c| c.name == "method")
+                .map_or(table.columns.len(), |i| i + 1);
+            table.columns.insert(
+                at,
+                motionlab_core::Column {
+                    name: COLUMN.to_string(),
+                    values: ColumnValues::Str(cells),
+                },
+            );
         }
     }
 
     fn pooled(&self, method: &str, inputs: &[(String, String)]) -> Option<String> {
-        let labels: Vec<Label> = inputs.iter().filter_map(|(_, sha)| self.label(method, sha)).collect();
+        let labels: Vec<Label> =
+            inputs.iter().filter_map(|(_, sha)| self.label(method, sha)).collect();
         let first = *labels.first()?;
         if labels.iter().all(|l| *l == first) {
             return Some(match first {
-                Label::TunedOnThis => "plugin defaults tuned on every one of these sequences (oracle)".to_string(),
+                Label::TunedOnThis => {
+                    "plugin defaults tuned on every one of these sequences (oracle)".to_string()
+                }
                 l => l.text().to_string(),
             });
         }
         let tuned = labels.iter().filter(|l| **l == Label::TunedOnThis).count();
         Some(if tuned > 0 {
-            format!("plugin defaults tuned on {tuned} of these {} sequences (partly oracle)", labels.len())
+            format!(
+                "plugin defaults tuned on {tuned} of these {} sequences (partly oracle)",
+                labels.len()
+            )
         } else {
             labels.iter().min().map_or("", |l| l.text()).to_string()
         })
@@ -173,24 +210,44 @@ mod tests {
         // Linked so the registry holds the segmenters.
         use motionlab_segment as _;
         let swept = ["segmentation.segmenter[speed].v_low.fraction_of_p90".to_string()];
-        let places = ["segmentation.segmenter[speed]".to_string(), "segmentation.segmenter[0]".to_string()];
+        let places =
+            ["segmentation.segmenter[speed]".to_string(), "segmentation.segmenter[0]".to_string()];
         let speed = spec("fastest_marker_speed", "name = \"speed\"");
         assert_eq!(StageChoice::of(&speed, &places, &swept), StageChoice::Swept);
-        assert_eq!(StageChoice::of(&speed, &places, &["segmentation.segmenter[0].v_low".to_string()]), StageChoice::Swept);
+        assert_eq!(
+            StageChoice::of(&speed, &places, &["segmentation.segmenter[0].v_low".to_string()]),
+            StageChoice::Swept
+        );
         // `speed_minima` is another segmenter, not a key below `speed`.
-        assert_ne!(StageChoice::of(&speed, &places, &["segmentation.segmenter[speed_minima].v_low".to_string()]), StageChoice::Swept);
-        assert!(matches!(StageChoice::of(&speed, &places, &[]), StageChoice::Defaults { ref tuned_on } if tuned_on.len() == 7));
+        assert_ne!(
+            StageChoice::of(
+                &speed,
+                &places,
+                &["segmentation.segmenter[speed_minima].v_low".to_string()]
+            ),
+            StageChoice::Swept
+        );
+        assert!(
+            matches!(StageChoice::of(&speed, &places, &[]), StageChoice::Defaults { ref tuned_on } if tuned_on.len() == 7)
+        );
         // A value other than the default is the experiment's; the default written out is not.
         let set = spec("fastest_marker_speed", "v_low = { fraction_of_p90 = 0.123 }");
         assert_eq!(StageChoice::of(&set, &places, &[]), StageChoice::Experiment);
         let entry = registry::find("union_merge").unwrap();
-        let merge = entry.params().into_iter().find(|p| p.name == "merge_mm").unwrap().default.unwrap();
+        let merge =
+            entry.params().into_iter().find(|p| p.name == "merge_mm").unwrap().default.unwrap();
         let written = spec("union_merge", &format!("merge_mm = {}", merge.trim_end_matches(".0")));
         let fuser = ["segmentation.fuser".to_string()];
-        assert!(matches!(StageChoice::of(&written, &fuser, &[]), StageChoice::Defaults { .. }), "{merge}");
+        assert!(
+            matches!(StageChoice::of(&written, &fuser, &[]), StageChoice::Defaults { .. }),
+            "{merge}"
+        );
         // Swept keys of another stage do not count.
         assert!(matches!(StageChoice::of(&written, &fuser, &swept), StageChoice::Defaults { .. }));
-        assert_eq!(StageChoice::of(&written, &fuser, &["segmentation.fuser.merge_mm".to_string()]), StageChoice::Swept);
+        assert_eq!(
+            StageChoice::of(&written, &fuser, &["segmentation.fuser.merge_mm".to_string()]),
+            StageChoice::Swept
+        );
     }
 
     #[test]
@@ -200,14 +257,29 @@ mod tests {
             methods: vec![
                 ("speed".into(), vec![tuned.clone()]),
                 ("mine".into(), vec![StageChoice::Experiment]),
-                ("fused".into(), vec![StageChoice::Defaults { tuned_on: vec![] }, tuned, StageChoice::Experiment]),
+                (
+                    "fused".into(),
+                    vec![
+                        StageChoice::Defaults { tuned_on: vec![] },
+                        tuned,
+                        StageChoice::Experiment,
+                    ],
+                ),
             ],
         };
-        let seqs = |n: usize| ColumnValues::Str(["a", "b", "pooled"].iter().cycle().take(n).map(|s| Some(s.to_string())).collect());
+        let seqs = |n: usize| {
+            ColumnValues::Str(
+                ["a", "b", "pooled"].iter().cycle().take(n).map(|s| Some(s.to_string())).collect(),
+            )
+        };
         let meths = |m: &[&str]| ColumnValues::Str(m.iter().map(|s| Some(s.to_string())).collect());
         let mut t = Table::new("t", "t");
         t.push_column("sequence", seqs(9)).unwrap();
-        t.push_column("method", meths(&["speed", "speed", "speed", "mine", "mine", "mine", "fused", "fused", "fused"])).unwrap();
+        t.push_column(
+            "method",
+            meths(&["speed", "speed", "speed", "mine", "mine", "mine", "fused", "fused", "fused"]),
+        )
+        .unwrap();
         let mut tables = [t, Table::new("no_columns", "")];
         choices.annotate(&mut tables, &[("a".into(), "aa".into()), ("b".into(), "bb".into())]);
         let col = tables[0].column(COLUMN).unwrap();
@@ -220,7 +292,15 @@ mod tests {
         assert_eq!(cell(6), "plugin defaults tuned on this sequence (oracle)");
         assert_eq!(cell(7), "set in the experiment");
         assert!(tables[1].columns.is_empty());
-        let all = [Label::Swept, Label::TunedOnThis, Label::Experiment, Label::HeldOutDefaults, Label::Defaults];
-        assert!(all.iter().all(|l| !l.text().contains(',')) && (0..9).all(|r| !cell(r).contains(',')));
+        let all = [
+            Label::Swept,
+            Label::TunedOnThis,
+            Label::Experiment,
+            Label::HeldOutDefaults,
+            Label::Defaults,
+        ];
+        assert!(
+            all.iter().all(|l| !l.text().contains(',')) && (0..9).all(|r| !cell(r).contains(','))
+        );
     }
 }

@@ -32,8 +32,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::{Error, ErrorKind, Motion, Result, Table, TimeSpan};
-use motionlab_match::Synchroniser;
 use motionlab_figure::{BarRow, Chart, Figure, Series};
+use motionlab_match::Synchroniser;
 use motionlab_match::dp::Trajectory3;
 use motionlab_match::input::trajectories;
 use motionlab_match::retrieval::{Hit, RetrievalSettings, relative_to_point, retrieve};
@@ -41,7 +41,9 @@ use motionlab_match::retrieval::{Hit, RetrievalSettings, relative_to_point, retr
 use crate::matching::{cut_offset, find_model};
 use motionlab_experiment::build_stage;
 use motionlab_experiment::spec::StageSpec;
-use motionlab_experiment::workflow::{BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin};
+use motionlab_experiment::workflow::{
+    BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin,
+};
 use motionlab_experiment::{Datasets, Locator};
 
 /// The `k` stretches of a corpus most similar, and the `k` most dissimilar, to one model motion
@@ -148,7 +150,10 @@ impl WorkflowPlugin for RetrievalWorkflow {
                 && !p.contains(r)
             {
                 return Err(locate(
-                    Error::new(ErrorKind::UnknownName, format!("reference point {r:?} is not among the matched `points`")),
+                    Error::new(
+                        ErrorKind::UnknownName,
+                        format!("reference point {r:?} is not among the matched `points`"),
+                    ),
                     "reference_point",
                 ));
             }
@@ -156,12 +161,20 @@ impl WorkflowPlugin for RetrievalWorkflow {
         let model = find_model(&section.model, cx.data).map_err(|e| locate(e, "model"))?;
         if cx.data.datasets.iter().all(|d| d.index == model || d.files.is_empty()) {
             return Err(locate(
-                Error::new(ErrorKind::MissingKey, "no take to search: every [[dataset]] but the model is the corpus, and there is none"),
+                Error::new(
+                    ErrorKind::MissingKey,
+                    "no take to search: every [[dataset]] but the model is the corpus, and there is none",
+                ),
                 "model",
             ));
         }
-        let synchroniser =
-            build_stage(cx.source, cx.combo, &section.synchroniser, &cx.root.key("synchroniser"), motionlab_match::build_synchroniser)?;
+        let synchroniser = build_stage(
+            cx.source,
+            cx.combo,
+            &section.synchroniser,
+            &cx.root.key("synchroniser"),
+            motionlab_match::build_synchroniser,
+        )?;
         Ok(RetrievalWorkflow { section, model, synchroniser, locator: cx.locator() })
     }
 }
@@ -218,7 +231,13 @@ impl RetrievalWorkflow {
         let mut t = trajectories(motion, &names, role, "retrieval")?;
         if let Some(r) = &self.section.reference_point {
             let k = names.iter().position(|n| n == r).ok_or_else(|| {
-                self.locator.locate(Error::new(ErrorKind::UnknownName, format!("the {role} {:?} has no point {r:?}", motion.name)), "retrieval.reference_point")
+                self.locator.locate(
+                    Error::new(
+                        ErrorKind::UnknownName,
+                        format!("the {role} {:?} has no point {r:?}", motion.name),
+                    ),
+                    "retrieval.reference_point",
+                )
             })?;
             relative_to_point(&mut t, k)?;
         }
@@ -243,7 +262,8 @@ impl Workflow for RetrievalWorkflow {
         let n = model.motion.n_frames();
         let window_frames = self.section.window.map_or(2 * n, |w| w.whole_frames_at(rate)).max(1);
         let stride_frames = self.section.stride.map_or(n / 4, |s| s.whole_frames_at(rate)).max(1);
-        let (mut names, mut frames, mut offsets, mut takes) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut names, mut frames, mut offsets, mut takes) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for d in data.datasets.iter().filter(|d| d.index != self.model) {
             for f in 0..d.files.len() {
                 let loaded = data.load(d.index, f)?;
@@ -307,7 +327,12 @@ impl Workflow for RetrievalWorkflow {
         Ok(ItemOutput::new(ItemData::encode(&result)?, Vec::new()))
     }
 
-    fn finish(&self, items: &[(WorkItem, ItemData)], _data: &Datasets, draw: bool) -> Result<Output> {
+    fn finish(
+        &self,
+        items: &[(WorkItem, ItemData)],
+        _data: &Datasets,
+        draw: bool,
+    ) -> Result<Output> {
         let mut out = Output::default();
         for (_, data) in items {
             let r: ItemResult = data.decode()?;
@@ -321,11 +346,16 @@ impl Workflow for RetrievalWorkflow {
 }
 
 impl RetrievalWorkflow {
-    fn hit_record(&self, list: &str, h: &Hit, offsets: &[usize], model_frames: usize) -> Result<HitRecord> {
-        let sync = self
-            .synchroniser
-            .synchronise(&h.alignment, model_frames)
-            .map_err(|e| e.under_field(format!("synchroniser {}", self.section.synchroniser.kind)))?;
+    fn hit_record(
+        &self,
+        list: &str,
+        h: &Hit,
+        offsets: &[usize],
+        model_frames: usize,
+    ) -> Result<HitRecord> {
+        let sync = self.synchroniser.synchronise(&h.alignment, model_frames).map_err(|e| {
+            e.under_field(format!("synchroniser {}", self.section.synchroniser.kind))
+        })?;
         let o = offsets[h.take] + h.window_start;
         Ok(HitRecord {
             list: list.into(),
@@ -435,7 +465,11 @@ fn tables(r: &ItemResult) -> Result<Vec<Table>> {
         stride_frames: r.stride_frames,
         candidates: r.candidates.len(),
         matched_candidates: r.matched_candidates,
-        pruning: if pruned { "bounds, best-first".into() } else { "none (every window matched)".into() },
+        pruning: if pruned {
+            "bounds, best-first".into()
+        } else {
+            "none (every window matched)".into()
+        },
     }];
     Ok(vec![
         Table::from_records(
@@ -448,7 +482,11 @@ fn tables(r: &ItemResult) -> Result<Vec<Table>> {
             "Every candidate window: the bounds on H the pruned search used, and [a, b] and H where it matched the window",
             &candidates,
         )?,
-        Table::from_records("retrieval_summary", "The corpus, the windows, and how many the search matched", &summary)?,
+        Table::from_records(
+            "retrieval_summary",
+            "The corpus, the windows, and how many the search matched",
+            &summary,
+        )?,
     ])
 }
 
@@ -463,18 +501,29 @@ fn candidates_figure(r: &ItemResult) -> Figure {
         total += f as f64 / rate;
     }
     // A window's place: the corpus time of its centre.
-    let at = |take: usize, first: usize, last: usize| start_s[take] + ((first + last) as f64 / 2.0 - r.take_offsets[take] as f64) / rate;
-    let xs: Vec<f64> = r.candidates.iter().map(|c| at(c.take, c.window_start, c.window_end)).collect();
+    let at = |take: usize, first: usize, last: usize| {
+        start_s[take] + ((first + last) as f64 / 2.0 - r.take_offsets[take] as f64) / rate
+    };
+    let xs: Vec<f64> =
+        r.candidates.iter().map(|c| at(c.take, c.window_start, c.window_end)).collect();
     let mut lines = Vec::new();
     for (label, pick) in [
-        ("lower bound on H (mm)", (|c: &CandidateRecord| c.lower_bound) as fn(&CandidateRecord) -> Option<f64>),
+        (
+            "lower bound on H (mm)",
+            (|c: &CandidateRecord| c.lower_bound) as fn(&CandidateRecord) -> Option<f64>,
+        ),
         ("upper bound on H (mm)", |c: &CandidateRecord| c.upper_bound),
     ] {
         if r.candidates.iter().any(|c| pick(c).is_some()) {
-            lines.push(Series::new(label, xs.clone(), r.candidates.iter().map(|c| pick(c).unwrap_or(f64::NAN)).collect()));
+            lines.push(Series::new(
+                label,
+                xs.clone(),
+                r.candidates.iter().map(|c| pick(c).unwrap_or(f64::NAN)).collect(),
+            ));
         }
     }
-    let matched: Vec<&CandidateRecord> = r.candidates.iter().filter(|c| c.matched.is_some()).collect();
+    let matched: Vec<&CandidateRecord> =
+        r.candidates.iter().filter(|c| c.matched.is_some()).collect();
     let mut points = vec![Series::new(
         "H of a matched window",
         matched.iter().map(|c| at(c.take, c.window_start, c.window_end)).collect(),
@@ -494,12 +543,20 @@ fn candidates_figure(r: &ItemResult) -> Figure {
         .takes
         .iter()
         .enumerate()
-        .map(|(k, name)| BarRow { label: name.clone(), marks: vec![], bands: vec![(start_s[k], start_s[k] + r.take_frames[k] as f64 / rate)] })
+        .map(|(k, name)| BarRow {
+            label: name.clone(),
+            marks: vec![],
+            bands: vec![(start_s[k], start_s[k] + r.take_frames[k] as f64 / rate)],
+        })
         .collect();
     Figure::chart(
         "retrieval_candidates",
         Chart {
-            title: format!("Corpus windows against the model: bounds on H, H where matched ({} of {}), the listed stretches", r.matched_candidates, r.candidates.len()),
+            title: format!(
+                "Corpus windows against the model: bounds on H, H where matched ({} of {}), the listed stretches",
+                r.matched_candidates,
+                r.candidates.len()
+            ),
             x_label: "time in the corpus, takes end to end (s)".into(),
             y_label: "H, distance summed over markers and path (mm)".into(),
             lines,

@@ -8,24 +8,33 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry;
-use motionlab_core::viewer::{AnnotationSpec, EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec};
-use motionlab_core::{
-    Error, ErrorKind, EvalInputType, EvalInput, Evaluation, Evaluator, FeatureCache, Fuser, MethodCandidates, MethodResult, Result,
-    Segment, Segmentation, SegmenterOutput, SequenceResult, Table, Threshold, Trace,
+use motionlab_core::viewer::{
+    AnnotationSpec, EventKind, EventLane, Lane, MarkStatus, TraceLane, ViewerMotion, ViewerSpec,
 };
+use motionlab_core::{
+    Error, ErrorKind, EvalInput, EvalInputType, Evaluation, Evaluator, FeatureCache, Fuser,
+    MethodCandidates, MethodResult, Result, Segment, Segmentation, SegmenterOutput, SequenceResult,
+    Table, Threshold, Trace,
+};
+use motionlab_eval::boundaries::default_tolerance;
 use motionlab_eval::boundary_analysis::{BoundaryAnalysis, MatchOutcome, SequenceBoundaries};
 use motionlab_figure::{BarRow, Chart, Figure, FigureKind, Series, TimelinePoses};
-use motionlab_eval::boundaries::default_tolerance;
 use motionlab_io::labels::tiers::{MarkTier, RunBoundaries, SequenceTiers, TierMark};
 
+use crate::drawing::{
+    axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip,
+    time_axis, traces_charts,
+};
+use crate::heldout::{Selection, heldout_tables};
 use crate::parameter_choice::{MethodChoices, StageChoice};
-use motionlab_experiment::toml_paths::KeyPath;
-use crate::heldout::{heldout_tables, Selection};
-use crate::drawing::{axis_name, bones_for, frames_to_seconds, main_floor_axis, stick_row, stick_row_at, stick_strip, time_axis, traces_charts};
-use motionlab_experiment::workflow::{build_evaluators, sanitize, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin, BuildContext};
+use motionlab_experiment::segmenters::{NamedSegmenter, build_segmenters};
 use motionlab_experiment::spec::StageSpec;
-use motionlab_experiment::segmenters::{build_segmenters, NamedSegmenter};
-use motionlab_experiment::{build_stage, Datasets, Locator};
+use motionlab_experiment::toml_paths::KeyPath;
+use motionlab_experiment::workflow::{
+    BuildContext, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin,
+    build_evaluators, sanitize,
+};
+use motionlab_experiment::{Datasets, Locator, build_stage};
 
 /// Segmenters → an optional fuser → evaluators, per sequence (Sonoda et al.): every method's
 /// candidate frames (`candidates`), the evaluators' tables (`[[evaluate]]`, segmentation
@@ -155,7 +164,13 @@ impl WorkflowPlugin for SegmentationWorkflow {
         let (source, combo, root) = (cx.source, cx.combo, cx.root.clone());
         let segmenters = build_segmenters(cx, &section.segmenters, &root.key("segmenter"))?;
         if segmenters.is_empty() {
-            return Err(cx.locate(Error::new(ErrorKind::MissingKey, "at least one [[segmentation.segmenter]] is required"), root.clone()));
+            return Err(cx.locate(
+                Error::new(
+                    ErrorKind::MissingKey,
+                    "at least one [[segmentation.segmenter]] is required",
+                ),
+                root.clone(),
+            ));
         }
         let fuse = match &section.fuse {
             None => (0..segmenters.len()).collect(),
@@ -164,7 +179,12 @@ impl WorkflowPlugin for SegmentationWorkflow {
                 .map(|n| {
                     segmenters.iter().position(|s| s.name == *n).ok_or_else(|| {
                         cx.locate(
-                            Error::new(ErrorKind::UnknownName, format!("fuse names {n:?}, which is not a segmenter of this experiment")),
+                            Error::new(
+                                ErrorKind::UnknownName,
+                                format!(
+                                    "fuse names {n:?}, which is not a segmenter of this experiment"
+                                ),
+                            ),
                             root.key("fuse"),
                         )
                     })
@@ -172,34 +192,67 @@ impl WorkflowPlugin for SegmentationWorkflow {
                 .collect::<Result<Vec<_>>>()?,
         };
         let fuser = match &section.fuser {
-            Some(f) => Some((f.display_name(), build_stage(source, combo, f, &root.key("fuser"), registry::build_fuser)?)),
+            Some(f) => Some((
+                f.display_name(),
+                build_stage(source, combo, f, &root.key("fuser"), registry::build_fuser)?,
+            )),
             None => None,
         };
         let evaluators = build_evaluators(source, combo, EvalInputType::segmentation())?;
-        let evaluator_params = combo.file.evaluators.iter().map(|s| format!("{} {}", s.kind, s.plugin_params())).collect();
+        let evaluator_params = combo
+            .file
+            .evaluators
+            .iter()
+            .map(|s| format!("{} {}", s.kind, s.plugin_params()))
+            .collect();
         let experiment = combo.file.experiment.name.clone();
         // How each method's parameters were chosen in this combination (`parameters_chosen`).
-        let swept: Vec<String> =
-            combo.params.iter().map(|(k, _)| KeyPath::parse(k).map_or_else(|_| k.clone(), |p| p.to_string())).collect();
+        let swept: Vec<String> = combo
+            .params
+            .iter()
+            .map(|(k, _)| KeyPath::parse(k).map_or_else(|_| k.clone(), |p| p.to_string()))
+            .collect();
         let stage_choices: Vec<StageChoice> = section
             .segmenters
             .iter()
             .enumerate()
             .map(|(k, s)| {
-                let places = [format!("{}[{}]", root.key("segmenter"), s.display_name()), root.key("segmenter").index(k).to_string()];
+                let places = [
+                    format!("{}[{}]", root.key("segmenter"), s.display_name()),
+                    root.key("segmenter").index(k).to_string(),
+                ];
                 StageChoice::of(s, &places, &swept)
             })
             .collect();
-        let mut methods: Vec<(String, Vec<StageChoice>)> =
-            segmenters.iter().zip(&stage_choices).map(|(s, c)| (s.name.clone(), vec![c.clone()])).collect();
+        let mut methods: Vec<(String, Vec<StageChoice>)> = segmenters
+            .iter()
+            .zip(&stage_choices)
+            .map(|(s, c)| (s.name.clone(), vec![c.clone()]))
+            .collect();
         if let (Some((name, _)), Some(spec)) = (&fuser, &section.fuser) {
             let own = StageChoice::of(spec, &[root.key("fuser").to_string()], &swept);
-            methods.push((name.clone(), std::iter::once(own).chain(fuse.iter().map(|&i| stage_choices[i].clone())).collect()));
+            methods.push((
+                name.clone(),
+                std::iter::once(own)
+                    .chain(fuse.iter().map(|&i| stage_choices[i].clone()))
+                    .collect(),
+            ));
         }
         let choices = MethodChoices { methods };
         let base_combination = combo.index == 0;
         let locator = cx.locator();
-        Ok(SegmentationWorkflow { section, segmenters, fuser, fuse, evaluators, evaluator_params, experiment, choices, base_combination, locator })
+        Ok(SegmentationWorkflow {
+            section,
+            segmenters,
+            fuser,
+            fuse,
+            evaluators,
+            evaluator_params,
+            experiment,
+            choices,
+            base_combination,
+            locator,
+        })
     }
 }
 
@@ -207,7 +260,11 @@ motionlab_experiment::register_workflow!(SegmentationWorkflow, "segmentation");
 
 impl SegmentationWorkflow {
     fn method_names(&self) -> Vec<String> {
-        self.segmenters.iter().map(|s| s.name.clone()).chain(self.fuser.iter().map(|(n, _)| n.clone())).collect()
+        self.segmenters
+            .iter()
+            .map(|s| s.name.clone())
+            .chain(self.fuser.iter().map(|(n, _)| n.clone()))
+            .collect()
     }
 }
 
@@ -222,30 +279,81 @@ impl Workflow for SegmentationWorkflow {
             let name = &s.name;
             // The output depends on the input and the segmenter's parameters (and features)
             // only: cached on disk under both (the features it computes on the way are not kept).
-            let out = data.stage_cached(&loaded, (item.dataset, item.file), &format!("segmenter {name}"), "segmenter", &s.cache_key, || {
-                s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))
-            })?;
+            let out = data.stage_cached(
+                &loaded,
+                (item.dataset, item.file),
+                &format!("segmenter {name}"),
+                "segmenter",
+                &s.cache_key,
+                || {
+                    s.segment(motion, &cache)
+                        .map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))
+                },
+            )?;
             outputs.push((name.clone(), out));
         }
         let mut methods: Vec<MethodRecord> = outputs
             .iter()
-            .map(|(n, o)| MethodRecord { method: n.clone(), candidates: o.candidates.clone(), flagged_frames: o.flagged_frames.len() })
+            .map(|(n, o)| MethodRecord {
+                method: n.clone(),
+                candidates: o.candidates.clone(),
+                flagged_frames: o.flagged_frames.len(),
+            })
             .collect();
         if let Some((name, fuser)) = &self.fuser {
-            let inputs: Vec<MethodCandidates<'_>> =
-                self.fuse.iter().map(|&i| MethodCandidates { method: &outputs[i].0, frames: &outputs[i].1.candidates }).collect();
-            let fused = fuser.fuse(motion, &inputs).map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
+            let inputs: Vec<MethodCandidates<'_>> = self
+                .fuse
+                .iter()
+                .map(|&i| MethodCandidates {
+                    method: &outputs[i].0,
+                    frames: &outputs[i].1.candidates,
+                })
+                .collect();
+            let fused = fuser
+                .fuse(motion, &inputs)
+                .map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
             // Cheap (a merge of candidate lists): never cached, logged for the provenance.
-            data.record(item.dataset, item.file, &format!("fuser {name}"), motionlab_experiment::Origin::Computed);
-            methods.push(MethodRecord { method: name.clone(), candidates: fused, flagged_frames: 0 });
+            data.record(
+                item.dataset,
+                item.file,
+                &format!("fuser {name}"),
+                motionlab_experiment::Origin::Computed,
+            );
+            methods.push(MethodRecord {
+                method: name.clone(),
+                candidates: fused,
+                flagged_frames: 0,
+            });
         }
-        let figures = if draw { self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)? } else { Vec::new() };
-        let traces = if draw { outputs.iter().map(|(n, o)| (n.clone(), o.traces.clone(), o.thresholds.clone())).collect() } else { Vec::new() };
-        let result = ItemResult { sequence: loaded.name.clone(), frame_rate_hz: motion.frame_rate().hz(), n_frames: motion.n_frames(), methods, traces };
+        let figures = if draw {
+            self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)?
+        } else {
+            Vec::new()
+        };
+        let traces = if draw {
+            outputs
+                .iter()
+                .map(|(n, o)| (n.clone(), o.traces.clone(), o.thresholds.clone()))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let result = ItemResult {
+            sequence: loaded.name.clone(),
+            frame_rate_hz: motion.frame_rate().hz(),
+            n_frames: motion.n_frames(),
+            methods,
+            traces,
+        };
         Ok(ItemOutput::new(ItemData::encode(&result)?, figures))
     }
 
-    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, draw: bool) -> Result<Output> {
+    fn finish(
+        &self,
+        items: &[(WorkItem, ItemData)],
+        data: &Datasets,
+        draw: bool,
+    ) -> Result<Output> {
         let mut sequences = Vec::new();
         let mut rows = Vec::new();
         let mut viewer_traces = Vec::new();
@@ -282,16 +390,31 @@ impl Workflow for SegmentationWorkflow {
                 sequence: r.sequence,
                 motion: Arc::clone(&loaded.motion),
                 truth: loaded.truth,
-                methods: r.methods.into_iter().map(|m| MethodResult { method: m.method, candidates: m.candidates }).collect(),
+                methods: r
+                    .methods
+                    .into_iter()
+                    .map(|m| MethodResult { method: m.method, candidates: m.candidates })
+                    .collect(),
             });
         }
         let mut out = Output::default();
-        out.tables.push(Table::from_records("candidates", "Candidate frames per sequence and method", &rows)?);
+        out.tables.push(Table::from_records(
+            "candidates",
+            "Candidate frames per sequence and method",
+            &rows,
+        )?);
         let logged: Vec<(usize, usize)> = items.iter().map(|(i, _)| (i.dataset, i.file)).collect();
         for ((name, e), params) in self.evaluators.iter().zip(&self.evaluator_params) {
-            let Evaluation { mut tables, analysis } = data.evaluation_cached(&format!("evaluate {name}"), params, &reads, &logged, || {
-                e.evaluate_with_analysis(EvalInput::segmentation(&sequences)).map_err(|err| err.under_field(format!("evaluate {name}")))
-            })?;
+            let Evaluation { mut tables, analysis } = data.evaluation_cached(
+                &format!("evaluate {name}"),
+                params,
+                &reads,
+                &logged,
+                || {
+                    e.evaluate_with_analysis(EvalInput::segmentation(&sequences))
+                        .map_err(|err| err.under_field(format!("evaluate {name}")))
+                },
+            )?;
             // Added after the cache: it depends on the combination, not on what was evaluated.
             self.choices.annotate(&mut tables, &inputs);
             out.tables.extend(tables);
@@ -300,14 +423,30 @@ impl Workflow for SegmentationWorkflow {
         if draw {
             let judged = out.analysis::<BoundaryAnalysis>();
             // A channel file has no figure to play: its traces are in the figures.
-            for (((id, traces), seq), (_, sha)) in viewer_traces.iter().zip(&sequences).zip(&inputs).filter(|((_, seq), _)| seq.motion.n_points() > 0) {
-                out.viewers.push(self.viewer(id, seq, traces, judged.as_ref().and_then(|j| j.sequence(&seq.sequence)), sha)?);
+            for (((id, traces), seq), (_, sha)) in viewer_traces
+                .iter()
+                .zip(&sequences)
+                .zip(&inputs)
+                .filter(|((_, seq), _)| seq.motion.n_points() > 0)
+            {
+                out.viewers.push(self.viewer(
+                    id,
+                    seq,
+                    traces,
+                    judged.as_ref().and_then(|j| j.sequence(&seq.sequence)),
+                    sha,
+                )?);
             }
         }
         if self.base_combination {
-            let tiers = sequences.iter().zip(&inputs).map(|(seq, (_, sha))| boundary_tiers(seq, sha)).collect();
-            let json = serde_json::to_vec_pretty(&RunBoundaries::new(tiers))
-                .map_err(|e| Error::new(ErrorKind::Report, format!("{}: {e}", RunBoundaries::FILE_NAME)))?;
+            let tiers = sequences
+                .iter()
+                .zip(&inputs)
+                .map(|(seq, (_, sha))| boundary_tiers(seq, sha))
+                .collect();
+            let json = serde_json::to_vec_pretty(&RunBoundaries::new(tiers)).map_err(|e| {
+                Error::new(ErrorKind::Report, format!("{}: {e}", RunBoundaries::FILE_NAME))
+            })?;
             out.files.push((RunBoundaries::FILE_NAME.into(), json));
         }
         Ok(out)
@@ -329,8 +468,22 @@ impl Workflow for SegmentationWorkflow {
 fn boundary_tiers(seq: &SequenceResult, input_sha256: &str) -> SequenceTiers {
     let mut tiers = Vec::with_capacity(seq.methods.len() + 1);
     if let Some(truth) = &seq.truth {
-        let label = |f: usize| truth.segments.iter().find(|s| s.start == f).map(|s| s.label.clone()).unwrap_or_default();
-        tiers.push(MarkTier { name: "truth".into(), marks: truth.frames().into_iter().map(|frame| TierMark { frame, label: label(frame) }).collect() });
+        let label = |f: usize| {
+            truth
+                .segments
+                .iter()
+                .find(|s| s.start == f)
+                .map(|s| s.label.clone())
+                .unwrap_or_default()
+        };
+        tiers.push(MarkTier {
+            name: "truth".into(),
+            marks: truth
+                .frames()
+                .into_iter()
+                .map(|frame| TierMark { frame, label: label(frame) })
+                .collect(),
+        });
     }
     tiers.extend(seq.methods.iter().map(|m| MarkTier::unlabelled(m.method.clone(), &m.candidates)));
     SequenceTiers {
@@ -374,7 +527,9 @@ impl SegmentationWorkflow {
                 let status = match (truth_side, b.outcome) {
                     (true, MatchOutcome::Missed) => b.truth_frame.map(|f| (f, MarkStatus::Missed)),
                     (true, o) if o.is_match() => b.truth_frame.map(|f| (f, MarkStatus::Matched)),
-                    (false, MatchOutcome::Extra) => b.found_frame.map(|f| (f, MarkStatus::FalsePositive)),
+                    (false, MatchOutcome::Extra) => {
+                        b.found_frame.map(|f| (f, MarkStatus::FalsePositive))
+                    }
                     (false, o) if o.is_match() => b.found_frame.map(|f| (f, MarkStatus::Matched)),
                     _ => None,
                 };
@@ -386,8 +541,13 @@ impl SegmentationWorkflow {
         let fused = self.fuser.as_ref().and_then(|_| seq.methods.last());
         let tolerance_frames = judged.map(|j| j.tolerance_frames).filter(|f| f.is_finite());
         // Without an evaluator's tolerance, marks are judged at boundary_pr's default.
-        let judged_at = tolerance_frames.or_else(|| Some(default_tolerance().frames_at(motion.frame_rate())));
-        spec.annotation = Some(AnnotationSpec { sequence: file_stem(seq), input_sha256: input_sha256.to_string(), tolerance_frames: judged_at });
+        let judged_at =
+            tolerance_frames.or_else(|| Some(default_tolerance().frames_at(motion.frame_rate())));
+        spec.annotation = Some(AnnotationSpec {
+            sequence: file_stem(seq),
+            input_sha256: input_sha256.to_string(),
+            tolerance_frames: judged_at,
+        });
         if let Some(truth) = &seq.truth {
             let mut lane = EventLane::truth("ground truth", truth, tolerance_frames);
             if let Some(f) = fused {
@@ -406,7 +566,11 @@ impl SegmentationWorkflow {
             judge(&mut lane, &m.method, false);
             spec.lanes.push(Lane::Events(lane));
             if let Some((_, t, th)) = traces.iter().find(|(n, ..)| *n == m.method) {
-                spec.lanes.extend(TraceLane::from_traces(&m.method, t, th, motion.n_frames()).into_iter().map(Lane::Trace));
+                spec.lanes.extend(
+                    TraceLane::from_traces(&m.method, t, th, motion.n_frames())
+                        .into_iter()
+                        .map(Lane::Trace),
+                );
             }
         }
         Ok(spec)
@@ -430,8 +594,18 @@ impl SegmentationWorkflow {
                 if out.traces.is_empty() {
                     continue;
                 }
-                let bars = vec![BarRow { label: method.clone(), marks: frames_to_seconds(&out.candidates, rate), bands: vec![] }];
-                let charts = traces_charts(&format!("{name} — {method}: candidates (bars)"), &time, &out.traces, &out.thresholds, bars);
+                let bars = vec![BarRow {
+                    label: method.clone(),
+                    marks: frames_to_seconds(&out.candidates, rate),
+                    bands: vec![],
+                }];
+                let charts = traces_charts(
+                    &format!("{name} — {method}: candidates (bars)"),
+                    &time,
+                    &out.traces,
+                    &out.thresholds,
+                    bars,
+                );
                 let Some(chart) = charts.first().cloned() else { continue };
                 for (k, c) in charts.into_iter().enumerate() {
                     let suffix = if k == 0 { String::new() } else { format!("_{k}") };
@@ -445,7 +619,8 @@ impl SegmentationWorkflow {
                     zoom.title = format!("{name} — {method}: close-up around frame {c}");
                     zoom.x_range = Some((t - 1.25, t + 1.25));
                     for l in zoom.lines.iter_mut() {
-                        let keep: Vec<usize> = (0..l.x.len()).filter(|&i| (l.x[i] - t).abs() <= 1.25).collect();
+                        let keep: Vec<usize> =
+                            (0..l.x.len()).filter(|&i| (l.x[i] - t).abs() <= 1.25).collect();
                         l.x = keep.iter().map(|&i| l.x[i]).collect();
                         l.y = keep.iter().map(|&i| l.y[i]).collect();
                     }
@@ -473,10 +648,16 @@ impl SegmentationWorkflow {
             figs.push(Figure::chart(
                 format!("{id}_root_path"),
                 Chart {
-                    title: format!("{name} — root path on the floor with candidates (frame numbers)"),
+                    title: format!(
+                        "{name} — root path on the floor with candidates (frame numbers)"
+                    ),
                     x_label: format!("{} (mm)", axis_name(a)),
                     y_label: format!("{} (mm)", axis_name(b)),
-                    lines: vec![Series::new("root", path.iter().map(|p| p[0]).collect(), path.iter().map(|p| p[1]).collect())],
+                    lines: vec![Series::new(
+                        "root",
+                        path.iter().map(|p| p[0]).collect(),
+                        path.iter().map(|p| p[1]).collect(),
+                    )],
                     points: vec![cands],
                     equal_aspect: true,
                     ..Default::default()
@@ -489,10 +670,19 @@ impl SegmentationWorkflow {
                 rows.push(BarRow {
                     label: "ground truth".into(),
                     marks: frames_to_seconds(&t.frames(), rate),
-                    bands: t.boundaries.iter().filter_map(|b| b.window).map(|(a, c)| (a as f64 / rate, c as f64 / rate)).collect(),
+                    bands: t
+                        .boundaries
+                        .iter()
+                        .filter_map(|b| b.window)
+                        .map(|(a, c)| (a as f64 / rate, c as f64 / rate))
+                        .collect(),
                 });
             }
-            rows.extend(methods.iter().map(|m| BarRow { label: m.method.clone(), marks: frames_to_seconds(&m.candidates, rate), bands: vec![] }));
+            rows.extend(methods.iter().map(|m| BarRow {
+                label: m.method.clone(),
+                marks: frames_to_seconds(&m.candidates, rate),
+                bands: vec![],
+            }));
             let timeline = Chart {
                 title: format!("{name} — ground truth and each method's candidates"),
                 x_label: "time (s)".into(),
@@ -532,7 +722,11 @@ impl SegmentationWorkflow {
                     format!("{name} — one segment between two fused candidates"),
                     bones,
                     vec![row],
-                    format!("side view: {} horizontal, {} up (mm); each pose centred", axis_name(axis), motion.up_axis()),
+                    format!(
+                        "side view: {} horizontal, {} up (mm); each pose centred",
+                        axis_name(axis),
+                        motion.up_axis()
+                    ),
                 )),
             });
         }
@@ -542,8 +736,17 @@ impl SegmentationWorkflow {
 
 /// The segment to show as a stick strip: between consecutive fused candidates, the one that
 /// best matches a ground-truth segment (largest overlap), else the longest ≥ 0.5 s.
-fn pick_segment(fused: &[usize], truth: Option<&Segmentation>, n_frames: usize, rate: f64) -> Option<(usize, usize)> {
-    let pairs: Vec<(usize, usize)> = fused.windows(2).map(|w| (w[0], w[1])).filter(|(a, b)| (b - a) as f64 >= 0.5 * rate && *b < n_frames).collect();
+fn pick_segment(
+    fused: &[usize],
+    truth: Option<&Segmentation>,
+    n_frames: usize,
+    rate: f64,
+) -> Option<(usize, usize)> {
+    let pairs: Vec<(usize, usize)> = fused
+        .windows(2)
+        .map(|w| (w[0], w[1]))
+        .filter(|(a, b)| (b - a) as f64 >= 0.5 * rate && *b < n_frames)
+        .collect();
     let score = |(a, b): &(usize, usize)| -> f64 {
         match truth {
             Some(t) if !t.segments.is_empty() => t
@@ -602,17 +805,36 @@ fn pr_curves(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Output> {
     let mut best = Vec::new();
     for (key, pts) in &curves {
         if let Some(b) = pts.iter().filter(|p| p.2.is_finite()).max_by(|a, b| a.2.total_cmp(&b.2)) {
-            let (method, sweep) = key.split_once(" (").map(|(m, s)| (m.to_string(), s.trim_end_matches(')').to_string())).unwrap_or((key.clone(), String::new()));
-            best.push(Best { method, sweep, combination: b.3, parameters: b.4.clone(), precision: b.1, recall: b.0, f1: b.2 });
+            let (method, sweep) = key
+                .split_once(" (")
+                .map(|(m, s)| (m.to_string(), s.trim_end_matches(')').to_string()))
+                .unwrap_or((key.clone(), String::new()));
+            best.push(Best {
+                method,
+                sweep,
+                combination: b.3,
+                parameters: b.4.clone(),
+                precision: b.1,
+                recall: b.0,
+                f1: b.2,
+            });
         }
     }
     best.sort_by_key(|b| methods.iter().position(|m| *m == b.method).unwrap_or(usize::MAX));
-    out.tables.push(Table::from_records("best_f1", "Best-F1 operating point per method (pooled over sequences)", &best)?);
+    out.tables.push(Table::from_records(
+        "best_f1",
+        "Best-F1 operating point per method (pooled over sequences)",
+        &best,
+    )?);
     let mut lines = Vec::new();
     for (key, pts) in curves {
         let mut pts = pts;
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        lines.push(Series::new(key, pts.iter().map(|p| p.0).collect(), pts.iter().map(|p| p.1).collect()));
+        lines.push(Series::new(
+            key,
+            pts.iter().map(|p| p.0).collect(),
+            pts.iter().map(|p| p.1).collect(),
+        ));
     }
     let points = vec![Series {
         label: "best F1".into(),

@@ -54,7 +54,9 @@ pub(crate) struct RbfGains<'a> {
 
 impl SplitGains for RbfGains<'_> {
     fn gains(&self, start: usize, end: usize, min_size: usize, jump: usize) -> Vec<(usize, f64)> {
-        let k = |i: usize, j: usize| rbf_off_diagonal(self.gamma, squared_distance(self.signal.row(i), self.signal.row(j)));
+        let k = |i: usize, j: usize| {
+            rbf_off_diagonal(self.gamma, squared_distance(self.signal.row(i), self.signal.row(j)))
+        };
         let slots = (end - start).div_ceil(jump);
         // left[g] = block sum of start..start+g·jump; right[g] = block sum of start+g·jump..end.
         let mut left = vec![0.0; slots + 1];
@@ -80,7 +82,14 @@ impl SplitGains for RbfGains<'_> {
             .step_by(jump)
             .enumerate()
             .filter(|&(_, b)| b - start >= min_size && end - b >= min_size)
-            .map(|(g, b)| (b, segment - rbf_cost_from_block(b - start, left[g]) - rbf_cost_from_block(end - b, right[g])))
+            .map(|(g, b)| {
+                (
+                    b,
+                    segment
+                        - rbf_cost_from_block(b - start, left[g])
+                        - rbf_cost_from_block(end - b, right[g]),
+                )
+            })
             .collect()
     }
 }
@@ -144,7 +153,13 @@ pub(crate) struct BinsegResult {
 }
 
 /// ruptures' `Binseg.predict(n_bkps=…)` or `predict(pen=…)`.
-pub(crate) fn binseg(n_samples: usize, stop: Stop, min_size: usize, jump: usize, gains: &dyn SplitGains) -> BinsegResult {
+pub(crate) fn binseg(
+    n_samples: usize,
+    stop: Stop,
+    min_size: usize,
+    jump: usize,
+    gains: &dyn SplitGains,
+) -> BinsegResult {
     let mut cache: HashMap<(usize, usize), (Option<usize>, f64)> = HashMap::new();
     let first_gains = gains.gains(0, n_samples, min_size, jump);
     cache.insert((0, n_samples), best_split(&first_gains));
@@ -153,7 +168,9 @@ pub(crate) fn binseg(n_samples: usize, stop: Stop, min_size: usize, jump: usize,
         let mut best: Option<(Option<usize>, f64)> = None;
         let mut start = 0;
         for &end in &breakpoints {
-            let split = *cache.entry((start, end)).or_insert_with(|| best_split(&gains.gains(start, end, min_size, jump)));
+            let split = *cache
+                .entry((start, end))
+                .or_insert_with(|| best_split(&gains.gains(start, end, min_size, jump)));
             // Python's max keeps the first of equal keys.
             if best.is_none_or(|(_, g)| split.1 > g) {
                 best = Some(split);
@@ -196,7 +213,11 @@ mod tests {
         let pen = binseg(90, Stop::Penalty(100.0), 2, 5, &DirectGains(&cost));
         assert_eq!(pen.breakpoints, vec![30, 90]);
         // The first-split gains peak at the big step.
-        let top = pen.first_gains.iter().copied().fold((0, f64::MIN), |a, b| if b.1 > a.1 { b } else { a });
+        let top = pen
+            .first_gains
+            .iter()
+            .copied()
+            .fold((0, f64::MIN), |a, b| if b.1 > a.1 { b } else { a });
         assert_eq!(top.0, 30);
     }
 
@@ -220,7 +241,9 @@ mod tests {
     #[test]
     fn ar_swept_gains_equal_direct_costs() {
         let mut rng = fastrand::Rng::with_seed(8);
-        let x: Vec<f64> = (0..150).map(|i| (i as f64 * if i < 70 { 0.3 } else { 1.1 }).sin() + 0.2 * rng.f64()).collect();
+        let x: Vec<f64> = (0..150)
+            .map(|i| (i as f64 * if i < 70 { 0.3 } else { 1.1 }).sin() + 0.2 * rng.f64())
+            .collect();
         let direct = crate::kernel_cpd::ar::ArCost { design: ArDesign::new(&x, 4) };
         let design = ArDesign::new(&x, 4);
         for (start, jump) in [(0, 5), (7, 1), (12, 4)] {

@@ -187,12 +187,15 @@ impl SegmentCost for LinearCost<'_> {
                 x[c * m + r] = row[c + 1];
             }
         }
-        let mut norms: Vec<f64> = (0..p).map(|c| x[c * m..(c + 1) * m].iter().map(|v| v * v).sum()).collect();
+        let mut norms: Vec<f64> =
+            (0..p).map(|c| x[c * m..(c + 1) * m].iter().map(|v| v * v).sum()).collect();
         let mut first_diag = 0.0_f64;
         let threshold_factor = f64::EPSILON * m.max(p) as f64;
         for k in 0..p {
             // Pivot: the remaining column of largest norm.
-            let (pivot, _) = (k..p).map(|c| (c, norms[c])).fold((k, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+            let (pivot, _) = (k..p)
+                .map(|c| (c, norms[c]))
+                .fold((k, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
             if pivot != k {
                 for r in 0..m {
                     x.swap(k * m + r, pivot * m + r);
@@ -356,7 +359,11 @@ mod tests {
         let mut x = Vec::new();
         for i in 0..20 {
             let t = i as f64;
-            let y = if i < 10 { 2.0 + 3.0 * t } else { 2.0 + 3.0 * t + if i % 2 == 0 { 1.0 } else { -1.0 } };
+            let y = if i < 10 {
+                2.0 + 3.0 * t
+            } else {
+                2.0 + 3.0 * t + if i % 2 == 0 { 1.0 } else { -1.0 }
+            };
             x.extend_from_slice(&[y, 1.0, t]);
         }
         let sig = Signal::new(&x, 3, "t", Missing::Refuse).unwrap();
@@ -392,7 +399,8 @@ mod tests {
         let mut g = 0.0;
         for i in 1..4 {
             for j in 1..4 {
-                g += if i == j { 1.0 } else { rbf_off_diagonal(0.7, (x[i] - x[j]) * (x[i] - x[j])) };
+                g +=
+                    if i == j { 1.0 } else { rbf_off_diagonal(0.7, (x[i] - x[j]) * (x[i] - x[j])) };
             }
         }
         assert!((cost.error(1, 4) - (3.0 - g / 3.0)).abs() < 1e-15);

@@ -58,7 +58,14 @@ fn kernel(kernel: CKernel, a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// `row[i] = k(x_{s_low+i}, x_{t−1})` for `s_low + i < t`.
-fn kernel_row(signal: &Signal, k: CKernel, t: usize, s_low: usize, fast_exp: bool, row: &mut Vec<f64>) {
+fn kernel_row(
+    signal: &Signal,
+    k: CKernel,
+    t: usize,
+    s_low: usize,
+    fast_exp: bool,
+    row: &mut Vec<f64>,
+) {
     row.clear();
     let xt = signal.row(t - 1);
     match k {
@@ -118,10 +125,25 @@ fn update_running_sums(row: &[f64], s_low: usize, diag: f64, sums: &mut [f64]) {
 /// first of equal values; the minimum of a set is exact whatever order finds it).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn candidate_totals_body(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t: usize, lo: usize, hi: usize, beta: f64, m_pruning: &mut [f64]) -> (usize, f64) {
+fn candidate_totals_body(
+    m_v: &[f64],
+    d: &[f64],
+    s: &[f64],
+    position: &[f64],
+    t: usize,
+    lo: usize,
+    hi: usize,
+    beta: f64,
+    m_pruning: &mut [f64],
+) -> (usize, f64) {
     let (d_t, t_f) = (d[t], position[t]);
     let out = &mut m_pruning[lo..hi];
-    for (((o, &mv), (&dd, &ss)), &p) in out.iter_mut().zip(&m_v[lo..hi]).zip(d[lo..hi].iter().zip(&s[lo..hi])).zip(&position[lo..hi]) {
+    for (((o, &mv), (&dd, &ss)), &p) in out
+        .iter_mut()
+        .zip(&m_v[lo..hi])
+        .zip(d[lo..hi].iter().zip(&s[lo..hi]))
+        .zip(&position[lo..hi])
+    {
         *o = mv + (d_t - dd - ss / (t_f - p));
     }
     // Eight independent lanes of `if c < m { c } else { m }`: elementwise, so it vectorises.
@@ -143,7 +165,18 @@ fn candidate_totals_body(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t:
 }
 
 #[allow(clippy::too_many_arguments)]
-fn candidate_totals(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t: usize, lo: usize, hi: usize, beta: f64, m_pruning: &mut [f64], simd: bool) -> (usize, f64) {
+fn candidate_totals(
+    m_v: &[f64],
+    d: &[f64],
+    s: &[f64],
+    position: &[f64],
+    t: usize,
+    lo: usize,
+    hi: usize,
+    beta: f64,
+    m_pruning: &mut [f64],
+    simd: bool,
+) -> (usize, f64) {
     #[cfg(target_arch = "x86_64")]
     if simd {
         // SAFETY: `simd` is only set when the CPU has AVX2 and FMA.
@@ -156,7 +189,17 @@ fn candidate_totals(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t: usiz
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn candidate_totals_avx2(m_v: &[f64], d: &[f64], s: &[f64], position: &[f64], t: usize, lo: usize, hi: usize, beta: f64, m_pruning: &mut [f64]) -> (usize, f64) {
+unsafe fn candidate_totals_avx2(
+    m_v: &[f64],
+    d: &[f64],
+    s: &[f64],
+    position: &[f64],
+    t: usize,
+    lo: usize,
+    hi: usize,
+    beta: f64,
+    m_pruning: &mut [f64],
+) -> (usize, f64) {
     candidate_totals_body(m_v, d, s, position, t, lo, hi, beta, m_pruning)
 }
 
@@ -204,7 +247,8 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
         // minimum of the penalised ones — the candidate the C loop ends with.
         let (lo, hi) = ((s_min + 1).max(min_size), t + 1 - min_size);
         if lo < hi {
-            let (offset, best) = candidate_totals(&m_v, &d, &s, &position, t, lo, hi, beta, &mut m_pruning, simd);
+            let (offset, best) =
+                candidate_totals(&m_v, &d, &s, &position, t, lo, hi, beta, &mut m_pruning, simd);
             if m_v[t] > best {
                 m_v[t] = best;
                 m_path[t] = lo + offset;
@@ -249,7 +293,8 @@ mod tests {
     fn gaussian_kernel_finds_a_variance_change() {
         // A change in spread only (same mean): a mean-change l2 cost cannot see it, rbf can.
         let mut rng = fastrand::Rng::with_seed(2);
-        let x: Vec<f64> = (0..400).map(|i| (rng.f64() - 0.5) * if i < 200 { 0.2 } else { 6.0 }).collect();
+        let x: Vec<f64> =
+            (0..400).map(|i| (rng.f64() - 0.5) * if i < 200 { 0.2 } else { 6.0 }).collect();
         let sig = Signal::new(&x, 1, "t", Missing::Refuse).unwrap();
         let b = kernel_pelt(&sig, CKernel::Gaussian { gamma: 1.0 }, 5.0, 2);
         assert_eq!(b.len(), 2, "{b:?}");

@@ -88,7 +88,9 @@ fn kth_pair_multichannel(signal: &Signal, k: u64, collect_at_most: u64) -> (f64,
     let mut fixed = 0u32; // how many leading bits are fixed
     let mut rank = k; // the k-th value's rank among values sharing the prefix
     let mut upper: Option<f64> = None; // the (k+1)-th once it is known to lie outside the prefix
-    let matches = |bits: u64, prefix: u64, fixed: u32| fixed == 0 || bits >> (64 - fixed) == prefix >> (64 - fixed);
+    let matches = |bits: u64, prefix: u64, fixed: u32| {
+        fixed == 0 || bits >> (64 - fixed) == prefix >> (64 - fixed)
+    };
     loop {
         // Count the values sharing the prefix; collect them when few.
         let mut in_prefix = 0u64;
@@ -102,7 +104,9 @@ fn kth_pair_multichannel(signal: &Signal, k: u64, collect_at_most: u64) -> (f64,
             });
             values.sort_unstable();
             let lo = f64::from_bits(values[rank as usize]);
-            let hi = upper.unwrap_or_else(|| values.get(rank as usize + 1).map_or(f64::NAN, |&b| f64::from_bits(b)));
+            let hi = upper.unwrap_or_else(|| {
+                values.get(rank as usize + 1).map_or(f64::NAN, |&b| f64::from_bits(b))
+            });
             return (lo, hi);
         }
         let shift = 64 - fixed - BITS;
@@ -122,7 +126,12 @@ fn kth_pair_multichannel(signal: &Signal, k: u64, collect_at_most: u64) -> (f64,
         }
         if upper.is_none() && rank + 1 == counts[bucket] {
             // The (k+1)-th is the smallest value of the next non-empty bucket (if any).
-            upper = Some(counts[bucket + 1..].iter().position(|&c| c > 0).map_or(f64::NAN, |off| f64::from_bits(mins[bucket + 1 + off])));
+            upper = Some(
+                counts[bucket + 1..]
+                    .iter()
+                    .position(|&c| c > 0)
+                    .map_or(f64::NAN, |off| f64::from_bits(mins[bucket + 1 + off])),
+            );
         }
         prefix |= (bucket as u64) << shift;
         fixed += BITS;

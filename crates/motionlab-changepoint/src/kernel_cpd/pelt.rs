@@ -107,7 +107,14 @@ pub(crate) struct ArEndCosts<'d> {
 impl<'d> ArEndCosts<'d> {
     pub fn new(design: &'d ArDesign, jump: usize) -> Self {
         let grid = design.y.len() / jump + 1;
-        ArEndCosts { design, jump, fits: vec![None; grid], live: Vec::new(), seen: vec![0; grid], call: 0 }
+        ArEndCosts {
+            design,
+            jump,
+            fits: vec![None; grid],
+            live: Vec::new(),
+            seen: vec![0; grid],
+            call: 0,
+        }
     }
 }
 
@@ -138,7 +145,13 @@ impl EndCosts for ArEndCosts<'_> {
 }
 
 /// Breakpoints (segment ends, the last being `n_samples`) as ruptures' `Pelt.predict(pen)`.
-pub(crate) fn pelt(n_samples: usize, pen: f64, min_size: usize, jump: usize, costs: &mut dyn EndCosts) -> Vec<usize> {
+pub(crate) fn pelt(
+    n_samples: usize,
+    pen: f64,
+    min_size: usize,
+    jump: usize,
+    costs: &mut dyn EndCosts,
+) -> Vec<usize> {
     let n = n_samples;
     let mut total = vec![f64::NAN; n + 1];
     let mut solved = vec![false; n + 1];
@@ -167,7 +180,8 @@ pub(crate) fn pelt(n_samples: usize, pen: f64, min_size: usize, jump: usize, cos
         previous[bkp] = evaluated[best];
         solved[bkp] = true;
         let bound = total[bkp] + pen;
-        let kept: Vec<usize> = admissible.iter().zip(&totals).filter(|&(_, &v)| v <= bound).map(|(&t, _)| t).collect();
+        let kept: Vec<usize> =
+            admissible.iter().zip(&totals).filter(|&(_, &v)| v <= bound).map(|(&t, _)| t).collect();
         admissible = kept;
     }
     breakpoints_from_path(&previous, n)
@@ -193,11 +207,22 @@ mod tests {
     use crate::signal::{Missing, Signal};
 
     /// Exhaustive optimum of the penalised l2 problem over ruptures' grid, for tiny n.
-    fn brute_force(cost: &dyn SegmentCost, n: usize, pen: f64, min_size: usize, jump: usize) -> (f64, Vec<usize>) {
+    fn brute_force(
+        cost: &dyn SegmentCost,
+        n: usize,
+        pen: f64,
+        min_size: usize,
+        jump: usize,
+    ) -> (f64, Vec<usize>) {
         let grid: Vec<usize> = (min_size..n).filter(|k| k % jump == 0).collect();
         let mut best = (f64::INFINITY, vec![n]);
         for mask in 0u32..(1 << grid.len()) {
-            let mut ends: Vec<usize> = grid.iter().enumerate().filter(|(i, _)| mask >> i & 1 == 1).map(|(_, &b)| b).collect();
+            let mut ends: Vec<usize> = grid
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| mask >> i & 1 == 1)
+                .map(|(_, &b)| b)
+                .collect();
             ends.push(n);
             let mut start = 0;
             let mut value = 0.0;
@@ -221,7 +246,8 @@ mod tests {
         let mut rng = fastrand::Rng::with_seed(7);
         for trial in 0..30 {
             let n = 12 + trial % 7;
-            let x: Vec<f64> = (0..n).map(|i| if i < n / 2 { 0.0 } else { 3.0 } + rng.f64()).collect();
+            let x: Vec<f64> =
+                (0..n).map(|i| if i < n / 2 { 0.0 } else { 3.0 } + rng.f64()).collect();
             let sig = Signal::new(&x, 1, "t", Missing::Refuse).unwrap();
             let cost = L2Cost::new(&sig);
             // jump 1 makes PELT exact; min_size 2.
@@ -271,7 +297,8 @@ mod tests {
         let mut growing = ArEndCosts::new(&design, 5);
         let mut out = Vec::new();
         for end in (10..=240).step_by(5) {
-            let starts: Vec<usize> = (0..end - 5).step_by(5).filter(|s| s % 15 != 5 || end < 100).collect();
+            let starts: Vec<usize> =
+                (0..end - 5).step_by(5).filter(|s| s % 15 != 5 || end < 100).collect();
             growing.costs(end, &starts, &mut out);
             for (&s, &c) in starts.iter().zip(&out) {
                 let want = direct.error(s, end);

@@ -10,7 +10,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, EvalInput, EvalInputType, Evaluator, Result, SequenceResult, Table};
+use motionlab_core::{
+    Error, ErrorKind, EvalInput, EvalInputType, Evaluator, Result, SequenceResult, Table,
+};
 
 /// The rate of candidates of every method on every sequence of a segmentation: one row per
 /// (sequence, method) in the table `candidate_rate` — candidates, the sequence's duration in
@@ -40,7 +42,11 @@ impl ParamGuard for TemplateEvaluatorParams {
     type Checked = TemplateEvaluator;
     fn check(self) -> Result<TemplateEvaluator> {
         if !(self.per_s.is_finite() && self.per_s > 0.0) {
-            return Err(Error::new(ErrorKind::OutOfRange, format!("expected a duration > 0 s, found {}", self.per_s)).with_field("per_s"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                format!("expected a duration > 0 s, found {}", self.per_s),
+            )
+            .with_field("per_s"));
         }
         Ok(TemplateEvaluator { per_s: self.per_s })
     }
@@ -62,7 +68,8 @@ impl Evaluator for TemplateEvaluator {
     }
 
     fn evaluate(&self, input: EvalInput<'_>) -> Result<Vec<Table>> {
-        let sequences = input.read::<Vec<SequenceResult>>(EvalInputType::segmentation(), "template_evaluator")?;
+        let sequences = input
+            .read::<Vec<SequenceResult>>(EvalInputType::segmentation(), "template_evaluator")?;
         let rows: Vec<RateRow> = sequences
             .iter()
             .flat_map(|s| {
@@ -94,19 +101,32 @@ mod tests {
     /// A 30-second sequence (3,000 frames at 100 Hz) on which `fast` finds 6 candidates and
     /// `slow` 1.
     fn sequence() -> SequenceResult {
-        let motion = Motion::new("s", FrameRate::new(100.0).unwrap(), Axis::Z, PointKind::Marker, vec!["m".into()], vec![[0.0; 3]; 3000]).unwrap();
-        let method = |name: &str, candidates: Vec<usize>| MethodResult { method: name.into(), candidates };
+        let motion = Motion::new(
+            "s",
+            FrameRate::new(100.0).unwrap(),
+            Axis::Z,
+            PointKind::Marker,
+            vec!["m".into()],
+            vec![[0.0; 3]; 3000],
+        )
+        .unwrap();
+        let method =
+            |name: &str, candidates: Vec<usize>| MethodResult { method: name.into(), candidates };
         SequenceResult {
             sequence: "s".into(),
             motion: Arc::new(motion),
             truth: None,
-            methods: vec![method("fast", vec![100, 600, 1100, 1600, 2100, 2600]), method("slow", vec![1500])],
+            methods: vec![
+                method("fast", vec![100, 600, 1100, 1600, 2100, 2600]),
+                method("slow", vec![1500]),
+            ],
         }
     }
 
     fn rates(params: &str) -> Result<Vec<f64>> {
         let params: toml::Value = toml::from_str(params).unwrap();
-        let tables = build_evaluator("template_evaluator", &params)?.evaluate(EvalInput::segmentation(&vec![sequence()]))?;
+        let tables = build_evaluator("template_evaluator", &params)?
+            .evaluate(EvalInput::segmentation(&vec![sequence()]))?;
         match tables[0].column("candidates_per_period") {
             Some(ColumnValues::F64(v)) => Ok(v.clone()),
             other => panic!("{other:?}"),
@@ -118,12 +138,18 @@ mod tests {
         // 30 s: 6 candidates are 12 per minute, 0.2 per second; 1 is 2 per minute.
         assert_eq!(rates("").unwrap(), [12.0, 2.0]);
         let per_second = rates("per_s = 1.0").unwrap();
-        assert!((per_second[0] - 0.2).abs() < 1e-12 && (per_second[1] - 1.0 / 30.0).abs() < 1e-12, "{per_second:?}");
+        assert!(
+            (per_second[0] - 0.2).abs() < 1e-12 && (per_second[1] - 1.0 / 30.0).abs() < 1e-12,
+            "{per_second:?}"
+        );
     }
 
     #[test]
     fn a_bad_period_names_its_field() {
         let e = rates("per_s = -1.0").unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("per_s")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("per_s"))
+        );
     }
 }

@@ -10,7 +10,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, Motion, Result, Trace};
+use motionlab_core::{
+    Error, ErrorKind, FeatureCache, FeatureExtractor, FeatureSet, Motion, Result, Trace,
+};
 
 /// The height of the points' centroid above the lab floor, per frame (trace
 /// `centroid_height_mm`, mm along the motion's up axis).
@@ -39,7 +41,8 @@ impl ParamGuard for TemplateExtractorParams {
     type Checked = TemplateExtractor;
     fn check(self) -> Result<TemplateExtractor> {
         if self.min_points == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "expected at least 1 point, found 0").with_field("min_points"));
+            return Err(Error::new(ErrorKind::OutOfRange, "expected at least 1 point, found 0")
+                .with_field("min_points"));
         }
         Ok(TemplateExtractor { min_points: self.min_points })
     }
@@ -49,11 +52,21 @@ impl FeatureExtractor for TemplateExtractor {
     fn extract(&self, motion: &Motion, _cache: &FeatureCache) -> Result<FeatureSet> {
         let heights = (0..motion.n_frames())
             .map(|f| {
-                let present: Vec<f64> = (0..motion.n_points()).filter(|&p| !motion.is_missing(f, p)).map(|p| motion.height(motion.position(f, p))).collect();
-                if present.len() < self.min_points { f64::NAN } else { present.iter().sum::<f64>() / present.len() as f64 }
+                let present: Vec<f64> = (0..motion.n_points())
+                    .filter(|&p| !motion.is_missing(f, p))
+                    .map(|p| motion.height(motion.position(f, p)))
+                    .collect();
+                if present.len() < self.min_points {
+                    f64::NAN
+                } else {
+                    present.iter().sum::<f64>() / present.len() as f64
+                }
             })
             .collect();
-        Ok(FeatureSet { traces: vec![Trace::new("centroid_height_mm", "mm", heights)], labels: Vec::new() })
+        Ok(FeatureSet {
+            traces: vec![Trace::new("centroid_height_mm", "mm", heights)],
+            labels: Vec::new(),
+        })
     }
 }
 
@@ -68,14 +81,25 @@ mod tests {
     /// Two markers, Z up, at heights 100 + f and 300 + f mm in frame f; the second missing in
     /// frame 2.
     fn two_rising_markers() -> Motion {
-        let mut positions: Vec<[f64; 3]> = (0..4).flat_map(|f| [[0.0, 0.0, 100.0 + f as f64], [50.0, 0.0, 300.0 + f as f64]]).collect();
+        let mut positions: Vec<[f64; 3]> = (0..4)
+            .flat_map(|f| [[0.0, 0.0, 100.0 + f as f64], [50.0, 0.0, 300.0 + f as f64]])
+            .collect();
         positions[2 * 2 + 1] = [f64::NAN; 3];
-        Motion::new("rising", FrameRate::new(100.0).unwrap(), Axis::Z, PointKind::Marker, vec!["a".into(), "b".into()], positions).unwrap()
+        Motion::new(
+            "rising",
+            FrameRate::new(100.0).unwrap(),
+            Axis::Z,
+            PointKind::Marker,
+            vec!["a".into(), "b".into()],
+            positions,
+        )
+        .unwrap()
     }
 
     fn heights(params: &str) -> Result<Vec<f64>> {
         let params: toml::Value = toml::from_str(params).unwrap();
-        let set = build_feature_extractor("template_extractor", &params)?.extract(&two_rising_markers(), &FeatureCache::new())?;
+        let set = build_feature_extractor("template_extractor", &params)?
+            .extract(&two_rising_markers(), &FeatureCache::new())?;
         Ok(set.traces[0].values.clone())
     }
 
@@ -89,6 +113,9 @@ mod tests {
     #[test]
     fn a_bad_parameter_names_its_field() {
         let e = heights("min_points = 0").unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("min_points")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("min_points"))
+        );
     }
 }

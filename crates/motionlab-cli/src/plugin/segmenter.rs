@@ -10,7 +10,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, SegmenterOutput, Threshold, Trace};
+use motionlab_core::{
+    Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, SegmenterOutput, Threshold, Trace,
+};
 
 /// Candidates where the points come to rest: the frames at which the mean speed of the points
 /// falls below `max_speed_mm_per_s`, having been at or above it.
@@ -61,9 +63,16 @@ impl Segmenter for TemplateSegmenter {
                 let (now, before) = (motion.frame(f), motion.frame(f - 1));
                 let steps: Vec<f64> = (0..motion.n_points())
                     .filter(|&p| !motion.is_missing(f, p) && !motion.is_missing(f - 1, p))
-                    .map(|p| (0..3).map(|a| (now[p][a] - before[p][a]).powi(2)).sum::<f64>().sqrt() * rate)
+                    .map(|p| {
+                        (0..3).map(|a| (now[p][a] - before[p][a]).powi(2)).sum::<f64>().sqrt()
+                            * rate
+                    })
                     .collect();
-                if steps.is_empty() { f64::NAN } else { steps.iter().sum::<f64>() / steps.len() as f64 }
+                if steps.is_empty() {
+                    f64::NAN
+                } else {
+                    steps.iter().sum::<f64>() / steps.len() as f64
+                }
             })
             .collect();
         let mut candidates = Vec::new();
@@ -78,7 +87,11 @@ impl Segmenter for TemplateSegmenter {
         Ok(SegmenterOutput {
             candidates,
             traces: vec![Trace::new(trace, "mm/s", speed)],
-            thresholds: vec![Threshold { name: "max_speed_mm_per_s".into(), trace: trace.into(), value: self.max_speed_mm_per_s }],
+            thresholds: vec![Threshold {
+                name: "max_speed_mm_per_s".into(),
+                trace: trace.into(),
+                value: self.max_speed_mm_per_s,
+            }],
             ..Default::default()
         })
     }
@@ -96,7 +109,15 @@ mod tests {
     /// is 1000 mm/s up to frame 50 and 0 from frame 51 on.
     fn walk_then_stop() -> Motion {
         let positions = (0..100).map(|f: usize| [10.0 * f.min(50) as f64, 0.0, 0.0]).collect();
-        Motion::new("walk_then_stop", FrameRate::new(100.0).unwrap(), Axis::Z, PointKind::Marker, vec!["m".into()], positions).unwrap()
+        Motion::new(
+            "walk_then_stop",
+            FrameRate::new(100.0).unwrap(),
+            Axis::Z,
+            PointKind::Marker,
+            vec!["m".into()],
+            positions,
+        )
+        .unwrap()
     }
 
     fn segment(params: &str, motion: &Motion) -> Result<SegmenterOutput> {
@@ -111,12 +132,20 @@ mod tests {
         assert!(out.traces[0].values[0].is_nan());
         assert_eq!(out.traces[0].values[1..=50], [1000.0; 50]);
         // Above every speed the points are always at rest: nothing ends.
-        assert!(segment("max_speed_mm_per_s = 2000.0", &walk_then_stop()).unwrap().candidates.is_empty());
+        assert!(
+            segment("max_speed_mm_per_s = 2000.0", &walk_then_stop())
+                .unwrap()
+                .candidates
+                .is_empty()
+        );
     }
 
     #[test]
     fn a_bad_threshold_names_its_field() {
         let e = segment("max_speed_mm_per_s = 0.0", &walk_then_stop()).unwrap_err();
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("max_speed_mm_per_s")));
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("max_speed_mm_per_s"))
+        );
     }
 }

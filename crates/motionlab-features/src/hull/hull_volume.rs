@@ -7,8 +7,8 @@ use motionlab_core::{FeatureCache, FeatureExtractor, FeatureSet, Motion, Result,
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::tracker::{HullTracker, TrackerStats};
 use super::Degeneracy;
+use super::tracker::{HullTracker, TrackerStats};
 
 /// Per-frame hull volumes and their changes for a motion.
 #[derive(Clone, Debug, PartialEq)]
@@ -45,7 +45,11 @@ pub fn hull_volumes(motion: &Motion) -> HullVolumes {
         let h = tracker.frame(motion.frame(i));
         volume_mm3.push(h.volume_mm3);
         degenerate.push(h.degenerate);
-        n_valid.push(if complete { motion.n_points() } else { motion.frame_missing(i).iter().filter(|m| !**m).count() });
+        n_valid.push(if complete {
+            motion.n_points()
+        } else {
+            motion.frame_missing(i).iter().filter(|m| !**m).count()
+        });
     }
     let mut change = vec![f64::NAN; f];
     for i in 1..f {
@@ -54,7 +58,13 @@ pub fn hull_volumes(motion: &Motion) -> HullVolumes {
             change[i] = (volume_mm3[i] - volume_mm3[i - 1]).abs();
         }
     }
-    HullVolumes { volume_mm3, change_mm3_per_frame: change, degenerate, n_valid, stats: tracker.stats() }
+    HullVolumes {
+        volume_mm3,
+        change_mm3_per_frame: change,
+        degenerate,
+        n_valid,
+        stats: tracker.stats(),
+    }
 }
 
 /// Cached [`hull_volumes`]: the hull segmenter and the feature extractor share one computation.

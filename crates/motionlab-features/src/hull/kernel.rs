@@ -29,7 +29,12 @@ impl Soa {
     /// (`wide` with AVX2 + FMA, else `xs`, `ys`, `zs`), with their span and mean, in one pass.
     /// Returns false when a gathered point is not finite (a marker went missing): the sum of
     /// the coordinates is then not finite, so the check costs nothing per point.
-    pub(super) fn fill(&mut self, points: &[Point3], keep: &[u32], compact: &mut Vec<Point3>) -> bool {
+    pub(super) fn fill(
+        &mut self,
+        points: &[Point3],
+        keep: &[u32],
+        compact: &mut Vec<Point3>,
+    ) -> bool {
         compact.resize(keep.len(), [0.0; 3]);
         #[cfg(target_arch = "x86_64")]
         {
@@ -59,8 +64,17 @@ impl Soa {
     }
 
     /// Sets span and mean; false when the sum is not finite (some coordinate is not).
-    pub(super) fn set_span_and_mean(&mut self, lo: Point3, hi: Point3, sum: Point3, n: usize) -> bool {
-        self.span = Span { ext: [0, 1, 2].map(|k| hi[k] - lo[k]), abs_max: [0, 1, 2].map(|k| lo[k].abs().max(hi[k].abs())) };
+    pub(super) fn set_span_and_mean(
+        &mut self,
+        lo: Point3,
+        hi: Point3,
+        sum: Point3,
+        n: usize,
+    ) -> bool {
+        self.span = Span {
+            ext: [0, 1, 2].map(|k| hi[k] - lo[k]),
+            abs_max: [0, 1, 2].map(|k| lo[k].abs().max(hi[k].abs())),
+        };
         self.mean = sum.map(|s| s / n as f64);
         sum.iter().all(|s| s.is_finite())
     }
@@ -88,7 +102,13 @@ pub(super) struct Span {
 /// With AVX2 + FMA (detected at run time) four triangles are tested at once, one per lane: see
 /// [`uncertain_triangles_avx2`] for its test and error bound. Otherwise each triangle's
 /// [`Plane`] is evaluated at every point.
-pub(super) fn uncertain_triangles(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>, six: &mut Vec<f64>) {
+pub(super) fn uncertain_triangles(
+    pts: &[Point3],
+    soa: &Soa,
+    tris: &[[u32; 3]],
+    uncertain: &mut Vec<u32>,
+    six: &mut Vec<f64>,
+) {
     #[cfg(target_arch = "x86_64")]
     {
         if crate::simd::available() {
@@ -101,7 +121,13 @@ pub(super) fn uncertain_triangles(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], 
 }
 
 /// [`uncertain_triangles`] without SIMD intrinsics: each triangle's [`Plane`] at every point.
-pub(super) fn uncertain_triangles_portable(pts: &[Point3], soa: &Soa, tris: &[[u32; 3]], uncertain: &mut Vec<u32>, six: &mut Vec<f64>) {
+pub(super) fn uncertain_triangles_portable(
+    pts: &[Point3],
+    soa: &Soa,
+    tris: &[[u32; 3]],
+    uncertain: &mut Vec<u32>,
+    six: &mut Vec<f64>,
+) {
     six.clear();
     for (k, t) in tris.iter().enumerate() {
         let [a, b, c] = t.map(|i| pts[i as usize]);

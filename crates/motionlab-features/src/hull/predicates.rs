@@ -62,14 +62,17 @@ impl Plane {
     #[inline(always)]
     pub(super) fn eval(&self, q: Point3) -> f64 {
         // Fixed evaluation order (no FMA contraction in Rust): the error analysis depends on it.
-        (self.n[0] * (q[0] - self.o[0]) + self.n[1] * (q[1] - self.o[1])) + self.n[2] * (q[2] - self.o[2])
+        (self.n[0] * (q[0] - self.o[0]) + self.n[1] * (q[1] - self.o[1]))
+            + self.n[2] * (q[2] - self.o[2])
     }
 }
 
 #[inline]
 pub(super) fn orient_fast(a: Point3, b: Point3, c: Point3, q: Point3) -> f64 {
     let (d1, d2, e) = (sub(b, a), sub(c, a), sub(q, a));
-    (d1[1] * d2[2] - d1[2] * d2[1]) * e[0] + (d1[2] * d2[0] - d1[0] * d2[2]) * e[1] + (d1[0] * d2[1] - d1[1] * d2[0]) * e[2]
+    (d1[1] * d2[2] - d1[2] * d2[1]) * e[0]
+        + (d1[2] * d2[0] - d1[0] * d2[2]) * e[1]
+        + (d1[0] * d2[1] - d1[1] * d2[0]) * e[2]
 }
 
 /// Exactly collinear: `(b−a)×(q−a) = 0`, i.e. all three coordinate-plane projections collinear.

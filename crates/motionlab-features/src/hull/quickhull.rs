@@ -67,7 +67,8 @@ impl HullBuilder {
         let mut six_v = 0.0;
         for f in self.faces.iter().filter(|f| f.alive) {
             let [a, b, c] = f.v;
-            six_v += orient_fast(o, self.pts[a as usize], self.pts[b as usize], self.pts[c as usize]);
+            six_v +=
+                orient_fast(o, self.pts[a as usize], self.pts[b as usize], self.pts[c as usize]);
         }
         six_v / 6.0
     }
@@ -325,7 +326,11 @@ pub(super) fn initial_simplex(pts: &[Point3]) -> std::result::Result<[usize; 4],
     let ab = sub(b, a);
     let cross2 = |q: Point3| {
         let aq = sub(q, a);
-        let c = [ab[1] * aq[2] - ab[2] * aq[1], ab[2] * aq[0] - ab[0] * aq[2], ab[0] * aq[1] - ab[1] * aq[0]];
+        let c = [
+            ab[1] * aq[2] - ab[2] * aq[1],
+            ab[2] * aq[0] - ab[0] * aq[2],
+            ab[0] * aq[1] - ab[1] * aq[0],
+        ];
         c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
     };
     let i2 = argmax(pts.len(), |q| cross2(pts[q]));
@@ -338,7 +343,9 @@ pub(super) fn initial_simplex(pts: &[Point3]) -> std::result::Result<[usize; 4],
     // Fourth: farthest from the plane abc (float), confirmed off the plane exactly.
     let i3 = argmax(pts.len(), |q| orient_fast(a, b, c, pts[q]).abs());
     let i3 = if orient_exact(a, b, c, pts[i3]) == 0.0 {
-        (0..pts.len()).find(|&q| orient_exact(a, b, c, pts[q]) != 0.0).ok_or(Degeneracy::Coplanar)?
+        (0..pts.len())
+            .find(|&q| orient_exact(a, b, c, pts[q]) != 0.0)
+            .ok_or(Degeneracy::Coplanar)?
     } else {
         i3
     };

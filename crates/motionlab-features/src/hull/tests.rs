@@ -27,9 +27,13 @@ fn close(a: f64, b: f64, rel: f64) -> bool {
 /// found up to 1e-6 relative off on real frames, e.g. dance1 frame 237, where scipy/qhull
 /// and parry's own triangles agree with ours to 1e-15.)
 fn parry_volume(points: &[Point3]) -> f64 {
-    let pts: Vec<parry3d_f64::math::Vector> = points.iter().map(|p| parry3d_f64::math::Vector::new(p[0], p[1], p[2])).collect();
+    let pts: Vec<parry3d_f64::math::Vector> =
+        points.iter().map(|p| parry3d_f64::math::Vector::new(p[0], p[1], p[2])).collect();
     let (verts, idx) = parry3d_f64::transformation::try_convex_hull(&pts).expect("parry hull");
-    let c = points.iter().fold([0.0; 3], |a, q| [a[0] + q[0], a[1] + q[1], a[2] + q[2]]).map(|x| x / points.len() as f64);
+    let c = points
+        .iter()
+        .fold([0.0; 3], |a, q| [a[0] + q[0], a[1] + q[1], a[2] + q[2]])
+        .map(|x| x / points.len() as f64);
     let v = |i: u32| {
         let p = verts[i as usize];
         [p.x, p.y, p.z]
@@ -37,7 +41,8 @@ fn parry_volume(points: &[Point3]) -> f64 {
     idx.iter()
         .map(|t| {
             let (a, b, d) = (sub(v(t[0]), c), sub(v(t[1]), c), sub(v(t[2]), c));
-            a[0] * (b[1] * d[2] - b[2] * d[1]) - a[1] * (b[0] * d[2] - b[2] * d[0]) + a[2] * (b[0] * d[1] - b[1] * d[0])
+            a[0] * (b[1] * d[2] - b[2] * d[1]) - a[1] * (b[0] * d[2] - b[2] * d[0])
+                + a[2] * (b[0] * d[1] - b[1] * d[0])
         })
         .sum::<f64>()
         / 6.0
@@ -59,10 +64,18 @@ fn unit_cube_is_one_also_with_interior_surface_and_duplicate_points() {
     let mut more = cube.clone();
     more.extend_from_slice(&cube); // every corner twice
     more.push([0.5, 0.5, 0.5]); // centre
-    more.extend([[0.5, 0.5, 0.0], [0.5, 0.5, 1.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.0], [1.0, 1.0, 0.5]]); // on faces/edges
+    more.extend([
+        [0.5, 0.5, 0.0],
+        [0.5, 0.5, 1.0],
+        [0.0, 0.5, 0.5],
+        [0.5, 0.0, 0.0],
+        [1.0, 1.0, 0.5],
+    ]); // on faces/edges
     assert!(close(vol(&more), 1.0, 1e-15), "{}", vol(&more));
     // A regular grid on the cube: many exactly coplanar facets and collinear edge points.
-    let grid: Vec<Point3> = (0..125).map(|i| [(i % 5) as f64 * 0.25, (i / 5 % 5) as f64 * 0.25, (i / 25) as f64 * 0.25]).collect();
+    let grid: Vec<Point3> = (0..125)
+        .map(|i| [(i % 5) as f64 * 0.25, (i / 5 % 5) as f64 * 0.25, (i / 25) as f64 * 0.25])
+        .collect();
     assert!(close(vol(&grid), 1.0, 1e-15), "{}", vol(&grid));
 }
 
@@ -82,7 +95,9 @@ fn random_points_in_a_cube_never_exceed_it_and_match_parry() {
     let mut rng = Rng::new(7);
     for trial in 0..200 {
         let n = 4 + trial % 60;
-        let pts: Vec<Point3> = (0..n).map(|_| [rng.uniform() * 1000.0, rng.uniform() * 1000.0, rng.uniform() * 1000.0]).collect();
+        let pts: Vec<Point3> = (0..n)
+            .map(|_| [rng.uniform() * 1000.0, rng.uniform() * 1000.0, rng.uniform() * 1000.0])
+            .collect();
         let v = vol(&pts);
         assert!(v > 0.0 && v <= 1e9, "trial {trial}: {v}");
         let p = parry_volume(&pts);
@@ -92,20 +107,29 @@ fn random_points_in_a_cube_never_exceed_it_and_match_parry() {
 
 #[test]
 fn planar_collinear_and_tiny_sets_are_flagged_with_volume_zero() {
-    let square: Vec<Point3> = (0..20).map(|i| [(i % 5) as f64 * 10.0, (i / 5) as f64 * 7.0, 250.0]).collect();
-    assert_eq!(convex_hull_volume(&square), HullVolume { volume_mm3: 0.0, degenerate: Some(Degeneracy::Coplanar) });
+    let square: Vec<Point3> =
+        (0..20).map(|i| [(i % 5) as f64 * 10.0, (i / 5) as f64 * 7.0, 250.0]).collect();
+    assert_eq!(
+        convex_hull_volume(&square),
+        HullVolume { volume_mm3: 0.0, degenerate: Some(Degeneracy::Coplanar) }
+    );
     // A tilted plane through non-representable coefficients: still exactly coplanar points?
     // Use integer coordinates on x + 2y − z = 5 so the plane is exact.
-    let tilted: Vec<Point3> = (0..30).map(|i| {
-        let (x, y) = ((i % 6) as f64 * 3.0, (i / 6) as f64 * 5.0);
-        [x, y, x + 2.0 * y - 5.0]
-    }).collect();
+    let tilted: Vec<Point3> = (0..30)
+        .map(|i| {
+            let (x, y) = ((i % 6) as f64 * 3.0, (i / 6) as f64 * 5.0);
+            [x, y, x + 2.0 * y - 5.0]
+        })
+        .collect();
     assert_eq!(convex_hull_volume(&tilted).degenerate, Some(Degeneracy::Coplanar));
     let line: Vec<Point3> = (0..10).map(|i| [i as f64, 2.0 * i as f64, -3.0 * i as f64]).collect();
     assert_eq!(convex_hull_volume(&line).degenerate, Some(Degeneracy::Collinear));
     assert_eq!(convex_hull_volume(&[[1.0, 2.0, 3.0]; 9]).degenerate, Some(Degeneracy::Collinear));
     let three = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-    assert_eq!(convex_hull_volume(&three), HullVolume { volume_mm3: 0.0, degenerate: Some(Degeneracy::TooFewPoints) });
+    assert_eq!(
+        convex_hull_volume(&three),
+        HullVolume { volume_mm3: 0.0, degenerate: Some(Degeneracy::TooFewPoints) }
+    );
     // NaN points are skipped: 8 cube corners with 5 missing leave 3 -> too few.
     let mut cube = cube_corners([0.0; 3], 1.0);
     for p in cube.iter_mut().take(5) {
@@ -122,7 +146,9 @@ fn planar_collinear_and_tiny_sets_are_flagged_with_volume_zero() {
 #[test]
 fn duplicates_do_not_change_the_volume() {
     let mut rng = Rng::new(11);
-    let pts: Vec<Point3> = (0..30).map(|_| [rng.normal() * 300.0, rng.normal() * 300.0, rng.normal() * 500.0 + 1000.0]).collect();
+    let pts: Vec<Point3> = (0..30)
+        .map(|_| [rng.normal() * 300.0, rng.normal() * 300.0, rng.normal() * 500.0 + 1000.0])
+        .collect();
     let v = vol(&pts);
     let mut dup = pts.clone();
     dup.extend(pts.iter().step_by(3).copied());
@@ -134,18 +160,25 @@ fn duplicates_do_not_change_the_volume() {
 #[test]
 fn volume_is_invariant_under_rotation_and_translation() {
     let mut rng = Rng::new(3);
-    let pts: Vec<Point3> = (0..40).map(|_| [rng.normal() * 200.0, rng.normal() * 150.0, rng.normal() * 600.0]).collect();
+    let pts: Vec<Point3> = (0..40)
+        .map(|_| [rng.normal() * 200.0, rng.normal() * 150.0, rng.normal() * 600.0])
+        .collect();
     let v = vol(&pts);
     let axis = {
         let a: Point3 = [0.3, -0.5, 0.81];
         let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
         a.map(|c| c / n)
     };
-    for (angle, shift) in [(0.7, [1000.0, -2500.0, 800.0]), (2.9, [-3.0e4, 1.0e4, 5.0]), (-1.3, [0.0; 3])] {
-        let moved: Vec<Point3> = pts.iter().map(|&p| {
-            let r = rotate(p, axis, angle);
-            [r[0] + shift[0], r[1] + shift[1], r[2] + shift[2]]
-        }).collect();
+    for (angle, shift) in
+        [(0.7, [1000.0, -2500.0, 800.0]), (2.9, [-3.0e4, 1.0e4, 5.0]), (-1.3, [0.0; 3])]
+    {
+        let moved: Vec<Point3> = pts
+            .iter()
+            .map(|&p| {
+                let r = rotate(p, axis, angle);
+                [r[0] + shift[0], r[1] + shift[1], r[2] + shift[2]]
+            })
+            .collect();
         assert!(close(vol(&moved), v, 1e-9), "angle {angle}: {} vs {v}", vol(&moved));
     }
 }
@@ -154,7 +187,9 @@ fn volume_is_invariant_under_rotation_and_translation() {
 fn tracker_equals_rebuilding_every_frame_and_reuses_hulls() {
     // 30 markers drifting smoothly, one of them missing for a stretch, one frame flattened.
     let mut rng = Rng::new(5);
-    let base: Vec<Point3> = (0..30).map(|_| [rng.normal() * 300.0, rng.normal() * 300.0, rng.normal() * 600.0]).collect();
+    let base: Vec<Point3> = (0..30)
+        .map(|_| [rng.normal() * 300.0, rng.normal() * 300.0, rng.normal() * 600.0])
+        .collect();
     let phase: Vec<f64> = (0..30).map(|_| rng.uniform() * std::f64::consts::TAU).collect();
     let m = motion_from_fn(400, 120.0, 30, |i, k| {
         if (100..120).contains(&i) && k == 4 {
@@ -171,7 +206,12 @@ fn tracker_equals_rebuilding_every_frame_and_reuses_hulls() {
         let valid: Vec<Point3> = m.frame(i).iter().copied().filter(|p| p[0].is_finite()).collect();
         let want = scratch.volume(&valid);
         assert_eq!(h.degenerate[i], want.degenerate, "frame {i}");
-        assert!(close(h.volume_mm3[i], want.volume_mm3, 1e-12), "frame {i}: {} vs {}", h.volume_mm3[i], want.volume_mm3);
+        assert!(
+            close(h.volume_mm3[i], want.volume_mm3, 1e-12),
+            "frame {i}: {} vs {}",
+            h.volume_mm3[i],
+            want.volume_mm3
+        );
     }
     assert_eq!(h.flagged_frames(), vec![300]);
     assert!(h.stats.reused > 200, "{:?}", h.stats);
@@ -192,12 +232,21 @@ fn a_point_crossing_a_face_is_caught() {
     // moving from inside out through the face x + y + z = 300: the reused triangles must be
     // rejected the moment the point is above that face, even by 1e-9 mm.
     let mut tracker = HullTracker::new();
-    let mut pts = vec![[0.0, 0.0, 0.0], [300.0, 0.0, 0.0], [0.0, 300.0, 0.0], [0.0, 0.0, 300.0], [100.0, 100.0, 99.0]];
+    let mut pts = vec![
+        [0.0, 0.0, 0.0],
+        [300.0, 0.0, 0.0],
+        [0.0, 300.0, 0.0],
+        [0.0, 0.0, 300.0],
+        [100.0, 100.0, 99.0],
+    ];
     let tet = 300.0f64.powi(3) / 6.0;
     assert_eq!(tracker.frame(&pts).volume_mm3, tet);
     pts[4][2] = 99.5;
     assert_eq!(tracker.frame(&pts).volume_mm3, tet);
-    assert_eq!(tracker.stats(), TrackerStats { reused: 1, repaired: 0, rebuilt: 1, degenerate: 0, repairs: 0 });
+    assert_eq!(
+        tracker.stats(),
+        TrackerStats { reused: 1, repaired: 0, rebuilt: 1, degenerate: 0, repairs: 0 }
+    );
     // On the face: still the tetrahedron, but certification demands *strictly* below, so
     // the hull is rebuilt (same volume).
     pts[4][2] = 100.0;
@@ -232,21 +281,25 @@ fn repairs_equal_rebuilding_on_jittering_point_clouds() {
     // are repaired rather than rebuilt.
     for (seed, jitter) in [(1u64, 0.5), (2, 3.0), (3, 20.0), (4, 150.0)] {
         let mut rng = Rng::new(seed);
-        let base: Vec<Point3> = (0..40).map(|_| {
-            let v = [rng.normal(), rng.normal(), rng.normal()];
-            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let r = 400.0 + 40.0 * rng.uniform();
-            v.map(|c| r * c / n)
-        }).collect();
+        let base: Vec<Point3> = (0..40)
+            .map(|_| {
+                let v = [rng.normal(), rng.normal(), rng.normal()];
+                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                let r = 400.0 + 40.0 * rng.uniform();
+                v.map(|c| r * c / n)
+            })
+            .collect();
         let mut walk = base.clone();
-        let frames: Vec<Vec<Point3>> = (0..300).map(|_| {
-            for p in walk.iter_mut() {
-                for c in p.iter_mut() {
-                    *c += jitter * rng.normal();
+        let frames: Vec<Vec<Point3>> = (0..300)
+            .map(|_| {
+                for p in walk.iter_mut() {
+                    for c in p.iter_mut() {
+                        *c += jitter * rng.normal();
+                    }
                 }
-            }
-            walk.clone()
-        }).collect();
+                walk.clone()
+            })
+            .collect();
         let m = motion_from_fn(300, 120.0, 40, |i, k| frames[i][k]);
         let mut t = HullTracker::new();
         let worst = max_rel_diff_tracker_vs_rebuild(&m, &mut t);
@@ -264,7 +317,11 @@ fn soa_in_both_layouts(pts: &[Point3]) -> Soa {
     let mut soa = Soa::default();
     let keep: Vec<u32> = (0..pts.len() as u32).collect();
     assert!(soa.fill(pts, &keep, &mut Vec::new()));
-    (soa.xs, soa.ys, soa.zs) = (pts.iter().map(|p| p[0]).collect(), pts.iter().map(|p| p[1]).collect(), pts.iter().map(|p| p[2]).collect());
+    (soa.xs, soa.ys, soa.zs) = (
+        pts.iter().map(|p| p[0]).collect(),
+        pts.iter().map(|p| p[1]).collect(),
+        pts.iter().map(|p| p[2]).collect(),
+    );
     soa.wide = pts.iter().map(|p| p.map(|c| [c; 4])).collect();
     soa
 }
@@ -283,21 +340,30 @@ fn fast_plane_tests_never_certify_what_the_exact_test_rejects() {
     // certifies, the exact predicate must certify too; the rest goes to `certify_slow`.
     let mut certified_exactly = 0;
     let mut rejected_exactly = 0;
-    for (seed, offset, jitter) in [(1u64, 0.0, 0.0), (2, 1e4, 0.0), (3, 3e6, 1e-9), (4, -2e3, 1e-12)] {
+    for (seed, offset, jitter) in
+        [(1u64, 0.0, 0.0), (2, 1e4, 0.0), (3, 3e6, 1e-9), (4, -2e3, 1e-12)]
+    {
         let mut rng = Rng::new(seed);
-        let pts: Vec<Point3> =
-            (0..23).map(|i| [i % 3, (i / 3) % 3, i / 9].map(|c| offset + 100.0 * c as f64 + jitter * rng.normal())).collect();
+        let pts: Vec<Point3> = (0..23)
+            .map(|i| {
+                [i % 3, (i / 3) % 3, i / 9]
+                    .map(|c| offset + 100.0 * c as f64 + jitter * rng.normal())
+            })
+            .collect();
         let soa = soa_in_both_layouts(&pts);
         let n = pts.len() as u32;
         let tris: Vec<[u32; 3]> = (0..n)
-            .flat_map(|a| (a + 1..n).flat_map(move |b| (b + 1..n).flat_map(move |c| [[a, b, c], [a, c, b]])))
+            .flat_map(|a| {
+                (a + 1..n).flat_map(move |b| (b + 1..n).flat_map(move |c| [[a, b, c], [a, c, b]]))
+            })
             .collect();
         let mut results = vec![];
         let mut uncertain = vec![];
         uncertain_triangles_portable(&pts, &soa, &tris, &mut uncertain, &mut vec![]);
         results.push(("portable", std::mem::take(&mut uncertain)));
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
             // SAFETY: the CPU supports AVX2 and FMA (checked just above).
             unsafe { uncertain_triangles_avx2(&soa, &tris, &mut uncertain, &mut vec![]) };
             results.push(("avx2", uncertain));
@@ -308,11 +374,17 @@ fn fast_plane_tests_never_certify_what_the_exact_test_rejects() {
             rejected_exactly += !exact as usize;
             for (name, uncertain) in &results {
                 let fast = uncertain.binary_search(&(k as u32)).is_err();
-                assert!(!fast || exact, "{name} certified {t:?} (seed {seed}), which the exact test rejects");
+                assert!(
+                    !fast || exact,
+                    "{name} certified {t:?} (seed {seed}), which the exact test rejects"
+                );
             }
         }
     }
-    assert!(certified_exactly > 50 && rejected_exactly > 10_000, "{certified_exactly} {rejected_exactly}");
+    assert!(
+        certified_exactly > 50 && rejected_exactly > 10_000,
+        "{certified_exactly} {rejected_exactly}"
+    );
 }
 
 /// Six times the volume enclosed by outward triangles: Σ det(a−o, b−o, c−o) about a point `o`
@@ -330,7 +402,11 @@ fn certification_sums_the_volume_of_the_hull_it_certifies() {
     // The six-fold volume the plane test returns for a hull's triangles, on both paths,
     // equals the quickhull's volume (summed another way: from the mean, by `orient_fast`).
     let mut rng = Rng::new(9);
-    let pts: Vec<Point3> = (0..30).map(|_| [rng.normal() * 300.0 + 2500.0, rng.normal() * 200.0 - 800.0, rng.normal() * 900.0]).collect();
+    let pts: Vec<Point3> = (0..30)
+        .map(|_| {
+            [rng.normal() * 300.0 + 2500.0, rng.normal() * 200.0 - 800.0, rng.normal() * 900.0]
+        })
+        .collect();
     let mut b = HullBuilder::new();
     let want = b.volume(&pts).volume_mm3;
     let tris: Vec<[u32; 3]> = b.triangles().collect();
@@ -372,11 +448,20 @@ fn closure_check_rejects_open_and_doubled_surfaces() {
 fn load(relative: &str) -> Motion {
     let path = motionlab_testkit::data_path(relative);
     if relative.contains(".amc") {
-        let asf = motionlab_io::asf_amc::asf_candidates(&path).into_iter().find(|p| p.exists()).expect("asf");
-        motionlab_io::asf_amc::load_asf_amc(&path, &asf, motionlab_core::FrameRate::new(120.0).unwrap()).unwrap()
+        let asf = motionlab_io::asf_amc::asf_candidates(&path)
+            .into_iter()
+            .find(|p| p.exists())
+            .expect("asf");
+        motionlab_io::asf_amc::load_asf_amc(
+            &path,
+            &asf,
+            motionlab_core::FrameRate::new(120.0).unwrap(),
+        )
+        .unwrap()
     } else {
         let text = motionlab_io::read::read_text(&path).unwrap();
-        motionlab_io::qualisys_tsv::parse_qualisys_tsv(&text, &path, motionlab_core::Axis::Z).unwrap()
+        motionlab_io::qualisys_tsv::parse_qualisys_tsv(&text, &path, motionlab_core::Axis::Z)
+            .unwrap()
     }
 }
 
@@ -408,7 +493,11 @@ fn agrees_with_parry_on_every_frame(relative: &str) -> HullVolumes {
         let valid: Vec<Point3> = m.frame(i).iter().copied().filter(|p| p[0].is_finite()).collect();
         assert_eq!(h.degenerate[i], None, "{relative} frame {i}");
         let ours = builder.volume(&valid).volume_mm3;
-        assert!(close(ours, h.volume_mm3[i], 1e-13), "{relative} frame {i}: tracker {} builder {ours}", h.volume_mm3[i]);
+        assert!(
+            close(ours, h.volume_mm3[i], 1e-13),
+            "{relative} frame {i}: tracker {} builder {ours}",
+            h.volume_mm3[i]
+        );
         let tris: Vec<[u32; 3]> = builder.triangles().collect();
         assert!(is_exact_hull(&valid, &tris), "{relative} frame {i}: not the exact hull");
         let p = parry_volume(&valid);
@@ -427,7 +516,8 @@ fn max_rel_diff_tracker_vs_rebuild(m: &Motion, tracker: &mut HullTracker) -> f64
         let valid: Vec<Point3> = m.frame(i).iter().copied().filter(|p| p[0].is_finite()).collect();
         let want = builder.volume(&valid);
         assert_eq!(fast.degenerate, want.degenerate, "frame {i}");
-        let rel = (fast.volume_mm3 - want.volume_mm3).abs() / want.volume_mm3.abs().max(f64::MIN_POSITIVE);
+        let rel = (fast.volume_mm3 - want.volume_mm3).abs()
+            / want.volume_mm3.abs().max(f64::MIN_POSITIVE);
         if want.volume_mm3 != 0.0 || fast.volume_mm3 != 0.0 {
             worst = worst.max(rel);
         }
@@ -443,7 +533,11 @@ fn fast_path_equals_rebuild_every_frame_on_real_takes() {
         let worst = max_rel_diff_tracker_vs_rebuild(&m, &mut fast);
         let mut plain = HullTracker::without_repairs();
         let worst_plain = max_rel_diff_tracker_vs_rebuild(&m, &mut plain);
-        eprintln!("{take}: max relative volume difference vs rebuild every frame {worst:.3e} (without repairs {worst_plain:.3e}); stats {:?}, without repairs {:?}", fast.stats(), plain.stats());
+        eprintln!(
+            "{take}: max relative volume difference vs rebuild every frame {worst:.3e} (without repairs {worst_plain:.3e}); stats {:?}, without repairs {:?}",
+            fast.stats(),
+            plain.stats()
+        );
         assert!(worst <= 1e-9 && worst_plain <= 1e-9, "{take}: {worst} {worst_plain}");
     }
 }
@@ -460,15 +554,22 @@ fn portable_and_simd_paths_make_the_same_decisions_on_real_takes() {
             let mut t = HullTracker::new();
             let worst = max_rel_diff_tracker_vs_rebuild(&m, &mut t);
             t.reset();
-            let volumes: Vec<f64> = (0..m.n_frames()).map(|i| t.frame(m.frame(i)).volume_mm3).collect();
+            let volumes: Vec<f64> =
+                (0..m.n_frames()).map(|i| t.frame(m.frame(i)).volume_mm3).collect();
             FORCE_PORTABLE.with(|f| f.set(false));
             (worst, t.stats(), volumes)
         };
         let (worst_portable, stats_portable, portable) = run(true);
         let (worst_simd, stats_simd, simd) = run(false);
-        assert!(worst_portable <= 1e-9 && worst_simd <= 1e-9, "{take}: {worst_portable} {worst_simd}");
+        assert!(
+            worst_portable <= 1e-9 && worst_simd <= 1e-9,
+            "{take}: {worst_portable} {worst_simd}"
+        );
         assert_eq!(stats_portable, stats_simd, "{take}");
-        assert!(stats_portable.reused > 0 && stats_portable.repaired > 0, "{take}: {stats_portable:?}");
+        assert!(
+            stats_portable.reused > 0 && stats_portable.repaired > 0,
+            "{take}: {stats_portable:?}"
+        );
         for (i, (a, b)) in portable.iter().zip(&simd).enumerate() {
             assert!(close(*a, *b, 1e-12), "{take} frame {i}: {a} {b}");
         }
@@ -480,14 +581,21 @@ fn interior_points_racing_outward_are_caught() {
     // A fixed outer shell and interior points that move fast, leave the hull, come back and
     // sit exactly on faces: every frame must equal a from-scratch hull.
     let mut rng = Rng::new(19);
-    let shell: Vec<Point3> = (0..14).map(|_| {
-        let v = [rng.normal(), rng.normal(), rng.normal()];
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        v.map(|c| 500.0 * c / n)
-    }).collect();
-    let inner: Vec<(Point3, Point3)> = (0..12).map(|_| {
-        ([rng.normal() * 60.0, rng.normal() * 60.0, rng.normal() * 60.0], [rng.normal(), rng.normal(), rng.normal()])
-    }).collect();
+    let shell: Vec<Point3> = (0..14)
+        .map(|_| {
+            let v = [rng.normal(), rng.normal(), rng.normal()];
+            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            v.map(|c| 500.0 * c / n)
+        })
+        .collect();
+    let inner: Vec<(Point3, Point3)> = (0..12)
+        .map(|_| {
+            (
+                [rng.normal() * 60.0, rng.normal() * 60.0, rng.normal() * 60.0],
+                [rng.normal(), rng.normal(), rng.normal()],
+            )
+        })
+        .collect();
     let m = motion_from_fn(600, 120.0, 26, |i, k| {
         let t = i as f64 / 120.0;
         if k < 14 {
@@ -516,7 +624,11 @@ fn real_cmu_skeleton_with_duplicate_joints_matches_parry() {
     // lowerback, lhand = lthumb, …). A standing adult's hull is tens of litres.
     let h = agrees_with_parry_on_every_frame("cmu86/86_01.amc.gz");
     assert_eq!(h.volume_mm3.len(), 4579);
-    let median = { let mut v = h.volume_mm3.clone(); v.sort_by(f64::total_cmp); v[v.len() / 2] };
+    let median = {
+        let mut v = h.volume_mm3.clone();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
     assert!((2e7..3e8).contains(&median), "median hull {median} mm³");
     assert!(h.stats.reused > h.stats.rebuilt, "{:?}", h.stats); // duplicates do not defeat re-use
 }

@@ -143,7 +143,12 @@ impl HullTracker {
             // ones are skipped): summed in triangle order, on every path alike (before the
             // removed ones are dropped, which renumbers the triangles).
             let six_volume: f64 = if ok {
-                self.prev_tris.iter().zip(&self.tri_six).filter(|(t, _)| t[0] != NONE).map(|(_, v)| v).sum()
+                self.prev_tris
+                    .iter()
+                    .zip(&self.tri_six)
+                    .filter(|(t, _)| t[0] != NONE)
+                    .map(|(_, v)| v)
+                    .sum()
             } else {
                 0.0
             };
@@ -193,7 +198,9 @@ impl HullTracker {
     pub(super) fn find_dups(&mut self, points: &[Point3]) {
         self.dups.clear();
         for (x, &k) in self.keep.iter().enumerate().skip(1) {
-            if let Some(&j) = self.keep[..x].iter().find(|&&j| points[j as usize] == points[k as usize]) {
+            if let Some(&j) =
+                self.keep[..x].iter().find(|&&j| points[j as usize] == points[k as usize])
+            {
                 self.dups.push((k, j));
             }
         }
@@ -215,7 +222,13 @@ impl HullTracker {
         // Every triangle first (the common case: all pass). The failed ones go on the `work`
         // stack with their vertices, in reverse so they are popped in index order.
         self.uncertain.clear();
-        uncertain_triangles(&self.compact, &self.soa, &self.prev_tris, &mut self.uncertain, &mut self.tri_six);
+        uncertain_triangles(
+            &self.compact,
+            &self.soa,
+            &self.prev_tris,
+            &mut self.uncertain,
+            &mut self.tri_six,
+        );
         self.work.clear();
         for x in (0..self.uncertain.len()).rev() {
             let ti = self.uncertain[x];
@@ -249,7 +262,8 @@ impl HullTracker {
                     // No repair of this triangle applies yet, but another failed triangle's may
                     // rewrite it (a fold elsewhere can show up here as a hull vertex above the
                     // plane): retry it after those, a bounded number of times.
-                    let others_pending = self.work.iter().any(|&(tj, s)| self.prev_tris[tj as usize] == s);
+                    let others_pending =
+                        self.work.iter().any(|&(tj, s)| self.prev_tris[tj as usize] == s);
                     if others_pending && deferrals < MAX_DEFERRALS {
                         deferrals += 1;
                         self.work.insert(0, (ti, t));
@@ -285,7 +299,13 @@ impl HullTracker {
             return;
         }
         self.uncertain.clear();
-        uncertain_triangles(&self.compact, &self.soa, &self.fresh_tris, &mut self.uncertain, &mut self.fresh_six);
+        uncertain_triangles(
+            &self.compact,
+            &self.soa,
+            &self.fresh_tris,
+            &mut self.uncertain,
+            &mut self.fresh_six,
+        );
         self.tri_six.resize(self.prev_tris.len(), 0.0);
         for (&j, &v) in self.fresh.iter().zip(&self.fresh_six) {
             self.tri_six[j as usize] = v;
@@ -316,7 +336,8 @@ impl HullTracker {
             let s = pl.eval(p);
             // Certainly above (most triangles that get here have such a point): fail without
             // the exact predicate.
-            s < -pl.bound || (s <= pl.bound && (t.contains(&(q as u32)) || orient_exact(a, b, c, p) < 0.0))
+            s < -pl.bound
+                || (s <= pl.bound && (t.contains(&(q as u32)) || orient_exact(a, b, c, p) < 0.0))
         })
     }
 
@@ -361,7 +382,8 @@ impl HullTracker {
                 continue;
             }
             if self.has_edge(w, d) {
-                if let Some(r) = self.remove_degree3(u, ext).or_else(|| self.remove_degree3(v, ext)) {
+                if let Some(r) = self.remove_degree3(u, ext).or_else(|| self.remove_degree3(v, ext))
+                {
                     return Some(r);
                 }
                 continue;
@@ -500,7 +522,12 @@ impl HullTracker {
         if self.prev_tris.iter().any(|s| new.iter().all(|y| s.contains(y))) {
             return None;
         }
-        let pl = Plane::new(self.compact[p0 as usize], self.compact[p1 as usize], self.compact[p2 as usize], ext);
+        let pl = Plane::new(
+            self.compact[p0 as usize],
+            self.compact[p1 as usize],
+            self.compact[p2 as usize],
+            ext,
+        );
         if pl.eval(self.compact[x as usize]) >= -pl.bound {
             return None;
         }

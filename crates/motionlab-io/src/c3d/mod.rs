@@ -24,7 +24,6 @@
 //! files does (checked: no all-zero point in any of them), so exact zeros are data unless
 //! `zero_means_missing = true`.
 
-
 pub mod raw;
 
 use std::path::Path;
@@ -36,7 +35,7 @@ use motionlab_core::registry::ParamGuard;
 use motionlab_core::units::{Axis, FrameRate, LengthUnit, Seconds};
 use motionlab_core::{ErrorKind, Event, LoadNotes, Loader, Motion, PointKind, Result};
 
-use raw::{header_offset, C3dFile, DataLayout, Param, Repairs};
+use raw::{C3dFile, DataLayout, Param, Repairs, header_offset};
 
 /// Reads C3D motion-capture files (Vicon, Qualisys, Motion Analysis, …): marker positions,
 /// point rate, marker labels and the events of the `EVENT` group.
@@ -133,7 +132,12 @@ pub struct C3dOptions {
 
 impl Default for C3dOptions {
     fn default() -> Self {
-        C3dOptions { up_axis: Axis::Z, zero_means_missing: false, strip_subject_prefix: true, strict: false }
+        C3dOptions {
+            up_axis: Axis::Z,
+            zero_means_missing: false,
+            strip_subject_prefix: true,
+            strict: false,
+        }
     }
 }
 
@@ -146,12 +150,14 @@ pub struct C3dLoader {
 impl ParamGuard for C3dParams {
     type Checked = C3dLoader;
     fn check(self) -> Result<C3dLoader> {
-        Ok(C3dLoader { options: C3dOptions {
-            up_axis: self.up_axis,
-            zero_means_missing: self.zero_means_missing,
-            strip_subject_prefix: self.strip_subject_prefix,
-            strict: self.strict,
-        } })
+        Ok(C3dLoader {
+            options: C3dOptions {
+                up_axis: self.up_axis,
+                zero_means_missing: self.zero_means_missing,
+                strip_subject_prefix: self.strip_subject_prefix,
+                strict: self.strict,
+            },
+        })
     }
 }
 
@@ -176,19 +182,37 @@ pub fn parse_c3d(bytes: &[u8], origin: &Path, options: &C3dOptions) -> Result<Mo
     repairs.notes.extend(layout.repairs.iter().cloned());
     if layout.points == 0 {
         return Err(ctx
-            .err(ErrorKind::EmptySequence, header_offset::POINT_COUNT, "the file holds no 3-D points; expected at least one marker")
+            .err(
+                ErrorKind::EmptySequence,
+                header_offset::POINT_COUNT,
+                "the file holds no 3-D points; expected at least one marker",
+            )
             .with_field("header.point_count"));
     }
     let rate = frame_rate(&file)?;
     let (unit, unit_from) = units(&file, &mut repairs)?;
     let names = point_names(&file, layout.points, options.strip_subject_prefix, &mut repairs)?;
-    let positions = decode_points(&file, &layout, unit.millimetres_per_unit(), options.zero_means_missing, &names)?;
+    let positions = decode_points(
+        &file,
+        &layout,
+        unit.millimetres_per_unit(),
+        options.zero_means_missing,
+        &names,
+    )?;
     let events = events(&file, &layout, rate)?;
-    let mut motion = Motion::new(crate::read::stem(origin), rate, options.up_axis, PointKind::Marker, names, positions)
-        .map_err(|e| e.in_file(origin))?
-        .with_source(origin, "c3d");
+    let mut motion = Motion::new(
+        crate::read::stem(origin),
+        rate,
+        options.up_axis,
+        PointKind::Marker,
+        names,
+        positions,
+    )
+    .map_err(|e| e.in_file(origin))?
+    .with_source(origin, "c3d");
     motion.events = events;
-    motion.load_notes = LoadNotes { length_unit: Some(unit), length_unit_from: unit_from, repairs: repairs.notes };
+    motion.load_notes =
+        LoadNotes { length_unit: Some(unit), length_unit_from: unit_from, repairs: repairs.notes };
     Ok(motion)
 }
 
@@ -215,7 +239,9 @@ fn frame_rate(file: &C3dFile<'_>) -> Result<FrameRate> {
 /// The unit of `POINT:UNITS` and how it was read. A name cut short by its writer (`mete`,
 /// 4 characters of `metre`) is the unit it begins, noted as a repair.
 fn units(file: &C3dFile<'_>, repairs: &mut Repairs) -> Result<(LengthUnit, String)> {
-    let Some(p) = file.param("POINT", "UNITS") else { return Ok((LengthUnit::Millimetre, "no POINT:UNITS: the C3D default".into())) };
+    let Some(p) = file.param("POINT", "UNITS") else {
+        return Ok((LengthUnit::Millimetre, "no POINT:UNITS: the C3D default".into()));
+    };
     let label = p.strings(file.ctx)?.into_iter().next().unwrap_or_default();
     if label.is_empty() {
         return Ok((LengthUnit::Millimetre, "POINT:UNITS is blank: the C3D default".into()));
@@ -224,7 +250,11 @@ fn units(file: &C3dFile<'_>, repairs: &mut Repairs) -> Result<(LengthUnit, Strin
         return Ok((unit, format!("POINT:UNITS {label:?}")));
     }
     let Some((unit, full)) = unit_by_prefix(&label) else {
-        return Err(file.ctx.param_err(ErrorKind::OutOfRange, p, format!("unknown length unit {label:?}; expected mm, cm, m or in")));
+        return Err(file.ctx.param_err(
+            ErrorKind::OutOfRange,
+            p,
+            format!("unknown length unit {label:?}; expected mm, cm, m or in"),
+        ));
     };
     repairs.make(format!("POINT:UNITS {label:?} read as {full:?} (a unit name cut short)"), || {
         file.ctx.param_err(ErrorKind::OutOfRange, p, format!("length unit {label:?} is a cut-short {full:?}; expected mm, cm, m or in (strict reading)"))
@@ -260,14 +290,26 @@ fn unit_by_prefix(label: &str) -> Option<(LengthUnit, &'static str)> {
 /// `RKNE#2`), as several writers' files need (Motion Analysis repeats labels). Two labels
 /// that only become equal once subject prefixes are stripped stay an error: renaming them
 /// would mix two subjects' markers.
-fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool, repairs: &mut Repairs) -> Result<Vec<String>> {
+fn point_names(
+    file: &C3dFile<'_>,
+    n_points: usize,
+    strip_subject_prefix: bool,
+    repairs: &mut Repairs,
+) -> Result<Vec<String>> {
     let ctx = file.ctx;
     let Some(first) = file.param("POINT", "LABELS") else {
         let refuse = || {
-            ctx.err(ErrorKind::MissingKey, header_offset::POINT_COUNT, format!("no POINT:LABELS parameter; expected {n_points} marker names"))
-                .with_field("POINT:LABELS")
+            ctx.err(
+                ErrorKind::MissingKey,
+                header_offset::POINT_COUNT,
+                format!("no POINT:LABELS parameter; expected {n_points} marker names"),
+            )
+            .with_field("POINT:LABELS")
         };
-        repairs.make(format!("no POINT:LABELS: the {n_points} points are named P1…P{n_points}"), refuse)?;
+        repairs.make(
+            format!("no POINT:LABELS: the {n_points} points are named P1…P{n_points}"),
+            refuse,
+        )?;
         return Ok((1..=n_points).map(|i| format!("P{i}")).collect());
     };
     let mut labels = first.strings(ctx)?;
@@ -283,7 +325,10 @@ fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool, 
         return Err(ctx.param_err(
             ErrorKind::WrongValueCount,
             first,
-            format!("{} labels (with LABELS2, …) for {n_points} points; expected one label per point", labels.len()),
+            format!(
+                "{} labels (with LABELS2, …) for {n_points} points; expected one label per point",
+                labels.len()
+            ),
         ));
     }
     labels.truncate(n_points);
@@ -303,10 +348,12 @@ fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool, 
         }
     }
     let taken: std::collections::HashSet<String> = labels.iter().cloned().collect();
-    let mut first_use: std::collections::HashMap<String, usize> = std::collections::HashMap::with_capacity(n_points);
+    let mut first_use: std::collections::HashMap<String, usize> =
+        std::collections::HashMap::with_capacity(n_points);
     // label → (its points, 1-based, and the names they got), in the order first repeated.
     let mut renamed: Vec<(String, Vec<(usize, String)>)> = Vec::new();
-    let mut used: std::collections::HashSet<String> = std::collections::HashSet::with_capacity(n_points);
+    let mut used: std::collections::HashSet<String> =
+        std::collections::HashSet::with_capacity(n_points);
     for i in 0..n_points {
         let l = labels[i].clone();
         let Some(&j) = first_use.get(&l) else {
@@ -318,7 +365,11 @@ fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool, 
             ctx.param_err(
                 ErrorKind::DuplicateName,
                 first,
-                format!("label {l:?} names points {} and {}{hint}; expected unique marker names", j + 1, i + 1),
+                format!(
+                    "label {l:?} names points {} and {}{hint}; expected unique marker names",
+                    j + 1,
+                    i + 1
+                ),
             )
         };
         if written[i] != written[j] {
@@ -330,7 +381,10 @@ fn point_names(file: &C3dFile<'_>, n_points: usize, strip_subject_prefix: bool, 
         if repairs.is_strict() {
             return Err(duplicate(" (strict reading)".into()));
         }
-        let unique = (2..).map(|k| format!("{l}#{k}")).find(|c| !taken.contains(c) && !used.contains(c)).unwrap_or_default();
+        let unique = (2..)
+            .map(|k| format!("{l}#{k}"))
+            .find(|c| !taken.contains(c) && !used.contains(c))
+            .unwrap_or_default();
         used.insert(unique.clone());
         match renamed.iter_mut().find(|(name, _)| *name == l) {
             Some((_, points)) => points.push((i + 1, unique.clone())),
@@ -367,14 +421,19 @@ fn decode_points(
     let word = if layout.float { 4 } else { 2 };
     // `data_layout` checked that every frame fits in `bytes`, so `get` never fails here; it
     // keeps the loop panic-free all the same.
-    let out_of_file = |at: usize| file.ctx.err(ErrorKind::Truncated, at, "point data past the end of the file");
+    let out_of_file =
+        |at: usize| file.ctx.err(ErrorKind::Truncated, at, "point data past the end of the file");
     let mut positions = Vec::with_capacity(layout.n_frames * layout.points);
     for frame in 0..layout.n_frames {
         let frame_start = layout.start + frame * layout.frame_bytes;
-        let frame_bytes = bytes.get(frame_start..frame_start + 4 * layout.points * word).ok_or_else(|| out_of_file(frame_start))?;
+        let frame_bytes = bytes
+            .get(frame_start..frame_start + 4 * layout.points * word)
+            .ok_or_else(|| out_of_file(frame_start))?;
         for (k, point) in frame_bytes.chunks_exact(4 * word).enumerate() {
             let (xyz, valid) = if layout.float {
-                let v = |i: usize| proc.f32([point[4 * i], point[4 * i + 1], point[4 * i + 2], point[4 * i + 3]]);
+                let v = |i: usize| {
+                    proc.f32([point[4 * i], point[4 * i + 1], point[4 * i + 2], point[4 * i + 3]])
+                };
                 // `!(r >= 0)` also treats a NaN residual as missing.
                 ([v(0), v(1), v(2)], v(3) >= 0.0)
             } else {
@@ -416,11 +475,16 @@ fn decode_points(
 /// The `EVENT` group as [`Event`]s sorted by time; none when the group is absent.
 fn events(file: &C3dFile<'_>, layout: &DataLayout, rate: FrameRate) -> Result<Vec<Event>> {
     let ctx = file.ctx;
-    let used = file.param("EVENT", "USED").map(|p| p.first_unsigned(ctx)).transpose()?.map(|n| n as usize);
+    let used =
+        file.param("EVENT", "USED").map(|p| p.first_unsigned(ctx)).transpose()?.map(|n| n as usize);
     let Some(times_param) = file.param("EVENT", "TIMES") else {
         return match used {
             Some(n) if n > 0 => Err(ctx
-                .err(ErrorKind::MissingKey, 0, format!("EVENT:USED is {n} but there is no EVENT:TIMES"))
+                .err(
+                    ErrorKind::MissingKey,
+                    0,
+                    format!("EVENT:USED is {n} but there is no EVENT:TIMES"),
+                )
                 .with_field("EVENT:TIMES")),
             _ => Ok(Vec::new()),
         };
@@ -439,16 +503,26 @@ fn events(file: &C3dFile<'_>, layout: &DataLayout, rate: FrameRate) -> Result<Ve
             Some(p) => {
                 let v = p.strings(ctx)?;
                 if v.len() < n {
-                    return Err(ctx.param_err(ErrorKind::WrongValueCount, p, format!("{} {what} for {n} events (EVENT:USED)", v.len())));
+                    return Err(ctx.param_err(
+                        ErrorKind::WrongValueCount,
+                        p,
+                        format!("{} {what} for {n} events (EVENT:USED)", v.len()),
+                    ));
                 }
                 Ok(v)
             }
             None if what == "contexts" => Ok(vec![String::new(); n]),
-            None => Err(ctx.err(ErrorKind::MissingKey, 0, format!("{n} events but no EVENT:LABELS")).with_field("EVENT:LABELS")),
+            None => Err(ctx
+                .err(ErrorKind::MissingKey, 0, format!("{n} events but no EVENT:LABELS"))
+                .with_field("EVENT:LABELS")),
         }
     };
     if times.len() / 2 < n {
-        return Err(ctx.param_err(ErrorKind::WrongValueCount, times_param, format!("{} times for {n} events (EVENT:USED)", times.len() / 2)));
+        return Err(ctx.param_err(
+            ErrorKind::WrongValueCount,
+            times_param,
+            format!("{} times for {n} events (EVENT:USED)", times.len() / 2),
+        ));
     }
     let labels = have(file.param("EVENT", "LABELS"), "labels")?;
     let contexts = have(file.param("EVENT", "CONTEXTS"), "contexts")?;
@@ -458,7 +532,14 @@ fn events(file: &C3dFile<'_>, layout: &DataLayout, rate: FrameRate) -> Result<Ve
         let t = 60.0 * minutes + seconds;
         if !t.is_finite() {
             return Err(ctx
-                .err(ErrorKind::NonFinite, times_param.data_offset + 8 * i, format!("event {} time is {minutes} min {seconds} s; expected finite numbers", i + 1))
+                .err(
+                    ErrorKind::NonFinite,
+                    times_param.data_offset + 8 * i,
+                    format!(
+                        "event {} time is {minutes} min {seconds} s; expected finite numbers",
+                        i + 1
+                    ),
+                )
                 .with_field(times_param.key()));
         }
         events.push(Event {

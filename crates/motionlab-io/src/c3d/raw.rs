@@ -84,9 +84,15 @@ pub struct Ctx<'a> {
 
 impl Ctx<'_> {
     pub fn err(&self, kind: ErrorKind, offset: usize, message: impl Into<String>) -> Error {
-        Error::new(kind, message).with_location(Location::file(self.origin).byte_offset(offset as u64))
+        Error::new(kind, message)
+            .with_location(Location::file(self.origin).byte_offset(offset as u64))
     }
-    pub fn param_err(&self, kind: ErrorKind, param: &Param<'_>, message: impl Into<String>) -> Error {
+    pub fn param_err(
+        &self,
+        kind: ErrorKind,
+        param: &Param<'_>,
+        message: impl Into<String>,
+    ) -> Error {
         self.err(kind, param.data_offset, message).with_field(param.key())
     }
 }
@@ -214,10 +220,22 @@ impl Param<'_> {
     /// Numeric values as f64 (any numeric type; int16 read as signed).
     pub fn floats(&self, ctx: Ctx<'_>) -> Result<Vec<f64>> {
         match self.kind {
-            ParamType::Float => Ok(self.data.chunks_exact(4).map(|c| self.processor.f32([c[0], c[1], c[2], c[3]])).collect()),
-            ParamType::Int16 => Ok(self.data.chunks_exact(2).map(|c| f64::from(self.processor.i16([c[0], c[1]]))).collect()),
+            ParamType::Float => Ok(self
+                .data
+                .chunks_exact(4)
+                .map(|c| self.processor.f32([c[0], c[1], c[2], c[3]]))
+                .collect()),
+            ParamType::Int16 => Ok(self
+                .data
+                .chunks_exact(2)
+                .map(|c| f64::from(self.processor.i16([c[0], c[1]])))
+                .collect()),
             ParamType::Byte => Ok(self.data.iter().map(|b| f64::from(*b)).collect()),
-            ParamType::Char => Err(ctx.param_err(ErrorKind::WrongType, self, "expected a numeric parameter, found characters")),
+            ParamType::Char => Err(ctx.param_err(
+                ErrorKind::WrongType,
+                self,
+                "expected a numeric parameter, found characters",
+            )),
         }
     }
     /// Integer values. Int16 is read **unsigned**: the counts and frame numbers C3D stores in
@@ -225,7 +243,11 @@ impl Param<'_> {
     /// and writers store them that way. A float parameter is accepted when it holds integers.
     pub fn unsigned(&self, ctx: Ctx<'_>) -> Result<Vec<u32>> {
         match self.kind {
-            ParamType::Int16 => Ok(self.data.chunks_exact(2).map(|c| u32::from(self.processor.u16([c[0], c[1]]))).collect()),
+            ParamType::Int16 => Ok(self
+                .data
+                .chunks_exact(2)
+                .map(|c| u32::from(self.processor.u16([c[0], c[1]])))
+                .collect()),
             ParamType::Byte => Ok(self.data.iter().map(|b| u32::from(*b)).collect()),
             ParamType::Float => self
                 .floats(ctx)?
@@ -234,32 +256,50 @@ impl Param<'_> {
                     if v.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&v) {
                         Ok(v as u32)
                     } else {
-                        Err(ctx.param_err(ErrorKind::WrongType, self, format!("expected a non-negative integer, found {v}")))
+                        Err(ctx.param_err(
+                            ErrorKind::WrongType,
+                            self,
+                            format!("expected a non-negative integer, found {v}"),
+                        ))
                     }
                 })
                 .collect(),
-            ParamType::Char => Err(ctx.param_err(ErrorKind::WrongType, self, "expected an integer parameter, found characters")),
+            ParamType::Char => Err(ctx.param_err(
+                ErrorKind::WrongType,
+                self,
+                "expected an integer parameter, found characters",
+            )),
         }
     }
     /// The first value of a numeric parameter.
     pub fn first_float(&self, ctx: Ctx<'_>) -> Result<f64> {
-        self.floats(ctx)?
-            .first()
-            .copied()
-            .ok_or_else(|| ctx.param_err(ErrorKind::WrongValueCount, self, "expected a value, found an empty array"))
+        self.floats(ctx)?.first().copied().ok_or_else(|| {
+            ctx.param_err(
+                ErrorKind::WrongValueCount,
+                self,
+                "expected a value, found an empty array",
+            )
+        })
     }
     pub fn first_unsigned(&self, ctx: Ctx<'_>) -> Result<u32> {
-        self.unsigned(ctx)?
-            .first()
-            .copied()
-            .ok_or_else(|| ctx.param_err(ErrorKind::WrongValueCount, self, "expected a value, found an empty array"))
+        self.unsigned(ctx)?.first().copied().ok_or_else(|| {
+            ctx.param_err(
+                ErrorKind::WrongValueCount,
+                self,
+                "expected a value, found an empty array",
+            )
+        })
     }
     /// The strings of a character parameter: the first dimension is the string length, the
     /// others multiply to the number of strings (a 0-D or 1-D array is one string). Each is
     /// trimmed of spaces and NULs at both ends. Non-UTF-8 bytes are an error at their offset.
     pub fn strings(&self, ctx: Ctx<'_>) -> Result<Vec<String>> {
         if self.kind != ParamType::Char {
-            return Err(ctx.param_err(ErrorKind::WrongType, self, "expected a character parameter, found numbers"));
+            return Err(ctx.param_err(
+                ErrorKind::WrongType,
+                self,
+                "expected a character parameter, found numbers",
+            ));
         }
         let width = self.dims.first().copied().unwrap_or(1);
         if width == 0 {
@@ -315,7 +355,10 @@ impl<'a> C3dFile<'a> {
             return Err(ctx.err(
                 ErrorKind::Truncated,
                 bytes.len(),
-                format!("file is {} bytes; a C3D file starts with a {BLOCK}-byte header block", bytes.len()),
+                format!(
+                    "file is {} bytes; a C3D file starts with a {BLOCK}-byte header block",
+                    bytes.len()
+                ),
             ));
         }
         if bytes[header_offset::KEY] != KEY_BYTE {
@@ -398,10 +441,15 @@ impl<'a> C3dFile<'a> {
         if scale.is_finite() && scale != 0.0 {
             return Ok(scale);
         }
-        let msg = format!("point scale factor is {scale}; expected a finite non-zero number (negative = float storage)");
+        let msg = format!(
+            "point scale factor is {scale}; expected a finite non-zero number (negative = float storage)"
+        );
         Err(match located {
             Some(p) => self.ctx.param_err(ErrorKind::OutOfRange, p, msg),
-            None => self.ctx.err(ErrorKind::OutOfRange, header_offset::SCALE, msg).with_field("header.scale"),
+            None => self
+                .ctx
+                .err(ErrorKind::OutOfRange, header_offset::SCALE, msg)
+                .with_field("header.scale"),
         })
     }
 
@@ -417,7 +465,11 @@ impl<'a> C3dFile<'a> {
         if block < 2 {
             return Err(self
                 .ctx
-                .err(ErrorKind::OutOfRange, header_offset::DATA_START, format!("data start block is {block}; expected 2 or more"))
+                .err(
+                    ErrorKind::OutOfRange,
+                    header_offset::DATA_START,
+                    format!("data start block is {block}; expected 2 or more"),
+                )
                 .with_field("header.data_start"));
         }
         Ok((block - 1) * BLOCK)
@@ -434,7 +486,11 @@ impl<'a> C3dFile<'a> {
                     match words.as_slice() {
                         [lo, hi, ..] => Ok(u64::from(*lo) + (u64::from(*hi) << 16)),
                         [lo] => Ok(u64::from(*lo)),
-                        [] => Err(self.ctx.param_err(ErrorKind::WrongValueCount, p, "expected two 16-bit words, found none")),
+                        [] => Err(self.ctx.param_err(
+                            ErrorKind::WrongValueCount,
+                            p,
+                            "expected two 16-bit words, found none",
+                        )),
                     }
                 }
                 None => Ok(u64::from(header_value)),
@@ -446,13 +502,26 @@ impl<'a> C3dFile<'a> {
             // last = first − 1 is a file with no frames (a writer's empty trial), not a corrupt
             // range: reported as an empty sequence.
             let (kind, msg) = if last + 1 == first {
-                (ErrorKind::EmptySequence, format!("no frames: last frame {last} is just before first frame {first}; expected at least one frame"))
+                (
+                    ErrorKind::EmptySequence,
+                    format!(
+                        "no frames: last frame {last} is just before first frame {first}; expected at least one frame"
+                    ),
+                )
             } else {
-                (ErrorKind::OutOfRange, format!("last frame {last} is before first frame {first}: a negative frame count"))
+                (
+                    ErrorKind::OutOfRange,
+                    format!(
+                        "last frame {last} is before first frame {first}: a negative frame count"
+                    ),
+                )
             };
             return Err(match self.param("TRIAL", "ACTUAL_END_FIELD") {
                 Some(p) => self.ctx.param_err(kind, p, msg),
-                None => self.ctx.err(kind, header_offset::LAST_FRAME, msg).with_field("header.last_frame"),
+                None => self
+                    .ctx
+                    .err(kind, header_offset::LAST_FRAME, msg)
+                    .with_field("header.last_frame"),
             });
         }
         Ok((first, last))
@@ -492,7 +561,10 @@ impl<'a> C3dFile<'a> {
                     };
                     let per_frame = analog_rate / point_rate;
                     let whole = per_frame.round();
-                    if per_frame.is_finite() && whole >= 1.0 && (per_frame - whole).abs() <= 1e-6 * whole {
+                    if per_frame.is_finite()
+                        && whole >= 1.0
+                        && (per_frame - whole).abs() <= 1e-6 * whole
+                    {
                         channels.saturating_mul(whole as usize)
                     } else {
                         if analog_rate.is_finite() {
@@ -533,21 +605,48 @@ impl<'a> C3dFile<'a> {
         let (params, odd_rate) = self.parameter_account(header)?;
         let have = self.bytes.len() as u64;
         // Checked: POINT:USED and the analog rates are whatever the file says.
-        let frame_bytes = |a: &Account| a.points.checked_mul(4).and_then(|w| w.checked_add(a.analog_words)).and_then(|w| w.checked_mul(word));
-        let need = |a: &Account| frame_bytes(a).and_then(|f| (f as u64).checked_mul(n_frames)).and_then(|b| b.checked_add(a.start as u64));
+        let frame_bytes = |a: &Account| {
+            a.points
+                .checked_mul(4)
+                .and_then(|w| w.checked_add(a.analog_words))
+                .and_then(|w| w.checked_mul(word))
+        };
+        let need = |a: &Account| {
+            frame_bytes(a)
+                .and_then(|f| (f as u64).checked_mul(n_frames))
+                .and_then(|b| b.checked_add(a.start as u64))
+        };
         // An account fits when its frames end at the file's last byte, or in the file's last
         // block when the file is whole blocks (the C3D padding). Nothing looser: two accounts
         // a few words apart would both "fit" a file that ends anywhere after them.
         let block = BLOCK as u64;
-        let fits = |a: &Account| need(a).is_some_and(|n| n == have || (have.is_multiple_of(block) && n <= have && have - n < block));
+        let fits = |a: &Account| {
+            need(a).is_some_and(|n| {
+                n == have || (have.is_multiple_of(block) && n <= have && have - n < block)
+            })
+        };
         let mut repairs = Repairs::new(self.repairs.is_strict());
-        let strict_err = |msg: String| self.ctx.err(ErrorKind::WrongValueCount, header.start, format!("{msg} (strict reading)"));
+        let strict_err = |msg: String| {
+            self.ctx.err(
+                ErrorKind::WrongValueCount,
+                header.start,
+                format!("{msg} (strict reading)"),
+            )
+        };
         let chosen = if header == params {
             let Some(n) = need(&header).filter(|n| *n <= have) else {
-                return Err(self.truncated(&header, frame_bytes(&header).unwrap_or(usize::MAX), n_frames, need(&header)));
+                return Err(self.truncated(
+                    &header,
+                    frame_bytes(&header).unwrap_or(usize::MAX),
+                    n_frames,
+                    need(&header),
+                ));
             };
             if let Some(fact) = odd_rate {
-                let note = format!("{fact}; the header's {} words per frame are used", header.analog_words);
+                let note = format!(
+                    "{fact}; the header's {} words per frame are used",
+                    header.analog_words
+                );
                 repairs.make(note, || strict_err(fact).with_field("ANALOG:RATE"))?;
             }
             if have - n >= BLOCK as u64 {
@@ -559,18 +658,20 @@ impl<'a> C3dFile<'a> {
             header
         } else {
             let differences = self.account_differences(&header, &params);
-            let describe = |a: &Account| {
-                match (need(a), frame_bytes(a)) {
-                    (Some(n), Some(f)) => format!("{n_frames} frames of {f} bytes from byte {} end at byte {n}", a.start),
-                    _ => "more bytes than 2^64".to_string(),
+            let describe = |a: &Account| match (need(a), frame_bytes(a)) {
+                (Some(n), Some(f)) => {
+                    format!("{n_frames} frames of {f} bytes from byte {} end at byte {n}", a.start)
                 }
+                _ => "more bytes than 2^64".to_string(),
             };
             let (chosen, whose) = match (fits(&header), fits(&params)) {
                 (true, false) => (header, "the header's"),
                 (false, true) => (params, "the parameters'"),
                 (true, true) => (header, "both accounts fit; the header's"),
                 (false, false) => {
-                    let kind = if need(&header).is_none_or(|n| n > have) && need(&params).is_none_or(|n| n > have) {
+                    let kind = if need(&header).is_none_or(|n| n > have)
+                        && need(&params).is_none_or(|n| n > have)
+                    {
                         ErrorKind::Truncated
                     } else {
                         ErrorKind::WrongValueCount
@@ -589,7 +690,8 @@ impl<'a> C3dFile<'a> {
                         .with_field(self.account_field(&header, &params)));
                 }
             };
-            let note = format!("{differences}: {whose} account fits the file ({have} bytes) and is used");
+            let note =
+                format!("{differences}: {whose} account fits the file ({have} bytes) and is used");
             repairs.make(note, || {
                 strict_err(format!("{differences}; expected the header's and the parameters' accounts of the data section to agree"))
                     .with_field(self.account_field(&header, &params))
@@ -625,16 +727,29 @@ impl<'a> C3dFile<'a> {
     fn account_differences(&self, header: &Account, params: &Account) -> String {
         let mut parts = Vec::new();
         if header.points != params.points {
-            parts.push(format!("POINT:USED is {} but the header says {} points per frame", params.points, header.points));
+            parts.push(format!(
+                "POINT:USED is {} but the header says {} points per frame",
+                params.points, header.points
+            ));
         }
         if header.analog_words != params.analog_words {
-            let channels = self.param("ANALOG", "USED").and_then(|p| p.first_unsigned(self.ctx).ok()).unwrap_or(0);
+            let channels = self
+                .param("ANALOG", "USED")
+                .and_then(|p| p.first_unsigned(self.ctx).ok())
+                .unwrap_or(0);
             let from_params = if channels == 0 {
                 "ANALOG:USED is 0".to_string()
             } else {
-                format!("ANALOG:USED {channels} × {} samples = {}", params.analog_words / channels as usize, params.analog_words)
+                format!(
+                    "ANALOG:USED {channels} × {} samples = {}",
+                    params.analog_words / channels as usize,
+                    params.analog_words
+                )
             };
-            parts.push(format!("the header says {} analog words per frame but {from_params}", header.analog_words));
+            parts.push(format!(
+                "the header says {} analog words per frame but {from_params}",
+                header.analog_words
+            ));
         }
         if header.start != params.start {
             parts.push(format!(
@@ -648,10 +763,17 @@ impl<'a> C3dFile<'a> {
 
     /// The error of a file shorter than the frames both accounts agree on, pointing at the
     /// first frame that does not fit.
-    fn truncated(&self, a: &Account, frame_bytes: usize, n_frames: u64, need: Option<u64>) -> Error {
+    fn truncated(
+        &self,
+        a: &Account,
+        frame_bytes: usize,
+        n_frames: u64,
+        need: Option<u64>,
+    ) -> Error {
         let have = self.bytes.len() as u64;
         let start = a.start as u64;
-        let whole = if frame_bytes == 0 { 0 } else { have.saturating_sub(start) / frame_bytes as u64 };
+        let whole =
+            if frame_bytes == 0 { 0 } else { have.saturating_sub(start) / frame_bytes as u64 };
         let at = start + whole * frame_bytes as u64;
         let need_text = need.map_or_else(|| "more than 2^64".to_string(), |n| n.to_string());
         Error::new(
@@ -698,7 +820,9 @@ impl<'a> C3dFile<'a> {
             None => 1.0,
         };
         let unsigned = match self.param("ANALOG", "FORMAT") {
-            Some(p) => p.strings(self.ctx)?.first().is_some_and(|s| s.eq_ignore_ascii_case("UNSIGNED")),
+            Some(p) => {
+                p.strings(self.ctx)?.first().is_some_and(|s| s.eq_ignore_ascii_case("UNSIGNED"))
+            }
             None => false,
         };
         let word = if layout.float { 4 } else { 2 };
@@ -714,7 +838,9 @@ impl<'a> C3dFile<'a> {
                 } else {
                     take::<2>(self.bytes, at).map(|b| f64::from(self.processor.i16(b)))
                 };
-                let raw = raw.ok_or_else(|| self.ctx.err(ErrorKind::Truncated, at, "analog sample past the end of the file"))?;
+                let raw = raw.ok_or_else(|| {
+                    self.ctx.err(ErrorKind::Truncated, at, "analog sample past the end of the file")
+                })?;
                 out.push((raw - offset) * scale * gen_scale);
             }
         }
@@ -768,14 +894,22 @@ fn parse_parameters<'a>(
     repairs: &mut Repairs,
 ) -> Result<HashMap<(String, String), Param<'a>>> {
     let truncated = |at: usize, what: &str| {
-        ctx.err(ErrorKind::Truncated, at, format!("parameter section ends inside {what}; expected a complete record or an end marker"))
+        ctx.err(
+            ErrorKind::Truncated,
+            at,
+            format!(
+                "parameter section ends inside {what}; expected a complete record or an end marker"
+            ),
+        )
     };
     // The section ends where the data section starts (header word 9), or after the blocks
     // its byte 3 declares if that is later: some writers declare too few (the c3d.org FP1
     // sample's last groups lie past its 3 declared blocks; ezc3d reads them too). With
     // neither (0 blocks and no data start past it), nothing bounds the chain.
-    let declared_end = bytes.get(start + 2).map_or(0, |&blocks| start + usize::from(blocks) * BLOCK);
-    let data_start = take::<2>(bytes, header_offset::DATA_START).map_or(0, |w| (usize::from(processor.u16(w)).max(1) - 1) * BLOCK);
+    let declared_end =
+        bytes.get(start + 2).map_or(0, |&blocks| start + usize::from(blocks) * BLOCK);
+    let data_start = take::<2>(bytes, header_offset::DATA_START)
+        .map_or(0, |w| (usize::from(processor.u16(w)).max(1) - 1) * BLOCK);
     let section_end = Some(declared_end.max(data_start)).filter(|&end| end > start);
     let mut groups: HashMap<u8, String> = HashMap::new();
     // (group id, param) with the group name filled in once every group record is seen:
@@ -784,13 +918,15 @@ fn parse_parameters<'a>(
     let mut spaced: Vec<String> = Vec::new();
     let mut pos = start + 4;
     loop {
-        let [name_len, group_id] = take::<2>(bytes, pos).ok_or_else(|| truncated(pos, "a record header"))?;
+        let [name_len, group_id] =
+            take::<2>(bytes, pos).ok_or_else(|| truncated(pos, "a record header"))?;
         let name_len = usize::from((name_len as i8).unsigned_abs());
         let group_id = group_id as i8;
         if name_len == 0 {
             break;
         }
-        let name_bytes = bytes.get(pos + 2..pos + 2 + name_len).ok_or_else(|| truncated(pos + 2, "a name"))?;
+        let name_bytes =
+            bytes.get(pos + 2..pos + 2 + name_len).ok_or_else(|| truncated(pos + 2, "a name"))?;
         if let Some(k) = name_bytes.iter().position(|b| !(b.is_ascii_graphic() || *b == b' ')) {
             return Err(ctx.err(
                 ErrorKind::Syntax,
@@ -811,23 +947,43 @@ fn parse_parameters<'a>(
             spaced.push(written);
         }
         let next_at = pos + 2 + name_len;
-        let next = take::<2>(bytes, next_at).map(|b| processor.i16(b)).ok_or_else(|| truncated(next_at, "an offset word"))?;
+        let next = take::<2>(bytes, next_at)
+            .map(|b| processor.i16(b))
+            .ok_or_else(|| truncated(next_at, "an offset word"))?;
         let body = next_at + 2;
         let record_end = if group_id < 0 {
-            let desc_len = usize::from(*bytes.get(body).ok_or_else(|| truncated(body, "a group description"))?);
+            let desc_len = usize::from(
+                *bytes.get(body).ok_or_else(|| truncated(body, "a group description"))?,
+            );
             let id = group_id.unsigned_abs();
             if let Some(old) = groups.insert(id, name.clone()) {
-                return Err(ctx.err(ErrorKind::DuplicateName, pos, format!("group id {id} is defined twice ({old} and {name})")));
+                return Err(ctx.err(
+                    ErrorKind::DuplicateName,
+                    pos,
+                    format!("group id {id} is defined twice ({old} and {name})"),
+                ));
             }
             body + 1 + desc_len
         } else if group_id > 0 {
-            let [type_byte, n_dims] = take::<2>(bytes, body).ok_or_else(|| truncated(body, "a parameter type"))?;
+            let [type_byte, n_dims] =
+                take::<2>(bytes, body).ok_or_else(|| truncated(body, "a parameter type"))?;
             let kind = ParamType::from_byte(type_byte as i8).ok_or_else(|| {
-                ctx.err(ErrorKind::Syntax, body, format!("parameter {name}: type byte is {}; expected -1, 1, 2 or 4", type_byte as i8))
+                ctx.err(
+                    ErrorKind::Syntax,
+                    body,
+                    format!(
+                        "parameter {name}: type byte is {}; expected -1, 1, 2 or 4",
+                        type_byte as i8
+                    ),
+                )
             })?;
             let n_dims = usize::from(n_dims);
-            let dims: Vec<usize> =
-                bytes.get(body + 2..body + 2 + n_dims).ok_or_else(|| truncated(body + 2, "parameter dimensions"))?.iter().map(|d| usize::from(*d)).collect();
+            let dims: Vec<usize> = bytes
+                .get(body + 2..body + 2 + n_dims)
+                .ok_or_else(|| truncated(body + 2, "parameter dimensions"))?
+                .iter()
+                .map(|d| usize::from(*d))
+                .collect();
             // At most 7 dimensions of at most 255: the product fits in u64, and in usize on
             // 64-bit targets; checked anyway.
             let size = dims.iter().try_fold(kind.size(), |acc, d| acc.checked_mul(*d));
@@ -836,14 +992,30 @@ fn parse_parameters<'a>(
                 .and_then(|s| bytes.get(data_offset..data_offset.checked_add(s)?))
                 .ok_or_else(|| truncated(data_offset, &format!("the data of parameter {name}")))?;
             let desc_at = data_offset + data.len();
-            let desc_len = usize::from(*bytes.get(desc_at).ok_or_else(|| truncated(desc_at, "a parameter description"))?);
+            let desc_len = usize::from(
+                *bytes.get(desc_at).ok_or_else(|| truncated(desc_at, "a parameter description"))?,
+            );
             pending.push((
                 group_id.unsigned_abs(),
-                Param { group: String::new(), name: name.clone(), kind, dims, data, data_offset, processor },
+                Param {
+                    group: String::new(),
+                    name: name.clone(),
+                    kind,
+                    dims,
+                    data,
+                    data_offset,
+                    processor,
+                },
             ));
             desc_at + 1 + desc_len
         } else {
-            return Err(ctx.err(ErrorKind::Syntax, pos + 1, format!("record {name} has group id 0; expected a group (< 0) or parameter (> 0) id")));
+            return Err(ctx.err(
+                ErrorKind::Syntax,
+                pos + 1,
+                format!(
+                    "record {name} has group id 0; expected a group (< 0) or parameter (> 0) id"
+                ),
+            ));
         };
         if next == 0 {
             break;
@@ -872,7 +1044,9 @@ fn parse_parameters<'a>(
     }
     if !spaced.is_empty() {
         let quoted: Vec<String> = spaced.iter().map(|n| format!("{n:?}")).collect();
-        repairs.notes.push(format!("group or parameter names with spaces accepted: {}", quoted.join(", ")));
+        repairs
+            .notes
+            .push(format!("group or parameter names with spaces accepted: {}", quoted.join(", ")));
     }
     let mut params = HashMap::with_capacity(pending.len());
     let mut twice: Vec<String> = Vec::new();
@@ -881,7 +1055,13 @@ fn parse_parameters<'a>(
         let key = (p.group.clone(), p.name.clone());
         if params.contains_key(&key) {
             if repairs.is_strict() {
-                return Err(ctx.err(ErrorKind::DuplicateName, p.data_offset, "parameter is defined twice (strict reading)").with_field(p.key()));
+                return Err(ctx
+                    .err(
+                        ErrorKind::DuplicateName,
+                        p.data_offset,
+                        "parameter is defined twice (strict reading)",
+                    )
+                    .with_field(p.key()));
             }
             twice.push(p.key());
             continue;
@@ -890,8 +1070,16 @@ fn parse_parameters<'a>(
     }
     if !twice.is_empty() {
         let shown: Vec<&str> = twice.iter().take(5).map(String::as_str).collect();
-        let more = if twice.len() > shown.len() { format!(" and {} more", twice.len() - shown.len()) } else { String::new() };
-        repairs.notes.push(format!("{} parameters defined twice, the first definition of each kept: {}{more}", twice.len(), shown.join(", ")));
+        let more = if twice.len() > shown.len() {
+            format!(" and {} more", twice.len() - shown.len())
+        } else {
+            String::new()
+        };
+        repairs.notes.push(format!(
+            "{} parameters defined twice, the first definition of each kept: {}{more}",
+            twice.len(),
+            shown.join(", ")
+        ));
     }
     Ok(params)
 }

@@ -3,7 +3,7 @@
 //! independently of the reader's helpers (the DEC encoding is anchored by the known-answer
 //! test in `raw.rs`).
 
-use super::raw::{Processor, BLOCK};
+use super::raw::{BLOCK, Processor};
 
 /// One parameter record to write: group name, name, type byte, dimensions, raw data bytes.
 #[derive(Clone, Debug)]
@@ -91,7 +91,11 @@ impl C3dSpec {
             b.resize(width, b' ');
             data.extend(b);
         }
-        let dims = if strings.len() == 1 { vec![width as u8] } else { vec![width as u8, strings.len() as u8] };
+        let dims = if strings.len() == 1 {
+            vec![width as u8]
+        } else {
+            vec![width as u8, strings.len() as u8]
+        };
         RawParam { group, name: name.to_string(), type_byte: -1, dims, data }
     }
 
@@ -151,7 +155,13 @@ impl C3dSpec {
     pub fn raw_ints(&self, group: &'static str, name: &str, values: &[i16]) -> RawParam {
         self.ints(group, name, values)
     }
-    pub fn raw_floats(&self, group: &'static str, name: &str, dims: Vec<u8>, values: &[f32]) -> RawParam {
+    pub fn raw_floats(
+        &self,
+        group: &'static str,
+        name: &str,
+        dims: Vec<u8>,
+        values: &[f32],
+    ) -> RawParam {
         self.floats(group, name, dims, values)
     }
     pub fn raw_chars(group: &'static str, name: &str, width: usize, strings: &[&str]) -> RawParam {
@@ -168,11 +178,16 @@ impl C3dSpec {
             }
         }
         let gid = |g: &str| groups.iter().position(|x| *x == g).map_or(0, |i| i as i8 + 1);
-        let mut sec = vec![1u8, 0x50, 0, 83 + match self.processor {
-            Processor::Intel => 1,
-            Processor::Dec => 2,
-            Processor::Mips => 3,
-        }];
+        let mut sec = vec![
+            1u8,
+            0x50,
+            0,
+            83 + match self.processor {
+                Processor::Intel => 1,
+                Processor::Dec => 2,
+                Processor::Mips => 3,
+            },
+        ];
         for g in &groups {
             sec.push(g.len() as u8);
             sec.push((-gid(g)) as u8);
@@ -202,11 +217,16 @@ impl C3dSpec {
         let mut header = vec![0u8; BLOCK];
         header[0] = 2;
         header[1] = 0x50;
-        let put16 = |h: &mut Vec<u8>, at: usize, v: i16| h[at..at + 2].copy_from_slice(&self.i16(v));
+        let put16 =
+            |h: &mut Vec<u8>, at: usize, v: i16| h[at..at + 2].copy_from_slice(&self.i16(v));
         put16(&mut header, 2, n_points as i16);
         put16(&mut header, 4, self.analog_per_frame as i16);
         put16(&mut header, 6, self.first_frame as i16);
-        put16(&mut header, 8, (self.first_frame as usize + self.frames.len()).saturating_sub(1) as i16);
+        put16(
+            &mut header,
+            8,
+            (self.first_frame as usize + self.frames.len()).saturating_sub(1) as i16,
+        );
         header[12..16].copy_from_slice(&self.f32(self.scale));
         put16(&mut header, 16, data_start as i16);
         header[20..24].copy_from_slice(&self.f32(self.rate));

@@ -6,7 +6,7 @@ use std::path::Path;
 use motionlab_core::registry::{build_loader, parse_params};
 use motionlab_core::{Axis, ErrorKind};
 
-use super::raw::{C3dFile, Processor, BLOCK};
+use super::raw::{BLOCK, C3dFile, Processor};
 use super::testfile::C3dSpec;
 use super::*;
 
@@ -100,7 +100,10 @@ fn dec_mips_and_intel_files_with_the_same_content_load_identically() {
             for f in 0..3 {
                 for p in 0..2 {
                     let (a, b) = (intel.position(f, p), m.position(f, p));
-                    assert!(a == b || (a[0].is_nan() && b[0].is_nan()), "{processor:?} {scale} ({f},{p}): {a:?} vs {b:?}");
+                    assert!(
+                        a == b || (a[0].is_nan() && b[0].is_nan()),
+                        "{processor:?} {scale} ({f},{p}): {a:?} vs {b:?}"
+                    );
                 }
             }
             assert!((m.events[0].time.0 - 0.02).abs() < 1e-7, "{processor:?}");
@@ -126,16 +129,24 @@ fn units_are_converted_to_millimetres() {
     assert_eq!(parse(&spec.build()).unwrap().position(0, 0), [1.0, 2.0, 3.0]);
     spec.units = Some("furlong");
     let e = err(&spec.build());
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:UNITS")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::OutOfRange, Some("POINT:UNITS"))
+    );
 }
 
 #[test]
 fn events_combine_minutes_and_seconds_and_are_sorted_with_frame_offsets() {
     let mut spec = C3dSpec::small();
     spec.first_frame = 11;
-    spec.events = vec![("Foot Off", "Right", 1.0, 2.5), ("Foot Strike", "Left", 0.0, 0.13), ("Event", "General", 0.0, 0.1)];
+    spec.events = vec![
+        ("Foot Off", "Right", 1.0, 2.5),
+        ("Foot Strike", "Left", 0.0, 0.13),
+        ("Event", "General", 0.0, 0.1),
+    ];
     let m = parse(&spec.build()).unwrap();
-    let got: Vec<(&str, &str)> = m.events.iter().map(|e| (e.label.as_str(), e.context.as_str())).collect();
+    let got: Vec<(&str, &str)> =
+        m.events.iter().map(|e| (e.label.as_str(), e.context.as_str())).collect();
     assert_eq!(got, [("Event", "General"), ("Foot Strike", "Left"), ("Foot Off", "Right")]);
     let f32_time = |t: f32| f64::from(t);
     assert_eq!(m.events[0].time.0, f32_time(0.1));
@@ -162,7 +173,10 @@ fn trial_start_field_overrides_the_header_first_frame() {
     let mut spec = C3dSpec::small();
     spec.events = vec![("Foot Strike", "Left", 0.0, 0.5)];
     // Header says frame 1 first; TRIAL says 70001 … 70003 (two words: 70001 = 4465 + 65536).
-    spec.extra = vec![spec.raw_ints("TRIAL", "ACTUAL_START_FIELD", &[4465, 1]), spec.raw_ints("TRIAL", "ACTUAL_END_FIELD", &[4467, 1])];
+    spec.extra = vec![
+        spec.raw_ints("TRIAL", "ACTUAL_START_FIELD", &[4465, 1]),
+        spec.raw_ints("TRIAL", "ACTUAL_END_FIELD", &[4467, 1]),
+    ];
     let m = parse(&spec.build()).unwrap();
     assert_eq!(m.n_frames(), 3);
     assert!((m.events[0].frame - (50.0 + 1.0 - 70001.0)).abs() < 1e-6);
@@ -195,17 +209,32 @@ fn zero_means_missing_is_opt_in() {
 #[test]
 fn multi_dimensional_char_arrays_and_all_numeric_types_parse() {
     let mut spec = C3dSpec::small();
-    let mut chars3 = C3dSpec::raw_chars("SUBJECT", "GRID", 2, &["ab", "cd", "ef", "gh", "ij", "kl"]);
+    let mut chars3 =
+        C3dSpec::raw_chars("SUBJECT", "GRID", 2, &["ab", "cd", "ef", "gh", "ij", "kl"]);
     chars3.dims = vec![2, 3, 2];
-    let bytes_param = super::testfile::RawParam { group: "SUBJECT", name: "FLAGS".into(), type_byte: 1, dims: vec![3], data: vec![1, 200, 7] };
+    let bytes_param = super::testfile::RawParam {
+        group: "SUBJECT",
+        name: "FLAGS".into(),
+        type_byte: 1,
+        dims: vec![3],
+        data: vec![1, 200, 7],
+    };
     let mut empty = C3dSpec::raw_chars("SUBJECT", "NOTES", 1, &[""]);
     empty.dims = vec![0, 4];
     empty.data.clear();
-    spec.extra = vec![chars3, bytes_param, empty, spec.raw_floats("SUBJECT", "MASS", vec![2], &[70.5, -1.25])];
+    spec.extra = vec![
+        chars3,
+        bytes_param,
+        empty,
+        spec.raw_floats("SUBJECT", "MASS", vec![2], &[70.5, -1.25]),
+    ];
     let bytes = spec.build();
     let file = C3dFile::parse(&bytes, Path::new(ORIGIN)).unwrap();
     let ctx = file.ctx;
-    assert_eq!(file.param("subject", "grid").unwrap().strings(ctx).unwrap(), ["ab", "cd", "ef", "gh", "ij", "kl"]);
+    assert_eq!(
+        file.param("subject", "grid").unwrap().strings(ctx).unwrap(),
+        ["ab", "cd", "ef", "gh", "ij", "kl"]
+    );
     assert_eq!(file.param("SUBJECT", "FLAGS").unwrap().unsigned(ctx).unwrap(), [1, 200, 7]);
     assert_eq!(file.param("SUBJECT", "NOTES").unwrap().strings(ctx).unwrap(), ["", "", "", ""]);
     assert_eq!(file.param("SUBJECT", "MASS").unwrap().floats(ctx).unwrap(), [70.5, -1.25]);
@@ -229,7 +258,11 @@ fn parameter_block_pointer_out_of_range_is_an_error_at_byte_0() {
         let mut bytes = C3dSpec::small().build();
         bytes[0] = pointer;
         let e = err(&bytes);
-        assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::OutOfRange, Some(0)), "{pointer}: {e}");
+        assert_eq!(
+            (e.kind(), e.location().byte_offset),
+            (ErrorKind::OutOfRange, Some(0)),
+            "{pointer}: {e}"
+        );
         assert!(e.message().contains(&format!("pointer is {pointer}")), "{e}");
     }
 }
@@ -263,7 +296,11 @@ fn zero_or_nan_scale_factor_is_out_of_range_naming_point_scale() {
         let mut spec = C3dSpec::small();
         spec.scale = scale;
         let e = err(&spec.build());
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:SCALE")), "{e}");
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("POINT:SCALE")),
+            "{e}"
+        );
         assert!(e.location().byte_offset.is_some());
     }
     // Without POINT:SCALE the header's word 7–8 is used and named.
@@ -280,7 +317,11 @@ fn zero_or_nan_rate_is_out_of_range_naming_point_rate() {
         let mut spec = C3dSpec::small();
         spec.rate = rate;
         let e = err(&spec.build());
-        assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:RATE")), "{e}");
+        assert_eq!(
+            (e.kind(), e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some("POINT:RATE")),
+            "{e}"
+        );
     }
     let mut spec = C3dSpec::small();
     spec.rate = 0.0;
@@ -292,9 +333,15 @@ fn zero_or_nan_rate_is_out_of_range_naming_point_rate() {
 #[test]
 fn last_frame_before_first_is_a_negative_frame_count() {
     let mut spec = C3dSpec::small();
-    spec.extra = vec![spec.raw_ints("TRIAL", "ACTUAL_START_FIELD", &[10, 0]), spec.raw_ints("TRIAL", "ACTUAL_END_FIELD", &[5, 0])];
+    spec.extra = vec![
+        spec.raw_ints("TRIAL", "ACTUAL_START_FIELD", &[10, 0]),
+        spec.raw_ints("TRIAL", "ACTUAL_END_FIELD", &[5, 0]),
+    ];
     let e = err(&spec.build());
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("TRIAL:ACTUAL_END_FIELD")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::OutOfRange, Some("TRIAL:ACTUAL_END_FIELD"))
+    );
     assert!(e.message().contains("negative frame count"), "{e}");
     // Same through the header when there is no TRIAL group.
     let mut spec = C3dSpec::small();
@@ -310,7 +357,10 @@ fn fewer_labels_than_points_is_an_error_naming_point_labels() {
     let mut spec = C3dSpec::small();
     spec.labels = vec!["only_one".into()];
     let e = err(&spec.build());
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:LABELS")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::WrongValueCount, Some("POINT:LABELS"))
+    );
     assert!(e.message().contains("1 labels") && e.message().contains("2 points"), "{e}");
 }
 
@@ -332,9 +382,17 @@ fn duplicate_labels_get_unique_names_with_a_note_and_are_refused_when_strict() {
     spec.labels = vec!["a".into(), "b".into(), "a".into(), "b".into(), "b#2".into()];
     let m = parse(&spec.build()).unwrap();
     assert_eq!(m.point_names(), ["a", "b", "a#2", "b#3", "b#2"]);
-    assert_eq!(m.load_notes.repairs, [r#"duplicate point labels made unique: "a" (points 1, 3) → a, a#2; "b" (points 2, 4) → b, b#3"#]);
+    assert_eq!(
+        m.load_notes.repairs,
+        [
+            r#"duplicate point labels made unique: "a" (points 1, 3) → a, a#2; "b" (points 2, 4) → b, b#3"#
+        ]
+    );
     let e = strict_err(&spec.build());
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::DuplicateName, Some("POINT:LABELS")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::DuplicateName, Some("POINT:LABELS"))
+    );
     assert!(e.message().contains("names points 1 and 3"), "{e}");
     // A clean file has no notes, and says where its unit came from.
     let clean = parse(&C3dSpec::small().build()).unwrap();
@@ -351,7 +409,10 @@ fn labels_equal_only_once_prefixes_are_stripped_stay_an_error() {
     assert_eq!(e.kind(), ErrorKind::DuplicateName);
     assert!(e.message().contains("strip_subject_prefix = false"), "{e}");
     let keep = C3dOptions { strip_subject_prefix: false, ..C3dOptions::default() };
-    assert_eq!(parse_c3d(&spec.build(), Path::new(ORIGIN), &keep).unwrap().point_names(), ["vsk:LFWT", "vsk2:LFWT"]);
+    assert_eq!(
+        parse_c3d(&spec.build(), Path::new(ORIGIN), &keep).unwrap().point_names(),
+        ["vsk:LFWT", "vsk2:LFWT"]
+    );
 }
 
 #[test]
@@ -363,7 +424,10 @@ fn non_utf8_labels_are_a_syntax_error_at_the_bad_byte() {
     spec.extra = vec![labels];
     let bytes = spec.build();
     let e = err(&bytes);
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::Syntax, Some("POINT:LABELS")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::Syntax, Some("POINT:LABELS"))
+    );
     let at = e.location().byte_offset.unwrap() as usize;
     assert_eq!(bytes[at], 0xE9);
 }
@@ -383,18 +447,34 @@ fn point_used_disagreeing_with_the_header_is_resolved_by_the_file_size() {
     assert_eq!((m.n_points(), m.position(2, 1)), (2, [12.0, 22.0, 32.0]));
     assert_eq!(
         m.load_notes.repairs,
-        [format!("POINT:USED is 3 but the header says 2 points per frame: the header's account fits the file ({} bytes) and is used", bytes.len())]
+        [format!(
+            "POINT:USED is 3 but the header says 2 points per frame: the header's account fits the file ({} bytes) and is used",
+            bytes.len()
+        )]
     );
     let e = strict_err(&bytes);
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:USED")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::WrongValueCount, Some("POINT:USED"))
+    );
     // Padded to whole blocks, both accounts end in the last block: the header's is read, and
     // that is said.
     let mut padded = bytes.clone();
     padded.resize(bytes.len().div_ceil(BLOCK) * BLOCK, 0);
-    assert!(bytes.len() % BLOCK + 3 * 16 <= BLOCK, "the parameters' frames must end in the same block");
+    assert!(
+        bytes.len() % BLOCK + 3 * 16 <= BLOCK,
+        "the parameters' frames must end in the same block"
+    );
     let m = parse(&padded).unwrap();
     assert_eq!(m.n_points(), 2);
-    assert!(m.load_notes.repairs[0].ends_with(&format!("both accounts fit; the header's account fits the file ({} bytes) and is used", padded.len())), "{:?}", m.load_notes);
+    assert!(
+        m.load_notes.repairs[0].ends_with(&format!(
+            "both accounts fit; the header's account fits the file ({} bytes) and is used",
+            padded.len()
+        )),
+        "{:?}",
+        m.load_notes
+    );
     // Unpadded, a file ending between the two accounts fits neither.
     let mut between = bytes.clone();
     between.extend([0u8; 20]);
@@ -406,7 +486,10 @@ fn the_parameters_account_is_read_when_it_alone_fits_the_file() {
     // Four analog words per frame written; the header says 2, ANALOG:USED 2 × (200 / 100 Hz) = 4.
     let mut spec = C3dSpec::small();
     spec.analog_per_frame = 4;
-    spec.extra = vec![spec.raw_ints("ANALOG", "USED", &[2]), spec.raw_floats("ANALOG", "RATE", vec![], &[200.0])];
+    spec.extra = vec![
+        spec.raw_ints("ANALOG", "USED", &[2]),
+        spec.raw_floats("ANALOG", "RATE", vec![], &[200.0]),
+    ];
     let mut bytes = spec.build();
     set_header_analog_words(&mut bytes, 2);
     let m = parse(&bytes).unwrap();
@@ -424,7 +507,10 @@ fn the_parameters_account_is_read_when_it_alone_fits_the_file() {
     let file = C3dFile::parse(&bytes, Path::new(ORIGIN)).unwrap();
     let layout = file.data_layout().unwrap();
     assert_eq!(layout.analog_words, 4);
-    assert_eq!(file.analog_channel(&layout, 1).unwrap(), [10000.0, 10002.0, 10000.0, 10002.0, 10000.0, 10002.0]);
+    assert_eq!(
+        file.analog_channel(&layout, 1).unwrap(),
+        [10000.0, 10002.0, 10000.0, 10002.0, 10000.0, 10002.0]
+    );
 }
 
 #[test]
@@ -435,9 +521,15 @@ fn a_data_section_that_fits_neither_account_is_refused() {
     let mut bytes = spec.build();
     bytes.extend(vec![0u8; 600]);
     let e = err(&bytes);
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("POINT:USED")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::WrongValueCount, Some("POINT:USED"))
+    );
     assert!(e.message().contains("fits neither account"), "{e}");
-    assert!(e.message().contains("POINT:USED is 200 but the header says 2 points per frame"), "{e}");
+    assert!(
+        e.message().contains("POINT:USED is 200 but the header says 2 points per frame"),
+        "{e}"
+    );
     // Both accounts longer than the file: truncated.
     let cut = &spec.build()[..spec.build().len() - 20];
     assert_eq!(err(cut).kind(), ErrorKind::Truncated);
@@ -447,19 +539,29 @@ fn a_data_section_that_fits_neither_account_is_refused() {
 fn absurd_parameter_counts_are_checked_not_overflowed() {
     // ANALOG:RATE 1e30 Hz: 2 × 1e28 analog words per frame; POINT:USED 4e9, stored as a float.
     let mut rate = C3dSpec::small();
-    rate.extra = vec![rate.raw_ints("ANALOG", "USED", &[2]), rate.raw_floats("ANALOG", "RATE", vec![], &[1e30])];
+    rate.extra = vec![
+        rate.raw_ints("ANALOG", "USED", &[2]),
+        rate.raw_floats("ANALOG", "RATE", vec![], &[1e30]),
+    ];
     let mut used = C3dSpec::small();
     used.extra = vec![used.raw_floats("POINT", "USED", vec![], &[4.0e9])];
     for spec in [rate, used] {
         // The header's account fits: read, the absurd parameter said.
         let m = parse(&spec.build()).unwrap();
         assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
-        assert!(m.load_notes.repairs[0].contains("the header's account fits the file"), "{:?}", m.load_notes);
+        assert!(
+            m.load_notes.repairs[0].contains("the header's account fits the file"),
+            "{:?}",
+            m.load_notes
+        );
         // With bytes neither explains: refused, the impossible size said in words.
         let mut bytes = spec.build();
         bytes.extend([0u8; 600]);
         let e = err(&bytes);
-        assert!(e.message().contains("fits neither account") && e.message().contains("bytes"), "{e}");
+        assert!(
+            e.message().contains("fits neither account") && e.message().contains("bytes"),
+            "{e}"
+        );
     }
 }
 
@@ -469,7 +571,10 @@ fn bytes_after_the_last_frame_beyond_a_block_are_noted() {
     let n = bytes.len();
     bytes.extend(vec![0u8; 600]);
     let m = parse(&bytes).unwrap();
-    assert_eq!(m.load_notes.repairs, [format!("600 bytes after the last frame (byte {n}) are not read")]);
+    assert_eq!(
+        m.load_notes.repairs,
+        [format!("600 bytes after the last frame (byte {n}) are not read")]
+    );
     assert_eq!(strict_err(&bytes).kind(), ErrorKind::WrongValueCount);
     // Padding to the end of the block is no note.
     let mut padded = C3dSpec::small().build();
@@ -481,18 +586,25 @@ fn bytes_after_the_last_frame_beyond_a_block_are_noted() {
 fn an_analog_rate_that_is_no_whole_multiple_keeps_the_header_and_says_so() {
     let mut spec = C3dSpec::small();
     spec.analog_per_frame = 4;
-    spec.extra = vec![spec.raw_ints("ANALOG", "USED", &[2]), spec.raw_floats("ANALOG", "RATE", vec![], &[250.0])];
+    spec.extra = vec![
+        spec.raw_ints("ANALOG", "USED", &[2]),
+        spec.raw_floats("ANALOG", "RATE", vec![], &[250.0]),
+    ];
     let m = parse(&spec.build()).unwrap();
     assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
     assert_eq!(
         m.load_notes.repairs,
-        ["ANALOG:RATE 250 Hz is not a whole multiple of POINT:RATE 100 Hz, so the parameters give no analog word count; the header's 4 words per frame are used"]
+        [
+            "ANALOG:RATE 250 Hz is not a whole multiple of POINT:RATE 100 Hz, so the parameters give no analog word count; the header's 4 words per frame are used"
+        ]
     );
 }
 
 #[test]
 fn a_unit_name_cut_short_is_the_unit_it_begins() {
-    for (written, mm) in [("mete", 1000.0), ("metr", 1000.0), ("millim", 1.0), ("centi", 10.0), ("inch", 25.4)] {
+    for (written, mm) in
+        [("mete", 1000.0), ("metr", 1000.0), ("millim", 1.0), ("centi", 10.0), ("inch", 25.4)]
+    {
         let mut spec = C3dSpec::small();
         spec.units = Some(written);
         let m = parse(&spec.build()).unwrap_or_else(|e| panic!("{written}: {e}"));
@@ -502,10 +614,16 @@ fn a_unit_name_cut_short_is_the_unit_it_begins() {
     let mut spec = C3dSpec::small();
     spec.units = Some("mete");
     let m = parse(&spec.build()).unwrap();
-    assert_eq!(m.load_notes.repairs, [r#"POINT:UNITS "mete" read as "meter" (a unit name cut short)"#]);
+    assert_eq!(
+        m.load_notes.repairs,
+        [r#"POINT:UNITS "mete" read as "meter" (a unit name cut short)"#]
+    );
     assert_eq!(m.load_notes.length_unit, Some(motionlab_core::LengthUnit::Metre));
     let e = strict_err(&spec.build());
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::OutOfRange, Some("POINT:UNITS")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::OutOfRange, Some("POINT:UNITS"))
+    );
     // Too short to say, or beginning no unit: refused as before.
     for bad in ["c", "mx", "furl"] {
         spec.units = Some(bad);
@@ -526,7 +644,11 @@ fn offset_words(bytes: &[u8], processor: Processor) -> Vec<usize> {
         let at = pos + 2 + name_len;
         out.push(at);
         let w = [bytes[at], bytes[at + 1]];
-        let next = if processor == Processor::Mips { i16::from_be_bytes(w) } else { i16::from_le_bytes(w) };
+        let next = if processor == Processor::Mips {
+            i16::from_be_bytes(w)
+        } else {
+            i16::from_le_bytes(w)
+        };
         pos = at + next as usize;
     }
 }
@@ -542,7 +664,12 @@ fn a_last_record_pointing_past_the_parameter_section_ends_it() {
     let m = parse(&bytes).unwrap();
     assert_eq!(m.position(2, 1), [12.0, 22.0, 32.0]);
     assert_eq!(m.load_notes.repairs.len(), 1, "{:?}", m.load_notes);
-    assert!(m.load_notes.repairs[0].contains("past the parameter section's end at byte 1024; read as the last record"), "{:?}", m.load_notes);
+    assert!(
+        m.load_notes.repairs[0]
+            .contains("past the parameter section's end at byte 1024; read as the last record"),
+        "{:?}",
+        m.load_notes
+    );
     let e = strict_err(&bytes);
     assert_eq!((e.kind(), e.location().byte_offset), (ErrorKind::Syntax, Some(last as u64)));
 }
@@ -551,7 +678,11 @@ fn a_last_record_pointing_past_the_parameter_section_ends_it() {
 fn names_with_spaces_and_parameters_defined_twice_are_read_with_notes() {
     let mut spec = C3dSpec::small();
     let width = spec.raw_floats("SUBJECT", "Pelvis Width", vec![], &[250.0]);
-    spec.extra = vec![width, spec.raw_floats("SUBJECT", "MASS", vec![], &[70.0]), spec.raw_floats("SUBJECT", "MASX", vec![], &[80.0])];
+    spec.extra = vec![
+        width,
+        spec.raw_floats("SUBJECT", "MASS", vec![], &[70.0]),
+        spec.raw_floats("SUBJECT", "MASX", vec![], &[80.0]),
+    ];
     let mut bytes = spec.build();
     // MASX → MASS: SUBJECT:MASS defined twice, 70 first.
     let at = bytes.windows(4).position(|w| w == b"MASX").unwrap();
@@ -562,7 +693,10 @@ fn names_with_spaces_and_parameters_defined_twice_are_read_with_notes() {
     let m = parse(&bytes).unwrap();
     assert_eq!(
         m.load_notes.repairs,
-        [r#"group or parameter names with spaces accepted: "Pelvis Width""#, "1 parameters defined twice, the first definition of each kept: SUBJECT:MASS"]
+        [
+            r#"group or parameter names with spaces accepted: "Pelvis Width""#,
+            "1 parameters defined twice, the first definition of each kept: SUBJECT:MASS"
+        ]
     );
     let e = strict_err(&bytes);
     assert_eq!(e.kind(), ErrorKind::Syntax);
@@ -582,11 +716,17 @@ fn event_arrays_shorter_than_event_used_are_errors() {
     spec.events = vec![("Foot Strike", "Left", 0.0, 0.01), ("Foot Off", "Left", 0.0, 0.02)];
     spec.extra = vec![spec.raw_ints("EVENT", "USED", &[3])];
     let e = err(&spec.build());
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::WrongValueCount, Some("EVENT:TIMES")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::WrongValueCount, Some("EVENT:TIMES"))
+    );
     let mut spec = C3dSpec::small();
     spec.events = vec![("Foot Strike", "Left", 0.0, f32::INFINITY)];
     let e = err(&spec.build());
-    assert_eq!((e.kind(), e.location().field.as_deref()), (ErrorKind::NonFinite, Some("EVENT:TIMES")));
+    assert_eq!(
+        (e.kind(), e.location().field.as_deref()),
+        (ErrorKind::NonFinite, Some("EVENT:TIMES"))
+    );
 }
 
 #[test]

@@ -91,7 +91,9 @@ pub fn track_segmentation(
             match rule {
                 EndRule::EveryEnd if is_inner(end) => boundaries.push(end),
                 EndRule::EveryEnd => {}
-                EndRule::LastEndOnly => last_end = Some(last_end.map_or(end, |e: usize| e.max(end))),
+                EndRule::LastEndOnly => {
+                    last_end = Some(last_end.map_or(end, |e: usize| e.max(end)))
+                }
             }
             segments.push(Segment { start, end, label: item.label.clone() });
         }
@@ -115,24 +117,50 @@ pub fn track_segmentation(
 pub(crate) fn parse_instant(cell: &str, origin: &Path, line: usize, column: &str) -> Result<f64> {
     let cell = cell.trim();
     let v: f64 = cell.parse().map_err(|_| {
-        Error::at_line(ErrorKind::Syntax, origin, line, format!("{cell:?} is not a number; expected a time or frame ≥ 0"))
-            .with_field(column)
+        Error::at_line(
+            ErrorKind::Syntax,
+            origin,
+            line,
+            format!("{cell:?} is not a number; expected a time or frame ≥ 0"),
+        )
+        .with_field(column)
     })?;
     if !v.is_finite() {
-        return Err(Error::at_line(ErrorKind::NonFinite, origin, line, format!("{cell:?}; expected a finite time or frame ≥ 0"))
-            .with_field(column));
+        return Err(Error::at_line(
+            ErrorKind::NonFinite,
+            origin,
+            line,
+            format!("{cell:?}; expected a finite time or frame ≥ 0"),
+        )
+        .with_field(column));
     }
     if v < 0.0 {
-        return Err(Error::at_line(ErrorKind::OutOfRange, origin, line, format!("{cell} is negative; expected a time or frame ≥ 0"))
-            .with_field(column));
+        return Err(Error::at_line(
+            ErrorKind::OutOfRange,
+            origin,
+            line,
+            format!("{cell} is negative; expected a time or frame ≥ 0"),
+        )
+        .with_field(column));
     }
     Ok(v)
 }
 
 /// The error for a segment whose start is after its end.
-pub(crate) fn start_after_end(origin: &Path, line: usize, end_field: &str, start: f64, end: f64) -> Error {
-    Error::at_line(ErrorKind::OutOfRange, origin, line, format!("the segment ends at {end}, before its start {start}; expected start ≤ end"))
-        .with_field(end_field)
+pub(crate) fn start_after_end(
+    origin: &Path,
+    line: usize,
+    end_field: &str,
+    start: f64,
+    end: f64,
+) -> Error {
+    Error::at_line(
+        ErrorKind::OutOfRange,
+        origin,
+        line,
+        format!("the segment ends at {end}, before its start {start}; expected start ≤ end"),
+    )
+    .with_field(end_field)
 }
 
 #[cfg(test)]
@@ -140,7 +168,13 @@ mod tests {
     use super::*;
 
     fn item(line: usize, start: f64, end: Option<f64>) -> AnnotatedItem {
-        AnnotatedItem { line, start_field: "s".into(), start, end: end.map(|e| ("e".into(), e)), label: "x".into() }
+        AnnotatedItem {
+            line,
+            start_field: "s".into(),
+            start,
+            end: end.map(|e| ("e".into(), e)),
+            label: "x".into(),
+        }
     }
 
     #[test]
@@ -150,20 +184,36 @@ mod tests {
         // Segments [0, 10.5), [10.5, 30), a gap, [40.4, 99]: 100 frames.
         let t = AnnotatorTrack {
             annotator: "A".into(),
-            items: vec![item(2, 0.0, Some(10.5)), item(3, 10.5, Some(30.0)), item(4, 40.4, Some(99.0))],
+            items: vec![
+                item(2, 0.0, Some(10.5)),
+                item(3, 10.5, Some(30.0)),
+                item(4, 40.4, Some(99.0)),
+            ],
         };
         let last = track_segmentation(&t, |v| v, EndRule::LastEndOnly, o, r, 100).unwrap();
         // 0 is an edge, 10.5 → 11, 40.4 → 40, the last end 99 = n − 1 is an edge.
         assert_eq!(last.frames(), vec![11, 40]);
         let every = track_segmentation(&t, |v| v, EndRule::EveryEnd, o, r, 100).unwrap();
         assert_eq!(every.frames(), vec![11, 30, 40]);
-        assert_eq!(every.segments.iter().map(|s| (s.start, s.end)).collect::<Vec<_>>(), vec![(0, 11), (11, 30), (40, 99)]);
+        assert_eq!(
+            every.segments.iter().map(|s| (s.start, s.end)).collect::<Vec<_>>(),
+            vec![(0, 11), (11, 30), (40, 99)]
+        );
         // Points, doubled by a scale: 2.25 × 2 = 4.5 → 5.
-        let p = AnnotatorTrack { annotator: "A".into(), items: vec![item(2, 2.25, None), item(3, 2.5, None)] };
-        assert_eq!(track_segmentation(&p, |v| 2.0 * v, EndRule::EveryEnd, o, r, 100).unwrap().frames(), vec![5]);
+        let p = AnnotatorTrack {
+            annotator: "A".into(),
+            items: vec![item(2, 2.25, None), item(3, 2.5, None)],
+        };
+        assert_eq!(
+            track_segmentation(&p, |v| 2.0 * v, EndRule::EveryEnd, o, r, 100).unwrap().frames(),
+            vec![5]
+        );
         // Past the end: names line and field.
         let far = AnnotatorTrack { annotator: "A".into(), items: vec![item(7, 1.0, Some(100.6))] };
         let e = track_segmentation(&far, |v| v, EndRule::EveryEnd, o, r, 100).unwrap_err();
-        assert_eq!((e.kind(), e.location().line, e.location().field.as_deref()), (ErrorKind::OutOfRange, Some(7), Some("e")));
+        assert_eq!(
+            (e.kind(), e.location().line, e.location().field.as_deref()),
+            (ErrorKind::OutOfRange, Some(7), Some("e"))
+        );
     }
 }

@@ -78,7 +78,10 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
     // crate's own positions skip comment lines.
     let text = crate::text::blank_comment_lines(crate::text::strip_bom(text));
     let text = text.as_str();
-    let header_line = text.lines().find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#')).unwrap_or("");
+    let header_line = text
+        .lines()
+        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+        .unwrap_or("");
     let delimiter = if header_line.contains(',') {
         b','
     } else if header_line.contains('\t') {
@@ -123,7 +126,13 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
             .with_field(header.get(i).unwrap_or(n)));
         }
         if names[..i].contains(n) {
-            return Err(Error::at_line(ErrorKind::DuplicateName, origin, hline, format!("column {n:?} appears twice")).with_field(n.as_str()));
+            return Err(Error::at_line(
+                ErrorKind::DuplicateName,
+                origin,
+                hline,
+                format!("column {n:?} appears twice"),
+            )
+            .with_field(n.as_str()));
         }
     }
     let col = |n: &str| names.iter().position(|c| c == n);
@@ -149,8 +158,13 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
                 "start_s" => "end_s",
                 _ => "start_s",
             };
-            return Err(Error::at_line(ErrorKind::MissingKey, origin, hline, format!("column {one:?} needs {missing:?} beside it (one row per segment)"))
-                .with_field(missing));
+            return Err(Error::at_line(
+                ErrorKind::MissingKey,
+                origin,
+                hline,
+                format!("column {one:?} needs {missing:?} beside it (one row per segment)"),
+            )
+            .with_field(missing));
         }
         mixed => {
             return Err(Error::at_line(
@@ -181,14 +195,25 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
                 ErrorKind::WrongValueCount,
                 origin,
                 line,
-                format!("{} cells; expected {} (one per header column: {})", record.len(), names.len(), names.join(",")),
+                format!(
+                    "{} cells; expected {} (one per header column: {})",
+                    record.len(),
+                    names.len(),
+                    names.join(",")
+                ),
             ));
         }
         let cell = |c: Option<usize>| c.and_then(|i| record.get(i));
         let name_cell = |c: Option<usize>, what: &str| -> Result<Option<String>> {
             match cell(c) {
                 None => Ok(None),
-                Some("") => Err(Error::at_line(ErrorKind::Syntax, origin, line, format!("empty; expected a {what}")).with_field(what)),
+                Some("") => Err(Error::at_line(
+                    ErrorKind::Syntax,
+                    origin,
+                    line,
+                    format!("empty; expected a {what}"),
+                )
+                .with_field(what)),
                 Some(s) => Ok(Some(s.to_string())),
             }
         };
@@ -206,10 +231,23 @@ pub fn parse_boundaries_csv(text: &str, origin: &Path) -> Result<CsvAnnotations>
             _ => None,
         };
         let label = cell(label_col).unwrap_or("").to_string();
-        let time_s = time_col.map(|c| parse_instant(record.get(c).unwrap_or(""), origin, line, "time_s")).transpose()?;
-        rows.push(CsvRow { sequence, annotator, item: AnnotatedItem { line, start_field: start_name.into(), start, end, label }, time_s });
+        let time_s = time_col
+            .map(|c| parse_instant(record.get(c).unwrap_or(""), origin, line, "time_s"))
+            .transpose()?;
+        rows.push(CsvRow {
+            sequence,
+            annotator,
+            item: AnnotatedItem { line, start_field: start_name.into(), start, end, label },
+            time_s,
+        });
     }
-    Ok(CsvAnnotations { unit, segments: end_name.is_some(), has_sequence: seq_col.is_some(), header_line: hline, rows })
+    Ok(CsvAnnotations {
+        unit,
+        segments: end_name.is_some(),
+        has_sequence: seq_col.is_some(),
+        header_line: hline,
+        rows,
+    })
 }
 
 impl CsvAnnotations {
@@ -228,7 +266,11 @@ impl CsvAnnotations {
     /// annotator in order of first appearance; the annotator is `""` without that column.
     pub fn tracks(&self, sequence: &str) -> Vec<AnnotatorTrack> {
         let mut tracks: Vec<AnnotatorTrack> = Vec::new();
-        for r in self.rows.iter().filter(|r| !self.has_sequence || r.sequence.as_deref() == Some(sequence)) {
+        for r in self
+            .rows
+            .iter()
+            .filter(|r| !self.has_sequence || r.sequence.as_deref() == Some(sequence))
+        {
             let who = r.annotator.clone().unwrap_or_default();
             match tracks.iter_mut().find(|t| t.annotator == who) {
                 Some(t) => t.items.push(r.item.clone()),
@@ -250,15 +292,25 @@ impl CsvAnnotations {
 /// back to the same number; a line break in a label becomes a space (a row is a line); cells
 /// holding `,` or `"` are quoted.
 pub fn write_boundaries_csv(seq: &SequenceTiers) -> String {
-    let mut w = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
-    let mut rows: Vec<[String; 5]> = vec![["sequence", "frame", "time_s", "label", "annotator"].map(String::from)];
+    let mut w =
+        csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
+    let mut rows: Vec<[String; 5]> =
+        vec![["sequence", "frame", "time_s", "label", "annotator"].map(String::from)];
     for tier in &seq.tiers {
         let mut marks: Vec<_> = tier.marks.iter().collect();
         marks.sort_by_key(|m| m.frame);
         for m in marks {
             let time_s = m.frame as f64 / seq.frame_rate_hz;
-            let one_line = |t: &str| t.split(['\r', '\n']).filter(|p| !p.is_empty()).collect::<Vec<_>>().join(" ");
-            rows.push([one_line(&seq.sequence), m.frame.to_string(), time_s.to_string(), one_line(&m.label), one_line(&tier.name)]);
+            let one_line = |t: &str| {
+                t.split(['\r', '\n']).filter(|p| !p.is_empty()).collect::<Vec<_>>().join(" ")
+            };
+            rows.push([
+                one_line(&seq.sequence),
+                m.frame.to_string(),
+                time_s.to_string(),
+                one_line(&m.label),
+                one_line(&tier.name),
+            ]);
         }
     }
     for r in &rows {
@@ -288,7 +340,10 @@ mod tests {
         let t = a.tracks("d1");
         assert_eq!(t.iter().map(|t| t.annotator.as_str()).collect::<Vec<_>>(), vec!["ana", "ben"]);
         assert_eq!(t[0].items[0].label, "step, left");
-        assert_eq!((t[0].items[0].line, t[0].items[0].start, t[0].items[0].end.clone()), (3, 2.1, Some(("end_s".into(), 3.0))));
+        assert_eq!(
+            (t[0].items[0].line, t[0].items[0].start, t[0].items[0].end.clone()),
+            (3, 2.1, Some(("end_s".into(), 3.0)))
+        );
         assert_eq!(t[1].items[0].line, 5);
         // Points without a sequence column, tab-separated.
         let p = parse("frame\tlabel\n10.5\ta\n20\tb\n").unwrap();
@@ -297,7 +352,10 @@ mod tests {
         assert_eq!(p.rows[0].time_s, None);
         // A frame with its time: the frame is the boundary, the time kept for the reader's check.
         let b = parse("time_s,frame\n0.5,60\n").unwrap();
-        assert_eq!((b.unit, b.rows[0].item.start, b.rows[0].time_s), (CsvUnit::Frames, 60.0, Some(0.5)));
+        assert_eq!(
+            (b.unit, b.rows[0].item.start, b.rows[0].time_s),
+            (CsvUnit::Frames, 60.0, Some(0.5))
+        );
     }
 
     #[test]
@@ -311,19 +369,30 @@ mod tests {
             frame_rate_hz: 120.0,
             n_frames: 4579,
             tiers: vec![
-                MarkTier { name: "ana".into(), marks: vec![mark(1149, "walk, fast"), mark(549, "jump \"high\"")] },
+                MarkTier {
+                    name: "ana".into(),
+                    marks: vec![mark(1149, "walk, fast"), mark(549, "jump \"high\"")],
+                },
                 MarkTier::unlabelled("fused", &[3, 4577]),
             ],
         };
         let text = write_boundaries_csv(&seq);
-        assert!(text.starts_with("sequence,frame,time_s,label,annotator\n86_01,549,4.575,\"jump \"\"high\"\"\",ana\n"), "{text}");
+        assert!(
+            text.starts_with(
+                "sequence,frame,time_s,label,annotator\n86_01,549,4.575,\"jump \"\"high\"\"\",ana\n"
+            ),
+            "{text}"
+        );
         let back = parse(&text).unwrap();
         let ana = &back.tracks("86_01")[0];
         assert_eq!(ana.annotator, "ana");
         let got: Vec<(f64, &str)> = ana.items.iter().map(|i| (i.start, i.label.as_str())).collect();
         assert_eq!(got, vec![(549.0, "jump \"high\""), (1149.0, "walk, fast")]);
         assert_eq!(back.rows[1].time_s, Some(1149.0 / 120.0));
-        assert_eq!(back.tracks("86_01")[1].items.iter().map(|i| i.start).collect::<Vec<_>>(), vec![3.0, 4577.0]);
+        assert_eq!(
+            back.tracks("86_01")[1].items.iter().map(|i| i.start).collect::<Vec<_>>(),
+            vec![3.0, 4577.0]
+        );
     }
 
     #[test]

@@ -1,13 +1,14 @@
 //! `cmu86_labels`: the CMU subject-86 segment labels (`data/cmu86/mocap.txt`).
 
-
 use std::path::Path;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Boundary, Error, ErrorKind, FrameRate, GroundTruthReader, Motion, Result, Segment, Segmentation};
+use motionlab_core::{
+    Boundary, Error, ErrorKind, FrameRate, GroundTruthReader, Motion, Result, Segment, Segmentation,
+};
 
 /// Reads the CMU subject-86 action labels of Zhou, De la Torre & Hodgins (HACA, FG 2008 /
 /// TPAMI 2013) for one trial into boundaries and labelled segments.
@@ -55,12 +56,16 @@ pub struct Cmu86Labels {
 impl ParamGuard for Cmu86LabelsParams {
     type Checked = Cmu86Labels;
     fn check(self) -> Result<Cmu86Labels> {
-        let label_rate = FrameRate::new(self.label_rate_hz).map_err(|e| e.with_field("label_rate_hz"))?;
+        let label_rate =
+            FrameRate::new(self.label_rate_hz).map_err(|e| e.with_field("label_rate_hz"))?;
         let trial = match &self.trial {
             None => None,
             Some(t) => Some(trial_id(t).ok_or_else(|| {
-                Error::new(ErrorKind::InvalidParameter, format!("{t:?} is not a trial; expected subject and trial like \"86_01\""))
-                    .with_field("trial")
+                Error::new(
+                    ErrorKind::InvalidParameter,
+                    format!("{t:?} is not a trial; expected subject and trial like \"86_01\""),
+                )
+                .with_field("trial")
             })?),
         };
         Ok(Cmu86Labels { trial, label_rate })
@@ -69,7 +74,8 @@ impl ParamGuard for Cmu86LabelsParams {
 
 /// `"86_01"`, `"86 01"`, `"86-1"` → (86, 1).
 fn trial_id(s: &str) -> Option<(u32, u32)> {
-    let mut parts = s.split(|c: char| c == '_' || c == '-' || c.is_whitespace()).filter(|p| !p.is_empty());
+    let mut parts =
+        s.split(|c: char| c == '_' || c == '-' || c.is_whitespace()).filter(|p| !p.is_empty());
     let subject = parts.next()?.parse().ok()?;
     let trial = parts.next()?.parse().ok()?;
     parts.next().is_none().then_some((subject, trial))
@@ -107,36 +113,64 @@ pub fn parse_cmu86_labels(text: &str, origin: &Path) -> Result<Vec<TrialLabels>>
             2 => {
                 let id = (words[0].parse().ok(), words[1].parse().ok());
                 let (Some(s), Some(t)) = id else {
-                    return Err(Error::at_line(ErrorKind::Syntax, origin, line, format!("{:?}; expected a trial header like \"86 01\"", raw.trim())));
+                    return Err(Error::at_line(
+                        ErrorKind::Syntax,
+                        origin,
+                        line,
+                        format!("{:?}; expected a trial header like \"86 01\"", raw.trim()),
+                    ));
                 };
                 if let Some(prev) = trials.iter().find(|b| b.trial == (s, t)) {
                     return Err(Error::at_line(
                         ErrorKind::DuplicateName,
                         origin,
                         line,
-                        format!("trial {s} {t:02} is listed twice (first at line {})", prev.header_line),
+                        format!(
+                            "trial {s} {t:02} is listed twice (first at line {})",
+                            prev.header_line
+                        ),
                     ));
                 }
                 trials.push(TrialLabels { trial: (s, t), header_line: line, lines: Vec::new() });
             }
             4 => {
                 let Some(block) = trials.last_mut() else {
-                    return Err(Error::at_line(ErrorKind::Syntax, origin, line, "label line before any trial header; expected \"86 01\" first"));
+                    return Err(Error::at_line(
+                        ErrorKind::Syntax,
+                        origin,
+                        line,
+                        "label line before any trial header; expected \"86 01\" first",
+                    ));
                 };
                 let mut n = [0usize; 3];
                 for (k, w) in words[1..].iter().enumerate() {
                     n[k] = w.parse().ok().filter(|v| *v >= 1).ok_or_else(|| {
-                        Error::at_line(ErrorKind::Syntax, origin, line, format!("{w:?} in {:?}; expected a frame number ≥ 1", raw.trim()))
+                        Error::at_line(
+                            ErrorKind::Syntax,
+                            origin,
+                            line,
+                            format!("{w:?} in {:?}; expected a frame number ≥ 1", raw.trim()),
+                        )
                     })?;
                 }
-                block.lines.push(LabelLine { action: words[0].to_string(), a: n[0], b: n[1], c: n[2], line });
+                block.lines.push(LabelLine {
+                    action: words[0].to_string(),
+                    a: n[0],
+                    b: n[1],
+                    c: n[2],
+                    line,
+                });
             }
             _ => {
                 return Err(Error::at_line(
                     ErrorKind::Syntax,
                     origin,
                     line,
-                    format!("{:?} has {} words; expected \"subject trial\" or \"action a b c\"", raw.trim(), words.len()),
+                    format!(
+                        "{:?} has {} words; expected \"subject trial\" or \"action a b c\"",
+                        raw.trim(),
+                        words.len()
+                    ),
                 ));
             }
         }
@@ -155,11 +189,17 @@ pub fn trial_segmentation(
 ) -> Result<Segmentation> {
     let (s, t) = block.trial;
     let Some(last) = block.lines.last() else {
-        return Err(Error::at_line(ErrorKind::EmptySequence, origin, block.header_line, format!("trial {s} {t:02} has no label lines")));
+        return Err(Error::at_line(
+            ErrorKind::EmptySequence,
+            origin,
+            block.header_line,
+            format!("trial {s} {t:02} has no label lines"),
+        ));
     };
     let ratio = motion_rate.hz() / label_rate.hz();
     // Label frame (0-based at the label rate) → motion frame.
-    let at_rate = |f: usize| -> usize { if ratio == 1.0 { f } else { (f as f64 * ratio).round() as usize } };
+    let at_rate =
+        |f: usize| -> usize { if ratio == 1.0 { f } else { (f as f64 * ratio).round() as usize } };
     let length = at_rate(last.b);
     if length > n_frames {
         return Err(Error::at_line(
@@ -197,7 +237,13 @@ pub fn trial_segmentation(
         segments.push(Segment { start, end, label: l.action.clone() });
         start = end;
     }
-    Ok(Segmentation { frame_rate: motion_rate, boundaries, segments, annotators: Vec::new(), annotator_names: Vec::new() })
+    Ok(Segmentation {
+        frame_rate: motion_rate,
+        boundaries,
+        segments,
+        annotators: Vec::new(),
+        annotator_names: Vec::new(),
+    })
 }
 
 impl GroundTruthReader for Cmu86Labels {
@@ -209,16 +255,25 @@ impl GroundTruthReader for Cmu86Labels {
             None => trial_id(&motion.name).ok_or_else(|| {
                 Error::new(
                     ErrorKind::InvalidParameter,
-                    format!("the motion's name {:?} is no trial like \"86_01\"; set `trial`", motion.name),
+                    format!(
+                        "the motion's name {:?} is no trial like \"86_01\"; set `trial`",
+                        motion.name
+                    ),
                 )
                 .with_field("trial")
             })?,
         };
         let Some(block) = trials.iter().find(|b| b.trial == wanted) else {
-            let present: Vec<String> = trials.iter().map(|b| format!("{}_{:02}", b.trial.0, b.trial.1)).collect();
+            let present: Vec<String> =
+                trials.iter().map(|b| format!("{}_{:02}", b.trial.0, b.trial.1)).collect();
             return Err(Error::new(
                 ErrorKind::UnknownName,
-                format!("trial {}_{:02} is not in the label file; it has {}", wanted.0, wanted.1, present.join(", ")),
+                format!(
+                    "trial {}_{:02} is not in the label file; it has {}",
+                    wanted.0,
+                    wanted.1,
+                    present.join(", ")
+                ),
             )
             .with_location(motionlab_core::Location::file(path).field("trial")));
         };
@@ -244,7 +299,8 @@ mod tests {
         assert_eq!(s.boundaries[0].window, Some((9, 29)));
         // a = 40 > b = 38: the window is widened to include the boundary.
         assert_eq!(s.boundaries[1].window, Some((37, 59)));
-        let spans: Vec<(usize, usize, &str)> = s.segments.iter().map(|g| (g.start, g.end, g.label.as_str())).collect();
+        let spans: Vec<(usize, usize, &str)> =
+            s.segments.iter().map(|g| (g.start, g.end, g.label.as_str())).collect();
         assert_eq!(spans, vec![(0, 19, "walk"), (19, 37, "jump"), (37, 100, "punch")]);
     }
 
@@ -265,7 +321,11 @@ mod tests {
         assert_eq!((e.kind(), e.location().line), (ErrorKind::Syntax, Some(2)));
         let e = parse_cmu86_labels("walk 1 2 3\n", Path::new("m.txt")).unwrap_err();
         assert_eq!((e.kind(), e.location().line), (ErrorKind::Syntax, Some(1)));
-        let trials = parse_cmu86_labels("86 01\nwalk 50 50 50\nrun 40 40 40\nx 60 60 60\n", Path::new("m.txt")).unwrap();
+        let trials = parse_cmu86_labels(
+            "86 01\nwalk 50 50 50\nrun 40 40 40\nx 60 60 60\n",
+            Path::new("m.txt"),
+        )
+        .unwrap();
         let r = FrameRate::new(120.0).unwrap();
         let e = trial_segmentation(&trials[0], Path::new("m.txt"), r, r, 60).unwrap_err();
         assert_eq!((e.kind(), e.location().line), (ErrorKind::OutOfRange, Some(3)));

@@ -47,7 +47,12 @@ pub fn parse_eaf(text: &str, origin: &Path) -> Result<Vec<EafTier>> {
             }
             _ => (e.pos().row as usize, e.pos().col as usize),
         };
-        Error::at_line(ErrorKind::Syntax, origin, row, format!("not well-formed XML (column {col}): {e}"))
+        Error::at_line(
+            ErrorKind::Syntax,
+            origin,
+            row,
+            format!("not well-formed XML (column {col}): {e}"),
+        )
     })?;
     let line_of = |n: roxmltree::Node| doc.text_pos_at(n.range().start).row as usize;
     let root = doc.root_element();
@@ -56,15 +61,23 @@ pub fn parse_eaf(text: &str, origin: &Path) -> Result<Vec<EafTier>> {
             ErrorKind::Syntax,
             origin,
             line_of(root),
-            format!("root element <{}>; expected <ANNOTATION_DOCUMENT> (an ELAN .eaf file)", root.tag_name().name()),
+            format!(
+                "root element <{}>; expected <ANNOTATION_DOCUMENT> (an ELAN .eaf file)",
+                root.tag_name().name()
+            ),
         ));
     }
     for header in children(root, "HEADER") {
         if let Some(units) = header.attribute("TIME_UNITS")
             && units != "milliseconds"
         {
-            return Err(Error::at_line(ErrorKind::InvalidParameter, origin, line_of(header), format!("TIME_UNITS is {units:?}; expected \"milliseconds\""))
-                .with_field("TIME_UNITS"));
+            return Err(Error::at_line(
+                ErrorKind::InvalidParameter,
+                origin,
+                line_of(header),
+                format!("TIME_UNITS is {units:?}; expected \"milliseconds\""),
+            )
+            .with_field("TIME_UNITS"));
         }
     }
     // Slot id → (time in ms or None when unaligned, line).
@@ -73,19 +86,39 @@ pub fn parse_eaf(text: &str, origin: &Path) -> Result<Vec<EafTier>> {
         for slot in children(order, "TIME_SLOT") {
             let line = line_of(slot);
             let Some(id) = slot.attribute("TIME_SLOT_ID") else {
-                return Err(Error::at_line(ErrorKind::MissingKey, origin, line, "TIME_SLOT without TIME_SLOT_ID").with_field("TIME_SLOT_ID"));
+                return Err(Error::at_line(
+                    ErrorKind::MissingKey,
+                    origin,
+                    line,
+                    "TIME_SLOT without TIME_SLOT_ID",
+                )
+                .with_field("TIME_SLOT_ID"));
             };
-            let value = slot.attribute("TIME_VALUE").map(|v| parse_instant(v, origin, line, "TIME_VALUE")).transpose()?;
+            let value = slot
+                .attribute("TIME_VALUE")
+                .map(|v| parse_instant(v, origin, line, "TIME_VALUE"))
+                .transpose()?;
             if let Some((_, first)) = slots.insert(id, (value, line)) {
-                return Err(Error::at_line(ErrorKind::DuplicateName, origin, line, format!("time slot {id:?} is declared twice (first at line {first})"))
-                    .with_field("TIME_SLOT_ID"));
+                return Err(Error::at_line(
+                    ErrorKind::DuplicateName,
+                    origin,
+                    line,
+                    format!("time slot {id:?} is declared twice (first at line {first})"),
+                )
+                .with_field("TIME_SLOT_ID"));
             }
         }
     }
     let slot_ms = |node: roxmltree::Node, attr: &str| -> Result<f64> {
         let line = line_of(node);
         let Some(id) = node.attribute(attr) else {
-            return Err(Error::at_line(ErrorKind::MissingKey, origin, line, format!("annotation without {attr}")).with_field(attr));
+            return Err(Error::at_line(
+                ErrorKind::MissingKey,
+                origin,
+                line,
+                format!("annotation without {attr}"),
+            )
+            .with_field(attr));
         };
         match slots.get(id) {
             None => Err(Error::at_line(ErrorKind::UnknownName, origin, line, format!("time slot {id:?} is not declared in TIME_ORDER")).with_field(attr)),
@@ -113,20 +146,40 @@ pub fn parse_eaf(text: &str, origin: &Path) -> Result<Vec<EafTier>> {
                 if start > end {
                     return Err(start_after_end(origin, aline, "TIME_SLOT_REF2", start, end));
                 }
-                let label = children(a, "ANNOTATION_VALUE").first().and_then(|v| v.text()).unwrap_or("").trim().to_string();
-                items.push(AnnotatedItem { line: aline, start_field: "TIME_SLOT_REF1".into(), start, end: Some(("TIME_SLOT_REF2".into(), end)), label });
+                let label = children(a, "ANNOTATION_VALUE")
+                    .first()
+                    .and_then(|v| v.text())
+                    .unwrap_or("")
+                    .trim()
+                    .to_string();
+                items.push(AnnotatedItem {
+                    line: aline,
+                    start_field: "TIME_SLOT_REF1".into(),
+                    start,
+                    end: Some(("TIME_SLOT_REF2".into(), end)),
+                    label,
+                });
             }
         }
         items.sort_by(|a, b| a.start.total_cmp(&b.start));
         let time_aligned = !items.is_empty() || n_ref == 0;
-        tiers.push(EafTier { track: AnnotatorTrack { annotator: id.clone(), items }, id, line, time_aligned });
+        tiers.push(EafTier {
+            track: AnnotatorTrack { annotator: id.clone(), items },
+            id,
+            line,
+            time_aligned,
+        });
     }
     Ok(tiers)
 }
 
 /// Text safe in an XML attribute or element.
 fn xml_escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;").replace('\'', "&apos;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('\'', "&apos;")
 }
 
 /// The marks of every tier of `seq` as an ELAN document (EAF 3.0, times in whole ms from the
@@ -142,7 +195,10 @@ pub fn write_eaf(seq: &SequenceTiers, date: &str) -> Result<String> {
     if !(rate.is_finite() && rate > 0.0 && rate <= 1000.0) {
         return Err(Error::new(
             ErrorKind::OutOfRange,
-            format!("{}: ELAN keeps whole milliseconds, which tell frames apart only up to 1000 Hz; this motion is at {rate} Hz", seq.sequence),
+            format!(
+                "{}: ELAN keeps whole milliseconds, which tell frames apart only up to 1000 Hz; this motion is at {rate} Hz",
+                seq.sequence
+            ),
         ));
     }
     let ms = |frame: usize| (frame as f64 / rate * 1000.0).round() as u64;
@@ -192,14 +248,27 @@ pub fn write_eaf(seq: &SequenceTiers, date: &str) -> Result<String> {
         xml_escape(date)
     ));
     out.push_str("    <HEADER MEDIA_FILE=\"\" TIME_UNITS=\"milliseconds\">\n");
-    out.push_str(&format!("        <PROPERTY NAME=\"motionlab:sequence\">{}</PROPERTY>\n", xml_escape(&seq.sequence)));
+    out.push_str(&format!(
+        "        <PROPERTY NAME=\"motionlab:sequence\">{}</PROPERTY>\n",
+        xml_escape(&seq.sequence)
+    ));
     if !seq.input_sha256.is_empty() {
-        out.push_str(&format!("        <PROPERTY NAME=\"motionlab:input_sha256\">{}</PROPERTY>\n", xml_escape(&seq.input_sha256)));
+        out.push_str(&format!(
+            "        <PROPERTY NAME=\"motionlab:input_sha256\">{}</PROPERTY>\n",
+            xml_escape(&seq.input_sha256)
+        ));
     }
-    out.push_str(&format!("        <PROPERTY NAME=\"lastUsedAnnotationId\">{}</PROPERTY>\n", next_annotation - 1));
+    out.push_str(&format!(
+        "        <PROPERTY NAME=\"lastUsedAnnotationId\">{}</PROPERTY>\n",
+        next_annotation - 1
+    ));
     out.push_str("    </HEADER>\n    <TIME_ORDER>\n");
     for (rank, &i) in order.iter().enumerate() {
-        out.push_str(&format!("        <TIME_SLOT TIME_SLOT_ID=\"ts{}\" TIME_VALUE=\"{}\"/>\n", rank + 1, slots[i]));
+        out.push_str(&format!(
+            "        <TIME_SLOT TIME_SLOT_ID=\"ts{}\" TIME_VALUE=\"{}\"/>\n",
+            rank + 1,
+            slots[i]
+        ));
     }
     out.push_str("    </TIME_ORDER>\n");
     out.push_str(&tiers);
@@ -209,7 +278,10 @@ pub fn write_eaf(seq: &SequenceTiers, date: &str) -> Result<String> {
 }
 
 /// The child elements of `n` named `tag`.
-fn children<'a, 'input>(n: roxmltree::Node<'a, 'input>, tag: &str) -> Vec<roxmltree::Node<'a, 'input>> {
+fn children<'a, 'input>(
+    n: roxmltree::Node<'a, 'input>,
+    tag: &str,
+) -> Vec<roxmltree::Node<'a, 'input>> {
     n.children().filter(|c| c.is_element() && c.tag_name().name() == tag).collect()
 }
 
@@ -250,9 +322,16 @@ mod tests {
     fn tiers_slots_and_labels() {
         let tiers = parse_eaf(DOC, Path::new("a.eaf")).unwrap();
         assert_eq!(tiers.len(), 2);
-        assert_eq!((tiers[0].id.as_str(), tiers[0].line, tiers[0].time_aligned), ("steps", 10, true));
-        let spans: Vec<(f64, f64, &str, usize)> =
-            tiers[0].track.items.iter().map(|i| (i.start, i.end.as_ref().unwrap().1, i.label.as_str(), i.line)).collect();
+        assert_eq!(
+            (tiers[0].id.as_str(), tiers[0].line, tiers[0].time_aligned),
+            ("steps", 10, true)
+        );
+        let spans: Vec<(f64, f64, &str, usize)> = tiers[0]
+            .track
+            .items
+            .iter()
+            .map(|i| (i.start, i.end.as_ref().unwrap().1, i.label.as_str(), i.line))
+            .collect();
         assert_eq!(spans, vec![(1000.0, 2500.0, "step", 17), (2500.0, 4000.0, "turn", 12)]);
         assert!(!tiers[1].time_aligned);
     }
@@ -267,15 +346,29 @@ mod tests {
             frame_rate_hz: 120.0,
             n_frames: 4579,
             tiers: vec![
-                MarkTier { name: "ana & co".into(), marks: vec![TierMark { frame: 1149, label: "walk <fast>".into() }, TierMark { frame: 549, label: "jump".into() }] },
+                MarkTier {
+                    name: "ana & co".into(),
+                    marks: vec![
+                        TierMark { frame: 1149, label: "walk <fast>".into() },
+                        TierMark { frame: 549, label: "jump".into() },
+                    ],
+                },
                 MarkTier::unlabelled("empty", &[]),
             ],
         };
         let text = write_eaf(&seq, "2026-01-01T00:00:00Z").unwrap();
         let tiers = parse_eaf(&text, Path::new("w.eaf")).unwrap();
-        assert_eq!(tiers.iter().map(|t| t.id.as_str()).collect::<Vec<_>>(), vec!["ana & co", "empty"]);
+        assert_eq!(
+            tiers.iter().map(|t| t.id.as_str()).collect::<Vec<_>>(),
+            vec!["ana & co", "empty"]
+        );
         // 549 / 120 s = 4575 ms; 1149 → 9575 ms; the last annotation ends at frame 4578 → 38150 ms.
-        let spans: Vec<(f64, f64, &str)> = tiers[0].track.items.iter().map(|i| (i.start, i.end.as_ref().unwrap().1, i.label.as_str())).collect();
+        let spans: Vec<(f64, f64, &str)> = tiers[0]
+            .track
+            .items
+            .iter()
+            .map(|i| (i.start, i.end.as_ref().unwrap().1, i.label.as_str()))
+            .collect();
         assert_eq!(spans, vec![(4575.0, 9575.0, "jump"), (9575.0, 38150.0, "walk <fast>")]);
         assert!(tiers[1].track.items.is_empty());
         let mut fast = seq.clone();
@@ -290,11 +383,20 @@ mod tests {
             (e.kind(), e.location().line, e.location().field.clone())
         };
         let unaligned = DOC.replace("TIME_SLOT_REF2=\"ts3\"", "TIME_SLOT_REF2=\"ts4\"");
-        assert_eq!(at(&unaligned), (ErrorKind::MissingData, Some(12), Some("TIME_SLOT_REF2".into())));
+        assert_eq!(
+            at(&unaligned),
+            (ErrorKind::MissingData, Some(12), Some("TIME_SLOT_REF2".into()))
+        );
         let undeclared = DOC.replace("TIME_SLOT_REF1=\"ts1\"", "TIME_SLOT_REF1=\"ts9\"");
-        assert_eq!(at(&undeclared), (ErrorKind::UnknownName, Some(17), Some("TIME_SLOT_REF1".into())));
+        assert_eq!(
+            at(&undeclared),
+            (ErrorKind::UnknownName, Some(17), Some("TIME_SLOT_REF1".into()))
+        );
         let backwards = DOC.replace("TIME_VALUE=\"4000\"", "TIME_VALUE=\"2000\"");
-        assert_eq!(at(&backwards), (ErrorKind::OutOfRange, Some(12), Some("TIME_SLOT_REF2".into())));
+        assert_eq!(
+            at(&backwards),
+            (ErrorKind::OutOfRange, Some(12), Some("TIME_SLOT_REF2".into()))
+        );
         let text = DOC.replace("TIME_VALUE=\"1000\"", "TIME_VALUE=\"1s\"");
         assert_eq!(at(&text), (ErrorKind::Syntax, Some(5), Some("TIME_VALUE".into())));
         let cut = &DOC[..DOC.find("</TIER>").unwrap()];

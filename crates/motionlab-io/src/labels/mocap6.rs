@@ -1,6 +1,5 @@
 //! `mocap6_labels`: the mocap6 exercise labels (`data/mocap6/truelabels/<trial>.txt`).
 
-
 use std::path::Path;
 
 use schemars::JsonSchema;
@@ -65,7 +64,11 @@ impl ParamGuard for Mocap6LabelsParams {
     type Checked = Mocap6Labels;
     fn check(self) -> Result<Mocap6Labels> {
         if self.block_frames == 0 {
-            return Err(Error::new(ErrorKind::OutOfRange, "is 0; expected at least 1 frame per block").with_field("block_frames"));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "is 0; expected at least 1 frame per block",
+            )
+            .with_field("block_frames"));
         }
         Ok(Mocap6Labels { block_frames: self.block_frames })
     }
@@ -87,10 +90,23 @@ pub fn parse_mocap6_labels(text: &str, origin: &Path) -> Result<Vec<BlockLabel>>
         for w in raw.split_ascii_whitespace() {
             // A word that is no whole number is a syntax error; a number outside 1–12 is out
             // of range (tests assert the two apart).
-            let kind = if w.parse::<usize>().is_ok() { ErrorKind::OutOfRange } else { ErrorKind::Syntax };
-            let label = w.parse::<usize>().ok().filter(|l| (1..=MOCAP6_ACTIONS.len()).contains(l)).ok_or_else(|| {
-                Error::at_line(kind, origin, i + 1, format!("label {} is {w:?}; expected an action number 1 to 12", out.len() + 1))
-            })?;
+            let kind =
+                if w.parse::<usize>().is_ok() { ErrorKind::OutOfRange } else { ErrorKind::Syntax };
+            let label = w
+                .parse::<usize>()
+                .ok()
+                .filter(|l| (1..=MOCAP6_ACTIONS.len()).contains(l))
+                .ok_or_else(|| {
+                    Error::at_line(
+                        kind,
+                        origin,
+                        i + 1,
+                        format!(
+                            "label {} is {w:?}; expected an action number 1 to 12",
+                            out.len() + 1
+                        ),
+                    )
+                })?;
             out.push(BlockLabel { label, line: i + 1 });
         }
     }
@@ -107,7 +123,12 @@ pub fn block_segmentation(
 ) -> Result<Segmentation> {
     let n_frames = motion.n_frames();
     if labels.is_empty() {
-        return Err(Error::at_line(ErrorKind::EmptySequence, origin, 1, "no labels; expected one action number per block"));
+        return Err(Error::at_line(
+            ErrorKind::EmptySequence,
+            origin,
+            1,
+            "no labels; expected one action number per block",
+        ));
     }
     let max_blocks = n_frames / block_frames + 1;
     if labels.len() > max_blocks {
@@ -166,7 +187,8 @@ mod tests {
         let m = motion_from_fn(10, 120.0, 1, |_, _| [0.0; 3]);
         // Blocks of 3 frames: [0,3) 1, [3,6) 1, [6,9) 2, [9,10) 2 (partial).
         let s = block_segmentation(&labels("1 1\n2\t2 "), Path::new("l.txt"), 3, &m).unwrap();
-        let spans: Vec<(usize, usize, &str)> = s.segments.iter().map(|g| (g.start, g.end, g.label.as_str())).collect();
+        let spans: Vec<(usize, usize, &str)> =
+            s.segments.iter().map(|g| (g.start, g.end, g.label.as_str())).collect();
         assert_eq!(spans, vec![(0, 6, "JumpJack"), (6, 10, "Jog")]);
         assert_eq!(s.frames(), vec![6]);
     }
@@ -183,19 +205,29 @@ mod tests {
         assert_eq!(spans, vec![(0, 6), (6, 9)]);
         assert_eq!(s.frames(), vec![6]);
         let s = block_segmentation(&labels("12 12"), Path::new("l.txt"), 3, &m).unwrap();
-        assert_eq!(s.segments, vec![Segment { start: 0, end: 6, label: "ToeTouchTwoHands".into() }]);
+        assert_eq!(
+            s.segments,
+            vec![Segment { start: 0, end: 6, label: "ToeTouchTwoHands".into() }]
+        );
         assert!(s.boundaries.is_empty());
     }
 
     #[test]
     fn labels_outside_1_to_12_name_their_line() {
-        for (bad, kind) in [("1 1\n13", ErrorKind::OutOfRange), ("1 1\n0", ErrorKind::OutOfRange), ("1 1\nx", ErrorKind::Syntax)] {
+        for (bad, kind) in [
+            ("1 1\n13", ErrorKind::OutOfRange),
+            ("1 1\n0", ErrorKind::OutOfRange),
+            ("1 1\nx", ErrorKind::Syntax),
+        ] {
             let e = parse_mocap6_labels(bad, Path::new("l.txt")).unwrap_err();
             assert_eq!((e.kind(), e.location().line), (kind, Some(2)), "{bad}");
         }
-        let e = motionlab_core::registry::build_ground_truth("mocap6_labels", &toml::from_str("block_frames = 0").unwrap())
-            .err()
-            .unwrap();
+        let e = motionlab_core::registry::build_ground_truth(
+            "mocap6_labels",
+            &toml::from_str("block_frames = 0").unwrap(),
+        )
+        .err()
+        .unwrap();
         assert_eq!(e.location().field.as_deref(), Some("block_frames"));
     }
 
@@ -204,7 +236,9 @@ mod tests {
     /// floor(F / 12) + 1 labels, so 14_20 (a multiple of 12) ends with an empty block.
     #[test]
     fn every_shipped_label_file_fits_its_take() {
-        for (take, n_frames) in [("13_29", 4592), ("13_30", 2465), ("13_31", 3017), ("14_14", 4653), ("14_20", 4644)] {
+        for (take, n_frames) in
+            [("13_29", 4592), ("13_30", 2465), ("13_31", 3017), ("14_14", 4653), ("14_20", 4644)]
+        {
             let path = motionlab_testkit::data_path(&format!("mocap6/truelabels/{take}.txt"));
             let l = parse_mocap6_labels(&std::fs::read_to_string(&path).unwrap(), &path).unwrap();
             assert_eq!(l.len(), n_frames / 12 + 1, "{take}");

@@ -38,7 +38,13 @@ impl MarkTier {
         let mut frames = frames.to_vec();
         frames.sort_unstable();
         frames.dedup();
-        MarkTier { name: name.into(), marks: frames.into_iter().map(|frame| TierMark { frame, label: String::new() }).collect() }
+        MarkTier {
+            name: name.into(),
+            marks: frames
+                .into_iter()
+                .map(|frame| TierMark { frame, label: String::new() })
+                .collect(),
+        }
     }
     pub fn frames(&self) -> Vec<usize> {
         self.marks.iter().map(|m| m.frame).collect()

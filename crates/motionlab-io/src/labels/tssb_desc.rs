@@ -60,12 +60,25 @@ pub fn parse_tssb_desc(text: &str, origin: &Path) -> Result<Vec<TssbEntry>> {
         let mut fields = line.split(',').map(str::trim);
         let name = fields.next().unwrap_or_default().to_string();
         let number = |f: &str, what: &str| {
-            f.parse::<usize>().map_err(|_| Error::at_line(ErrorKind::Syntax, origin, i + 1, format!("{what} {f:?} is not a whole number")))
+            f.parse::<usize>().map_err(|_| {
+                Error::at_line(
+                    ErrorKind::Syntax,
+                    origin,
+                    i + 1,
+                    format!("{what} {f:?} is not a whole number"),
+                )
+            })
         };
         let window = number(fields.next().unwrap_or_default(), "window")?;
-        let change_points = fields.map(|f| number(f, "change point")).collect::<Result<Vec<_>>>()?;
+        let change_points =
+            fields.map(|f| number(f, "change point")).collect::<Result<Vec<_>>>()?;
         if let Some(w) = change_points.windows(2).find(|w| w[1] <= w[0]) {
-            return Err(Error::at_line(ErrorKind::OutOfRange, origin, i + 1, format!("change point {} after {}; expected increasing", w[1], w[0])));
+            return Err(Error::at_line(
+                ErrorKind::OutOfRange,
+                origin,
+                i + 1,
+                format!("change point {} after {}; expected increasing", w[1], w[0]),
+            ));
         }
         out.push(TssbEntry { name, window, change_points, line: i + 1 });
     }
@@ -75,19 +88,39 @@ pub fn parse_tssb_desc(text: &str, origin: &Path) -> Result<Vec<TssbEntry>> {
 impl GroundTruthReader for TssbDesc {
     fn read(&self, path: &Path, motion: &Motion) -> Result<Segmentation> {
         let entries = parse_tssb_desc(&crate::read::read_text(path)?, path)?;
-        let stem = motion.source.as_deref().map(motionlab_core::paths::stem).unwrap_or_else(|| motion.name.clone());
+        let stem = motion
+            .source
+            .as_deref()
+            .map(motionlab_core::paths::stem)
+            .unwrap_or_else(|| motion.name.clone());
         let Some(e) = entries.iter().find(|e| e.name == stem) else {
-            let close = motionlab_core::registry::closest_names(&stem, entries.iter().map(|e| e.name.as_str()));
-            return Err(Error::new(ErrorKind::UnknownName, format!("no line for series {stem:?} (closest: {})", close.join(", "))).in_file(path));
+            let close = motionlab_core::registry::closest_names(
+                &stem,
+                entries.iter().map(|e| e.name.as_str()),
+            );
+            return Err(Error::new(
+                ErrorKind::UnknownName,
+                format!("no line for series {stem:?} (closest: {})", close.join(", ")),
+            )
+            .in_file(path));
         };
         let n = motion.n_frames();
         if let Some(&cp) = e.change_points.iter().find(|&&cp| cp == 0 || cp >= n) {
-            return Err(Error::at_line(ErrorKind::OutOfRange, path, e.line, format!("change point {cp} is outside 1..{n} of {stem} ({n} samples)")));
+            return Err(Error::at_line(
+                ErrorKind::OutOfRange,
+                path,
+                e.line,
+                format!("change point {cp} is outside 1..{n} of {stem} ({n} samples)"),
+            ));
         }
         let mut bounds = vec![0];
         bounds.extend(&e.change_points);
         bounds.push(n);
-        let segments = bounds.windows(2).enumerate().map(|(k, w)| Segment { start: w[0], end: w[1], label: format!("segment {}", k + 1) }).collect();
+        let segments = bounds
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| Segment { start: w[0], end: w[1], label: format!("segment {}", k + 1) })
+            .collect();
         Segmentation::from_segments(motion.frame_rate(), segments).map_err(|err| err.in_file(path))
     }
 }
@@ -101,7 +134,9 @@ mod tests {
 
     fn series(name: &str, n: usize) -> Motion {
         let c = Channels::new(vec!["value".into()], vec![String::new()], vec![0.0; n]).unwrap();
-        Motion::from_channels(name, FrameRate::new(1.0).unwrap(), c).unwrap().with_source(format!("/x/{name}.txt"), "channels")
+        Motion::from_channels(name, FrameRate::new(1.0).unwrap(), c)
+            .unwrap()
+            .with_source(format!("/x/{name}.txt"), "channels")
     }
 
     #[test]
@@ -109,7 +144,15 @@ mod tests {
         let desc = motionlab_testkit::data_path("tssb/datasets/desc.txt");
         let all = parse_tssb_desc(&std::fs::read_to_string(&desc).unwrap(), &desc).unwrap();
         assert_eq!(all.len(), 75);
-        assert_eq!(all[0], TssbEntry { name: "Adiac".into(), window: 10, change_points: vec![572, 1012, 1232], line: 1 });
+        assert_eq!(
+            all[0],
+            TssbEntry {
+                name: "Adiac".into(),
+                window: 10,
+                change_points: vec![572, 1012, 1232],
+                line: 1
+            }
+        );
         let t = TssbDesc.read(&desc, &series("Adiac", 1408)).unwrap();
         assert_eq!(t.frames(), vec![572, 1012, 1232]);
         assert_eq!((t.segments.len(), t.segments[3].end), (4, 1408));
@@ -123,7 +166,10 @@ mod tests {
         let e = TssbDesc.read(&desc, &series("Adiak", 20)).unwrap_err();
         assert!(e.to_string().contains("\"Adiak\"") && e.to_string().contains("Adiac"), "{e}");
         let e = TssbDesc.read(&desc, &series("Adiac", 9)).unwrap_err();
-        assert!(e.to_string().contains("desc.txt:1") && e.to_string().contains("change point 9"), "{e}");
+        assert!(
+            e.to_string().contains("desc.txt:1") && e.to_string().contains("change point 9"),
+            "{e}"
+        );
         assert_eq!(TssbDesc.read(&desc, &series("Beef", 9)).unwrap().boundaries.len(), 0);
         let e = parse_tssb_desc("A,10,7,3\n", &desc).unwrap_err();
         assert_eq!(e.kind(), ErrorKind::OutOfRange);

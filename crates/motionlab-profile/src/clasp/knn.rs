@@ -56,7 +56,9 @@ impl TopK {
             return;
         }
         let mut pos = self.vals.len();
-        while pos > 0 && (v < self.vals[pos - 1] || (v == self.vals[pos - 1] && i < self.idx[pos - 1])) {
+        while pos > 0
+            && (v < self.vals[pos - 1] || (v == self.vals[pos - 1] && i < self.idx[pos - 1]))
+        {
             pos -= 1;
         }
         if full {
@@ -71,7 +73,12 @@ impl TopK {
 /// Computes the neighbours of every window of `channels` (each the same length) for the
 /// temporal constraints `tcs` (`[lbound, ubound)` sample ranges; a window's neighbours in a
 /// constraint are windows starting in `[lbound, ubound - w + 1)`).
-pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, tcs: &[(usize, usize)]) -> Neighbours {
+pub(crate) fn k_subsequence_neighbours(
+    channels: &[&[f64]],
+    w: usize,
+    k: usize,
+    tcs: &[(usize, usize)],
+) -> Neighbours {
     let n = channels[0].len();
     let l = n + 1 - w;
     let d = channels.len();
@@ -97,10 +104,16 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
     let intervals: Vec<(usize, usize)> = cuts.windows(2).map(|c| (c[0], c[1])).collect();
     let covering: Vec<Vec<usize>> = tcs
         .iter()
-        .map(|&(lb, ub)| (0..intervals.len()).filter(|&i| intervals[i].0 >= lb && intervals[i].1 <= ub + 1 - w).collect())
+        .map(|&(lb, ub)| {
+            (0..intervals.len())
+                .filter(|&i| intervals[i].0 >= lb && intervals[i].1 <= ub + 1 - w)
+                .collect()
+        })
         .collect();
-    let w_means: Vec<Vec<f64>> = stats.iter().map(|(m, _)| m.iter().map(|&v| w as f64 * v).collect()).collect();
-    let inv_stds: Vec<Vec<f64>> = stats.iter().map(|(_, s)| s.iter().map(|&v| 1.0 / v).collect()).collect();
+    let w_means: Vec<Vec<f64>> =
+        stats.iter().map(|(m, _)| m.iter().map(|&v| w as f64 * v).collect()).collect();
+    let inv_stds: Vec<Vec<f64>> =
+        stats.iter().map(|(_, s)| s.iter().map(|&v| 1.0 / v).collect()).collect();
     let n_tc = tcs.len();
     let mut offsets = vec![0u32; l * n_tc * k];
     let threads = rayon::current_num_threads().max(1);
@@ -131,7 +144,12 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
                     let prev_c = &prev[c];
                     let (a, b) = (t[r + w - 1], t[r - 1]);
                     cur_c[0] = first_row[c][r];
-                    for (((o, &p), &tn), &to) in cur_c[1..].iter_mut().zip(&prev_c[..l - 1]).zip(&t[w..w + l - 1]).zip(&t[..l - 1]) {
+                    for (((o, &p), &tn), &to) in cur_c[1..]
+                        .iter_mut()
+                        .zip(&prev_c[..l - 1])
+                        .zip(&t[w..w + l - 1])
+                        .zip(&t[..l - 1])
+                    {
                         *o = p + a * tn - b * to;
                     }
                 }
@@ -142,7 +160,9 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
                     // for the fixed row r, without the division per window.
                     let mu_r = means[r];
                     let (mut lanes, chunks) = ([f64::NEG_INFINITY; 4], dist_c.len() / 4 * 4);
-                    for (((dv, &dot), &am), &is) in dist_c.iter_mut().zip(cur_c.iter()).zip(&w_means[c]).zip(&inv_stds[c]) {
+                    for (((dv, &dot), &am), &is) in
+                        dist_c.iter_mut().zip(cur_c.iter()).zip(&w_means[c]).zip(&inv_stds[c])
+                    {
                         *dv = (mu_r * am - dot) * is;
                     }
                     for quad in dist_c[..chunks].chunks_exact(4) {
@@ -150,11 +170,16 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
                             *m = m.max(v);
                         }
                     }
-                    dist_c[chunks..].iter().chain(lanes.iter()).fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+                    dist_c[chunks..]
+                        .iter()
+                        .chain(lanes.iter())
+                        .fold(f64::NEG_INFINITY, |a, &b| a.max(b))
                 } else {
                     let (mu_r, sd_r) = (means[r], stds[r]);
                     let mut max = f64::NEG_INFINITY;
-                    for (((dv, &dot), &mu), &sd) in dist_c.iter_mut().zip(cur_c.iter()).zip(means.iter()).zip(stds.iter()) {
+                    for (((dv, &dot), &mu), &sd) in
+                        dist_c.iter_mut().zip(cur_c.iter()).zip(means.iter()).zip(stds.iter())
+                    {
                         let v = two_w * (1.0 - (dot - wf * mu * mu_r) / (wf * sd * sd_r));
                         *dv = v;
                         max = max.max(v);
@@ -167,7 +192,8 @@ pub(crate) fn k_subsequence_neighbours(channels: &[&[f64]], w: usize, k: usize, 
                 if d > 1 {
                     // claspy normalises each channel's distances before summing them.
                     let mean = dist_c.iter().sum::<f64>() / l as f64;
-                    let var = dist_c.iter().map(|&v| (v - mean) * (v - mean)).sum::<f64>() / l as f64;
+                    let var =
+                        dist_c.iter().map(|&v| (v - mean) * (v - mean)).sum::<f64>() / l as f64;
                     let sd = var.sqrt();
                     for v in dist_c.iter_mut() {
                         *v = (*v - mean) / sd;
@@ -273,7 +299,8 @@ mod tests {
                 let mut d: Vec<f64> = (0..l)
                     .map(|j| {
                         let dot: f64 = (0..w).map(|s| t[r + s] * t[j + s]).sum();
-                        2.0 * wf * (1.0 - (dot - wf * means[j] * means[r]) / (wf * stds[j] * stds[r]))
+                        2.0 * wf
+                            * (1.0 - (dot - wf * means[j] * means[r]) / (wf * stds[j] * stds[r]))
                     })
                     .collect();
                 let max = d.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
@@ -289,7 +316,8 @@ mod tests {
 
     #[test]
     fn recurrence_and_intervals_give_the_brute_force_neighbours() {
-        let t: Vec<f64> = (0..300).map(|i| ((i * i) % 17) as f64 + (i as f64 * 0.3).sin()).collect();
+        let t: Vec<f64> =
+            (0..300).map(|i| ((i * i) % 17) as f64 + (i as f64 * 0.3).sin()).collect();
         let w = 8;
         let tcs = [(0, 300), (40, 220), (100, 300)];
         let nn = k_subsequence_neighbours(&[&t], w, 3, &tcs);

@@ -57,14 +57,25 @@ fn f1(s: usize, p: usize, ones: usize, right_ones: usize) -> f64 {
         }
         Some(2.0 * (pr * re) / (pr + re))
     };
-    let Some(f0) = per_label(s - left_ones, p - right_ones, left_ones) else { return f64::NEG_INFINITY };
-    let Some(f1) = per_label(right_ones, left_ones, p - right_ones) else { return f64::NEG_INFINITY };
+    let Some(f0) = per_label(s - left_ones, p - right_ones, left_ones) else {
+        return f64::NEG_INFINITY;
+    };
+    let Some(f1) = per_label(right_ones, left_ones, p - right_ones) else {
+        return f64::NEG_INFINITY;
+    };
     (0.0 + f0 + f1) / 2.0
 }
 
 /// The profile of one ClaSP over a series of `len` samples with window `w`: one score per
 /// split point `0..len - w + 1`, −∞ outside `[min_seg, len - min_seg + 1)` (claspy's range).
-pub(crate) fn profile(offsets: &[u32], k: usize, len: usize, w: usize, min_seg: usize, score: Score) -> Vec<f64> {
+pub(crate) fn profile(
+    offsets: &[u32],
+    k: usize,
+    len: usize,
+    w: usize,
+    min_seg: usize,
+    score: Score,
+) -> Vec<f64> {
     let n = len + 1 - w;
     let mut out = vec![f64::NEG_INFINITY; n];
     let (start, end) = (min_seg, (len + 1).saturating_sub(min_seg).min(n));
@@ -100,7 +111,9 @@ pub(crate) fn profile(offsets: &[u32], k: usize, len: usize, w: usize, min_seg: 
             // Window prev joins the left side; windows whose threshold was prev stop being
             // predicted right; window prev - w leaves the zone.
             left = left + usize::from(thr[prev] >= s) - left_eq[prev];
-            zone = zone + usize::from(thr[prev] >= s) - zone_eq[prev] - usize::from(thr[prev - w] >= prev);
+            zone = zone + usize::from(thr[prev] >= s)
+                - zone_eq[prev]
+                - usize::from(thr[prev - w] >= prev);
         }
         let base = ge[s];
         let right_ones = base - left;
@@ -118,7 +131,14 @@ pub(crate) fn profile(offsets: &[u32], k: usize, len: usize, w: usize, min_seg: 
 /// claspy's `significance_test`: the predictions at split `split` (relative to the
 /// constraint), a rank-sum test between the predictions before and after `cut` (claspy slices
 /// at the change point's position in the whole series), accepted when p ≤ `threshold`.
-pub(crate) fn significant(offsets: &[u32], k: usize, w: usize, split: usize, cut: usize, threshold: f64) -> bool {
+pub(crate) fn significant(
+    offsets: &[u32],
+    k: usize,
+    w: usize,
+    split: usize,
+    cut: usize,
+    threshold: f64,
+) -> bool {
     let thr = majority_thresholds(offsets, k);
     let n = thr.len();
     let mut pred: Vec<bool> = thr.iter().map(|&t| t >= split).collect();
@@ -139,7 +159,11 @@ pub(crate) fn significant(offsets: &[u32], k: usize, w: usize, split: usize, cut
     let z = (rank_sum - expected) / ((n1 * n2 * (n1 + n2 + 1)) as f64 / 12.0).sqrt();
     // scipy's norm.sf(|z|) = ndtr(-|z|) = erfc(|z|/√2)/2 for |z| ≥ 1.
     let x = z.abs() * std::f64::consts::FRAC_1_SQRT_2;
-    let p = if x < std::f64::consts::FRAC_1_SQRT_2 { 2.0 * (0.5 + 0.5 * libm::erf(-x)) } else { 2.0 * (0.5 * libm::erfc(x)) };
+    let p = if x < std::f64::consts::FRAC_1_SQRT_2 {
+        2.0 * (0.5 + 0.5 * libm::erf(-x))
+    } else {
+        2.0 * (0.5 * libm::erfc(x))
+    };
     p <= threshold
 }
 
@@ -148,7 +172,14 @@ mod tests {
     use super::*;
 
     /// claspy's cross_val_labels and scores written out per split.
-    fn naive(offsets: &[u32], k: usize, len: usize, w: usize, min_seg: usize, score: Score) -> Vec<f64> {
+    fn naive(
+        offsets: &[u32],
+        k: usize,
+        len: usize,
+        w: usize,
+        min_seg: usize,
+        score: Score,
+    ) -> Vec<f64> {
         let n = len + 1 - w;
         let mut out = vec![f64::NEG_INFINITY; n];
         for s in min_seg..(len + 1 - min_seg).min(n) {
@@ -189,7 +220,10 @@ mod tests {
         for score in [Score::RocAuc, Score::F1] {
             {
                 let k_used = 3;
-                assert_eq!(profile(&offsets, k_used, len, w, 25, score), naive(&offsets, k_used, len, w, 25, score));
+                assert_eq!(
+                    profile(&offsets, k_used, len, w, 25, score),
+                    naive(&offsets, k_used, len, w, 25, score)
+                );
             }
         }
     }

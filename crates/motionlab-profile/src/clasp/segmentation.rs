@@ -37,7 +37,12 @@ struct EnsembleFit {
 
 /// claspy's `_calculate_temporal_constraints`: the whole series, then random ranges of at
 /// least two minimal segments drawn with NumPy's legacy generator, longest first.
-fn temporal_constraints(n: usize, min_seg: usize, n_estimators: usize, seed: u32) -> Vec<(usize, usize)> {
+fn temporal_constraints(
+    n: usize,
+    min_seg: usize,
+    n_estimators: usize,
+    seed: u32,
+) -> Vec<(usize, usize)> {
     let mut tcs = vec![(0, n)];
     let mut rng = LegacyRandomState::new(seed);
     while tcs.len() < n_estimators && n > 3 * min_seg {
@@ -75,7 +80,9 @@ fn validated(s: &Settings, profile: &[f64], offsets: &[u32], lbound: usize) -> O
         return None;
     }
     let ok = match s.validation {
-        Validation::SignificanceTest => significant(offsets, s.k, s.window, cp - lbound, cp, s.threshold),
+        Validation::SignificanceTest => {
+            significant(offsets, s.k, s.window, cp - lbound, cp, s.threshold)
+        }
         Validation::ScoreThreshold => profile[cp] >= s.threshold,
     };
     ok.then_some(cp)
@@ -105,9 +112,10 @@ fn fit_ensemble(channels: &[&[f64]], s: &Settings) -> EnsembleFit {
         }
         if s.early_stopping
             && let Some((_, prof, offsets)) = &best
-                && validated(s, prof, offsets, 0).is_some() {
-                    break;
-                }
+            && validated(s, prof, offsets, 0).is_some()
+        {
+            break;
+        }
     }
     let mut full = vec![f64::NEG_INFINITY; n + 1 - w];
     match best {
@@ -131,17 +139,27 @@ pub(crate) struct Segmentation {
 }
 
 /// claspy's `BinaryClaSPSegmentation.fit` with a resolved window; `n_segments` None = learn.
-pub(crate) fn binary_segmentation(channels: &[&[f64]], s: &Settings, n_segments: Option<usize>) -> Segmentation {
+pub(crate) fn binary_segmentation(
+    channels: &[&[f64]],
+    s: &Settings,
+    n_segments: Option<usize>,
+) -> Segmentation {
     let n = channels[0].len();
     let min_seg = s.min_seg();
     if n < 2 * min_seg {
         let w = s.window.min(n / 2).max(1);
-        return Segmentation { change_points: Vec::new(), profile: vec![f64::NEG_INFINITY; n + 1 - w] };
+        return Segmentation {
+            change_points: Vec::new(),
+            profile: vec![f64::NEG_INFINITY; n + 1 - w],
+        };
     }
     let n_segments = n_segments.unwrap_or(n / min_seg);
     let w = s.window;
     let valid = |candidate: usize, cps: &[usize]| {
-        std::iter::once(0).chain(cps.iter().copied()).chain(std::iter::once(n)).all(|cp| !(cp.saturating_sub(min_seg)..(cp + min_seg).min(n)).contains(&candidate))
+        std::iter::once(0)
+            .chain(cps.iter().copied())
+            .chain(std::iter::once(n))
+            .all(|cp| !(cp.saturating_sub(min_seg)..(cp + min_seg).min(n)).contains(&candidate))
     };
     // The tree of accepted ClaSPs and the queue of (−score, tree index), smallest first.
     let mut tree: Vec<((usize, usize), EnsembleFit)> = Vec::new();
@@ -151,16 +169,21 @@ pub(crate) fn binary_segmentation(channels: &[&[f64]], s: &Settings, n_segments:
         let fit = fit_ensemble(channels, s);
         profile = fit.profile.clone();
         if let Some(cp) = split(&fit, s)
-            && valid(cp, &[]) {
-                queue.push((-fit.profile[cp], tree.len()));
-                tree.push(((0, n), fit));
-            }
+            && valid(cp, &[])
+        {
+            queue.push((-fit.profile[cp], tree.len()));
+            tree.push(((0, n), fit));
+        }
     } else {
         profile = vec![f64::NEG_INFINITY; n + 1 - w];
     }
     let mut change_points: Vec<usize> = Vec::new();
     for _ in 0..n_segments.saturating_sub(1) {
-        let Some(at) = (0..queue.len()).min_by(|&a, &b| queue[a].0.total_cmp(&queue[b].0).then(queue[a].1.cmp(&queue[b].1))) else { break };
+        let Some(at) = (0..queue.len())
+            .min_by(|&a, &b| queue[a].0.total_cmp(&queue[b].0).then(queue[a].1.cmp(&queue[b].1)))
+        else {
+            break;
+        };
         let (_, tree_idx) = queue.remove(at);
         let ((lbound, ubound), fit) = &tree[tree_idx];
         let (lbound, ubound) = (*lbound, *ubound);
@@ -211,6 +234,16 @@ mod tests {
         assert_eq!(tcs, CLASPY_TCS_1000.to_vec());
     }
 
-    const CLASPY_TCS_1000: [(usize, usize); 10] =
-        [(0, 1000), (67, 908), (111, 936), (120, 852), (302, 957), (516, 1000), (301, 653), (705, 1000), (282, 490), (815, 978)];
+    const CLASPY_TCS_1000: [(usize, usize); 10] = [
+        (0, 1000),
+        (67, 908),
+        (111, 936),
+        (120, 852),
+        (302, 957),
+        (516, 1000),
+        (301, 653),
+        (705, 1000),
+        (282, 490),
+        (815, 978),
+    ];
 }

@@ -175,19 +175,22 @@ pub(crate) fn suss(t: &[f64]) -> usize {
     if n < LBOUND {
         return n;
     }
-    let (lo, hi) = t.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let (lo, hi) =
+        t.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     if lo == hi {
         return LBOUND;
     }
     let scaled: Vec<f64> = t.iter().map(|&v| (v - lo) / (hi - lo)).collect();
-    let (smin, smax) = scaled.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let (smin, smax) =
+        scaled.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     let stats = (numpy::mean(&scaled), numpy::std(&scaled), smax - smin);
     let max_score = suss_score(&scaled, 1, stats);
     let min_score = suss_score(&scaled, n - 1, stats);
     if min_score == max_score {
         return LBOUND;
     }
-    let score = |w: usize| 1.0 - (suss_score(&scaled, w, stats) - min_score) / (max_score - min_score);
+    let score =
+        |w: usize| 1.0 - (suss_score(&scaled, w, stats) - min_score) / (max_score - min_score);
     let mut exp = 0u32;
     loop {
         let w = 1usize << exp;
@@ -241,7 +244,8 @@ mod tests {
 
     #[test]
     fn a_sine_gets_a_window_near_its_period() {
-        let t: Vec<f64> = (0..2000).map(|i| (i as f64 * 2.0 * std::f64::consts::PI / 50.0).sin()).collect();
+        let t: Vec<f64> =
+            (0..2000).map(|i| (i as f64 * 2.0 * std::f64::consts::PI / 50.0).sin()).collect();
         let w = suss(&t);
         assert!((25..=100).contains(&w), "{w}");
     }

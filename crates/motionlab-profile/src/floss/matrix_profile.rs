@@ -39,7 +39,11 @@ fn better(r: usize, rho: f64, j: usize, best: f64, at: i64) -> bool {
 pub(crate) fn self_join(t: &[f64], m: usize) -> Result<MatrixProfile> {
     let n = t.len();
     if m < 3 || m > n {
-        return Err(Error::new(ErrorKind::OutOfRange, format!("window is {m} samples for a series of {n}; expected 3 ≤ window ≤ n")).with_field("window"));
+        return Err(Error::new(
+            ErrorKind::OutOfRange,
+            format!("window is {m} samples for a series of {n}; expected 3 ≤ window ≤ n"),
+        )
+        .with_field("window"));
     }
     let l = n - m + 1;
     let excl = m.div_ceil(4);
@@ -66,7 +70,8 @@ pub(crate) fn self_join(t: &[f64], m: usize) -> Result<MatrixProfile> {
         .collect();
     let means_m1 = window_means(t, m - 1);
     let cov_a: Vec<f64> = (0..l).map(|j| t[j + m - 1] - means_m1[j]).collect();
-    let cov_c: Vec<f64> = (0..l).map(|j| if j == 0 { t[n - 1] } else { t[j - 1] } - means_m1[j]).collect();
+    let cov_c: Vec<f64> =
+        (0..l).map(|j| if j == 0 { t[n - 1] } else { t[j - 1] } - means_m1[j]).collect();
     let m_inv = 1.0 / m as f64;
     let constant = (m - 1) as f64 * m_inv * m_inv;
 
@@ -145,7 +150,8 @@ mod tests {
 
     #[test]
     fn equals_a_brute_force_nearest_neighbour_search() {
-        let t: Vec<f64> = (0..240).map(|i| ((i * i * 31) % 23) as f64 + (i as f64 * 0.2).cos() * 3.0).collect();
+        let t: Vec<f64> =
+            (0..240).map(|i| ((i * i * 31) % 23) as f64 + (i as f64 * 0.2).cos() * 3.0).collect();
         let m = 12;
         let mp = self_join(&t, m).unwrap();
         let z = |i: usize| -> Vec<f64> {

@@ -75,16 +75,20 @@ mod run;
 mod section;
 mod viewers;
 
-pub use section::{ControlSection, GaitSection, LosoSection, SubjectRule, ViewerChoice, ViewerKeyword};
+pub use section::{
+    ControlSection, GaitSection, LosoSection, SubjectRule, ViewerChoice, ViewerKeyword,
+};
 
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::{Evaluator, FeatureExtractor};
-use motionlab_features::{AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters};
-use motionlab_gait::WalkSynthesizer;
 use motionlab_experiment::Locator;
+use motionlab_features::{
+    AngleCurves, GaitCycle, GaitCycleDetector, WaveformAnalyzer, WaveformParameters,
+};
+use motionlab_gait::WalkSynthesizer;
 
 /// Name of the Table 2 (posture) result table; `[[published]]` rows for it name its channels.
 pub const TABLE_POSTURE: &str = "table2_posture";

@@ -85,7 +85,9 @@ impl ViewerChoice {
     pub(super) fn wants(&self, sequence: &str, subject: &str) -> bool {
         match self {
             ViewerChoice::Keyword(k) => *k == ViewerKeyword::All,
-            ViewerChoice::Only(list) => list.iter().any(|x| x == sequence || (!subject.is_empty() && x == subject)),
+            ViewerChoice::Only(list) => {
+                list.iter().any(|x| x == sequence || (!subject.is_empty() && x == subject))
+            }
         }
     }
 }
@@ -123,7 +125,10 @@ impl Default for SubjectRule {
 
 impl SubjectRule {
     pub fn subject_of(&self, stem: &str) -> Option<String> {
-        stem.split(self.separator.as_str()).nth(self.field).filter(|s| !s.is_empty()).map(str::to_string)
+        stem.split(self.separator.as_str())
+            .nth(self.field)
+            .filter(|s| !s.is_empty())
+            .map(str::to_string)
     }
 }
 

@@ -1,9 +1,12 @@
 //! The viewer page of each walk.
 
-use motionlab_core::viewer::{EventKind, EventLane, Interval, IntervalKind, IntervalLane, Lane, Mark, TraceLane, ViewerMotion, ViewerSpec};
+use motionlab_core::viewer::{
+    EventKind, EventLane, Interval, IntervalKind, IntervalLane, Lane, Mark, TraceLane,
+    ViewerMotion, ViewerSpec,
+};
 use motionlab_core::{Result, Trace};
-use motionlab_experiment::workflow::WorkItem;
 use motionlab_experiment::Datasets;
+use motionlab_experiment::workflow::WorkItem;
 
 use super::{GaitWorkflow, WalkRecord};
 
@@ -11,13 +14,23 @@ impl GaitWorkflow {
     /// The viewer page of one walk: its markers (or skeleton), the file's events (foot strike,
     /// foot off) per side, the gait cycles per side (foot strike to the next of the same foot)
     /// and the `figure_channels` angles the walk has.
-    pub(super) fn viewer(&self, item: &WorkItem, r: &WalkRecord, data: &Datasets) -> Result<ViewerSpec> {
+    pub(super) fn viewer(
+        &self,
+        item: &WorkItem,
+        r: &WalkRecord,
+        data: &Datasets,
+    ) -> Result<ViewerSpec> {
         let loaded = data.load(item.dataset, item.file)?;
         let motion = &loaded.motion;
         let n = motion.n_frames();
         let vm = ViewerMotion::from_motion(motion, &[], None)?;
-        let what = if r.control { "control walk".to_string() } else { format!("subject {}, {}", r.subject, r.condition) };
-        let mut spec = ViewerSpec::new(viewer_name(&r.sequence), format!("{} — {what}", r.sequence), vm);
+        let what = if r.control {
+            "control walk".to_string()
+        } else {
+            format!("subject {}, {}", r.subject, r.condition)
+        };
+        let mut spec =
+            ViewerSpec::new(viewer_name(&r.sequence), format!("{} — {what}", r.sequence), vm);
         // Events per "context label" (`Left Foot Strike`), in order of first appearance.
         let mut lanes: Vec<EventLane> = Vec::new();
         for e in &motion.events {
@@ -28,7 +41,11 @@ impl GaitWorkflow {
             // Files number repeated labels (`Foot Strike1`, `Foot Strike2`): one lane for all.
             let label = e.label.trim().trim_end_matches(|c: char| c.is_ascii_digit()).trim_end();
             let name = format!("{} {label}", e.context.trim()).trim().to_string();
-            let mark = Mark { frame: f as usize, label: format!("{name}, {:.3} s", e.time.value()), status: None };
+            let mark = Mark {
+                frame: f as usize,
+                label: format!("{name}, {:.3} s", e.time.value()),
+                status: None,
+            };
             match lanes.iter_mut().find(|l| l.name == name) {
                 Some(l) => l.marks.push(mark),
                 None => {
@@ -48,9 +65,19 @@ impl GaitWorkflow {
         // foot strikes, the cycles' bounds.
         if lanes.is_empty() {
             for side in &sides {
-                let mut frames: Vec<usize> = r.cycles.iter().filter(|c| c.side == *side).flat_map(|c| [c.start, c.end]).filter(|f| *f < n).collect();
+                let mut frames: Vec<usize> = r
+                    .cycles
+                    .iter()
+                    .filter(|c| c.side == *side)
+                    .flat_map(|c| [c.start, c.end])
+                    .filter(|f| *f < n)
+                    .collect();
                 frames.dedup();
-                lanes.push(EventLane::new(format!("{side} foot strikes (detected)"), EventKind::Other, &frames));
+                lanes.push(EventLane::new(
+                    format!("{side} foot strikes (detected)"),
+                    EventKind::Other,
+                    &frames,
+                ));
             }
         }
         for mut l in lanes {
@@ -67,10 +94,18 @@ impl GaitWorkflow {
                 .map(|(k, c)| Interval {
                     start: c.start,
                     end: c.end.min(n - 1).max(c.start),
-                    label: format!("{side} cycle {}: {:.2} s", k + 1, c.end.saturating_sub(c.start) as f64 / rate),
+                    label: format!(
+                        "{side} cycle {}: {:.2} s",
+                        k + 1,
+                        c.end.saturating_sub(c.start) as f64 / rate
+                    ),
                 })
                 .collect();
-            spec.lanes.push(Lane::Intervals(IntervalLane { name: format!("gait cycles ({side})"), kind: IntervalKind::GaitCycle, intervals }));
+            spec.lanes.push(Lane::Intervals(IntervalLane {
+                name: format!("gait cycles ({side})"),
+                kind: IntervalKind::GaitCycle,
+                intervals,
+            }));
         }
         // The control walk names its channels after its skeleton: the figure channels through
         // `[gait.control] channel_map`.
@@ -88,15 +123,21 @@ impl GaitWorkflow {
             })
             .collect();
         if !traces.is_empty() {
-            spec.lanes.extend(TraceLane::from_traces("joint angles", &traces, &[], n).into_iter().map(Lane::Trace));
+            spec.lanes.extend(
+                TraceLane::from_traces("joint angles", &traces, &[], n)
+                    .into_iter()
+                    .map(Lane::Trace),
+            );
         }
         Ok(spec)
     }
-
 }
 
 /// A viewer page's file stem for a sequence (`normal/2014001_C4_05` → `normal_2014001_C4_05`).
 pub(super) fn viewer_name(sequence: &str) -> String {
-    let name: String = sequence.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect();
+    let name: String = sequence
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .collect();
     if name.is_empty() { "walk".into() } else { name }
 }

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use motionlab_match::judgement::{ranks, scores, Scores};
+use motionlab_match::judgement::{Scores, ranks, scores};
 
 use super::ItemResult;
 
@@ -21,13 +21,21 @@ pub(super) fn mean_target_frames(path: &[(usize, usize)], model_frames: usize) -
 }
 
 /// The two points whose matched frames at the examined model frames differ most (summed).
-pub(super) fn most_out_of_step(paths: &[Vec<(usize, usize)>], frames: &[usize], model_frames: usize) -> Option<(usize, usize)> {
+pub(super) fn most_out_of_step(
+    paths: &[Vec<(usize, usize)>],
+    frames: &[usize],
+    model_frames: usize,
+) -> Option<(usize, usize)> {
     let u: Vec<Vec<f64>> = paths.iter().map(|p| mean_target_frames(p, model_frames)).collect();
     let at = |l: usize, i: usize| u[l].get(i).copied().unwrap_or(f64::NAN);
     let mut best: Option<(f64, usize, usize)> = None;
     for l1 in 0..u.len() {
         for l2 in l1 + 1..u.len() {
-            let d: f64 = frames.iter().map(|&i| (at(l1, i) - at(l2, i)).abs()).filter(|v| v.is_finite()).sum();
+            let d: f64 = frames
+                .iter()
+                .map(|&i| (at(l1, i) - at(l2, i)).abs())
+                .filter(|v| v.is_finite())
+                .sum();
             if best.is_none_or(|(b, _, _)| d > b) {
                 best = Some((d, l1, l2));
             }
@@ -102,7 +110,12 @@ pub(super) fn timing_test(results: &[ItemResult]) -> (Vec<TimingRank>, Vec<Verdi
         }
         let of = |g: &str| -> Vec<usize> { (0..reps.len()).filter(|&k| group(k) == g).collect() };
         let (a, b, c) = (of("a"), of("b"), of("c"));
-        let list = |ks: &[usize], v: &[f64]| ks.iter().map(|&k| format!("{} {}", reps[k].label, fmt(v[k]))).collect::<Vec<_>>().join(", ");
+        let list = |ks: &[usize], v: &[f64]| {
+            ks.iter()
+                .map(|&k| format!("{} {}", reps[k].label, fmt(v[k])))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         let mut add = |check: &str, held: bool, detail: String| {
             verdicts.push(Verdict { take: r.take.clone(), check: check.to_string(), held, detail });
         };
@@ -118,10 +131,21 @@ pub(super) fn timing_test(results: &[ItemResult]) -> (Vec<TimingRank>, Vec<Verdi
                 let held = pairs.iter().all(|&(ka, kb)| rr[kb] > rr[ka]);
                 let detail = pairs
                     .iter()
-                    .map(|&(ka, kb)| format!("{}: R(a) {} → R(b) {}", reps[ka].pair.clone().unwrap_or_default(), fmt(rr[ka]), fmt(rr[kb])))
+                    .map(|&(ka, kb)| {
+                        format!(
+                            "{}: R(a) {} → R(b) {}",
+                            reps[ka].pair.clone().unwrap_or_default(),
+                            fmt(rr[ka]),
+                            fmt(rr[kb])
+                        )
+                    })
                     .collect::<Vec<_>>()
                     .join("; ");
-                add("R: each timing-shifted (b) is less synchronised than the (a) it was made from", held, detail);
+                add(
+                    "R: each timing-shifted (b) is less synchronised than the (a) it was made from",
+                    held,
+                    detail,
+                );
             }
             let max_a = a.iter().map(|&k| rr[k]).fold(f64::NEG_INFINITY, f64::max);
             let min_b = b.iter().map(|&k| rr[k]).fold(f64::INFINITY, f64::min);
@@ -137,13 +161,23 @@ pub(super) fn timing_test(results: &[ItemResult]) -> (Vec<TimingRank>, Vec<Verdi
             add(
                 "score: the most similar repetition is an (a)",
                 group(top) == "a",
-                format!("most similar: {} ({}), score {}", reps[top].label, group(top), fmt(score[top])),
+                format!(
+                    "most similar: {} ({}), score {}",
+                    reps[top].label,
+                    group(top),
+                    fmt(score[top])
+                ),
             );
             let top_h = first(&rank_h);
             add(
                 "H alone: the most similar repetition is an (a)",
                 group(top_h) == "a",
-                format!("least H: {} ({}), H {} mm", reps[top_h].label, group(top_h), fmt(h[top_h])),
+                format!(
+                    "least H: {} ({}), H {} mm",
+                    reps[top_h].label,
+                    group(top_h),
+                    fmt(h[top_h])
+                ),
             );
         }
         if !a.is_empty() && !c.is_empty() {
@@ -160,7 +194,12 @@ pub(super) fn timing_test(results: &[ItemResult]) -> (Vec<TimingRank>, Vec<Verdi
             add(
                 "score: the most dissimilar repetition is a (b) or a (c)",
                 matches!(group(worst).as_str(), "b" | "c"),
-                format!("most dissimilar: {} ({}), score {}", reps[worst].label, group(worst), fmt(score[worst])),
+                format!(
+                    "most dissimilar: {} ({}), score {}",
+                    reps[worst].label,
+                    group(worst),
+                    fmt(score[worst])
+                ),
             );
         }
     }
@@ -223,7 +262,11 @@ mod tests {
     #[test]
     fn the_timing_verdict_states_each_check_and_whether_it_held() {
         // (a) close: small H and R; (b) its delayed copy: same H, larger R; (c) wrong: large H.
-        let ok = take(vec![rep("a1", "a", "1", 10.0, 1.0), rep("b1", "b", "1", 11.0, 4.0), rep("c", "c", "", 30.0, 2.0)]);
+        let ok = take(vec![
+            rep("a1", "a", "1", 10.0, 1.0),
+            rep("b1", "b", "1", 11.0, 4.0),
+            rep("c", "c", "", 30.0, 2.0),
+        ]);
         let (ranks_rows, v) = timing_test(&[ok]);
         assert_eq!(ranks_rows.len(), 3);
         assert_eq!(ranks_rows.iter().map(|r| r.rank_score).collect::<Vec<_>>(), vec![1, 2, 3]);
@@ -232,11 +275,20 @@ mod tests {
         assert!(held.iter().all(|(_, h)| *h), "{held:?}");
         assert!(v[0].detail.contains("R(a) 1 → R(b) 4"), "{}", v[0].detail);
         // A (b) that is *better* synchronised than its (a), and an (a) ranked last by score.
-        let bad = take(vec![rep("a1", "a", "1", 10.0, 9.0), rep("b1", "b", "1", 10.0, 2.0), rep("c", "c", "", 9.0, 1.0)]);
+        let bad = take(vec![
+            rep("a1", "a", "1", 10.0, 9.0),
+            rep("b1", "b", "1", 10.0, 2.0),
+            rep("c", "c", "", 9.0, 1.0),
+        ]);
         let (_, v) = timing_test(&[bad]);
         let held: Vec<bool> = v.iter().map(|x| x.held).collect();
         // pairwise R, every-b-vs-every-a R, score top is (a), H top is (a), c worse than a, worst is b/c
-        assert_eq!(held, vec![false, false, false, false, false, false], "{:?}", v.iter().map(|x| &x.detail).collect::<Vec<_>>());
+        assert_eq!(
+            held,
+            vec![false, false, false, false, false, false],
+            "{:?}",
+            v.iter().map(|x| &x.detail).collect::<Vec<_>>()
+        );
         // Without groups there is no timing test.
         let mut plain = take(vec![rep("r1", "a", "", 1.0, 1.0)]);
         plain.repetitions[0].group = None;

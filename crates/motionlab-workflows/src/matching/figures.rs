@@ -2,8 +2,8 @@
 //! (Fig. 4), per combination the H–R scatters (Figs. 5 and 6).
 
 use motionlab_core::{Error, ErrorKind, Result};
-use motionlab_match::PointDetection;
 use motionlab_figure::{BarRow, Chart, Figure, RefLine, Series};
+use motionlab_match::PointDetection;
 use motionlab_match::judgement::scores;
 
 use super::analysis::{fmt, mean_target_frames, most_out_of_step};
@@ -37,14 +37,25 @@ pub(super) fn scatter_figures(results: &[ItemResult]) -> Vec<Figure> {
         return Vec::new();
     }
     let upper = |series: &[Series], pick: fn(&Series) -> &Vec<f64>| {
-        series.iter().flat_map(|s| pick(s).iter()).copied().filter(|v| v.is_finite()).fold(0.0, f64::max) * 1.15
+        series
+            .iter()
+            .flat_map(|s| pick(s).iter())
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+            * 1.15
     };
-    let raw_range = (Some((0.0, upper(&raw, |s| &s.x).max(1.0))), Some((0.0, upper(&raw, |s| &s.y).max(1.0))));
+    let raw_range =
+        (Some((0.0, upper(&raw, |s| &s.x).max(1.0))), Some((0.0, upper(&raw, |s| &s.y).max(1.0))));
     let norm_max = upper(&norm, |s| &s.x).max(upper(&norm, |s| &s.y)).max(1.2);
     // The unit circle, score = 1: as far from the origin as a repetition at both means.
     let steps = 90;
     let quarter = |k: usize| k as f64 / steps as f64 * std::f64::consts::FRAC_PI_2;
-    let arc = Series::new("score = 1", (0..=steps).map(|k| quarter(k).cos()).collect(), (0..=steps).map(|k| quarter(k).sin()).collect());
+    let arc = Series::new(
+        "score = 1",
+        (0..=steps).map(|k| quarter(k).cos()).collect(),
+        (0..=steps).map(|k| quarter(k).sin()).collect(),
+    );
     // Charts colour points after lines; an empty, unlabelled line (nothing drawn, no legend)
     // gives the H–R chart the same colour per take as the H'–R' chart with its circle.
     let colour_slot = Series::new("", Vec::new(), Vec::new());
@@ -109,15 +120,30 @@ impl MatchingWorkflow {
     /// Fig. 2: the detector's velocity function with its threshold, the peaks numbered by
     /// repetition, the cut windows and the matched stretches (seconds in the file: the cut
     /// `offset` added back).
-    fn velocity_figure(&self, id: &str, result: &ItemResult, d: &PointDetection, offset: usize) -> Figure {
+    fn velocity_figure(
+        &self,
+        id: &str,
+        result: &ItemResult,
+        d: &PointDetection,
+        offset: usize,
+    ) -> Figure {
         let rate = result.frame_rate_hz;
-        let marker = self.section.point_detector.as_ref().and_then(|s| s.params.get("marker")).and_then(|m| m.as_str()).unwrap_or("the detector's marker");
+        let marker = self
+            .section
+            .point_detector
+            .as_ref()
+            .and_then(|s| s.params.get("marker"))
+            .and_then(|m| m.as_str())
+            .unwrap_or("the detector's marker");
         let t = |f: usize| (f + offset) as f64 / rate;
         let time: Vec<f64> = (0..d.velocity.values.len()).map(t).collect();
         let mut peaks = Series::new(
             "peaks",
             d.peaks.iter().map(|&p| t(p)).collect(),
-            d.peaks.iter().map(|&p| d.velocity.values.get(p).copied().unwrap_or(f64::NAN)).collect(),
+            d.peaks
+                .iter()
+                .map(|&p| d.velocity.values.get(p).copied().unwrap_or(f64::NAN))
+                .collect(),
         );
         let per = self.section.peaks_per_repetition;
         peaks.point_labels = (0..d.peaks.len()).map(|k| format!("{}", k / per + 1)).collect();
@@ -126,18 +152,34 @@ impl MatchingWorkflow {
         Figure::chart(
             format!("{id}_velocity"),
             Chart {
-                title: format!("{} — velocity function of {marker}, threshold, peaks by repetition, windows (Fig. 2)", result.take),
+                title: format!(
+                    "{} — velocity function of {marker}, threshold, peaks by repetition, windows (Fig. 2)",
+                    result.take
+                ),
                 x_label: "time in the file (s)".into(),
                 y_label: format!("v = |s(i) − s(i+1)| ({})", d.velocity.unit),
                 lines: vec![Series::new(format!("v ({marker})"), time, d.velocity.values.clone())],
                 points: vec![peaks],
                 hlines: vec![RefLine { label: "threshold".into(), value: d.threshold }],
                 bar_rows: vec![
-                    BarRow { label: "cut windows".into(), marks: vec![], bands: reps.iter().map(|r| (s(r.window_start), s(r.window_end.saturating_sub(1)))).collect() },
+                    BarRow {
+                        label: "cut windows".into(),
+                        marks: vec![],
+                        bands: reps
+                            .iter()
+                            .map(|r| (s(r.window_start), s(r.window_end.saturating_sub(1))))
+                            .collect(),
+                    },
                     BarRow {
                         label: "matched [a, b]".into(),
-                        marks: reps.iter().flat_map(|r| [s(r.window_start + r.start), s(r.window_start + r.end)]).collect(),
-                        bands: reps.iter().map(|r| (s(r.window_start + r.start), s(r.window_start + r.end))).collect(),
+                        marks: reps
+                            .iter()
+                            .flat_map(|r| [s(r.window_start + r.start), s(r.window_start + r.end)])
+                            .collect(),
+                        bands: reps
+                            .iter()
+                            .map(|r| (s(r.window_start + r.start), s(r.window_start + r.end)))
+                            .collect(),
                     },
                 ],
                 ..Default::default()
@@ -148,7 +190,14 @@ impl MatchingWorkflow {
     /// Fig. 4 for repetition `k`: the warping paths of the `path_markers` (or of the two most
     /// out of step) with their mean matched frames at the examined model frames; none when the
     /// repetition has fewer than two paths or no pair stands out.
-    fn paths_figure(&self, id: &str, result: &ItemResult, k: usize, rep: &RepetitionRecord, rep_paths: &[Vec<(usize, usize)>]) -> Result<Option<Figure>> {
+    fn paths_figure(
+        &self,
+        id: &str,
+        result: &ItemResult,
+        k: usize,
+        rep: &RepetitionRecord,
+        rep_paths: &[Vec<(usize, usize)>],
+    ) -> Result<Option<Figure>> {
         if rep_paths.len() < 2 {
             return Ok(None);
         }
@@ -156,7 +205,13 @@ impl MatchingWorkflow {
             Some([m1, m2]) => {
                 let find = |m: &str| {
                     result.point_names.iter().position(|n| n == m).ok_or_else(|| {
-                        self.locator.locate(Error::new(ErrorKind::UnknownName, format!("path marker {m:?} is not among the matched points")), "matching.path_markers")
+                        self.locator.locate(
+                            Error::new(
+                                ErrorKind::UnknownName,
+                                format!("path marker {m:?} is not among the matched points"),
+                            ),
+                            "matching.path_markers",
+                        )
                     })
                 };
                 (find(m1)?, find(m2)?)
@@ -172,7 +227,10 @@ impl MatchingWorkflow {
             let name = result.point_names.get(l).cloned().unwrap_or_default();
             let path = &rep_paths[l];
             lines.push(Series::new(
-                format!("{name} (h = {} mm)", fmt(rep.point_distances.get(l).copied().unwrap_or(f64::NAN))),
+                format!(
+                    "{name} (h = {} mm)",
+                    fmt(rep.point_distances.get(l).copied().unwrap_or(f64::NAN))
+                ),
                 path.iter().map(|&(i, _)| i as f64).collect(),
                 path.iter().map(|&(_, j)| (rep.window_start + j) as f64).collect(),
             ));
@@ -180,14 +238,22 @@ impl MatchingWorkflow {
             points.push(Series::new(
                 format!("{name} at the examined model frames"),
                 rep.sync_frames.iter().map(|&i| i as f64).collect(),
-                rep.sync_frames.iter().map(|&i| u.get(i).copied().unwrap_or(f64::NAN) + rep.window_start as f64).collect(),
+                rep.sync_frames
+                    .iter()
+                    .map(|&i| u.get(i).copied().unwrap_or(f64::NAN) + rep.window_start as f64)
+                    .collect(),
             ));
         }
         let rate = result.frame_rate_hz;
         Ok(Some(Figure::chart(
             format!("{id}_paths_{}", k + 1),
             Chart {
-                title: format!("{} — {}: warping paths of two markers, R = {} frames² (Fig. 4)", result.take, rep.label, fmt(rep.sync_total)),
+                title: format!(
+                    "{} — {}: warping paths of two markers, R = {} frames² (Fig. 4)",
+                    result.take,
+                    rep.label,
+                    fmt(rep.sync_total)
+                ),
                 x_label: format!("model frame i (frames at {} Hz)", fmt(rate)),
                 y_label: format!("matched frame j of the file (frames at {} Hz)", fmt(rate)),
                 lines,

@@ -66,7 +66,6 @@
 //! repetition of an explicit take (`<take>_<repetition>.html`: its matched stretch); the stick
 //! figure is the skeleton's, through the points `distinct_points` merged.
 
-
 mod analysis;
 mod build;
 mod figures;
@@ -81,8 +80,8 @@ pub use section::{MatchingFigure, MatchingSection};
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::Evaluator;
-use motionlab_match::{Matcher, PointDetector, Synchroniser};
 use motionlab_experiment::Locator;
+use motionlab_match::{Matcher, PointDetector, Synchroniser};
 
 /// How a take's repetitions are given.
 enum TakeKind {

@@ -4,10 +4,12 @@
 use serde::Serialize;
 
 use motionlab_core::{Error, ErrorKind, EvalInput, FrameRate, Motion, Result, Seconds, Table};
-use motionlab_match::{Alignment, MatchingResult, PointDetection, RepetitionResult, Synchronisation};
 use motionlab_experiment::spec::Cut;
 use motionlab_experiment::workflow::{ItemData, ItemOutput, Output, WorkItem, Workflow};
 use motionlab_experiment::{BuiltDataset, Datasets};
+use motionlab_match::{
+    Alignment, MatchingResult, PointDetection, RepetitionResult, Synchronisation,
+};
 
 use super::analysis::timing_test;
 use super::figures::scatter_figures;
@@ -77,11 +79,13 @@ impl MatchingWorkflow {
     }
 
     fn match_one(&self, model: &Motion, target: &Motion) -> Result<(Alignment, Synchronisation)> {
-        let alignment = self.matcher.align(model, target).map_err(|e| e.under_field(format!("matcher {}", self.section.matcher.kind)))?;
-        let sync = self
-            .synchroniser
-            .synchronise(&alignment, model.n_frames())
-            .map_err(|e| e.under_field(format!("synchroniser {}", self.section.synchroniser.kind)))?;
+        let alignment = self
+            .matcher
+            .align(model, target)
+            .map_err(|e| e.under_field(format!("matcher {}", self.section.matcher.kind)))?;
+        let sync = self.synchroniser.synchronise(&alignment, model.n_frames()).map_err(|e| {
+            e.under_field(format!("synchroniser {}", self.section.synchroniser.kind))
+        })?;
         Ok((alignment, sync))
     }
 }
@@ -126,19 +130,28 @@ impl Workflow for MatchingWorkflow {
     }
 
     fn run_item(&self, item: &WorkItem, data: &Datasets, draw: bool) -> Result<ItemOutput> {
-        let take = self
-            .takes
-            .iter()
-            .find(|t| t.id == item.id)
-            .ok_or_else(|| Error::new(ErrorKind::Mismatch, format!("work item {:?} is no take of this experiment", item.id)))?;
+        let take = self.takes.iter().find(|t| t.id == item.id).ok_or_else(|| {
+            Error::new(
+                ErrorKind::Mismatch,
+                format!("work item {:?} is no take of this experiment", item.id),
+            )
+        })?;
         let model = self.load_model(data)?;
         let rate = model.frame_rate();
         let mut reps: Vec<RepetitionRecord> = Vec::new();
         let mut paths: Vec<Vec<Vec<(usize, usize)>>> = Vec::new();
         let mut point_names: Option<Vec<String>> = None;
         let mut detection: Option<(PointDetection, usize)> = None;
-        let mut record = |label: String, group: Option<String>, pair: Option<String>, peaks: Vec<usize>, window: (usize, usize), target: &Motion| -> Result<()> {
-            let (alignment, sync) = self.match_one(&model, target).map_err(|e| e.under_field(format!("repetition {label:?}")))?;
+        let mut record = |label: String,
+                          group: Option<String>,
+                          pair: Option<String>,
+                          peaks: Vec<usize>,
+                          window: (usize, usize),
+                          target: &Motion|
+         -> Result<()> {
+            let (alignment, sync) = self
+                .match_one(&model, target)
+                .map_err(|e| e.under_field(format!("repetition {label:?}")))?;
             let names = self.point_names(&model, &alignment)?;
             point_names.get_or_insert(names);
             reps.push(RepetitionRecord {
@@ -165,17 +178,31 @@ impl Workflow for MatchingWorkflow {
                 let offset = cut_offset(&data.datasets[*dataset], loaded.motion.frame_rate());
                 let found = detector.detect(&loaded.motion).map_err(|e| {
                     let per = self.section.peaks_per_repetition;
-                    let e = e.under_field(format!("point_detector, take {:?} with {count} repetitions × {per} peaks", take.name));
+                    let e = e.under_field(format!(
+                        "point_detector, take {:?} with {count} repetitions × {per} peaks",
+                        take.name
+                    ));
                     match &loaded.motion.source {
                         Some(f) => e.in_file(f),
                         None => e,
                     }
                 })?;
                 let user = self.select((*loaded.motion).clone())?;
-                for (k, (peaks, (s, e))) in group_repetitions(&found, self.section.peaks_per_repetition).into_iter().enumerate() {
+                for (k, (peaks, (s, e))) in
+                    group_repetitions(&found, self.section.peaks_per_repetition)
+                        .into_iter()
+                        .enumerate()
+                {
                     let window = user.slice_frames(s, e)?;
                     let peaks = peaks.iter().map(|p| p + offset).collect();
-                    record(format!("rep {}", k + 1), None, None, peaks, (s + offset, e + offset), &window)?;
+                    record(
+                        format!("rep {}", k + 1),
+                        None,
+                        None,
+                        peaks,
+                        (s + offset, e + offset),
+                        &window,
+                    )?;
                 }
                 detection = Some((found, offset));
             }
@@ -186,8 +213,16 @@ impl Workflow for MatchingWorkflow {
                     let offset = cut_offset(ds, loaded.motion.frame_rate());
                     let n = loaded.motion.n_frames();
                     let target = self.select((*loaded.motion).clone())?;
-                    let (group, pair) = (ds.tag("group").map(str::to_string), ds.tag("pair").map(str::to_string));
-                    record(loaded.name.clone(), group, pair, Vec::new(), (offset, offset + n), &target)?;
+                    let (group, pair) =
+                        (ds.tag("group").map(str::to_string), ds.tag("pair").map(str::to_string));
+                    record(
+                        loaded.name.clone(),
+                        group,
+                        pair,
+                        Vec::new(),
+                        (offset, offset + n),
+                        &target,
+                    )?;
                 }
             }
         }
@@ -199,14 +234,30 @@ impl Workflow for MatchingWorkflow {
             point_names: point_names.unwrap_or_default(),
             threshold: detection.as_ref().map(|(d, _)| d.threshold),
             repetitions: reps,
-            velocity: if draw { detection.as_ref().map(|(d, _)| (d.velocity.values.clone(), d.velocity.unit.clone())) } else { None },
+            velocity: if draw {
+                detection
+                    .as_ref()
+                    .map(|(d, _)| (d.velocity.values.clone(), d.velocity.unit.clone()))
+            } else {
+                None
+            },
         };
-        let figures = if draw { self.item_figures(&item.id, &result, detection.as_ref(), &paths)? } else { Vec::new() };
+        let figures = if draw {
+            self.item_figures(&item.id, &result, detection.as_ref(), &paths)?
+        } else {
+            Vec::new()
+        };
         Ok(ItemOutput::new(ItemData::encode(&result)?, figures))
     }
 
-    fn finish(&self, items: &[(WorkItem, ItemData)], data: &Datasets, draw: bool) -> Result<Output> {
-        let results: Vec<ItemResult> = items.iter().map(|(_, d)| d.decode()).collect::<Result<_>>()?;
+    fn finish(
+        &self,
+        items: &[(WorkItem, ItemData)],
+        data: &Datasets,
+        draw: bool,
+    ) -> Result<Output> {
+        let results: Vec<ItemResult> =
+            items.iter().map(|(_, d)| d.decode()).collect::<Result<_>>()?;
         let mut out = Output::default();
         let mut rows = Vec::new();
         for r in &results {
@@ -217,7 +268,12 @@ impl Workflow for MatchingWorkflow {
                     take: r.take.clone(),
                     repetition: rep.label.clone(),
                     group: rep.group.clone(),
-                    peak_frames: rep.peaks.iter().map(usize::to_string).collect::<Vec<_>>().join(";"),
+                    peak_frames: rep
+                        .peaks
+                        .iter()
+                        .map(usize::to_string)
+                        .collect::<Vec<_>>()
+                        .join(";"),
                     threshold_mm_per_frame: r.threshold,
                     window_start_frame: rep.window_start,
                     window_end_frame: rep.window_end.saturating_sub(1),
@@ -241,7 +297,9 @@ impl Workflow for MatchingWorkflow {
         )?);
         let matching: Vec<MatchingResult> = results.iter().map(to_matching_result).collect();
         for (name, e) in &self.evaluators {
-            let tables = e.evaluate(EvalInput::new(&matching)).map_err(|err| err.under_field(format!("evaluate {name}")))?;
+            let tables = e
+                .evaluate(EvalInput::new(&matching))
+                .map_err(|err| err.under_field(format!("evaluate {name}")))?;
             out.tables.extend(tables);
         }
         let (ranks_rows, verdict_rows) = timing_test(&results);
@@ -307,7 +365,10 @@ mod tests {
             peaks: vec![20, 60, 150, 190],
             windows: vec![(0, 41), (40, 81), (130, 171), (170, 211)],
         };
-        assert_eq!(group_repetitions(&d, 2), vec![(vec![20, 60], (0, 81)), (vec![150, 190], (130, 211))]);
+        assert_eq!(
+            group_repetitions(&d, 2),
+            vec![(vec![20, 60], (0, 81)), (vec![150, 190], (130, 211))]
+        );
         assert_eq!(group_repetitions(&d, 1).len(), 4);
         assert_eq!(group_repetitions(&d, 1)[2], (vec![150], (130, 171)));
     }

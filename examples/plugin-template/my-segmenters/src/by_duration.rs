@@ -46,7 +46,12 @@ impl SegmentClassifier for ByDuration {
     }
 }
 
-motionlab_core::register_custom_plugin!(SegmentClassifier, ByDurationParams, "by_duration", kind = "segment_classifier");
+motionlab_core::register_custom_plugin!(
+    SegmentClassifier,
+    ByDurationParams,
+    "by_duration",
+    kind = "segment_classifier"
+);
 
 #[cfg(test)]
 mod tests {
@@ -70,7 +75,9 @@ mod tests {
         let params: toml::Value = toml::from_str("threshold = { seconds = 0.0 }").unwrap();
         let e = build_segment_classifier("by_duration", &params).err().unwrap();
         assert_eq!(e.location().field.as_deref(), Some("threshold"));
-        let e = build_segment_classifier("by_duraton", &motionlab_core::registry::default_params()).err().unwrap();
+        let e = build_segment_classifier("by_duraton", &motionlab_core::registry::default_params())
+            .err()
+            .unwrap();
         assert_eq!(e.kind(), ErrorKind::UnknownPlugin);
         assert!(e.to_string().contains("did you mean \"by_duration\""), "{e}");
     }

@@ -8,7 +8,9 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, SegmenterOutput, TimeSpan};
+use motionlab_core::{
+    Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, SegmenterOutput, TimeSpan,
+};
 
 /// Candidates at fixed time steps, ignoring the motion: the chance baseline a segmenter must beat.
 ///
@@ -45,7 +47,10 @@ pub struct FixedInterval {
 impl ParamGuard for FixedIntervalParams {
     type Checked = FixedInterval;
     fn check(self) -> Result<FixedInterval> {
-        Ok(FixedInterval { interval: self.interval.check("interval", true)?, offset: self.offset.check("offset", false)? })
+        Ok(FixedInterval {
+            interval: self.interval.check("interval", true)?,
+            offset: self.offset.check("offset", false)?,
+        })
     }
 }
 
@@ -72,19 +77,26 @@ motionlab_core::register_plugin!(Segmenter, FixedIntervalParams, "fixed_interval
 #[cfg(test)]
 mod tests {
     use super::*;
-    use motionlab_core::registry::build_segmenter;
     use crate::test_support::still;
+    use motionlab_core::registry::build_segmenter;
 
     #[test]
     fn candidates_every_interval_after_the_offset() {
         let seg = |toml_text: &str, motion: &Motion| {
             let params: toml::Value = toml::from_str(toml_text).unwrap();
-            build_segmenter("fixed_interval", &params).unwrap().segment(motion, &FeatureCache::new()).unwrap().candidates
+            build_segmenter("fixed_interval", &params)
+                .unwrap()
+                .segment(motion, &FeatureCache::new())
+                .unwrap()
+                .candidates
         };
         // 10 s at 100 Hz: every 2 s → 200, 400, 600, 800 (1000 is past the last frame, 999).
         assert_eq!(seg("", &still(1000, 100.0)), vec![200, 400, 600, 800]);
         // 1.5 frames apart from 0.25 frames on: 1.75 → 2, 3.25 → 3, 4.75 → 5, 6.25 → 6.
-        assert_eq!(seg("interval = { frames = 1.5 }\noffset = { frames = 0.25 }", &still(7, 10.0)), vec![2, 3, 5, 6]);
+        assert_eq!(
+            seg("interval = { frames = 1.5 }\noffset = { frames = 0.25 }", &still(7, 10.0)),
+            vec![2, 3, 5, 6]
+        );
     }
 
     #[test]
@@ -93,7 +105,10 @@ mod tests {
         let e = build_segmenter("fixed_interval", &params).err().unwrap();
         assert_eq!(e.location().field.as_deref(), Some("interval"));
         let params: toml::Value = toml::from_str("interval = { frames = 0.5 }").unwrap();
-        let e = build_segmenter("fixed_interval", &params).unwrap().segment(&still(5, 10.0), &FeatureCache::new()).unwrap_err();
+        let e = build_segmenter("fixed_interval", &params)
+            .unwrap()
+            .segment(&still(5, 10.0), &FeatureCache::new())
+            .unwrap_err();
         assert_eq!(e.kind(), ErrorKind::OutOfRange);
     }
 }

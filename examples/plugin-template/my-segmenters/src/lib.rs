@@ -15,6 +15,14 @@ mod test_support {
     /// A motion of one marker that never moves: `n_frames` at `rate_hz`.
     pub fn still(n_frames: usize, rate_hz: f64) -> Motion {
         let rate = FrameRate::new(rate_hz).unwrap();
-        Motion::new("still", rate, Axis::Z, PointKind::Marker, vec!["m".into()], vec![[0.0; 3]; n_frames]).unwrap()
+        Motion::new(
+            "still",
+            rate,
+            Axis::Z,
+            PointKind::Marker,
+            vec!["m".into()],
+            vec![[0.0; 3]; n_frames],
+        )
+        .unwrap()
     }
 }

@@ -20,6 +20,9 @@ pub trait SegmentClassifier: Send + Sync {
 
 /// Builds the segment classifier registered as `name` from its TOML table (without `type`);
 /// an unknown name is an error naming the closest registered classifiers.
-pub fn build_segment_classifier(name: &str, params: &motionlab_core::toml::Value) -> Result<Box<dyn SegmentClassifier>> {
+pub fn build_segment_classifier(
+    name: &str,
+    params: &motionlab_core::toml::Value,
+) -> Result<Box<dyn SegmentClassifier>> {
     motionlab_core::registry::build_custom::<dyn SegmentClassifier>(KIND, name, params)
 }

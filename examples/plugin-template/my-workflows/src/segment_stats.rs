@@ -4,12 +4,14 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use motionlab_core::{registry, Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, Table};
+use motionlab_core::{Error, ErrorKind, FeatureCache, Motion, Result, Segmenter, Table, registry};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
-use motionlab_experiment::workflow::{BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin};
-use motionlab_experiment::{build_named_stages, build_stage, Datasets};
-use my_segmenters::segment_classifier::{build_segment_classifier, SegmentClassifier};
+use motionlab_experiment::workflow::{
+    BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin,
+};
+use motionlab_experiment::{Datasets, build_named_stages, build_stage};
+use my_segmenters::segment_classifier::{SegmentClassifier, build_segment_classifier};
 
 /// Segments each sequence, then describes and labels every segment: one row per segment and
 /// segmenter (`segment_stats`: sequence, method, index, start/end frame and second, duration,
@@ -75,14 +77,35 @@ struct LabelRow {
 impl WorkflowPlugin for SegmentStatsWorkflow {
     type Section = SegmentStatsSection;
     fn build(section: SegmentStatsSection, cx: &BuildContext<'_>) -> Result<Self> {
-        let segmenters = build_named_stages(cx, &section.segmenters, &cx.root.key("segmenter"), "segmenters", registry::build_segmenter)?;
+        let segmenters = build_named_stages(
+            cx,
+            &section.segmenters,
+            &cx.root.key("segmenter"),
+            "segmenters",
+            registry::build_segmenter,
+        )?;
         if segmenters.is_empty() {
-            return Err(cx.locate(Error::new(ErrorKind::MissingKey, "at least one [[segment_stats.segmenter]] is required"), &cx.root));
+            return Err(cx.locate(
+                Error::new(
+                    ErrorKind::MissingKey,
+                    "at least one [[segment_stats.segmenter]] is required",
+                ),
+                &cx.root,
+            ));
         }
-        let classifier = build_stage(cx.source, cx.combo, &section.classifier, &cx.root.key("classifier"), build_segment_classifier)?;
+        let classifier = build_stage(
+            cx.source,
+            cx.combo,
+            &section.classifier,
+            &cx.root.key("classifier"),
+            build_segment_classifier,
+        )?;
         if !cx.combo.file.evaluators.is_empty() {
             let msg = "[segment_stats] runs no evaluators; remove the [[evaluate]] tables";
-            return Err(cx.locate(Error::new(ErrorKind::InvalidParameter, msg), KeyPath::default().key("evaluate")));
+            return Err(cx.locate(
+                Error::new(ErrorKind::InvalidParameter, msg),
+                KeyPath::default().key("evaluate"),
+            ));
         }
         Ok(SegmentStatsWorkflow { section, segmenters, classifier })
     }
@@ -95,13 +118,22 @@ impl Workflow for SegmentStatsWorkflow {
         let loaded = data.load(item.dataset, item.file)?;
         let motion = &loaded.motion;
         let file = motion.source.clone().unwrap_or_default();
-        let root = motion.point_index(&self.section.root).map_err(|e| e.in_file(&file).under_field("segment_stats.root"))?;
+        let root = motion
+            .point_index(&self.section.root)
+            .map_err(|e| e.in_file(&file).under_field("segment_stats.root"))?;
         let cache = FeatureCache::new();
         let mut rows = Vec::new();
         for (name, s) in &self.segmenters {
-            let out = s.segment(motion, &cache).map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
-            for (k, (start, end)) in segments(&out.candidates, motion.n_frames()).into_iter().enumerate() {
-                let label = self.classifier.label(motion, start, end).map_err(|e| e.in_file(&file).under_field("classifier"))?;
+            let out = s
+                .segment(motion, &cache)
+                .map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
+            for (k, (start, end)) in
+                segments(&out.candidates, motion.n_frames()).into_iter().enumerate()
+            {
+                let label = self
+                    .classifier
+                    .label(motion, start, end)
+                    .map_err(|e| e.in_file(&file).under_field("classifier"))?;
                 let rate = motion.frame_rate().hz();
                 let duration_s = (end - start) as f64 / rate;
                 let path_length_mm = path_length_mm(motion, root, start, end);
@@ -123,7 +155,12 @@ impl Workflow for SegmentStatsWorkflow {
         Ok(ItemOutput::new(ItemData::encode(&rows)?, Vec::new()))
     }
 
-    fn finish(&self, items: &[(WorkItem, ItemData)], _data: &Datasets, _draw: bool) -> Result<Output> {
+    fn finish(
+        &self,
+        items: &[(WorkItem, ItemData)],
+        _data: &Datasets,
+        _draw: bool,
+    ) -> Result<Output> {
         let mut rows: Vec<SegmentRow> = Vec::new();
         for (_, value) in items {
             rows.extend(value.decode::<Vec<SegmentRow>>()?);
@@ -135,19 +172,33 @@ impl Workflow for SegmentStatsWorkflow {
                     l.segments += 1;
                     l.total_duration_s += r.duration_s;
                 }
-                None => labels.push(LabelRow { method: r.method.clone(), label: r.label.clone(), segments: 1, total_duration_s: r.duration_s }),
+                None => labels.push(LabelRow {
+                    method: r.method.clone(),
+                    label: r.label.clone(),
+                    segments: 1,
+                    total_duration_s: r.duration_s,
+                }),
             }
         }
         let mut out = Output::default();
-        out.tables.push(Table::from_records("segment_stats", "Each segment: frames, seconds, root path length and mean speed, label", &rows)?);
-        out.tables.push(Table::from_records("segment_labels", "Segments per method and label", &labels)?);
+        out.tables.push(Table::from_records(
+            "segment_stats",
+            "Each segment: frames, seconds, root path length and mean speed, label",
+            &rows,
+        )?);
+        out.tables.push(Table::from_records(
+            "segment_labels",
+            "Segments per method and label",
+            &labels,
+        )?);
         Ok(out)
     }
 }
 
 /// `[start, end)` frame ranges cut at the candidates (sorted, deduplicated, inside the motion).
 pub fn segments(candidates: &[usize], n_frames: usize) -> Vec<(usize, usize)> {
-    let mut cuts: Vec<usize> = candidates.iter().copied().filter(|&c| c > 0 && c < n_frames).collect();
+    let mut cuts: Vec<usize> =
+        candidates.iter().copied().filter(|&c| c > 0 && c < n_frames).collect();
     cuts.sort_unstable();
     cuts.dedup();
     let starts = std::iter::once(0).chain(cuts.iter().copied());
@@ -181,8 +232,18 @@ mod tests {
     #[test]
     fn path_length_sums_present_steps_of_a_known_path() {
         // A 3-4-5 step each frame, the step into frame 3 missing.
-        let positions: Vec<[f64; 3]> = (0..5).map(|f| if f == 3 { [f64::NAN; 3] } else { [3.0 * f as f64, 4.0 * f as f64, 0.0] }).collect();
-        let m = Motion::new("line", FrameRate::new(10.0).unwrap(), Axis::Z, PointKind::Marker, vec!["root".into()], positions).unwrap();
+        let positions: Vec<[f64; 3]> = (0..5)
+            .map(|f| if f == 3 { [f64::NAN; 3] } else { [3.0 * f as f64, 4.0 * f as f64, 0.0] })
+            .collect();
+        let m = Motion::new(
+            "line",
+            FrameRate::new(10.0).unwrap(),
+            Axis::Z,
+            PointKind::Marker,
+            vec!["root".into()],
+            positions,
+        )
+        .unwrap();
         // Steps 0→1, 1→2 present (5 mm each); 2→3 and 3→4 touch the missing frame.
         assert_eq!(path_length_mm(&m, 0, 0, 5), 10.0);
         assert_eq!(path_length_mm(&m, 0, 1, 3), 5.0);
