@@ -222,10 +222,12 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
             c.next().map(|f| f.to_ascii_uppercase().to_string() + c.as_str()).unwrap_or_default()
         })
         .collect();
+    // Every name the skeleton's `use` items bring in; an item may span several lines (rustfmt
+    // breaks a long brace list), so each is read from `use ` to its `;`.
     let imported: Vec<&str> = skeleton
-        .lines()
-        .filter(|l| l.starts_with("use "))
-        .flat_map(|l| l.split(|c: char| !c.is_ascii_alphanumeric() && c != '_'))
+        .match_indices("\nuse ")
+        .filter_map(|(at, _)| skeleton[at + 1..].split_once(';').map(|(item, _)| item))
+        .flat_map(|item| item.split(|c: char| !c.is_ascii_alphanumeric() && c != '_'))
         .collect();
     if imported.contains(&camel.as_str()) || imported.contains(&format!("{camel}Params").as_str()) {
         return Err(Error::new(
