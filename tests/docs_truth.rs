@@ -397,8 +397,12 @@ struct CrateInfo {
     internal: BTreeSet<String>,
     /// Its normal dependencies among polars, plotters and clap.
     front_end: BTreeSet<String>,
-    /// `PLUGIN_COUNT` or `WORKFLOW_COUNT` of its lib.rs.
+    /// What it registers, for a crate of the one list (`motionlab-plugins`): plugins or
+    /// workflows. Not their number: that changes with every plugin (`motionlab plugin new`),
+    /// and `tests/registry.rs` checks it.
     registers: Option<String>,
+    /// Whether its lib.rs declares a `PLUGIN_COUNT` or a `WORKFLOW_COUNT`.
+    declares_count: bool,
 }
 
 fn crates(root: &Path) -> Vec<CrateInfo> {
@@ -415,13 +419,19 @@ fn crates(root: &Path) -> Vec<CrateInfo> {
                 .map(|t| t.keys().cloned().collect())
                 .unwrap_or_default();
             let lib = std::fs::read_to_string(d.join("src/lib.rs")).unwrap_or_default();
-            let registers = match (plugins.captures(&lib), workflows.captures(&lib)) {
-                (Some(c), _) => Some(format!("plugins: {}", &c[1])),
-                (None, Some(c)) => Some(format!("workflows: {}", &c[1])),
-                _ => None,
-            };
+            let name = m["package"]["name"].as_str().unwrap().to_string();
+            let registers = motionlab_plugins::find(&name).map(|l| {
+                match (l.plugins > 0, l.workflows > 0) {
+                    (true, true) => "plugins, workflows",
+                    (true, false) => "plugins",
+                    (false, true) => "workflows",
+                    (false, false) => "linked, no plugin",
+                }
+                .to_string()
+            });
+            let declares_count = plugins.is_match(&lib) || workflows.is_match(&lib);
             CrateInfo {
-                name: m["package"]["name"].as_str().unwrap().to_string(),
+                name,
                 description: m["package"]
                     .get("description")
                     .and_then(|v| v.as_str())
@@ -434,6 +444,7 @@ fn crates(root: &Path) -> Vec<CrateInfo> {
                     .cloned()
                     .collect(),
                 registers,
+                declares_count,
             }
         })
         .collect()
@@ -544,6 +555,28 @@ fn the_architecture_pages_crate_graph_is_the_cargo_manifests() {
     panic!(
         "docs/ARCHITECTURE.md's crate graph is not the one crates/*/Cargo.toml give; rewrite it with\n  \
          MOTIONLAB_BLESS_DOCS=1 cargo test -p motionlab-cli --test integration docs_truth::\nor paste:\n{generated}"
+    );
+}
+
+/// The one list of plugin crates (`motionlab-plugins`' `LINKED`) is its Cargo.toml's
+/// dependencies, and holds every crate that counts plugins or workflows.
+#[test]
+fn the_plugin_bundle_lists_every_plugin_crate() {
+    let root = root();
+    let all = crates(&root);
+    let linked: BTreeSet<String> =
+        motionlab_plugins::LINKED.iter().map(|c| c.package.to_string()).collect();
+    let bundle = all.iter().find(|c| c.name == "motionlab-plugins").expect("the bundle crate");
+    assert_eq!(
+        bundle.internal, linked,
+        "crates/motionlab-plugins: its Cargo.toml's dependencies and its LINKED list differ"
+    );
+    let counting: BTreeSet<String> =
+        all.iter().filter(|c| c.declares_count).map(|c| c.name.clone()).collect();
+    let missing: Vec<&String> = counting.difference(&linked).collect();
+    assert!(
+        missing.is_empty(),
+        "{missing:?} declare a PLUGIN_COUNT or WORKFLOW_COUNT but are not in motionlab-plugins' LINKED: their plugins would not be linked"
     );
 }
 

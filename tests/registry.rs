@@ -7,23 +7,18 @@
 
 use motionlab_core::registry;
 use motionlab_experiment::workflow::workflows;
+use motionlab_plugins::LINKED;
 
-/// The same plugin crates the CLI names, with the number of plugins each says it registers.
-const PLUGIN_CRATES: &[(&str, usize)] = &[
-    ("motionlab-changepoint", motionlab_changepoint::PLUGIN_COUNT),
-    ("motionlab-eval", motionlab_eval::PLUGIN_COUNT),
-    ("motionlab-external", motionlab_external::PLUGIN_COUNT),
-    ("motionlab-features", motionlab_features::PLUGIN_COUNT),
-    ("motionlab-gait", motionlab_gait::PLUGIN_COUNT),
-    ("motionlab-io", motionlab_io::PLUGIN_COUNT),
-    ("motionlab-match", motionlab_match::PLUGIN_COUNT),
-    ("motionlab-profile", motionlab_profile::PLUGIN_COUNT),
-    ("motionlab-segment", motionlab_segment::PLUGIN_COUNT),
-];
+/// The plugin crates the CLI and the Python package link (the one list, `motionlab-plugins`),
+/// with the number of plugins each says it registers.
+fn plugin_crates() -> Vec<(&'static str, usize)> {
+    LINKED.iter().filter(|c| c.plugins > 0).map(|c| (c.package, c.plugins)).collect()
+}
 
-/// The workflow crates the CLI names, with the number of workflows each registers.
-const WORKFLOW_CRATES: &[(&str, usize)] =
-    &[("motionlab-workflows", motionlab_workflows::WORKFLOW_COUNT)];
+/// The workflow crates of that list, with the number of workflows each registers.
+fn workflow_crates() -> Vec<(&'static str, usize)> {
+    LINKED.iter().filter(|c| c.workflows > 0).map(|c| (c.package, c.workflows)).collect()
+}
 
 #[test]
 fn every_plugin_crate_registers_the_plugins_it_counts() {
@@ -34,7 +29,8 @@ fn every_plugin_crate_registers_the_plugins_it_counts() {
         .map(|p| (p.name, p.crate_name))
         .chain(registry::custom_plugins().iter().map(|p| (p.name, p.crate_name)))
         .collect();
-    for (krate, count) in PLUGIN_CRATES {
+    let plugin_crates = plugin_crates();
+    for (krate, count) in &plugin_crates {
         let names: Vec<&str> = all.iter().filter(|p| p.1 == *krate).map(|p| p.0).collect();
         assert_eq!(
             names.len(),
@@ -45,8 +41,8 @@ fn every_plugin_crate_registers_the_plugins_it_counts() {
     }
     for (name, krate) in &all {
         assert!(
-            PLUGIN_CRATES.iter().any(|(k, _)| k == krate),
-            "plugin {name:?} comes from {krate}, which the CLI does not name"
+            plugin_crates.iter().any(|(k, _)| k == krate),
+            "plugin {name:?} comes from {krate}, which motionlab-plugins does not list"
         );
     }
 }
@@ -67,7 +63,7 @@ fn declared_kinds_are_listed_and_built_like_cores() {
             "walk_synthesizer"
         ]
     );
-    let list = motionlab_cli::describe::list();
+    let list = motionlab_engine::describe::list();
     let order: Vec<usize> = [
         "fusers:",
         "point detectors:",
@@ -102,14 +98,15 @@ fn declared_kinds_are_listed_and_built_like_cores() {
         .err()
         .unwrap();
     assert!(e.to_string().starts_with("no matcher named \"multistream_two_stag\" is registered; did you mean \"multistream_two_stage\""), "{e}");
-    let d = motionlab_cli::describe::describe("heel_height").unwrap();
+    let d = motionlab_engine::describe::describe("heel_height").unwrap();
     assert!(d.starts_with("heel_height (gait-cycle detector, from motionlab-features)"), "{d}");
 }
 
 #[test]
 fn every_workflow_crate_registers_the_workflows_it_counts() {
     let all = workflows();
-    for (krate, count) in WORKFLOW_CRATES {
+    let workflow_crates = workflow_crates();
+    for (krate, count) in &workflow_crates {
         let names: Vec<&str> =
             all.iter().filter(|w| w.crate_name == *krate).map(|w| w.name).collect();
         assert_eq!(
@@ -120,8 +117,8 @@ fn every_workflow_crate_registers_the_workflows_it_counts() {
     }
     for w in &all {
         assert!(
-            WORKFLOW_CRATES.iter().any(|(k, _)| *k == w.crate_name),
-            "workflow {:?} comes from {}, which the CLI does not name",
+            workflow_crates.iter().any(|(k, _)| *k == w.crate_name),
+            "workflow {:?} comes from {}, which motionlab-plugins does not list",
             w.name,
             w.crate_name
         );

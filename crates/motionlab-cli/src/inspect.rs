@@ -5,8 +5,7 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 
-use motionlab_core::registry::{self, Build, StageKind};
-use motionlab_core::{Error, ErrorKind, LengthUnit, Loader, Motion, Result};
+use motionlab_core::{Error, ErrorKind, LengthUnit, Motion, Result};
 
 #[derive(Serialize)]
 struct Report {
@@ -44,25 +43,8 @@ struct EventRow {
     frame: f64,
 }
 
-/// The loader registered for a file's extension, at its default parameters.
-pub fn loader_for(path: &Path) -> Result<(&'static str, Box<dyn Loader>)> {
-    let ext = motionlab_core::paths::format_extension(path).unwrap_or_default();
-    let mut known = Vec::new();
-    for p in registry::plugins().into_iter().filter(|p| p.kind == StageKind::Loader) {
-        if let Build::Loader(build) = p.build {
-            let loader = build(&registry::default_params())?;
-            if loader.extensions().contains(&ext.as_str()) {
-                return Ok((p.name, loader));
-            }
-            known.extend(loader.extensions().iter().map(|e| e.to_string()));
-        }
-    }
-    Err(Error::new(
-        ErrorKind::UnknownPlugin,
-        format!("no loader reads .{ext} files (known: {})", known.join(", ")),
-    )
-    .with_location(motionlab_core::Location::file(path)))
-}
+/// The loader a file's extension picks (shared with the Python package's `load`).
+pub use motionlab_engine::front::loader_for;
 
 /// The extent along the up axis of the first frame holding any sample, and that frame.
 fn first_height(m: &Motion) -> Option<(f64, usize)> {

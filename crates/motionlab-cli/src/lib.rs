@@ -13,37 +13,26 @@
 //! ```
 
 use std::ffi::OsString;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Arc;
 
 use clap::{Parser, Subcommand};
 
-// Plugin crates are never called by name from here; naming them keeps the linker from dropping
-// their `inventory` registrations (tests/registry.rs checks every expected plugin is present).
-use motionlab_changepoint as _;
-use motionlab_eval as _;
-use motionlab_external as _;
-use motionlab_features as _;
-use motionlab_gait as _;
-use motionlab_io as _;
-use motionlab_match as _;
-use motionlab_parquet as _;
-use motionlab_profile as _;
-use motionlab_segment as _;
-use motionlab_workflows as _;
+// Every plugin and workflow crate, named once in the bundle (crates/motionlab-plugins): naming
+// it keeps the linker from dropping their `inventory` registrations.
+use motionlab_plugins as _;
 
 use motionlab_core::{Error, ErrorKind, Result};
-use motionlab_engine::consent::{ExternalCommand, ExternalPolicy, TrustStore};
-use motionlab_engine::{RunOptions, RunSummary};
+use motionlab_engine::RunSummary;
+use motionlab_engine::consent::{ExternalCommand, TrustStore};
+use motionlab_engine::front::{RunChoices, external_policy};
 
-pub mod describe;
 mod export;
 pub mod inspect;
 mod new;
 mod plugin;
-pub mod progress;
+// Their old paths: they live in the engine now, shared with the Python package.
+pub use motionlab_engine::{describe, progress};
 mod slurm;
 
 #[derive(Parser)]
@@ -258,27 +247,15 @@ fn parse_shard(s: &str) -> std::result::Result<(usize, usize), String> {
     Ok((i, n))
 }
 
-fn options(args: &RunArgs) -> RunOptions {
-    let progress: Arc<dyn motionlab_engine::Progress> =
-        if !args.quiet && std::io::stderr().is_terminal() {
-            Arc::new(progress::Bars::default())
-        } else {
-            Arc::new(motionlab_engine::Silent)
-        };
-    let cache = if args.no_cache { None } else { motionlab_cache::Cache::open_default() };
-    RunOptions {
-        reports_dir: args.reports.clone(),
+fn options(args: &RunArgs) -> motionlab_engine::RunOptions {
+    RunChoices {
+        reports: args.reports.clone(),
         threads: args.threads,
-        progress,
-        command: std::env::args().collect(),
-        cache,
-        external: external_policy(args.allow_external),
-        ..Default::default()
+        quiet: args.quiet,
+        no_cache: args.no_cache,
+        allow_external: args.allow_external,
     }
-}
-
-fn external_policy(allow_external: bool) -> ExternalPolicy {
-    ExternalPolicy { allow_external, trust: TrustStore::open_default() }
+    .options(std::env::args().collect())
 }
 
 /// The external programs of a plan, one line each, for `validate` and `trust`.
@@ -328,24 +305,17 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Validate { experiment, overrides, allow_external } => {
-            let plan = motionlab_engine::plan(&experiment, &overrides)?;
-            let commands = motionlab_engine::consent::external_commands(&plan);
-            let consent = motionlab_engine::consent::check(
-                &plan.source.path,
-                &commands,
-                &external_policy(allow_external),
-            )?;
-            let items: usize = plan.built.iter().map(|b| b.workflow.items(&b.data).len()).sum();
+            let v = motionlab_engine::front::validate(&experiment, &overrides, allow_external)?;
             println!(
                 "{}: valid — {} workflow, {} dataset(s), {} input file(s), {} combination(s), {} work item(s)",
                 experiment.display(),
-                plan.workflow.name,
-                plan.file.datasets.len(),
-                plan.input_files().len(),
-                plan.combos.len(),
-                items
+                v.workflow,
+                v.datasets,
+                v.input_files,
+                v.combinations,
+                v.items
             );
-            print_external(&commands, &consent.describe());
+            print_external(&v.external, &v.consent);
             Ok(ExitCode::SUCCESS)
         }
         Command::Trust { experiment, overrides, revoke } => trust(&experiment, &overrides, revoke),

@@ -1,13 +1,16 @@
-//! `motionlab plugin new NAME --kind segmenter|extractor|evaluator [--crate DIR]`: a new plugin
-//! in the shape of CONTRIBUTING's "A plugin is one file", wired into its crate.
+//! `motionlab plugin new NAME --kind segmenter|extractor|evaluator|workflow [--crate DIR]`: a
+//! new plugin (or workflow) in the shape of CONTRIBUTING's "A plugin is one file", wired into
+//! its crate.
 //!
 //! The file is one of the skeletons beside this one (`plugin/segmenter.rs`, `extractor.rs`,
-//! `evaluator.rs`) with its placeholder names replaced: a params struct with its doc comment,
+//! `evaluator.rs`, `workflow.rs`) with its placeholder names replaced: a params struct with its doc comment,
 //! a `ParamGuard`, the stage impl, the `register_plugin!` line and a known-answer test. The
 //! skeletons are compiled, and their tests run, as part of this crate's unit tests, so a
 //! scaffold that no longer builds fails here first. Then the crate's `src/lib.rs` gets the
 //! `pub mod` line and, when it counts its plugins (motionlab's own crates), its
-//! `PLUGIN_COUNT` goes up by one. Without `--crate`, the crate is motionlab's for the kind in
+//! `PLUGIN_COUNT` (`WORKFLOW_COUNT` for a workflow) goes up by one. Nothing else needs
+//! regenerating: the docs name no plugin count, and the crate is already in the one list of
+//! linked crates (`motionlab-plugins`). Without `--crate`, the crate is motionlab's for the kind in
 //! the checkout around the current directory.
 
 use std::path::{Path, PathBuf};
@@ -42,6 +45,8 @@ pub enum PluginKind {
     Segmenter,
     Extractor,
     Evaluator,
+    /// A workflow: an experiment section of its own (`[name]`).
+    Workflow,
 }
 
 impl PluginKind {
@@ -57,6 +62,27 @@ impl PluginKind {
             PluginKind::Evaluator => {
                 (include_str!("plugin/evaluator.rs"), "template_evaluator", "TemplateEvaluator")
             }
+            PluginKind::Workflow => {
+                (include_str!("plugin/workflow.rs"), "template_workflow", "TemplateWorkflow")
+            }
+        }
+    }
+
+    /// The constant of a motionlab crate's lib.rs that counts what it registers.
+    fn count_const(self) -> &'static str {
+        match self {
+            PluginKind::Workflow => "WORKFLOW_COUNT",
+            _ => "PLUGIN_COUNT",
+        }
+    }
+
+    /// What the crate must depend on for the file to build.
+    fn dependencies(self) -> &'static [&'static str] {
+        match self {
+            PluginKind::Workflow => {
+                &["motionlab-core", "motionlab-experiment", "serde", "schemars"]
+            }
+            _ => &["motionlab-core", "serde", "schemars"],
         }
     }
 
@@ -66,6 +92,7 @@ impl PluginKind {
             PluginKind::Segmenter => "motionlab-segment",
             PluginKind::Extractor => "motionlab-features",
             PluginKind::Evaluator => "motionlab-eval",
+            PluginKind::Workflow => "motionlab-workflows",
         }
     }
 
@@ -75,6 +102,7 @@ impl PluginKind {
             PluginKind::Segmenter => "a segmenter",
             PluginKind::Extractor => "a feature extractor",
             PluginKind::Evaluator => "an evaluator",
+            PluginKind::Workflow => "a workflow",
         }
     }
 }
@@ -86,7 +114,7 @@ pub struct Scaffold {
     pub file: PathBuf,
     /// The crate's `src/lib.rs`, which got the `mod` line.
     pub lib: PathBuf,
-    /// `PLUGIN_COUNT` before and after, when the crate counts its plugins.
+    /// `PLUGIN_COUNT` (`WORKFLOW_COUNT`) before and after, when the crate counts them.
     pub plugin_count: Option<(usize, usize)>,
 }
 
@@ -102,17 +130,27 @@ pub fn run(command: PluginCommand) -> Result<()> {
                 None => checkout_root(&cwd)?.join("crates").join(kind.home_crate()),
             };
             let s = new_plugin(&name, kind, &crate_dir)?;
-            println!(
-                "wrote {} ({}: params, ParamGuard, the stage, a known-answer test)",
-                s.file.display(),
-                kind.label()
-            );
+            let what = match kind {
+                PluginKind::Workflow => "the section, its build, the workflow, a known-answer test",
+                _ => "params, ParamGuard, the stage, a known-answer test",
+            };
+            println!("wrote {} ({}: {what})", s.file.display(), kind.label());
             println!("added `pub mod {name};` to {}", s.lib.display());
             if let Some((before, after)) = s.plugin_count {
-                println!("PLUGIN_COUNT {before} → {after}");
+                println!("{} {before} → {after} in {}", kind.count_const(), s.lib.display());
             }
+            // What a contributor would otherwise look for: nothing else to regenerate.
             println!(
-                "next: replace the placeholder method with yours, then `cargo test` in the crate and `motionlab describe {name}`"
+                "nothing else to update: the crate is linked through motionlab-plugins, the docs quote no plugin count"
+            );
+            let (describe, section) = match kind {
+                PluginKind::Workflow => {
+                    (format!("[{name}]"), format!(" and an experiment with a [{name}] section"))
+                }
+                _ => (name.clone(), String::new()),
+            };
+            println!(
+                "next: replace the placeholder with yours, then `cargo test` in the crate, `motionlab describe {describe}`{section}"
             );
             Ok(())
         }
@@ -145,7 +183,7 @@ pub fn new_plugin(name: &str, kind: PluginKind, crate_dir: &Path) -> Result<Scaf
             ),
         ));
     }
-    check_dependencies(&manifest)?;
+    check_dependencies(&manifest, kind)?;
     let file = crate_dir.join("src").join(format!("{name}.rs"));
     if file.exists() {
         return Err(Error::new(
@@ -161,7 +199,7 @@ pub fn new_plugin(name: &str, kind: PluginKind, crate_dir: &Path) -> Result<Scaf
         )
         .with_location(Location::file(&lib)));
     }
-    let (lib_text, plugin_count) = wire(&lib_text, name);
+    let (lib_text, plugin_count) = wire(&lib_text, name, kind.count_const());
     let text = skeleton.replace(module, name).replace(type_stem, &type_name);
     std::fs::write(&file, text).map_err(|e| Error::io(&file, e))?;
     std::fs::write(&lib, lib_text).map_err(|e| Error::io(&lib, e))?;
@@ -215,6 +253,15 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
             ),
         ));
     }
+    if let Some(w) = motionlab_experiment::workflow::find_workflow(name) {
+        return Err(Error::new(
+            ErrorKind::DuplicateName,
+            format!(
+                "a workflow named {name:?} exists already (from {}); choose another name",
+                w.crate_name
+            ),
+        ));
+    }
     let camel: String = name
         .split('_')
         .map(|part| {
@@ -240,9 +287,9 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
     Ok(camel)
 }
 
-/// The crate must have what the plugin file uses: motionlab-core, serde and schemars, and toml
-/// for its test.
-fn check_dependencies(manifest: &Path) -> Result<()> {
+/// The crate must have what the plugin file uses: motionlab-core, serde and schemars
+/// (motionlab-experiment too for a workflow), and toml for its test.
+fn check_dependencies(manifest: &Path, kind: PluginKind) -> Result<()> {
     let text = std::fs::read_to_string(manifest).map_err(|e| Error::io(manifest, e))?;
     let doc: toml::Table = text.parse().map_err(|e| {
         Error::new(ErrorKind::Syntax, format!("cannot parse it: {e}"))
@@ -251,7 +298,8 @@ fn check_dependencies(manifest: &Path) -> Result<()> {
     let has = |section: &str, dep: &str| {
         doc.get(section).and_then(|t| t.as_table()).is_some_and(|t| t.contains_key(dep))
     };
-    let mut missing: Vec<String> = ["motionlab-core", "serde", "schemars"]
+    let mut missing: Vec<String> = kind
+        .dependencies()
         .iter()
         .filter(|d| !has("dependencies", d))
         .map(|d| format!("[dependencies] {d}"))
@@ -270,21 +318,22 @@ fn check_dependencies(manifest: &Path) -> Result<()> {
 }
 
 /// `lib.rs` with `pub mod <name>;` after its last `pub mod` line (else at its end) and its
-/// `PLUGIN_COUNT`, if it has one, one higher; the count before and after.
-fn wire(lib: &str, name: &str) -> (String, Option<(usize, usize)>) {
+/// count (`count_const`: `PLUGIN_COUNT`, `WORKFLOW_COUNT`), if it has one, one higher; the
+/// count before and after.
+fn wire(lib: &str, name: &str, count_const: &str) -> (String, Option<(usize, usize)>) {
     let mut lines: Vec<String> = lib.lines().map(str::to_string).collect();
     let is_mod = |l: &str| l.starts_with("pub mod ") && l.ends_with(';');
     let at = lines.iter().rposition(|l| is_mod(l)).map_or(lines.len(), |k| k + 1);
     lines.insert(at, format!("pub mod {name};"));
     let mut count = None;
-    const COUNT: &str = "pub const PLUGIN_COUNT: usize = ";
+    let prefix = format!("pub const {count_const}: usize = ");
     for l in &mut lines {
         if let Some(n) = l
-            .strip_prefix(COUNT)
+            .strip_prefix(prefix.as_str())
             .and_then(|rest| rest.strip_suffix(';'))
             .and_then(|n| n.trim().parse::<usize>().ok())
         {
-            *l = format!("{COUNT}{};", n + 1);
+            *l = format!("{prefix}{};", n + 1);
             count = Some((n, n + 1));
         }
     }
@@ -310,6 +359,10 @@ mod extractor_skeleton;
 mod evaluator_skeleton;
 
 #[cfg(test)]
+#[path = "plugin/workflow.rs"]
+mod workflow_skeleton;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
@@ -320,7 +373,7 @@ mod tests {
         std::fs::create_dir(dir.path().join("src")).unwrap();
         std::fs::write(
             dir.path().join("Cargo.toml"),
-            "[package]\nname = \"mine\"\n\n[dependencies]\nmotionlab-core.workspace = true\nserde.workspace = true\nschemars.workspace = true\n\n[dev-dependencies]\ntoml.workspace = true\n",
+            "[package]\nname = \"mine\"\n\n[dependencies]\nmotionlab-core.workspace = true\nmotionlab-experiment.workspace = true\nserde.workspace = true\nschemars.workspace = true\n\n[dev-dependencies]\ntoml.workspace = true\n",
         )
         .unwrap();
         let count_line = if count { "pub const PLUGIN_COUNT: usize = 2;\n\n" } else { "" };
@@ -367,6 +420,7 @@ mod tests {
                 "register_plugin!(FeatureExtractor, KneeHeightParams, \"knee_height\")",
             ),
             (PluginKind::Evaluator, "rate2", "register_plugin!(Evaluator, Rate2Params, \"rate2\")"),
+            (PluginKind::Workflow, "cut_counts", "register_workflow!(CutCounts, \"cut_counts\")"),
         ] {
             let dir = scratch_crate(false);
             let s = new_plugin(name, kind, dir.path()).unwrap();

@@ -314,11 +314,11 @@ pub struct Analysis {
     state: AnalysisState,
 }
 
+/// Encodes a live analysis value for the cache (`None`: it is not the type recorded).
+type EncodeFn = fn(&(dyn Any + Send + Sync)) -> Option<Vec<u8>>;
+
 enum AnalysisState {
-    Live {
-        value: Box<dyn Any + Send + Sync>,
-        encode: Option<fn(&(dyn Any + Send + Sync)) -> Option<Vec<u8>>>,
-    },
+    Live { value: Box<dyn Any + Send + Sync>, encode: Option<EncodeFn> },
     Encoded(Vec<u8>),
 }
 

@@ -49,6 +49,54 @@ pub struct Column {
     pub values: ColumnValues,
 }
 
+/// What a column of a result table is for, so that a tool reading tables back by name
+/// (`motionlab compare`) needs to know no evaluator's columns: rows pair by their key columns,
+/// metrics compare as numbers, outcomes as text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColumnRole {
+    /// Text naming the row (`sequence`, `method`).
+    Key,
+    /// A number or a flag (`precision`, `time_s`).
+    Metric,
+    /// Text that is a result, not an identity: it changes with the parameters compared (how a
+    /// row's parameters were chosen, whether it beat chance). Declared by the crate that writes
+    /// it, with [`declare_outcome_column!`](crate::declare_outcome_column).
+    Outcome,
+}
+
+/// A column name that is an [`ColumnRole::Outcome`] in every table that has it.
+pub struct OutcomeColumn {
+    pub name: &'static str,
+    /// The crate that declared it.
+    pub crate_name: &'static str,
+}
+
+inventory::collect!(OutcomeColumn);
+
+/// Declares a result column's name an outcome ([`ColumnRole::Outcome`]), next to the code that
+/// writes it: `motionlab_core::declare_outcome_column!("above_chance");`.
+#[macro_export]
+macro_rules! declare_outcome_column {
+    ($name:literal) => {
+        $crate::inventory::submit! {
+            $crate::table::OutcomeColumn { name: $name, crate_name: env!("CARGO_PKG_NAME") }
+        }
+    };
+}
+
+impl ColumnRole {
+    /// A column's role: a declared outcome name, else text is a key and the rest metrics.
+    pub fn of(name: &str, values: &ColumnValues) -> ColumnRole {
+        if inventory::iter::<OutcomeColumn>.into_iter().any(|c| c.name == name) {
+            ColumnRole::Outcome
+        } else if matches!(values, ColumnValues::Str(_)) {
+            ColumnRole::Key
+        } else {
+            ColumnRole::Metric
+        }
+    }
+}
+
 /// A named table of equal-length columns.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Table {
@@ -57,6 +105,13 @@ pub struct Table {
     /// A human title for reports (`Table 1: precision and recall per method`).
     pub title: String,
     pub columns: Vec<Column>,
+}
+
+impl Column {
+    /// Its role ([`ColumnRole::of`]).
+    pub fn role(&self) -> ColumnRole {
+        ColumnRole::of(&self.name, &self.values)
+    }
 }
 
 impl Table {

@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use motionlab_core::table::ColumnRole;
 use motionlab_core::table::fmt_num;
 use motionlab_core::{ColumnValues, Error, ErrorKind, Location, Result, Table};
 use motionlab_report::html::{ComparePage, MetricDiff, write_compare_page};
@@ -41,24 +42,14 @@ fn read_config(run: &Path) -> Result<BTreeMap<String, String>> {
     Ok(out)
 }
 
-/// Text columns that are outcomes, not row identities: how a row's parameters were chosen,
-/// how its chance was computed, whether it beat chance, whether a transition was detected
-/// (`table3_transitions`) and how a mark was judged (`boundary_matches`) change with the
-/// parameters compared, so they are compared as values, never used to pair rows.
-const OUTCOME_TEXT: [&str; 5] =
-    ["parameters_chosen", "chance_expectation", "above_chance", "detected", "outcome"];
-
-/// Row keys: the text cells of a row joined (`sequence=pooled, method=fused`), outcome columns
-/// ([`OUTCOME_TEXT`]) left out.
+/// Row keys: the key cells of a row joined (`sequence=pooled, method=fused`); outcome columns
+/// (declared by the crates writing them, [`ColumnRole::Outcome`]) left out.
 fn row_keys(t: &Table) -> Vec<String> {
     (0..t.n_rows())
         .map(|r| {
             t.columns
                 .iter()
-                .filter(|c| {
-                    matches!(c.values, ColumnValues::Str(_))
-                        && !OUTCOME_TEXT.contains(&c.name.as_str())
-                })
+                .filter(|c| c.role() == ColumnRole::Key)
                 .map(|c| format!("{}={}", c.name, c.values.cell(r)))
                 .collect::<Vec<_>>()
                 .join(", ")
@@ -164,7 +155,7 @@ pub fn compare(run_a: &Path, run_b: &Path) -> Result<ComparePage> {
                 continue;
             };
             for col in &ta.columns {
-                if OUTCOME_TEXT.contains(&col.name.as_str()) {
+                if col.role() == ColumnRole::Outcome {
                     let (x, y) = (
                         col.values.cell(ra),
                         tb.column(&col.name).map(|v| v.cell(rb)).unwrap_or_default(),
@@ -238,6 +229,9 @@ pub fn compare_text(page: &ComparePage) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    // In a real binary motionlab-eval declares it (chance.rs); this test links no evaluator.
+    motionlab_core::declare_outcome_column!("above_chance");
 
     fn run(dir: &Path, name: &str, csv: &str) -> PathBuf {
         let run = dir.join(name);

@@ -4,7 +4,10 @@
 //! every file, plugin and parameter, with errors naming the file, line and key path), expanded
 //! over its `[sweep]` grid, and run as a map–reduce of work items ([`run`]), sharded or not,
 //! into a fresh run directory ([`rundir`]) with its provenance; [`compare`] diffs two runs.
-//! No program an experiment names starts without the user's consent ([`consent`]).
+//! No program an experiment names starts without the user's consent ([`consent`]). What every
+//! front end does alike (run options, validation, loader choice, `list`/`describe`, progress
+//! bars) is here too ([`front`], [`describe`], [`progress`]), so the CLI and the Python package
+//! only translate their arguments.
 //!
 //! It knows no workflow: the experiment's workflow section names a registered
 //! [`Workflow`](motionlab_experiment::Workflow) plugin (`motionlab-experiment` holds the trait
@@ -15,7 +18,10 @@
 
 pub mod compare;
 pub mod consent;
+pub mod describe;
+pub mod front;
 pub mod plan;
+pub mod progress;
 pub mod run;
 pub mod rundir;
 

@@ -89,9 +89,10 @@ pub struct Counts {
     pub n_matched_by_pose: usize,
 }
 
-impl Counts {
-    /// The sum of two counts.
-    pub fn add(self, o: Counts) -> Counts {
+/// The sum of two counts.
+impl std::ops::Add for Counts {
+    type Output = Counts;
+    fn add(self, o: Counts) -> Counts {
         Counts {
             n_truth: self.n_truth + o.n_truth,
             n_found: self.n_found + o.n_found,
@@ -99,6 +100,9 @@ impl Counts {
             n_matched_by_pose: self.n_matched_by_pose + o.n_matched_by_pose,
         }
     }
+}
+
+impl Counts {
     /// The counts with (precision, recall, F1) exactly as `boundary_pr` computes them.
     pub fn scores(self) -> PrScores {
         PrScores::of(self.n_truth, self.n_found, self.n_matched)
@@ -146,7 +150,7 @@ impl BoundaryAnalysis {
         let mut out: Vec<(String, Counts)> = Vec::new();
         for m in self.sequences.iter().flat_map(|s| &s.methods) {
             match out.iter_mut().find(|(n, _)| *n == m.method) {
-                Some((_, c)) => *c = c.add(m.counts),
+                Some((_, c)) => *c = *c + m.counts,
                 None => out.push((m.method.clone(), m.counts)),
             }
         }

@@ -25,6 +25,9 @@ use crate::chance::{
 use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
 use crate::span::{Span, counted};
 
+// How a mark was judged (`boundary_matches`) is a result, not a row name (`motionlab compare`).
+motionlab_core::declare_outcome_column!("outcome");
+
 /// Precision, recall and F1 of each method against the ground truth, per sequence and pooled
 /// (Sonoda et al. §3, Tables 1 and 2).
 ///

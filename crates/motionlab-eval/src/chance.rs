@@ -54,6 +54,11 @@
 
 use crate::boundaries::{TruthWindow, max_matching_windows};
 
+// Whether a score beat chance and how chance was computed are results, not row names
+// (`motionlab compare` compares them as text).
+motionlab_core::declare_outcome_column!("chance_expectation");
+motionlab_core::declare_outcome_column!("above_chance");
+
 /// Monte Carlo settings of the chance baseline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ChanceSettings {

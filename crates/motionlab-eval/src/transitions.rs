@@ -14,6 +14,9 @@ use motionlab_core::{
 use crate::boundaries::{TruthWindow, default_tolerance, nearest_frame, tolerance_frames};
 use crate::sequences::{location_of, nothing_to_evaluate, segmentation_input, truth_of};
 
+// Whether a transition was detected is a result, not a row name (`motionlab compare`).
+motionlab_core::declare_outcome_column!("detected");
+
 /// What happened at one labelled transition.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransitionOutcome {

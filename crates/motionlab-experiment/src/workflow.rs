@@ -451,6 +451,8 @@ extractors = [
 "#;
 
     /// A stage builder that accepts any type but `broken` (a stage of one `String`: its type).
+    // Boxed because a stage builder returns `Result<Box<S>>` (S a trait object in real stages).
+    #[allow(clippy::box_collection)]
     fn build_text(kind: &str, _params: &toml::Value) -> Result<Box<String>> {
         if kind == "broken" {
             return Err(

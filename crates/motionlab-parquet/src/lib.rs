@@ -100,16 +100,16 @@ fn check_page_headers(
             for page in get_page_iterator(chunk, Cursor::new(bytes.clone()), Vec::new(), max_page)
                 .map_err(unreadable)?
             {
-                if let CompressedPage::Data(page) = page.map_err(unreadable)? {
-                    if page.num_values() > values || page.uncompressed_size() > max_page {
-                        // `num_values` is the header's i32 cast to usize: shown as the header has it.
-                        let msg = format!(
-                            "a page of column {name:?} says it holds {} values ({} bytes uncompressed) in a column chunk of {values} values",
-                            page.num_values() as i64,
-                            page.uncompressed_size()
-                        );
-                        return Err(lies(msg));
-                    }
+                if let CompressedPage::Data(page) = page.map_err(unreadable)?
+                    && (page.num_values() > values || page.uncompressed_size() > max_page)
+                {
+                    // `num_values` is the header's i32 cast to usize: shown as the header has it.
+                    let msg = format!(
+                        "a page of column {name:?} says it holds {} values ({} bytes uncompressed) in a column chunk of {values} values",
+                        page.num_values() as i64,
+                        page.uncompressed_size()
+                    );
+                    return Err(lies(msg));
                 }
             }
         }

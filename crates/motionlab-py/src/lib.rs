@@ -2,7 +2,8 @@
 //!
 //! The native half of the `motionlab` Python package (`motionlab._motionlab`): thin PyO3
 //! wrappers that call motionlab's own crates — the registry's loaders and stages by name, the
-//! evaluators, the matcher's DP kernels, the engine's runs and the CLI's `list`/`describe` —
+//! evaluators, the matcher's DP kernels, the engine's runs, `list`/`describe` and loader choice (the
+//! engine's, shared with the CLI) —
 //! and hand their results to Python as NumPy arrays and plain records. Nothing is computed
 //! here that a motionlab crate does not compute; the Python half
 //! (`python/motionlab/__init__.py`) turns tables into Polars DataFrames and gives each result
@@ -16,20 +17,10 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use pyo3::prelude::*;
 
-// Plugin crates are never called by name from some of these modules; naming them keeps the
-// linker from dropping their `inventory` registrations (the tests compare `list()` with the
-// CLI's, which names the same crates).
-use motionlab_changepoint as _;
-use motionlab_eval as _;
-use motionlab_external as _;
-use motionlab_features as _;
-use motionlab_gait as _;
-use motionlab_io as _;
-use motionlab_match as _;
-use motionlab_parquet as _;
-use motionlab_profile as _;
-use motionlab_segment as _;
-use motionlab_workflows as _;
+// Every plugin and workflow crate, named once in the bundle (crates/motionlab-plugins), as the
+// CLI names it: the linker keeps their `inventory` registrations (the tests compare `list()`
+// with the CLI's).
+use motionlab_plugins as _;
 
 mod array;
 mod convert;

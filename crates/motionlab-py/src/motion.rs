@@ -350,7 +350,7 @@ fn load(
                     )
                     .with_field("loader"));
                 }
-                motionlab_cli::inspect::loader_for(&path)?.1
+                motionlab_engine::front::loader_for(&path)?.1
             }
         };
         built.load(&path).map_err(|e| e.in_file(&path))

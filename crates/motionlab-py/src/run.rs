@@ -1,14 +1,11 @@
 //! Whole experiments through the engine, as `motionlab run` and `motionlab validate` do them.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use motionlab_engine::RunOptions;
-use motionlab_engine::consent::{ExternalPolicy, TrustStore};
+use motionlab_engine::front::RunChoices;
 
 use crate::detached;
 
@@ -31,30 +28,14 @@ fn run<'py>(
     no_cache: bool,
     allow_external: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let progress: Arc<dyn motionlab_engine::Progress> = if !quiet && std::io::stderr().is_terminal()
-    {
-        Arc::new(motionlab_cli::progress::Bars::default())
-    } else {
-        Arc::new(motionlab_engine::Silent)
-    };
+    let choices = RunChoices { reports, threads, quiet, no_cache, allow_external };
     let command: Vec<String> =
         ["motionlab.run (Python)".to_string(), experiment.display().to_string()]
             .into_iter()
             .chain(overrides.iter().cloned())
             .collect();
     let summary = detached(py, move || {
-        let cache = if no_cache { None } else { motionlab_cache::Cache::open_default() };
-        let external = ExternalPolicy { allow_external, trust: TrustStore::open_default() };
-        let opts = RunOptions {
-            reports_dir: reports,
-            threads,
-            progress,
-            command,
-            cache,
-            external,
-            ..Default::default()
-        };
-        motionlab_engine::run_file(&experiment, &overrides, &opts)
+        motionlab_engine::run_file(&experiment, &overrides, &choices.options(command))
     })?;
     let d = PyDict::new(py);
     d.set_item("run_dir", summary.run_dir.display().to_string())?;
@@ -77,29 +58,15 @@ fn validate<'py>(
     overrides: Vec<String>,
     allow_external: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (workflow, datasets, inputs, combos, items) = detached(py, move || {
-        let plan = motionlab_engine::plan(&experiment, &overrides)?;
-        let commands = motionlab_engine::consent::external_commands(&plan);
-        motionlab_engine::consent::check(
-            &plan.source.path,
-            &commands,
-            &ExternalPolicy { allow_external, trust: TrustStore::open_default() },
-        )?;
-        let items: usize = plan.built.iter().map(|b| b.workflow.items(&b.data).len()).sum();
-        Ok((
-            plan.workflow.name.to_string(),
-            plan.file.datasets.len(),
-            plan.input_files().len(),
-            plan.combos.len(),
-            items,
-        ))
+    let v = detached(py, move || {
+        motionlab_engine::front::validate(&experiment, &overrides, allow_external)
     })?;
     let d = PyDict::new(py);
-    d.set_item("workflow", workflow)?;
-    d.set_item("datasets", datasets)?;
-    d.set_item("input_files", inputs)?;
-    d.set_item("combinations", combos)?;
-    d.set_item("items", items)?;
+    d.set_item("workflow", v.workflow)?;
+    d.set_item("datasets", v.datasets)?;
+    d.set_item("input_files", v.input_files)?;
+    d.set_item("combinations", v.combinations)?;
+    d.set_item("items", v.items)?;
     Ok(d)
 }
 

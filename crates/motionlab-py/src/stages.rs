@@ -20,7 +20,7 @@ use motionlab_match::{build_matcher, build_point_detector, build_synchroniser};
 
 use crate::convert::{f64s, frames, frames_to_py, from_py, params, to_py};
 use crate::motion::PyMotion;
-use crate::{detached, error, to_py_err};
+use crate::{detached, to_py_err};
 
 /// Builds a stage by name; a bad parameter's error names the plugin before the key path
 /// (`fastest_marker_speed.v_low: unknown variant …`), an unknown name says what is registered.
@@ -115,13 +115,13 @@ impl PySegmentation {
 /// `motionlab list`'s text.
 #[pyfunction]
 fn list_text() -> String {
-    motionlab_cli::describe::list()
+    motionlab_engine::describe::list()
 }
 
 /// `motionlab describe NAME`'s text.
 #[pyfunction]
 fn describe(py: Python<'_>, name: String) -> PyResult<String> {
-    detached(py, move || motionlab_cli::describe::describe(&name))
+    detached(py, move || motionlab_engine::describe::describe(&name))
 }
 
 /// Every registered plugin — core's kinds and the kinds family crates declare (matcher,

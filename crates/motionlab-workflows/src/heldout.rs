@@ -61,7 +61,7 @@ fn chance_at(method: &str, parts: &[(&Point, &str)]) -> ChanceScores {
         ) else {
             return ChanceScores::none();
         };
-        counts = counts.add(*c);
+        counts = counts + *c;
         draws.push(setup.counts(seq, method, c.n_found));
     }
     if draws.is_empty() {
@@ -127,7 +127,7 @@ fn pooled(p: &Point, sequences: &[String]) -> Counts {
     p.per_sequence
         .iter()
         .filter(|(s, _)| sequences.contains(s))
-        .fold(Counts::default(), |acc, (_, c)| acc.add(*c))
+        .fold(Counts::default(), |acc, (_, c)| acc + *c)
 }
 
 /// Each sweep point's per-sequence counts and chance null models, from the boundary
@@ -308,7 +308,7 @@ pub fn heldout(curves: &[Curve], selection: &Selection) -> Result<(Vec<Choice>, 
             let Some((k, train_f1)) = *choice else { continue };
             let p = &c.points[k];
             let counts = pooled(p, test);
-            total = total.add(counts);
+            total = total + counts;
             let fold_parts: Vec<(&Point, &str)> = test.iter().map(|s| (p, s.as_str())).collect();
             let chance = chance_at(&c.method, &fold_parts);
             parts.extend(fold_parts);

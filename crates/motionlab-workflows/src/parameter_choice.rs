@@ -23,6 +23,10 @@ use motionlab_core::registry;
 use motionlab_core::{ColumnValues, Table};
 use motionlab_experiment::spec::StageSpec;
 
+// How a row's parameters were chosen changes with the parameters compared: a result, not a
+// row name (`motionlab compare`).
+motionlab_core::declare_outcome_column!("parameters_chosen");
+
 /// The column's name. Its texts hold no comma, so even a naive split of the CSV lines up.
 pub const COLUMN: &str = "parameters_chosen";
 

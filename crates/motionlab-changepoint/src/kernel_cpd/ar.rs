@@ -102,6 +102,9 @@ impl QrFit {
         }
     }
 
+    // Row k of R and the entries of z from k on, rotated in lockstep: the textbook's index
+    // loops (Golub & Van Loan, Givens QR update) read closer to the algorithm than zipped slices.
+    #[allow(clippy::needless_range_loop)]
     #[inline]
     fn rotate_in(&mut self, z: &mut [f64], y: f64) {
         let p = self.p;
@@ -215,6 +218,9 @@ fn upper_inverse_frobenius(r: &[f64], p: usize) -> Option<f64> {
 
 /// Singular values of a small square matrix by one-sided Jacobi rotations (Hestenes), which
 /// are accurate for the small ones too.
+// Columns i and j rotated entry by entry: two mutable rows of `cols` at once, which an iterator
+// over one of them cannot give without splitting the vector.
+#[allow(clippy::needless_range_loop)]
 fn singular_values(a: &[f64], p: usize) -> Vec<f64> {
     // Work on columns: cols[j] is column j.
     let mut cols: Vec<Vec<f64>> = (0..p).map(|j| (0..p).map(|i| a[i * p + j]).collect()).collect();

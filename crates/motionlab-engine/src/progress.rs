@@ -1,15 +1,17 @@
-//! indicatif progress bars, used only when stderr is a terminal.
+//! indicatif progress bars, used only when stderr is a terminal (every front end's: the CLI's
+//! and the Python package's runs).
 
 use std::sync::Mutex;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+/// A bar per stage of a run on stderr, cleared when the stage ends.
 #[derive(Default)]
 pub struct Bars {
     bar: Mutex<Option<ProgressBar>>,
 }
 
-impl motionlab_engine::Progress for Bars {
+impl crate::Progress for Bars {
     fn begin(&self, label: &str, total: u64) {
         let bar = ProgressBar::new(total);
         if let Ok(style) =

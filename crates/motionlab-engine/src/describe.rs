@@ -1,5 +1,6 @@
-//! `motionlab list` and `motionlab describe`: plugin docs from the same source as the code
-//! (the params struct's doc comments, via its JSON schema).
+//! `motionlab list` and `motionlab describe` (and the Python package's `plugins()` and
+//! `describe()`): plugin docs from the same source as the code (the params struct's doc
+//! comments, via its JSON schema).
 
 use std::fmt::Write;
 
@@ -7,6 +8,10 @@ use motionlab_core::Result;
 use motionlab_core::registry::{self, ParamDoc, StageKind};
 use motionlab_experiment::workflow::{find_workflow, workflows};
 
+/// A kind's list position, its label and its plugins' (name, summary).
+type KindLines<'a> = (u32, &'a str, Vec<(&'a str, String)>);
+
+/// Every registered workflow and plugin by kind, one line each, in list order.
 pub fn list() -> String {
     let all = registry::plugins();
     let mut out = String::new();
@@ -16,7 +21,7 @@ pub fn list() -> String {
     }
     let custom = registry::custom_plugins();
     // Core's kinds and the kinds family crates declare, in list order; each kind's plugins.
-    let mut kinds: Vec<(u32, &str, Vec<(&str, String)>)> = StageKind::ALL
+    let mut kinds: Vec<KindLines> = StageKind::ALL
         .iter()
         .map(|&k| {
             (
@@ -55,6 +60,7 @@ pub fn list() -> String {
     out
 }
 
+/// A workflow's (`segmentation`, `[segmentation]`) or a plugin's documentation and parameters.
 pub fn describe(name: &str) -> Result<String> {
     let section = name.trim_start_matches('[').trim_end_matches(']');
     if let Some(w) = find_workflow(section) {
