@@ -20,7 +20,7 @@ use motionlab_match::{build_matcher, build_point_detector, build_synchroniser};
 
 use crate::convert::{f64s, frames, frames_to_py, from_py, params, to_py};
 use crate::motion::PyMotion;
-use crate::{detached, error, to_py_err};
+use crate::{detached, to_py_err};
 
 /// Builds a stage by name; a bad parameter's error names the plugin before the key path
 /// (`fastest_marker_speed.v_low: unknown variant …`), an unknown name says what is registered.
