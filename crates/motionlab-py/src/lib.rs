@@ -9,8 +9,10 @@
 //! a small class.
 //!
 //! Every call that may take long releases the GIL ([`detached`]); every error is a
-//! `motionlab.MotionlabError` carrying the CLI's one-line message, its kind and location; a
-//! panic inside motionlab becomes that exception too (it never unwinds into the interpreter).
+//! `motionlab.MotionlabError` carrying the CLI's one-line message, its kind and location —
+//! raised as `ArgumentError` (also a `ValueError`) when an argument of the call caused it and as
+//! `FileError` when a file did (`cause`); a panic inside motionlab becomes a `MotionlabError`
+//! too (it never unwinds into the interpreter).
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
