@@ -184,6 +184,40 @@ impl Motion {
         })
     }
 
+    /// A sequence known only by its length and frame rate: no points and no channels. What
+    /// scoring boundary frames reads (an evaluator on frames found by any library, given as
+    /// a rate and a length); no stage that reads positions or channels has anything to read in
+    /// it. Fails on zero frames.
+    pub fn timeline(
+        name: impl Into<String>,
+        frame_rate: FrameRate,
+        n_frames: usize,
+    ) -> Result<Self> {
+        if n_frames == 0 {
+            return Err(Error::new(
+                ErrorKind::EmptySequence,
+                "a sequence needs at least one frame",
+            )
+            .with_field("n_frames"));
+        }
+        Ok(Motion {
+            name: name.into(),
+            source: None,
+            format: String::new(),
+            frame_rate,
+            up_axis: Axis::Y,
+            point_kind: PointKind::Marker,
+            point_names: Vec::new(),
+            positions: Vec::new(),
+            missing: Vec::new(),
+            n_frames,
+            skeleton: None,
+            events: Vec::new(),
+            channels: Channels::default(),
+            load_notes: LoadNotes::default(),
+        })
+    }
+
     /// The motion with these channels (replacing any it had); fails unless there is one sample
     /// per frame.
     pub fn with_channels(mut self, channels: Channels) -> Result<Self> {
@@ -448,6 +482,17 @@ mod tests {
         ];
         Motion::new("t", rate, Axis::Z, PointKind::Marker, vec!["a".into(), "b".into()], pos)
             .unwrap()
+    }
+
+    #[test]
+    fn a_timeline_has_its_length_and_rate_and_nothing_to_read() {
+        let rate = FrameRate::new(250.0).unwrap();
+        let m = Motion::timeline("s", rate, 1200).unwrap();
+        assert_eq!((m.n_frames(), m.frame_rate().hz()), (1200, 250.0));
+        assert_eq!((m.n_points(), m.channels().n_channels(), m.missing_count()), (0, 0, 0));
+        assert!(m.positions().is_empty());
+        let e = Motion::timeline("s", rate, 0).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::EmptySequence);
     }
 
     #[test]

@@ -154,6 +154,15 @@ pub fn borrowed<'py, T: Element>(
 /// Any array-like as contiguous float64 values and its shape, checking the number of
 /// dimensions (one copy: the values are read as bytes).
 pub fn read_f64(v: &Bound<'_, PyAny>, ndim: usize, what: &str) -> PyResult<(Vec<f64>, Vec<usize>)> {
+    read_f64_dims(v, &[ndim], what)
+}
+
+/// [`read_f64`] for an array of any of the numbers of dimensions `ndims`.
+pub fn read_f64_dims(
+    v: &Bound<'_, PyAny>,
+    ndims: &[usize],
+    what: &str,
+) -> PyResult<(Vec<f64>, Vec<usize>)> {
     let py = v.py();
     let np = py.import("numpy")?;
     let kwargs = PyDict::new(py);
@@ -162,10 +171,11 @@ pub fn read_f64(v: &Bound<'_, PyAny>, ndim: usize, what: &str) -> PyResult<(Vec<
         error(ErrorKind::WrongType, format!("{what}: expected an array of numbers ({e})"))
     })?;
     let shape: Vec<usize> = a.getattr("shape")?.extract()?;
-    if shape.len() != ndim {
+    if !ndims.contains(&shape.len()) {
+        let expected = ndims.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(" or ");
         return Err(error(
             ErrorKind::WrongValueCount,
-            format!("{what}: expected {ndim} dimensions, found shape {shape:?}"),
+            format!("{what}: expected {expected} dimensions, found shape {shape:?}"),
         ));
     }
     let bytes = a.call_method0("tobytes")?;

@@ -7,16 +7,19 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use motionlab_core::registry;
-use motionlab_core::{ErrorKind, EvalInput, EvalInputType, MethodResult, SequenceResult};
+use motionlab_core::{
+    ErrorKind, EvalInput, EvalInputType, FrameRate, MethodResult, Motion, SequenceResult,
+};
 use motionlab_gait::GaitStudy;
 use motionlab_match::{MatchingResult, RepetitionResult};
 
 use crate::convert::{frames, from_py, params, tables_to_py};
 use crate::motion::PyMotion;
 use crate::stages::{PySegmentation, build};
-use crate::{detached, error};
+use crate::{detached, error, to_py_err};
 
-/// One sequence of segmentation results: `{"sequence", "motion", "truth", "methods"}`.
+/// One sequence of segmentation results: `{"sequence", "motion", "truth", "methods"}`, or
+/// `"rate"` (Hz) and `"n_frames"` instead of the motion (what the evaluators read of it).
 fn sequence(v: &Bound<'_, PyAny>, k: usize) -> PyResult<SequenceResult> {
     let d = v.cast::<PyDict>().map_err(|_| {
         error(
@@ -29,10 +32,43 @@ fn sequence(v: &Bound<'_, PyAny>, k: usize) -> PyResult<SequenceResult> {
             error(ErrorKind::MissingKey, format!("results[{k}]: missing key {key:?}"))
         })
     };
-    let motion = get("motion")?;
-    let motion: PyRef<'_, PyMotion> = motion.extract().map_err(|_| {
-        error(ErrorKind::WrongType, format!("results[{k}].motion: expected a motionlab.Motion"))
-    })?;
+    // The motion, or only what the evaluators read of it: its rate (Hz) and length (frames).
+    let name = match d.get_item("sequence")? {
+        Some(s) => Some(s.extract::<String>()?),
+        None => None,
+    };
+    let motion: Arc<Motion> = match d.get_item("motion")? {
+        Some(m) => {
+            let m: PyRef<'_, PyMotion> = m.extract().map_err(|_| {
+                error(
+                    ErrorKind::WrongType,
+                    format!("results[{k}].motion: expected a motionlab.Motion"),
+                )
+            })?;
+            Arc::clone(&m.inner)
+        }
+        None => {
+            let (Some(rate), Some(n)) = (d.get_item("rate")?, d.get_item("n_frames")?) else {
+                return Err(error(
+                    ErrorKind::MissingKey,
+                    format!("results[{k}]: missing key \"motion\" (or \"rate\" and \"n_frames\")"),
+                ));
+            };
+            let rate = FrameRate::new(rate.extract()?)
+                .map_err(|e| to_py_err(e.with_field(format!("results[{k}].rate"))))?;
+            let n_frames: usize = n.extract().map_err(|_| {
+                error(
+                    ErrorKind::WrongType,
+                    format!("results[{k}].n_frames: expected a number of frames (>= 1)"),
+                )
+            })?;
+            let seq = name.clone().unwrap_or_else(|| "sequence".to_string());
+            Arc::new(
+                Motion::timeline(seq, rate, n_frames)
+                    .map_err(|e| to_py_err(e.with_field(format!("results[{k}].n_frames"))))?,
+            )
+        }
+    };
     let truth = match d.get_item("truth")? {
         None => None,
         Some(t) if t.is_none() => None,
@@ -63,11 +99,8 @@ fn sequence(v: &Bound<'_, PyAny>, k: usize) -> PyResult<SequenceResult> {
             Ok(MethodResult { method, candidates })
         })
         .collect::<PyResult<Vec<_>>>()?;
-    let name = match d.get_item("sequence")? {
-        Some(s) => s.extract::<String>()?,
-        None => motion.inner.name.clone(),
-    };
-    Ok(SequenceResult { sequence: name, motion: Arc::clone(&motion.inner), truth, methods })
+    let sequence = name.unwrap_or_else(|| motion.name.clone());
+    Ok(SequenceResult { sequence, motion, truth, methods })
 }
 
 /// One take's matched repetitions: `{"take", "point_names", "repetitions": [{"repetition",

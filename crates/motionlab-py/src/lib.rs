@@ -10,12 +10,16 @@
 //! a small class.
 //!
 //! Every call that may take long releases the GIL ([`detached`]); every error is a
-//! `motionlab.MotionlabError` carrying the CLI's one-line message, its kind and location; a
-//! panic inside motionlab becomes that exception too (it never unwinds into the interpreter).
+//! `motionlab.MotionlabError` carrying the CLI's one-line message, its kind and location —
+//! raised as `ArgumentError` (also a `ValueError`) when an argument of the call caused it and as
+//! `FileError` when a file did (`cause`); a panic inside motionlab becomes a `MotionlabError`
+//! too (it never unwinds into the interpreter).
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyDict, PyTuple, PyType};
 
 // Every plugin and workflow crate, named once in the bundle (crates/motionlab-plugins), as the
 // CLI names it: the linker keeps their `inventory` registrations (the tests compare `list()`
@@ -34,13 +38,61 @@ pyo3::create_exception!(
     motionlab,
     MotionlabError,
     pyo3::exceptions::PyException,
-    "A motionlab error: the CLI's one-line message (file, line or key path, what was expected), with `kind`, `file`, `line`, `field` and `message` attributes."
+    "Every motionlab error: the CLI's one-line message (file, line or key path, what was expected), with `kind`, `file`, `line`, `field` and `message` attributes. Raised as one of its subclasses when the cause is known: `ArgumentError` (also a `ValueError`) for a bad argument of the call, `FileError` for a problem in a file."
 );
+
+/// `motionlab.ArgumentError(MotionlabError, ValueError)` and `motionlab.FileError(MotionlabError)`,
+/// made once at import. Two bases need `type(name, bases, ns)`: `create_exception!` takes one.
+static ARGUMENT_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+static FILE_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+fn subclass(
+    py: Python<'_>,
+    name: &str,
+    bases: Vec<Bound<'_, PyType>>,
+    doc: &str,
+) -> PyResult<Py<PyType>> {
+    let ns = PyDict::new(py);
+    ns.set_item("__doc__", doc)?;
+    ns.set_item("__module__", "motionlab")?;
+    let t = py.get_type::<PyType>().call1((name, PyTuple::new(py, bases)?, ns))?;
+    Ok(t.cast_into::<PyType>()?.unbind())
+}
+
+/// Which exception class an error is raised as. The cause is a file when the error is located in
+/// one (a loader's or a truth reader's file, an experiment file, the file a motion was loaded
+/// from) or is the operating system's; it is an argument when the error names none: a stage's
+/// parameter, an array or a value given to the call. Run and report problems (an existing run,
+/// a refused program, a failed check on results) and internal errors stay `MotionlabError`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Cause {
+    Argument,
+    File,
+    Other,
+}
+
+pub(crate) fn cause(e: &motionlab_core::Error) -> Cause {
+    use motionlab_core::ErrorKind::*;
+    match e.kind() {
+        Report | Mismatch | NotAllowed => Cause::Other,
+        Io | Syntax | Truncated | TooLarge => Cause::File,
+        _ if e.location().file.is_some() => Cause::File,
+        _ => Cause::Argument,
+    }
+}
 
 /// The Python exception of a motionlab error, with its parts as attributes.
 pub(crate) fn to_py_err(e: motionlab_core::Error) -> PyErr {
     Python::attach(|py| {
-        let err = MotionlabError::new_err(e.to_string());
+        let class = match cause(&e) {
+            Cause::Argument => ARGUMENT_ERROR.get(py),
+            Cause::File => FILE_ERROR.get(py),
+            Cause::Other => None,
+        };
+        let err = match class {
+            Some(t) => PyErr::from_type(t.bind(py).clone(), e.to_string()),
+            None => MotionlabError::new_err(e.to_string()),
+        };
         let value = err.value(py);
         let loc = e.location();
         let set = |k: &str, v: Bound<'_, PyAny>| value.setattr(k, v);
@@ -101,7 +153,27 @@ pub(crate) fn guarded<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
 /// The native module.
 #[pymodule]
 fn _motionlab(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add("MotionlabError", m.py().get_type::<MotionlabError>())?;
+    let py = m.py();
+    let base = py.get_type::<MotionlabError>();
+    m.add("MotionlabError", &base)?;
+    let argument = ARGUMENT_ERROR.get_or_try_init(py, || {
+        subclass(
+            py,
+            "ArgumentError",
+            vec![base.clone(), py.get_type::<pyo3::exceptions::PyValueError>()],
+            "A bad argument of the call: an unknown plugin or parameter, a parameter of the wrong type or out of range, an array of the wrong shape or with values a stage refuses. Also a ValueError, as Python code expects.",
+        )
+    })?;
+    m.add("ArgumentError", argument.bind(py))?;
+    let file = FILE_ERROR.get_or_try_init(py, || {
+        subclass(
+            py,
+            "FileError",
+            vec![base.clone()],
+            "A problem in a file (its `file` attribute; `line` or `field` where known): unreadable, malformed, or holding values a stage refuses — a loader's or ground-truth reader's file, an experiment file, or the file a motion was loaded from.",
+        )
+    })?;
+    m.add("FileError", file.bind(py))?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<array::ArrayBuffer>()?;
     motion::register(m)?;

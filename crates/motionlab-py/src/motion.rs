@@ -10,7 +10,7 @@ use pyo3::types::{PyDict, PyList};
 
 use motionlab_core::{Axis, Channels, ErrorKind, FrameRate, Motion, PointKind};
 
-use crate::array::{borrowed, f64_array, i64_array, read_f64};
+use crate::array::{borrowed, f64_array, i64_array, read_f64, read_f64_dims};
 use crate::{detached, error, guarded, to_py_err};
 
 /// A motion-capture recording as motionlab loaded it: positions in mm (frames × points × 3,
@@ -89,8 +89,8 @@ impl PyMotion {
     }
 
     /// A motion of channels only (a channel file's kind: no points): `values` samples ×
-    /// channels (NaN = missing), `rate` in Hz, channel `names` (default `ch0`, `ch1`, …) and
-    /// `units` (default empty). The values are copied.
+    /// channels, or one channel as a 1-D array (NaN = missing), `rate` in Hz, channel `names`
+    /// (default `ch0`, `ch1`, …) and `units` (default empty). The values are copied.
     #[staticmethod]
     #[pyo3(signature = (values, rate, names=None, units=None, name="channels"))]
     fn from_channels(
@@ -101,7 +101,11 @@ impl PyMotion {
         units: Option<Vec<String>>,
         name: &str,
     ) -> PyResult<Self> {
-        let (flat, shape) = read_f64(values, 2, "values")?;
+        let (flat, mut shape) = read_f64_dims(values, &[1, 2], "values")?;
+        if shape.len() == 1 {
+            // One channel: a univariate series as claspy or ruptures take it.
+            shape.push(1);
+        }
         let names = names.unwrap_or_else(|| (0..shape[1]).map(|k| format!("ch{k}")).collect());
         let units = units.unwrap_or_else(|| vec![String::new(); names.len()]);
         let rate = self::rate(rate)?;
@@ -339,23 +343,23 @@ fn load(
     let params = crate::convert::params(params)?;
     let loader = loader.map(str::to_string);
     let m = detached(py, move || {
-        let built = match loader {
-            Some(name) => motionlab_core::registry::build_loader(&name, &params)
-                .map_err(|e| e.under_field(name.clone()))?,
-            None => {
-                if params.as_table().is_some_and(|t| !t.is_empty()) {
-                    return Err(motionlab_core::Error::new(
-                        ErrorKind::MissingKey,
-                        "loader parameters need the loader's name (`loader=\"…\"`)",
-                    )
-                    .with_field("loader"));
-                }
-                motionlab_engine::front::loader_for(&path)?.1
-            }
+        let name = match loader {
+            Some(name) => name,
+            // The loader `motionlab inspect` picks for the extension; its parameters, if any,
+            // are then given to that loader (`load("Adiac.txt", rate_hz=1.0)`).
+            None => loader_for_extension(&path)?.to_string(),
         };
+        let built = motionlab_core::registry::build_loader(&name, &params)
+            .map_err(|e| e.under_field(name.clone()))?;
         built.load(&path).map_err(|e| e.in_file(&path))
     })?;
     Ok(PyMotion { inner: Arc::new(m) })
+}
+
+/// The name of the loader registered for the file's extension: the CLI's rule (the first
+/// loader, in registry order, whose extensions hold it), called rather than copied.
+fn loader_for_extension(path: &std::path::Path) -> motionlab_core::Result<&'static str> {
+    motionlab_engine::front::loader_for(path).map(|(name, _)| name)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

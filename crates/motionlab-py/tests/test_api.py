@@ -56,10 +56,14 @@ def test_the_stub_file_is_current():
     fresh = subprocess.run([sys.executable, "-m", "motionlab._stubgen"], capture_output=True, text=True, check=True).stdout
     source = Path(__file__).resolve().parents[1] / "python/motionlab/_typed.pyi"
     assert source.read_text() == fresh, "run `python -m motionlab._stubgen > crates/motionlab-py/python/motionlab/_typed.pyi`"
-    assert "def fastest_marker_speed(motion: Motion, *, " in fresh
+    assert "def fastest_marker_speed(motion: MotionLike, *, rate: Optional[float] = None, " in fresh
     compile(fresh, str(stub), "exec")
 
 
 def test_version_and_errors_are_exported():
     assert ml.__version__ == "0.1.0"
     assert issubclass(ml.MotionlabError, Exception)
+    # Argument errors are ValueErrors too; file errors are not; both are MotionlabErrors.
+    assert issubclass(ml.ArgumentError, ml.MotionlabError) and issubclass(ml.ArgumentError, ValueError)
+    assert issubclass(ml.FileError, ml.MotionlabError) and not issubclass(ml.FileError, ValueError)
+    assert not issubclass(ml.MotionlabError, ValueError)

@@ -35,7 +35,7 @@ def test_first_repetition_a_b_h_r_are_the_clis(cli_repetitions):
     # peaks; the first repetition's window joins the windows of the first two peaks.
     found = ml.detect_points("velocity_peaks", take, marker="lhand", before={"seconds": 0.4}, after={"seconds": 0.4},
                              smoothing={"seconds": 0.2}, count=6)
-    (s0, e0), (s1, e1) = found["windows"][0], found["windows"][1]
+    (s0, e0), (s1, e1) = found.windows[0], found.windows[1]
     start, end = min(s0, s1), max(e0, e1)
     window = take.slice(start, end)
     assert model.point_names == window.point_names
@@ -50,9 +50,9 @@ def test_first_repetition_a_b_h_r_are_the_clis(cli_repetitions):
     assert len(match.paths) == model.n_points and match.paths[0][0].tolist() == [0, match.a]
     # The registered matcher on the motions (points by name) gives the same.
     a = ml.align("multistream_two_stage", model, window)
-    assert (a["start"], a["end"], a["total_distance"]) == (match.a, match.b, match.H)
+    assert (a.start, a.end, a.total_distance) == (match.a, match.b, match.H)
     sync = ml.synchronise("synchronisation", a, model.n_frames, k=8)
-    assert sync["total"] == match.R
+    assert sync.total == match.R
 
 
 def test_subsequence_dp_matches_the_plugin():
@@ -61,8 +61,8 @@ def test_subsequence_dp_matches_the_plugin():
     k = model.point_names.index("lhand")
     ours = ml.subsequence_dp(model.positions[:, k], take.positions[:, k])
     plugin = ml.align("subsequence_dp", model, take, marker="lhand")
-    assert (ours.a, ours.b, ours.cost) == (plugin["start"], plugin["end"], plugin["total_distance"])
-    assert ours.path.tolist() == [list(p) for p in plugin["paths"][0]]
+    assert (ours.a, ours.b, ours.cost) == (plugin.start, plugin.end, plugin.total_distance)
+    assert ours.path.tolist() == [list(p) for p in plugin.paths[0]]
     assert ours.end_costs[ours.b] == ours.cost == ours.end_costs.min()
 
 

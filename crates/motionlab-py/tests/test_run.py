@@ -1,5 +1,6 @@
 """`run()` is `motionlab run`: the same experiment run by both gives the same tables — every
 table `run()` returns (read from the run's Parquet files) equals the CLI run's CSV."""
+import dataclasses
 import json
 import re
 
@@ -35,5 +36,5 @@ def test_validate_counts_like_the_cli(cli):
     m = re.search(r"valid — (\w+) workflow, (\d+) dataset\(s\), (\d+) input file\(s\), (\d+) combination\(s\), (\d+) work item\(s\)", line)
     assert m, line
     w, *counts = m.groups()
-    assert v == {"workflow": w, **dict(zip(["datasets", "input_files", "combinations", "items"], map(int, counts)))}
-    assert v["items"] > 0
+    assert dataclasses.asdict(v) == {"workflow": w, **dict(zip(["datasets", "input_files", "combinations", "items"], map(int, counts)))}
+    assert v.items > 0

@@ -129,11 +129,11 @@ def test_tssb_channel_segmenter_is_the_clis(cli, tmp_path):
 
 
 def test_list_and_describe_are_the_clis(cli):
-    assert ml.list() == run_cli(cli, "list").stdout
+    assert ml.listing() == run_cli(cli, "list").stdout
     for name in ["fastest_marker_speed", "boundary_pr", "asf_amc", "multistream_two_stage", "segmentation"]:
         assert ml.describe(name) == run_cli(cli, "describe", name).stdout
-    names = {p["name"] for p in ml.plugins()}
-    listed = set(re.findall(r"^  ([a-z0-9_]+) ", ml.list(), re.M))
+    names = {p.name for p in ml.plugins()}
+    listed = set(re.findall(r"^  ([a-z0-9_]+) ", ml.listing(), re.M))
     assert names <= listed and len(names) >= 45
     doc = ml.segmenters.fastest_marker_speed.__doc__
     assert doc == ml.describe("fastest_marker_speed")

@@ -13,6 +13,9 @@ class MotionlabError(Exception):
     line: Optional[int]
     field: Optional[str]
 
+class ArgumentError(MotionlabError, ValueError): ...
+class FileError(MotionlabError): ...
+
 class Motion:
     def __init__(
         self,

@@ -32,11 +32,20 @@ KINDS = {
 }
 
 
+# Kinds whose plugins read a motion: their functions take NumPy data too, with its `rate`.
+TAKES_MOTION = {"motion", "model", "target"}
+
+
+def takes_rate(positional):
+    """Whether a kind's function has the ``rate`` keyword (for arrays given as motions)."""
+    return bool(TAKES_MOTION & set(positional))
+
+
 def _function(plugin, positional, generic):
-    import motionlab
+    from . import _api
 
     name = plugin["name"]
-    call = getattr(motionlab, generic)
+    call = getattr(_api, generic)
     keys = [p["name"] for p in plugin["params"] if not keyword.iskeyword(p["name"])]
 
     if generic == "load":
@@ -53,6 +62,7 @@ def _function(plugin, positional, generic):
 
     sig = inspect.Signature(
         [inspect.Parameter(p, inspect.Parameter.POSITIONAL_OR_KEYWORD) for p in positional]
+        + ([inspect.Parameter("rate", inspect.Parameter.KEYWORD_ONLY, default=None)] if takes_rate(positional) else [])
         + [inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=None) for k in keys]
         + ([inspect.Parameter("pandas", inspect.Parameter.KEYWORD_ONLY, default=False)] if generic == "evaluate" else [])
     )

@@ -6,7 +6,11 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from . import Features, Motion, SegmenterOutput, Segmentation
+from ._api import (
+    Alignment, AngleCurves, Evaluation, Features, GaitCycle, MotionLike, PointDetection, SegmenterOutput,
+    Synchronisation, WaveformParameters,
+)
+from ._motionlab import Motion, Segmentation
 
 
 class loaders:
@@ -267,7 +271,7 @@ class ground_truth_readers:
     """Every registered ground truth, by name."""
 
     @staticmethod
-    def boundaries_csv(path: Union[str, os.PathLike], motion: Motion, *, sequence: Optional[str] = None, annotator: Optional[str] = None, consensus: Optional[Any] = None, frame_rate_hz: Optional[float] = None, first_frame: Optional[int] = None, check_sequences: Optional[bool] = None) -> Segmentation:
+    def boundaries_csv(path: Union[str, os.PathLike], motion: MotionLike, *, rate: Optional[float] = None, sequence: Optional[str] = None, annotator: Optional[str] = None, consensus: Optional[Any] = None, frame_rate_hz: Optional[float] = None, first_frame: Optional[int] = None, check_sequences: Optional[bool] = None) -> Segmentation:
         """boundaries_csv (ground-truth reader, from motionlab-eval)
 
         Reads boundaries a user annotated, from a CSV with one row per boundary or one row per
@@ -336,7 +340,7 @@ class ground_truth_readers:
         """
 
     @staticmethod
-    def cmu86_labels(path: Union[str, os.PathLike], motion: Motion, *, trial: Optional[str] = None, label_rate_hz: Optional[float] = None) -> Segmentation:
+    def cmu86_labels(path: Union[str, os.PathLike], motion: MotionLike, *, rate: Optional[float] = None, trial: Optional[str] = None, label_rate_hz: Optional[float] = None) -> Segmentation:
         """cmu86_labels (ground-truth reader, from motionlab-io)
 
         Reads the CMU subject-86 action labels of Zhou, De la Torre & Hodgins (HACA, FG 2008 /
@@ -370,7 +374,7 @@ class ground_truth_readers:
         """
 
     @staticmethod
-    def elan_eaf(path: Union[str, os.PathLike], motion: Motion, *, tier: Optional[str] = None, consensus: Optional[Any] = None, offset_ms: Optional[float] = None) -> Segmentation:
+    def elan_eaf(path: Union[str, os.PathLike], motion: MotionLike, *, rate: Optional[float] = None, tier: Optional[str] = None, consensus: Optional[Any] = None, offset_ms: Optional[float] = None) -> Segmentation:
         """elan_eaf (ground-truth reader, from motionlab-eval)
 
         Reads the annotations of one ELAN tier (or every tier, one per annotator) as boundaries:
@@ -408,7 +412,7 @@ class ground_truth_readers:
         """
 
     @staticmethod
-    def mocap6_labels(path: Union[str, os.PathLike], motion: Motion, *, block_frames: Optional[int] = None) -> Segmentation:
+    def mocap6_labels(path: Union[str, os.PathLike], motion: MotionLike, *, rate: Optional[float] = None, block_frames: Optional[int] = None) -> Segmentation:
         """mocap6_labels (ground-truth reader, from motionlab-io)
 
         Reads the mocap6 exercise labels of Fox, Hughes, Sudderth & Jordan (Annals of Applied
@@ -438,7 +442,7 @@ class ground_truth_readers:
         """
 
     @staticmethod
-    def tssb_desc(path: Union[str, os.PathLike], motion: Motion) -> Segmentation:
+    def tssb_desc(path: Union[str, os.PathLike], motion: MotionLike, *, rate: Optional[float] = None) -> Segmentation:
         """tssb_desc (ground-truth reader, from motionlab-io)
 
         Reads the true change points of a TSSB series (Ermshaus, Schäfer & Leser, DMKD 2023) from
@@ -464,7 +468,7 @@ class preprocessors:
     """Every registered preprocessor, by name."""
 
     @staticmethod
-    def add_centroid(motion: Motion, *, name: Optional[str] = None, markers: Optional[Sequence[str]] = None, missing_if: Optional[str] = None) -> Motion:
+    def add_centroid(motion: MotionLike, *, rate: Optional[float] = None, name: Optional[str] = None, markers: Optional[Sequence[str]] = None, missing_if: Optional[str] = None) -> Motion:
         """add_centroid (preprocessor, from motionlab-features)
 
         Adds a virtual marker at the centroid (mean position) of the named markers, appended after the
@@ -488,7 +492,7 @@ class preprocessors:
         """
 
     @staticmethod
-    def butterworth(motion: Motion, *, order: Optional[int] = None, cutoff_hz: Optional[float] = None) -> Motion:
+    def butterworth(motion: MotionLike, *, rate: Optional[float] = None, order: Optional[int] = None, cutoff_hz: Optional[float] = None) -> Motion:
         """butterworth (preprocessor, from motionlab-features)
 
         Zero-phase Butterworth low-pass filter of every marker coordinate (forward and backward,
@@ -527,7 +531,7 @@ class preprocessors:
         """
 
     @staticmethod
-    def delay_points(motion: Motion, *, points: Optional[Sequence[str]] = None, delay: Optional[Any] = None) -> Motion:
+    def delay_points(motion: MotionLike, *, rate: Optional[float] = None, points: Optional[Sequence[str]] = None, delay: Optional[Any] = None) -> Motion:
         """delay_points (preprocessor, from motionlab-match)
 
         Delays the listed markers by a fixed time, the others unchanged (a timing-shifted limb).
@@ -565,7 +569,7 @@ class preprocessors:
         """
 
     @staticmethod
-    def distinct_points(motion: Motion, *, max_distance_mm: Optional[Any] = None) -> Motion:
+    def distinct_points(motion: MotionLike, *, rate: Optional[float] = None, max_distance_mm: Optional[Any] = None) -> Motion:
         """distinct_points (preprocessor, from motionlab-match)
 
         Keeps one point of every group of **coincident** points and drops the others.
@@ -601,7 +605,7 @@ class preprocessors:
         """
 
     @staticmethod
-    def fill_gaps(motion: Motion, *, max_gap: Optional[Any] = None, method: Optional[str] = None, support: Optional[int] = None, edges: Optional[str] = None) -> Motion:
+    def fill_gaps(motion: MotionLike, *, rate: Optional[float] = None, max_gap: Optional[Any] = None, method: Optional[str] = None, support: Optional[int] = None, edges: Optional[str] = None) -> Motion:
         """fill_gaps (preprocessor, from motionlab-features)
 
         Fills short gaps (runs of missing frames) in every marker's trajectory by interpolation,
@@ -647,7 +651,7 @@ class preprocessors:
         """
 
     @staticmethod
-    def initial_pose_normalisation(motion: Motion) -> Motion:
+    def initial_pose_normalisation(motion: MotionLike, *, rate: Optional[float] = None) -> Motion:
         """initial_pose_normalisation (preprocessor, from motionlab-match)
 
         Subtracts each marker's initial position from all of its frames (Yabe & Tanaka §5.2.1).
@@ -674,7 +678,7 @@ class feature_extractors:
     """Every registered feature extractor, by name."""
 
     @staticmethod
-    def external_features(motion: Motion, *, command: Optional[Sequence[str]] = None, timeout_s: Optional[float] = None, max_output_mb: Optional[int] = None, params: Optional[Any] = None) -> Features:
+    def external_features(motion: MotionLike, *, rate: Optional[float] = None, command: Optional[Sequence[str]] = None, timeout_s: Optional[float] = None, max_output_mb: Optional[int] = None, params: Optional[Any] = None) -> Features:
         """external_features (feature extractor, from motionlab-external)
 
         Per-frame features from another program (Python, R, …), over the same file protocol as the `external` segmenter.
@@ -712,7 +716,7 @@ class feature_extractors:
         """
 
     @staticmethod
-    def hull_volume(motion: Motion) -> Features:
+    def hull_volume(motion: MotionLike, *, rate: Optional[float] = None) -> Features:
         """hull_volume (feature extractor, from motionlab-features)
 
         Per-frame volume of the 3-D convex hull of all valid markers, `Vol` (mm³), and its change
@@ -728,7 +732,7 @@ class feature_extractors:
         """
 
     @staticmethod
-    def isb_joint_angles(motion: Motion, *, joints: Optional[Any] = None, sequence: Optional[str] = None, hip_centre: Optional[str] = None, shoulder_centre_drop: Optional[float] = None, left_prefix: Optional[str] = None, right_prefix: Optional[str] = None, absent_markers: Optional[str] = None) -> Features:
+    def isb_joint_angles(motion: MotionLike, *, rate: Optional[float] = None, joints: Optional[Any] = None, sequence: Optional[str] = None, hip_centre: Optional[str] = None, shoulder_centre_drop: Optional[float] = None, left_prefix: Optional[str] = None, right_prefix: Optional[str] = None, absent_markers: Optional[str] = None) -> Features:
         """isb_joint_angles (feature extractor, from motionlab-features)
 
         Joint angles in degrees from the ISB skin markers of Schreiber & Moissenet (2019)
@@ -811,7 +815,7 @@ class feature_extractors:
         """
 
     @staticmethod
-    def marker_speed(motion: Motion, *, smoothing: Optional[Any] = None, per_marker: Optional[bool] = None) -> Features:
+    def marker_speed(motion: MotionLike, *, rate: Optional[float] = None, smoothing: Optional[Any] = None, per_marker: Optional[bool] = None) -> Features:
         """marker_speed (feature extractor, from motionlab-features)
 
         Per-frame speed of every marker and the fastest-marker speed V (mm/s), with the name of the
@@ -832,7 +836,7 @@ class feature_extractors:
         """
 
     @staticmethod
-    def root_curvature(motion: Motion, *, root: Optional[str] = None, lag: Optional[Any] = None, min_leg_mm: Optional[float] = None, up_axis: Optional[str] = None) -> Features:
+    def root_curvature(motion: MotionLike, *, rate: Optional[float] = None, root: Optional[str] = None, lag: Optional[Any] = None, min_leg_mm: Optional[float] = None, up_axis: Optional[str] = None) -> Features:
         """root_curvature (feature extractor, from motionlab-features)
 
         Discrete curvature `C` of the root marker's horizontal path (Sonoda et al. §2.2, the k-cosine
@@ -859,7 +863,7 @@ class feature_extractors:
         """
 
     @staticmethod
-    def skeleton_joint_angles(motion: Motion, *, naming: Optional[str] = None) -> Features:
+    def skeleton_joint_angles(motion: MotionLike, *, rate: Optional[float] = None, naming: Optional[str] = None) -> Features:
         """skeleton_joint_angles (feature extractor, from motionlab-features)
 
         The rotation channels of a skeleton motion (BVH, ASF/AMC) as joint angles in degrees:
@@ -883,7 +887,7 @@ class segmenters:
     """Every registered segmenter, by name."""
 
     @staticmethod
-    def bocpd(motion: Motion, *, prior_mean: Optional[float] = None, prior_kappa: Optional[float] = None, prior_alpha: Optional[float] = None, prior_beta: Optional[float] = None, normalize: Optional[str] = None, model: Optional[str] = None, change_points: Optional[str] = None, drop_threshold: Optional[float] = None, truncate_below: Optional[float] = None) -> SegmenterOutput:
+    def bocpd(motion: MotionLike, *, rate: Optional[float] = None, prior_mean: Optional[float] = None, prior_kappa: Optional[float] = None, prior_alpha: Optional[float] = None, prior_beta: Optional[float] = None, normalize: Optional[str] = None, model: Optional[str] = None, change_points: Optional[str] = None, drop_threshold: Optional[float] = None, truncate_below: Optional[float] = None) -> SegmenterOutput:
         """bocpd (segmenter, from motionlab-changepoint)
 
         Bayesian online change-point detection (R. P. Adams & D. J. C. MacKay, "Bayesian Online
@@ -971,7 +975,7 @@ class segmenters:
         """
 
     @staticmethod
-    def clasp(motion: Motion, *, window: Optional[Any] = None, n_segments: Optional[Any] = None, n_estimators: Optional[int] = None, k_neighbours: Optional[int] = None, score: Optional[str] = None, early_stopping: Optional[bool] = None, validation: Optional[str] = None, threshold: Optional[float] = None, excl_radius: Optional[int] = None, random_state: Optional[int] = None) -> SegmenterOutput:
+    def clasp(motion: MotionLike, *, rate: Optional[float] = None, window: Optional[Any] = None, n_segments: Optional[Any] = None, n_estimators: Optional[int] = None, k_neighbours: Optional[int] = None, score: Optional[str] = None, early_stopping: Optional[bool] = None, validation: Optional[str] = None, threshold: Optional[float] = None, excl_radius: Optional[int] = None, random_state: Optional[int] = None) -> SegmenterOutput:
         """clasp (segmenter, from motionlab-profile)
 
         ClaSP: change points where a k-nearest-neighbour classifier best tells the windows before
@@ -1038,7 +1042,7 @@ class segmenters:
         """
 
     @staticmethod
-    def direction_change(motion: Motion, *, root: Optional[str] = None, lag: Optional[Any] = None, min_leg_mm: Optional[float] = None, c_min: Optional[float] = None, up_axis: Optional[str] = None) -> SegmenterOutput:
+    def direction_change(motion: MotionLike, *, rate: Optional[float] = None, root: Optional[str] = None, lag: Optional[Any] = None, min_leg_mm: Optional[float] = None, c_min: Optional[float] = None, up_axis: Optional[str] = None) -> SegmenterOutput:
         """direction_change (segmenter, from motionlab-segment)
 
         Candidates at the sharp turns of the root's floor-plane path (Sonoda et al. §2.2).
@@ -1099,7 +1103,7 @@ class segmenters:
         """
 
     @staticmethod
-    def external(motion: Motion, *, command: Optional[Sequence[str]] = None, timeout_s: Optional[float] = None, max_output_mb: Optional[int] = None, params: Optional[Any] = None) -> SegmenterOutput:
+    def external(motion: MotionLike, *, rate: Optional[float] = None, command: Optional[Sequence[str]] = None, timeout_s: Optional[float] = None, max_output_mb: Optional[int] = None, params: Optional[Any] = None) -> SegmenterOutput:
         """external (segmenter, from motionlab-external)
 
         Candidates from another program (Python, R, …): motionlab hands it the motion as files and reads candidate frames back as JSON.
@@ -1150,7 +1154,7 @@ class segmenters:
         """
 
     @staticmethod
-    def fastest_marker_speed(motion: Motion, *, v_high: Optional[Any] = None, v_low: Optional[Any] = None, smoothing: Optional[Any] = None) -> SegmenterOutput:
+    def fastest_marker_speed(motion: MotionLike, *, rate: Optional[float] = None, v_high: Optional[Any] = None, v_low: Optional[Any] = None, smoothing: Optional[Any] = None) -> SegmenterOutput:
         """fastest_marker_speed (segmenter, from motionlab-segment)
 
         Candidates where the whole body has stopped, found by tracking the fastest marker
@@ -1216,7 +1220,7 @@ class segmenters:
         """
 
     @staticmethod
-    def floss(motion: Motion, *, window: Optional[Any] = None, n_regimes: Optional[int] = None, cac_threshold: Optional[float] = None, excl_factor: Optional[int] = None) -> SegmenterOutput:
+    def floss(motion: MotionLike, *, rate: Optional[float] = None, window: Optional[Any] = None, n_regimes: Optional[int] = None, cac_threshold: Optional[float] = None, excl_factor: Optional[int] = None) -> SegmenterOutput:
         """floss (segmenter, from motionlab-profile)
 
         FLUSS: regime changes where few nearest-neighbour arcs cross (Gharghabi et al., "Matrix
@@ -1264,7 +1268,7 @@ class segmenters:
         """
 
     @staticmethod
-    def hull_volume_change(motion: Motion, *, t: Optional[Any] = None) -> SegmenterOutput:
+    def hull_volume_change(motion: MotionLike, *, rate: Optional[float] = None, t: Optional[Any] = None) -> SegmenterOutput:
         """hull_volume_change (segmenter, from motionlab-segment)
 
         Candidates where the volume of the body's 3-D convex hull starts to change quickly
@@ -1319,7 +1323,7 @@ class segmenters:
         """
 
     @staticmethod
-    def kernel_cpd(motion: Motion, *, search: Optional[str] = None, cost: Optional[str] = None, pen: Optional[float] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
+    def kernel_cpd(motion: MotionLike, *, rate: Optional[float] = None, search: Optional[str] = None, cost: Optional[str] = None, pen: Optional[float] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
         """kernel_cpd (segmenter, from motionlab-changepoint)
 
         Change points that minimise a segment cost plus a penalty per change (PELT), or found by
@@ -1398,7 +1402,7 @@ class segmenters:
         """
 
     @staticmethod
-    def pca_error_rise(motion: Motion, *, initial: Optional[Any] = None, lag: Optional[Any] = None, step: Optional[Any] = None, variance_kept: Optional[float] = None, k_sigma: Optional[float] = None) -> SegmenterOutput:
+    def pca_error_rise(motion: MotionLike, *, rate: Optional[float] = None, initial: Optional[Any] = None, lag: Optional[Any] = None, step: Optional[Any] = None, variance_kept: Optional[float] = None, k_sigma: Optional[float] = None) -> SegmenterOutput:
         """pca_error_rise (segmenter, from motionlab-segment)
 
         Baseline change-point detector: PCA reconstruction-error rise (Barbič, Safonova, Pan,
@@ -1440,7 +1444,7 @@ class segmenters:
         """
 
     @staticmethod
-    def speed_minima(motion: Motion, *, v_low: Optional[Any] = None, smoothing: Optional[Any] = None) -> SegmenterOutput:
+    def speed_minima(motion: MotionLike, *, rate: Optional[float] = None, v_low: Optional[Any] = None, smoothing: Optional[Any] = None) -> SegmenterOutput:
         """speed_minima (segmenter, from motionlab-segment)
 
         Candidates at every local minimum of the fastest-marker speed V that lies under a threshold.
@@ -1491,7 +1495,7 @@ class segmenters:
         """
 
     @staticmethod
-    def window(motion: Motion, *, width: Optional[int] = None, cost: Optional[str] = None, pen: Optional[float] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
+    def window(motion: MotionLike, *, rate: Optional[float] = None, width: Optional[int] = None, cost: Optional[str] = None, pen: Optional[float] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
         """window (segmenter, from motionlab-changepoint)
 
         Change points at the peaks of a sliding-window discrepancy: at each sample k on the grid of
@@ -1552,7 +1556,7 @@ class fusers:
     """Every registered fuser, by name."""
 
     @staticmethod
-    def union_merge(motion: Motion, candidates: Mapping[str, Any], *, root: Optional[str] = None, merge_mm: Optional[float] = None, representative: Optional[str] = None) -> np.ndarray:
+    def union_merge(motion: MotionLike, candidates: Mapping[str, Any], *, rate: Optional[float] = None, root: Optional[str] = None, merge_mm: Optional[float] = None, representative: Optional[str] = None) -> np.ndarray:
         """union_merge (fuser, from motionlab-segment)
 
         Union of every method's candidates, merging those between which the root moves less than
@@ -1611,7 +1615,7 @@ class point_detectors:
     """Every registered point detector, by name."""
 
     @staticmethod
-    def velocity_peaks(motion: Motion, *, marker: Optional[str] = None, count: Optional[int] = None, before: Optional[Any] = None, after: Optional[Any] = None, smoothing: Optional[Any] = None) -> Dict[str, Any]:
+    def velocity_peaks(motion: MotionLike, *, rate: Optional[float] = None, marker: Optional[str] = None, count: Optional[int] = None, before: Optional[Any] = None, after: Optional[Any] = None, smoothing: Optional[Any] = None) -> PointDetection:
         """velocity_peaks (point detector, from motionlab-match)
 
         One point per repetition at the velocity peaks of one marker, a window around each (§3.1.1).
@@ -1659,7 +1663,7 @@ class matchers:
     """Every registered matcher, by name."""
 
     @staticmethod
-    def multistream_two_stage(model: Motion, target: Motion, *, points: Optional[Any] = None, keep_paths: Optional[bool] = None) -> Dict[str, Any]:
+    def multistream_two_stage(model: MotionLike, target: MotionLike, *, rate: Optional[float] = None, points: Optional[Any] = None, keep_paths: Optional[bool] = None) -> Alignment:
         """multistream_two_stage (matcher, from motionlab-match)
 
         Two-stage DP matching over all markers with one common stretch `[a, b]` (Yabe & Tanaka §3.1.3).
@@ -1706,7 +1710,7 @@ class matchers:
         """
 
     @staticmethod
-    def subsequence_dp(model: Motion, target: Motion, *, marker: Optional[str] = None) -> Dict[str, Any]:
+    def subsequence_dp(model: MotionLike, target: MotionLike, *, rate: Optional[float] = None, marker: Optional[str] = None) -> Alignment:
         """subsequence_dp (matcher, from motionlab-match)
 
         Single-stream subsequence DP of one marker, free start and free end (Yabe & Tanaka §3.1.2).
@@ -1741,7 +1745,7 @@ class synchronisers:
     """Every registered synchroniser, by name."""
 
     @staticmethod
-    def synchronisation(alignment: Mapping[str, Any], model_frames: int, *, k: Optional[int] = None, tie: Optional[str] = None) -> Dict[str, Any]:
+    def synchronisation(alignment: Union[Alignment, Mapping[str, Any]], model_frames: int, *, k: Optional[int] = None, tie: Optional[str] = None) -> Synchronisation:
         """synchronisation (synchroniser, from motionlab-match)
 
         Synchronisation of the markers along a two-stage alignment (Yabe & Tanaka §3.2).
@@ -1781,7 +1785,7 @@ class gait_cycle_detectors:
     """Every registered gait cycle detector, by name."""
 
     @staticmethod
-    def c3d_events(motion: Motion, *, side: Optional[str] = None, strike_label: Optional[str] = None, left_context: Optional[str] = None, right_context: Optional[str] = None) -> List[Dict[str, Any]]:
+    def c3d_events(motion: MotionLike, *, rate: Optional[float] = None, side: Optional[str] = None, strike_label: Optional[str] = None, left_context: Optional[str] = None, right_context: Optional[str] = None) -> List[GaitCycle]:
         """c3d_events (gait-cycle detector, from motionlab-features)
 
         Gait cycles from the foot-strike events stored in the file (C3D `EVENT` group): each cycle
@@ -1809,7 +1813,7 @@ class gait_cycle_detectors:
         """
 
     @staticmethod
-    def heel_height(motion: Motion, *, left_heel: Optional[str] = None, right_heel: Optional[str] = None, side: Optional[str] = None, contact_fraction: Optional[float] = None, swing_fraction: Optional[float] = None, min_rise_mm: Optional[float] = None, smoothing: Optional[Any] = None, rule: Optional[str] = None, strike_speed_mm_per_s: Optional[float] = None) -> List[Dict[str, Any]]:
+    def heel_height(motion: MotionLike, *, rate: Optional[float] = None, left_heel: Optional[str] = None, right_heel: Optional[str] = None, side: Optional[str] = None, contact_fraction: Optional[float] = None, swing_fraction: Optional[float] = None, min_rise_mm: Optional[float] = None, smoothing: Optional[Any] = None, rule: Optional[str] = None, strike_speed_mm_per_s: Optional[float] = None) -> List[GaitCycle]:
         """heel_height (gait-cycle detector, from motionlab-features)
 
         Gait cycles from foot strikes found in the heel marker's trajectory — the fallback for files
@@ -1870,7 +1874,7 @@ class waveform_analyzers:
     """Every registered waveform analyzer, by name."""
 
     @staticmethod
-    def waveform_parameters(curves: Mapping[str, Any], cycles: Sequence[Mapping[str, Any]], *, amplitude: Optional[str] = None, points: Optional[int] = None) -> Dict[str, Any]:
+    def waveform_parameters(curves: Union[AngleCurves, Mapping[str, Any]], cycles: Sequence[Union[GaitCycle, Mapping[str, Any]]], *, amplitude: Optional[str] = None, points: Optional[int] = None) -> WaveformParameters:
         """waveform_parameters (waveform analyzer, from motionlab-features)
 
         Posture, size and speed of each angle channel of a walk (Osafune et al. §2.2), averaged
@@ -1907,7 +1911,7 @@ class walk_synthesizers:
     """Every registered walk synthesizer, by name."""
 
     @staticmethod
-    def feature_channel_control(walk: Mapping[str, Any], cycles: Sequence[Mapping[str, Any]], changes: Mapping[str, Any], *, interpolation: Optional[str] = None, channel_map: Optional[Any] = None) -> Dict[str, Any]:
+    def feature_channel_control(walk: Union[AngleCurves, Mapping[str, Any]], cycles: Sequence[Union[GaitCycle, Mapping[str, Any]]], changes: Mapping[str, Any], *, interpolation: Optional[str] = None, channel_map: Optional[Any] = None) -> AngleCurves:
         """feature_channel_control (walk synthesizer, from motionlab-gait)
 
         Synthesises a changed walk from a normal one by controlling only the feature channels
@@ -1949,7 +1953,7 @@ class evaluators:
     """Every registered evaluator, by name."""
 
     @staticmethod
-    def boundary_metrics(results: Any, *, tolerances: Optional[Any] = None, margin: Optional[Any] = None, chance_draws: Optional[int] = None, chance_seed: Optional[int] = None, pandas: bool = False) -> Dict[str, Any]:
+    def boundary_metrics(results: Any, *, tolerances: Optional[Any] = None, margin: Optional[Any] = None, chance_draws: Optional[int] = None, chance_seed: Optional[int] = None, pandas: bool = False) -> Evaluation:
         """boundary_metrics (evaluator, from motionlab-eval)
 
         The metrics people compare change-point detectors with, beside `boundary_pr`'s Table 1.
@@ -1998,7 +2002,7 @@ class evaluators:
         """
 
     @staticmethod
-    def boundary_pr(results: Any, *, tolerance: Optional[Any] = None, use_windows: Optional[bool] = None, pose_mm: Optional[Any] = None, pose_max_gap: Optional[Any] = None, root: Optional[str] = None, claim_against: Optional[Any] = None, span: Optional[str] = None, chance_draws: Optional[int] = None, chance_seed: Optional[int] = None, pandas: bool = False) -> Dict[str, Any]:
+    def boundary_pr(results: Any, *, tolerance: Optional[Any] = None, use_windows: Optional[bool] = None, pose_mm: Optional[Any] = None, pose_max_gap: Optional[Any] = None, root: Optional[str] = None, claim_against: Optional[Any] = None, span: Optional[str] = None, chance_draws: Optional[int] = None, chance_seed: Optional[int] = None, pandas: bool = False) -> Evaluation:
         """boundary_pr (evaluator, from motionlab-eval)
 
         Precision, recall and F1 of each method against the ground truth, per sequence and pooled
@@ -2088,7 +2092,7 @@ class evaluators:
         """
 
     @staticmethod
-    def change_rates(results: Any, *, max_abs_cv_pct: Optional[float] = None, min_abs_normal_dc_deg: Optional[float] = None, min_normal_amplitude_deg: Optional[float] = None, min_subjects: Optional[int] = None, pandas: bool = False) -> Dict[str, Any]:
+    def change_rates(results: Any, *, max_abs_cv_pct: Optional[float] = None, min_abs_normal_dc_deg: Optional[float] = None, min_normal_amplitude_deg: Optional[float] = None, min_subjects: Optional[int] = None, pandas: bool = False) -> Evaluation:
         """change_rates (evaluator, from motionlab-gait)
 
         Change rates of every channel from the normal walk to each other condition, their mean,
@@ -2134,7 +2138,7 @@ class evaluators:
         """
 
     @staticmethod
-    def human_agreement(results: Any, *, tolerances: Optional[Any] = None, chance_draws: Optional[int] = None, chance_seed: Optional[int] = None, pandas: bool = False) -> Dict[str, Any]:
+    def human_agreement(results: Any, *, tolerances: Optional[Any] = None, chance_draws: Optional[int] = None, chance_seed: Optional[int] = None, pandas: bool = False) -> Evaluation:
         """human_agreement (evaluator, from motionlab-eval)
 
         Human agreement as the ceiling of boundary detection: when a sequence's ground truth comes
@@ -2189,7 +2193,7 @@ class evaluators:
         """
 
     @staticmethod
-    def judgement(results: Any, *, pandas: bool = False) -> Dict[str, Any]:
+    def judgement(results: Any, *, pandas: bool = False) -> Evaluation:
         """judgement (evaluator, from motionlab-match)
 
         Similar/dissimilar judgement of each repetition, and the user's tendencies (§4.1–4.2).
@@ -2218,7 +2222,7 @@ class evaluators:
         """
 
     @staticmethod
-    def transitions(results: Any, *, tolerance: Optional[Any] = None, method: Optional[str] = None, use_windows: Optional[bool] = None, pandas: bool = False) -> Dict[str, Any]:
+    def transitions(results: Any, *, tolerance: Optional[Any] = None, method: Optional[str] = None, use_windows: Optional[bool] = None, pandas: bool = False) -> Evaluation:
         """transitions (evaluator, from motionlab-eval)
 
         Table 3 of Sonoda et al.: every transition between consecutive labelled steps of the ground
