@@ -512,22 +512,26 @@ def compare(ours, theirs, who):
 N_C3D_FILES = 72
 
 # Malformed fixtures (tests/fixtures/malformed/) where a peer reads other numbers than
-# motionlab's lenient reading, each with the start of the exact difference expected and why it
-# is not motionlab's error. Any other difference on a malformed file fails.
+# motionlab's lenient reading: {file: {reader: (start of the exact difference expected, why it
+# is not motionlab's error)}}. Any other difference on a malformed file fails. None at present:
+# every peer that reads a malformed file motionlab loads agrees with it.
 MALFORMED_DIFFERS = {}
 
 
 def check(binary, broken=None):
     """The failures (empty: every file agrees). `broken` spoils one input on purpose (the
     self-test): "drop" loses motionlab's reading of one file, "cell" moves one of its
-    coordinates by 1 mm, "exception" forgets the documented malformed exceptions."""
+    coordinates by 1 mm, "malformed" does so in a malformed file motionlab reads, "exception"
+    forgets the documented malformed exceptions (when there are any)."""
     files = repository_c3d_files()
     loaded, refused = motionlab_read(binary, files)
     differs = {} if broken == "exception" else MALFORMED_DIFFERS
     if broken == "drop":
         loaded.pop(next(iter(loaded)))
-    if broken == "cell":
-        path = next(p for p in files if p in loaded and "malformed" not in p)
+    if broken in ("cell", "malformed"):
+        # A coordinate of a well-formed file, or of a malformed one read leniently (which
+        # the check compared with nothing before issue 34).
+        path = next(p for p in files if p in loaded and (("malformed" in p) == (broken == "malformed")))
         xyz = loaded[path]["positions"]
         i, j = np.argwhere(~np.isnan(xyz[:, :, 0]))[0]
         xyz[i, j, 0] += 1.0
@@ -604,7 +608,7 @@ def check(binary, broken=None):
 
 def self_test(binary):
     """Each deliberately broken input must fail the check."""
-    for broken in ("drop", "cell", "exception"):
+    for broken in ("drop", "cell", "malformed", "exception"):
         if broken == "exception" and not MALFORMED_DIFFERS:
             continue
         failures = check(binary, broken)

@@ -369,13 +369,19 @@ def warm_up():
 def self_test(data, binary, args):
     """Each deliberately broken input must fail: ours' profile moved by 1e-6 at a position no
     twin group spans, a result dropped, a profile one value short, the CAC moved by 1e-6, the
-    threshold reference run at another threshold. On Ham (twin windows: the waiver applies and
-    must not cover the perturbed position) and one random series."""
+    threshold reference run at another threshold. On a random walk with twin windows (samples
+    100–160 copied to 500–560: the waiver's groups span positions 101–560 and must not cover the
+    perturbed one) and one more random walk. (Ham's twin groups span 5,860 of its 5,861
+    positions — the series is two copies of one — so it leaves no position to perturb.)"""
     global BROKEN
+    rng = np.random.default_rng(7)
+    walk = rng.standard_normal(800).cumsum()
+    walk[500:560] = walk[100:160]
+    data = dict(data, twin_walk=(walk, 10, [400]))
     for broken in ("perturb", "drop", "shape", "cac", "threshold"):
         BROKEN = broken
         try:
-            failures, _ = run(data, ["Ham"], [], 1, binary, args)
+            failures, _ = run(data, ["twin_walk"], [], 1, binary, args)
         except Mismatch as e:
             failures = [str(e)]
         if not failures:
@@ -394,7 +400,7 @@ def main():
     ap.add_argument("--multichannel", nargs="*", default=["ArrowHead"], help="series also compared as two channels (with their differences)")
     ap.add_argument("--random", type=int, default=4, help="random series for the matrix profile / FLUSS checks")
     ap.add_argument("--json", default=None, help="write per-series results here")
-    ap.add_argument("--self-test", action="store_true", help="broken inputs must fail (Ham and one random series)")
+    ap.add_argument("--self-test", action="store_true", help="broken inputs must fail (two random walks, one with twin windows)")
     args = ap.parse_args()
 
     data = load_tssb()
