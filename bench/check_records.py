@@ -140,7 +140,8 @@ def self_test(records, fresh):
         shutil.copytree(fresh, copy)
         experiment = sorted(e for e in os.listdir(records) if os.path.isdir(os.path.join(records, e, "record", "tables")))[0]
         tables = os.path.join(fresh_run(copy, experiment), "tables")
-        table = os.path.join(tables, sorted(n for n in os.listdir(tables) if n.endswith(".csv"))[0])
+        recorded = os.listdir(os.path.join(records, experiment, "record", "tables"))
+        table = os.path.join(tables, sorted(n for n in recorded if n.endswith(".csv"))[0])
         if kind == "cell":  # one digit of the last cell of the second line changed
             lines = open(table).read().split("\n")
             last = lines[1].rstrip()
