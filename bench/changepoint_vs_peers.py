@@ -101,8 +101,9 @@ def ruptures_run(seg, x, params, pen):
     return [int(b) for b in bkps], gamma
 
 
-def bic_penalty(x, cost):
-    """The documented BIC-style penalty, from its formula."""
+def bic_penalty(x, cost, ar_order=4):
+    """The documented BIC-style penalty, from its formula (the ar cost's residuals from
+    ruptures' own CostAR of that order, so no number of ours goes into it)."""
     x = np.asarray(x, dtype=float).reshape(len(x), -1)
     n = len(x)
     if cost == "l2":
@@ -110,8 +111,8 @@ def bic_penalty(x, cost):
     if cost == "rbf":
         return math.log(n)
     if cost == "ar":
-        c = rpt.costs.CostAR().fit(x)
-        return math.log(n) * 5 * c.error(0, n) / n
+        c = rpt.costs.CostAR(order=ar_order).fit(x)
+        return math.log(n) * (ar_order + 1) * c.error(0, n) / n
     y, X = x[:, :1], x[:, 1:]
     _, res, _, _ = np.linalg.lstsq(X, y, rcond=None)
     return math.log(n) * X.shape[1] * res.sum() / n
@@ -237,6 +238,12 @@ def tssb_ar_cases(series, searches=("Pelt", "Binseg", "Window"), normalized=True
     return cases
 
 
+def head_gamma(x):
+    """1 / the median squared distance between the first 2000 samples (NumPy)."""
+    head = np.asarray(x, dtype=float).ravel()[:2000]
+    return float(1.0 / np.median((head[:, None] - head[None, :])[np.triu_indices(len(head), 1)] ** 2))
+
+
 def tssb_cases(all_series):
     cases = []
     series = tssb_series()
@@ -248,7 +255,11 @@ def tssb_cases(all_series):
         for cost in ("l2", "rbf"):
             params = {"search": "kernel_pelt", "cost": cost}
             if cost == "rbf" and len(x) > 4000:
-                params["gamma"] = None  # filled from ours: ruptures' median needs the n² matrix
+                # ruptures' median heuristic needs the n² matrix: both are given the script's
+                # own bandwidth (the median heuristic on the first 2000 samples, in NumPy), so
+                # no number of ours reaches ruptures; the heuristic itself is compared with
+                # ruptures' on the shorter series.
+                params["gamma"] = head_gamma(x)
             cases.append((f"TSSB {name} (n {len(x)}) KernelCPD {cost} bic", "kernel_cpd", x, params))
     for name, x in short:
         for cost in ("l2", "rbf"):
@@ -261,20 +272,25 @@ def tssb_cases(all_series):
     return cases
 
 
-def check_equality(cases):
-    # Bandwidths ruptures cannot compute (too long for its n × n matrix) come from ours.
-    pending = [i for i, c in enumerate(cases) if c[3].get("gamma", 0) is None]
-    if pending:
-        probe = [job(cases[i][1], cases[i][2], {k: v for k, v in cases[i][3].items() if k != "gamma"}) for i in pending]
-        for i, r in zip(pending, ours(probe)[0]):
-            cases[i][3]["gamma"] = r["gamma"]
+def check_equality(cases, broken=None):
+    """Every case against ruptures; (failures, cases compared). `broken` spoils one input on
+    purpose (the self-test): "drop" loses our last result, "pen" hands ruptures a penalty 0.05
+    times the formula's, "bkps" moves one of our breakpoints."""
     results, _ = ours([job(seg, x, params) for _, seg, x, params in cases])
+    if broken == "drop":
+        results = results[:-1]
     failures = []
+    # One result per case, or the comparison below would silently cover fewer cases.
+    if len(results) != len(cases):
+        return [f"ruptures cases: {len(results)} results of ours for {len(cases)} cases"], 0
     families = {}
     worst_gamma = 0.0
     worst_pen = 0.0
     gamma_inexact = []
-    for (label, seg, x, params), r in zip(cases, results):
+    n_pen = n_gamma = compared = 0
+    want_gamma = sum(1 for _, seg, x, p in cases if p.get("cost", "rbf" if seg == "kernel_cpd" else "l2") == "rbf" and "gamma" not in p)
+    want_pen = sum(1 for _, _, _, p in cases if "pen" not in p and "n_bkps" not in p)
+    for i, ((label, seg, x, params), r) in enumerate(zip(cases, results, strict=True)):
         search = next(w for w in ("Pelt", "Binseg", "KernelCPD", "Window") if f" {w} " in label)
         cost = params.get("cost", "rbf" if seg == "kernel_cpd" else "l2")
         mode = "n_bkps" if "n_bkps" in params else "pen"
@@ -283,34 +299,60 @@ def check_equality(cases):
         if "error" in r:
             failures.append(f"{label}: ours failed: {r['error']}")
             continue
-        pen = r["pen"]
-        if "pen" not in params and "n_bkps" not in params and params.get("ar_order", 4) == 4:
-            want = bic_penalty(x, cost)
-            worst_pen = max(worst_pen, abs(pen - want) / want)
+        # ruptures gets the penalty the script computes from the documented formula (ruptures'
+        # own CostAR for the ar cost), never ours; ours is checked against the same formula for
+        # every cost and ar_order used.
+        if "pen" in params:
+            pen = params["pen"]
+        elif "n_bkps" in params:
+            pen = None
+        else:
+            xx = np.asarray(x, dtype=float)
+            if params.get("normalize") == "min_max":
+                xx = (xx - xx.min()) / (xx.max() - xx.min())
+            pen = bic_penalty(xx, cost, params.get("ar_order", 4))
+            worst_pen = max(worst_pen, abs(r["pen"] - pen) / pen)
+            n_pen += 1
+        if broken == "pen" and pen is not None:
+            pen = 0.05 * pen
         try:
             theirs, gamma = ruptures_run(seg, x, params, pen)
         except Exception as e:  # noqa: BLE001
             failures.append(f"{label}: ruptures raised {type(e).__name__}: {e}")
             continue
-        if gamma is not None and r["gamma"] is not None:
-            worst_gamma = max(worst_gamma, abs(r["gamma"] - gamma) / gamma)
-            if r["gamma"] != gamma:
-                gamma_inexact.append(f"{label} ({x.shape[1] if x.ndim > 1 else 1} channel(s))")
-        if theirs != r["breakpoints"]:
-            failures.append(f"{label}: ruptures {theirs} ours {r['breakpoints']}")
+        if gamma is not None and "gamma" not in params:
+            if r["gamma"] is None:
+                failures.append(f"{label}: ours reports no bandwidth")
+            else:
+                n_gamma += 1
+                worst_gamma = max(worst_gamma, abs(r["gamma"] - gamma) / gamma)
+                if r["gamma"] != gamma:
+                    gamma_inexact.append(f"{label} ({x.shape[1] if x.ndim > 1 else 1} channel(s))")
+        mine = list(r["breakpoints"])
+        if broken == "bkps" and i == len(cases) - 1:
+            mine[0] += 1
+        compared += 1
+        if theirs != mine:
+            failures.append(f"{label}: ruptures {theirs} ours {mine}")
             continue
         fam[1] += 1
     print(f"{'family':<34} {'cases':>6} {'identical':>10}")
     for fam, (n, ok) in sorted(families.items()):
         print(f"{fam:<34} {n:>6} {ok:>10}")
-    print(f"BIC penalty vs its NumPy formula: max relative difference {worst_pen:.1e}")
-    print(f"median-heuristic bandwidth vs ruptures': max relative difference {worst_gamma:.1e}; not bit-identical in: {', '.join(gamma_inexact) or 'none'}")
+    print(f"BIC penalty vs its NumPy formula ({n_pen} cases, every cost and ar_order used): max relative difference {worst_pen:.1e}")
+    print(f"median-heuristic bandwidth vs ruptures' ({n_gamma} cases): max relative difference {worst_gamma:.1e}; not bit-identical in: {', '.join(gamma_inexact) or 'none'}")
     if worst_pen > 1e-12:
         failures.append(f"BIC penalty differs from its formula by {worst_pen:.1e} (relative)")
     # scipy may sum a multichannel distance in another order: a few units in the last place.
     if worst_gamma > 1e-15:
         failures.append(f"median-heuristic bandwidth differs from ruptures' by {worst_gamma:.1e} (relative)")
-    return failures, sum(n for n, _ in families.values())
+    if compared != len(cases):
+        failures.append(f"ruptures cases: {compared} compared of {len(cases)}")
+    if n_pen != want_pen:
+        failures.append(f"BIC penalty: {n_pen} compared of {want_pen}")
+    if n_gamma != want_gamma:
+        failures.append(f"median-heuristic bandwidth: {n_gamma} compared of {want_gamma}")
+    return failures, compared
 
 
 # ---------------------------------------------------------------------------------------------
@@ -380,7 +422,7 @@ def bocpd_candidates(rows):
     return sorted(out)
 
 
-def check_bocpd():
+def check_bocpd(broken=None):
     cases = []
     for seed in range(4):
         rng = np.random.default_rng(77 + seed)
@@ -399,9 +441,14 @@ def check_bocpd():
     x = tssb_series()[0][1]  # Chinatown, 240 samples
     cases.append(("TSSB Chinatown", x, {}))
     results, _ = ours([job("bocpd", x, params, posterior=True) for _, x, params in cases])
+    if broken == "posterior":
+        results[0]["posterior"][-1][0] += 1e-6
     failures = []
+    if len(results) != len(cases):
+        return [f"bocpd: {len(results)} results of ours for {len(cases)} series"], 0
     worst = 0.0
-    for (label, x, params), r in zip(cases, results):
+    compared = n_cps = 0
+    for (label, x, params), r in zip(cases, results, strict=True):
         if "error" in r:
             failures.append(f"bocpd {label}: ours failed: {r['error']}")
             continue
@@ -425,8 +472,15 @@ def check_bocpd():
             failures.append(f"bocpd {label}: run-length posterior differs by {diff:.2e}")
         if bocpd_candidates(ref) != r["candidates"]:
             failures.append(f"bocpd {label}: change points {r['candidates']} vs the reference's {bocpd_candidates(ref)}")
-    print(f"bocpd: {len(cases)} series, run-length posterior max |difference| {worst:.1e} (<= 1e-9 required), change points identical: {not any('change points' in f for f in failures)}")
-    return failures, len(cases)
+        compared += 1
+        n_cps += len(bocpd_candidates(ref))
+    print(f"bocpd: {compared} of {len(cases)} series compared, run-length posterior (every row, full length) max |difference| {worst:.1e} "
+          f"(<= 1e-9 required), change points ({n_cps} in all) identical: {not any('change points' in f for f in failures)}")
+    if compared != len(cases):
+        failures.append(f"bocpd: {compared} series compared of {len(cases)}")
+    if n_cps == 0:
+        failures.append("bocpd: no change point was compared")
+    return failures, compared
 
 
 def import_bocd():
@@ -440,24 +494,47 @@ def import_bocd():
     return bocd
 
 
-def check_bocd_package():
-    """bocpd's bocd_package model against the bocd package, as the TSSB scripts call it."""
+# TSSB series (2,080–4,000 samples) on which the package's most probable run length climbs
+# past 250 samples: on five of them it then falls by 250 or more (6 change points in all, the
+# package's own answer), on OSULeaf it peaks at 251 and does not.
+BOCD_LONG_TSSB = ("Car", "ShapeletSim", "DistalPhalanxTW", "UWaveGestureLibraryX", "ProximalPhalanxTW", "OSULeaf")
+BOCD_MIN_CPS = 6
+
+
+def check_bocd_package(broken=None):
+    """bocpd's bocd_package model against the bocd package, as the TSSB scripts call it: the
+    run-length posterior of every sample (full length: ours, zero-padded, against the package's
+    whole belief vector) on the series whose posterior is asked for, and on every series the
+    most probable run lengths and the run-length-drop change points. The series are long enough
+    for runs of more than 250 samples, so the drop fires: the check fails unless change points
+    were compared."""
     import warnings
     from importlib.metadata import version
 
     bocd = import_bocd()
     cases = []
     rng = np.random.default_rng(31)
-    cases.append(("random, mean and spread changes", random_series(rng, 700, 1, 3)[:, 0]))
-    cases.append(("random AR, 2 changes", ar_series(rng, 900, 2)))
+    cases.append(("random, mean and spread changes", random_series(rng, 700, 1, 3)[:, 0], True))
+    cases.append(("random AR, 2 changes", ar_series(rng, 900, 2), True))
     for name, x in tssb_series()[:3]:
-        cases.append((f"TSSB {name}", x))
+        cases.append((f"TSSB {name}", x, True))
+    # TSSB series with runs longer than the threshold (the package's drop fires on them); the
+    # posterior of a series this long (n² / 2 numbers) is not exported, only its MAP path.
+    for name, x in tssb_series():
+        if name in BOCD_LONG_TSSB:
+            cases.append((f"TSSB {name}", x, False))
     params = {"model": "bocd_package", "normalize": "min_max", "lambda": 100.0, "change_points": "run_length_drop", "drop_threshold": 250.0}
-    results, _ = ours([job("bocpd", x, params, posterior=True) for _, x in cases])
+    results, _ = ours([job("bocpd", x, params, posterior=post) for _, x, post in cases])
+    if broken == "drop":
+        results = results[:-1]
+    if broken == "posterior":
+        results[0]["posterior"][-1][-1] += 1e-6  # the last entry: a prefix comparison would miss it
+    if len(results) != len(cases):
+        return [f"bocd package: {len(results)} results of ours for {len(cases)} series"], 0
     failures = []
     worst = 0.0
-    n_cps = 0
-    for (label, x), r in zip(cases, results):
+    n_cps = compared = n_post = 0
+    for (label, x, post), r in zip(cases, results, strict=True):
         if "error" in r:
             failures.append(f"bocd package {label}: ours failed: {r['error']}")
             continue
@@ -468,28 +545,50 @@ def check_bocd_package():
             warnings.simplefilter("ignore")
             for t, v in enumerate(xs):
                 bc.update(v)
-                belief = bc.belief
                 rt.append(int(bc.rt[0]))
-                diff = max(diff, float(np.max(np.abs(np.array(r["posterior"][t]) - belief[: len(r["posterior"][t])]))))
+                if post:
+                    belief = bc.belief
+                    mine = np.array(r["posterior"][t], dtype=float)
+                    if len(mine) > len(belief):
+                        failures.append(f"bocd package {label}: sample {t}: our posterior has {len(mine)} run lengths, the package's {len(belief)}")
+                        break
+                    full = np.zeros(len(belief))
+                    full[: len(mine)] = mine
+                    diff = max(diff, float(np.max(np.abs(full - belief))))
+        if post:
+            n_post += 1
+            if len(r["posterior"]) != len(xs):
+                failures.append(f"bocd package {label}: our posterior has {len(r['posterior'])} rows for {len(xs)} samples")
         worst = max(worst, diff)
         theirs = np.where(np.diff(np.array(rt, dtype=float)) <= -250)[0].tolist()
         n_cps += len(theirs)
+        compared += 1
         if diff > 1e-9:
             failures.append(f"bocd package {label}: run-length posterior differs by {diff:.2e}")
         if rt != r["map_run_length"]:
             failures.append(f"bocd package {label}: most probable run lengths differ")
         if theirs != r["candidates"]:
             failures.append(f"bocd package {label}: change points {r['candidates']} vs the package's {theirs}")
-    print(f"bocd {version('bocd')} package: {len(cases)} series, run-length posterior max |difference| {worst:.1e} (<= 1e-9 required), "
-          f"MAP run lengths and run-length-drop change points ({n_cps} in all) identical: {not any('differ' in f or 'change points' in f for f in failures)}")
-    return failures, len(cases)
+    print(f"bocd {version('bocd')} package: {compared} of {len(cases)} series compared ({n_post} with their full run-length posterior: "
+          f"max |difference| {worst:.1e}, <= 1e-9 required); MAP run lengths and run-length-drop change points ({n_cps} in all) "
+          f"identical: {not any('differ' in f or 'change points' in f for f in failures)}")
+    if compared != len(cases):
+        failures.append(f"bocd package: {compared} series compared of {len(cases)}")
+    if n_cps < BOCD_MIN_CPS:
+        failures.append(f"bocd package: only {n_cps} change points compared, expected at least {BOCD_MIN_CPS} (the long TSSB series')")
+    return failures, compared
 
 
 def check_inlined_exp():
     """KernelCPD's C calls glibc's exp; ours inlines it: every argument the kernel can produce."""
     r = ours([{"segmenter": "verify_exp", "stride": 1}])[0][0]
     if r["compared"] == 0:
-        print("inlined exp: not used on this machine (no glibc FMA exp); the system exp is called")
+        # Ours inlines exp only on x86-64 Linux with glibc and FMA + AVX2; where the CPU has
+        # them, nothing compared means the check did not run.
+        flags = open("/proc/cpuinfo").read().split() if os.path.exists("/proc/cpuinfo") else []
+        if "fma" in flags and "avx2" in flags:
+            return ["inlined exp: the CPU has FMA and AVX2 but no argument was compared"]
+        print("inlined exp: NOT CHECKED: not used on this machine (no FMA/AVX2); the system exp is called")
         return []
     print(f"inlined exp vs the system's on all {r['compared']:,} single-precision kernel arguments: {r['differ']} differ")
     return [f"inlined exp differs from the system's on {r['differ']} arguments"] if r["differ"] else []
@@ -498,16 +597,24 @@ def check_inlined_exp():
 # ---------------------------------------------------------------------------------------------
 # Speed.
 
-def speed(rounds):
-    print("\nrbf PELT: ours (kernel_pelt) vs ruptures' C KernelCPD(kernel='rbf'), same inputs, gamma given, "
-          f"median of {rounds} interleaved rounds; CPU time of the computing thread (wall time on a shared machine counts waits)")
+def repetitions_for(seconds_once, at_least=0.25):
+    """Repetitions so that a run of `seconds_once` lasts `at_least` seconds in all: the thread
+    CPU clock ours reads (/proc/thread-self/schedstat) moves in scheduler ticks (4 ms), so a
+    short run timed once could read 0."""
+    return max(1, math.ceil(at_least / max(seconds_once, 1e-6)))
+
+
+def speed(rounds, quick=False):
+    print(f"\nrbf PELT: ours (kernel_pelt) vs ruptures' C KernelCPD(kernel='rbf'), same inputs, gamma given, "
+          f"median of {rounds} interleaved rounds; CPU time of the computing thread (wall time on a shared machine counts waits), "
+          "each round repeated to last at least 0.25 s and divided by the repetitions")
     print(f"{'input':<28} {'n':>7} {'bkps':>5} {'ruptures CPU s':>15} {'ours CPU s':>11} {'ratio':>7} {'wall ratio':>11}")
     inputs = []
     rng = np.random.default_rng(5)
-    for n in (2000, 5000, 10000, 20000):
+    for n in (2000,) if quick else (2000, 5000, 10000, 20000):
         inputs.append(("random, 10 segments", random_series(rng, n, 1, 9)))
     for name, x in tssb_series():
-        if name in ("Crop", "Yoga", "InsectWingbeatSound", "ECG200"):
+        if name in (("Chinatown",) if quick else ("Crop", "Yoga", "InsectWingbeatSound", "ECG200")):
             inputs.append((f"TSSB {name}", x))
     totals = np.zeros(4)
     for label, x in inputs:
@@ -518,20 +625,32 @@ def speed(rounds):
         gamma = 1.0 / np.median((head[:, None] - head[None, :])[np.triu_indices(len(head), 1)] ** 2)
         pen = math.log(n)
         cpu_theirs, wall_theirs, cpu_ours, wall_ours = [], [], [], []
+        params = {"search": "kernel_pelt", "cost": "rbf", "gamma": gamma, "pen": pen}
+        t0 = time.perf_counter()
+        rpt.KernelCPD(kernel="rbf", params={"gamma": gamma}).fit(x.reshape(-1, 1)).predict(pen=pen)
+        reps_theirs = repetitions_for(time.perf_counter() - t0)
+        reps_ours = repetitions_for(ours([job("kernel_cpd", x, params)])[0][0]["seconds"][0])
         for _ in range(rounds):
             t0, c0 = time.perf_counter(), time.process_time()
-            theirs = rpt.KernelCPD(kernel="rbf", params={"gamma": gamma}).fit(x.reshape(-1, 1)).predict(pen=pen)
-            cpu_theirs.append(time.process_time() - c0)
-            wall_theirs.append(time.perf_counter() - t0)
-            r = ours([job("kernel_cpd", x, {"search": "kernel_pelt", "cost": "rbf", "gamma": gamma, "pen": pen})])[0][0]
-            cpu_ours.append(r["cpu_seconds"][0])
-            wall_ours.append(r["seconds"][0])
+            for _ in range(reps_theirs):
+                theirs = rpt.KernelCPD(kernel="rbf", params={"gamma": gamma}).fit(x.reshape(-1, 1)).predict(pen=pen)
+            cpu_theirs.append((time.process_time() - c0) / reps_theirs)
+            wall_theirs.append((time.perf_counter() - t0) / reps_theirs)
+            r = ours([job("kernel_cpd", x, params, repeats=reps_ours)])[0][0]
+            if len(r["cpu_seconds"]) != reps_ours or None in r["cpu_seconds"]:
+                sys.exit(f"speed input {label}: ours gave {r['cpu_seconds']} CPU times for {reps_ours} repetitions")
+            cpu_ours.append(sum(r["cpu_seconds"]) / reps_ours)
+            wall_ours.append(sum(r["seconds"]) / reps_ours)
             if r["breakpoints"] != [int(b) for b in theirs]:
                 sys.exit(f"speed input {label}: breakpoints differ: ruptures {theirs} ours {r['breakpoints']}")
         m = [float(np.median(v)) for v in (cpu_theirs, cpu_ours, wall_theirs, wall_ours)]
+        if min(m) <= 0:
+            sys.exit(f"speed input {label}: a timer read zero ({m}) even over {reps_theirs} / {reps_ours} repetitions")
         totals += m
         print(f"{label:<28} {n:>7} {len(theirs) - 1:>5} {m[0]:>15.3f} {m[1]:>11.3f} {m[0] / m[1]:>6.1f}× {m[2] / m[3]:>10.1f}×")
     print(f"{'all inputs (sums)':<28} {'':>7} {'':>5} {totals[0]:>15.3f} {totals[1]:>11.3f} {totals[0] / totals[1]:>6.1f}× {totals[2] / totals[3]:>10.1f}×")
+    if quick:
+        return
 
     print("\nrbf PELT on n = 100,000 samples (10 segments, one channel, median-heuristic bandwidth), one process each:")
     x = random_series(np.random.default_rng(9), 100_000, 1, 9)
@@ -571,6 +690,26 @@ def ar_speed():
         print(f"{search:<8} {'all (sums)':<24} {'':>6} {a:>11.3f} {b:>9.4f} {a / b:>7.0f}×")
 
 
+def self_test():
+    """Each deliberately broken input must fail its check: our last result dropped, ruptures
+    fed a penalty 0.05 times the formula's, one of our breakpoints moved, a posterior entry moved
+    by 1e-6 (bocpd against NumPy, and the bocd package's last run length, which a prefix
+    comparison would miss), a bocd package result dropped."""
+    few = [c for c in equality_cases(1) if " bic" in c[0] and ("Pelt" in c[0] or "Binseg" in c[0])]
+    checks = [("ruptures: drop", lambda: check_equality(list(few), "drop")),
+              ("ruptures: pen", lambda: check_equality(list(few), "pen")),
+              ("ruptures: bkps", lambda: check_equality(list(few), "bkps")),
+              ("bocpd: posterior", lambda: check_bocpd("posterior")),
+              ("bocd package: posterior", lambda: check_bocd_package("posterior")),
+              ("bocd package: drop", lambda: check_bocd_package("drop"))]
+    for what, run in checks:
+        failures, _ = run()
+        if not failures:
+            sys.exit(f"self-test: {what}: the check passed with a broken input")
+        print(f"self-test ({what}): fails as it should: {failures[0]}", flush=True)
+    print("self-test passed: every broken input failed its check")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=6)
@@ -578,22 +717,28 @@ def main():
     ap.add_argument("--speed", action="store_true")
     ap.add_argument("--ar-speed", action="store_true", help="the ar cost against ruptures, TSSB configuration")
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--speed-quick", action="store_true", help="with --speed: two short inputs only (CI: the timers must not read zero)")
+    ap.add_argument("--self-test", action="store_true", help="broken inputs must fail (a few cases; CI runs it)")
     args = ap.parse_args()
+    if args.self_test:
+        self_test()
+        return
     if args.speed:
-        speed(args.rounds)
+        speed(args.rounds, args.speed_quick)
         return
     if args.ar_speed:
         ar_speed()
         return
     t0 = time.time()
-    failures, n_cases = check_equality(equality_cases(args.seeds) + tssb_cases(args.tssb_all))
+    cases = equality_cases(args.seeds) + tssb_cases(args.tssb_all)
+    failures, n_cases = check_equality(cases)
     f2, n_bocpd = check_bocpd()
     failures += f2
     f3, n_package = check_bocd_package()
     failures += f3
     n_bocpd += n_package
     failures += check_inlined_exp()
-    print(f"{n_cases} ruptures cases and {n_bocpd} BOCPD series in {time.time() - t0:.0f} s")
+    print(f"{n_cases} of {len(cases)} ruptures cases and {n_bocpd} BOCPD series compared in {time.time() - t0:.0f} s")
     if failures:
         print(f"\n{len(failures)} FAILED:")
         for f in failures:

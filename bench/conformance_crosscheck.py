@@ -23,6 +23,7 @@ or the parameters' account of the data section (``account`` below), 16-bit integ
 scale factor or 32-bit floats (Intel, DEC, MIPS), a negative residual word = missing.
 
 Run: bench/conformance_crosscheck.py check [path/to/motionlab]
+     bench/conformance_crosscheck.py self-test [path/to/motionlab]   # broken inputs must fail
      bench/conformance_crosscheck.py reference
 """
 import gzip
@@ -505,10 +506,37 @@ def compare(ours, theirs, who):
     return problems
 
 
-def check(binary):
+# Every C3D of the repository (data/ and tests/fixtures/): the check must find and compare
+# exactly these many, so a moved folder or a glob that finds nothing fails instead of checking
+# less. Raise it with the file you add.
+N_C3D_FILES = 72
+
+# Malformed fixtures (tests/fixtures/malformed/) where a peer reads other numbers than
+# motionlab's lenient reading: {file: {reader: (start of the exact difference expected, why it
+# is not motionlab's error)}}. Any other difference on a malformed file fails. None at present:
+# every peer that reads a malformed file motionlab loads agrees with it.
+MALFORMED_DIFFERS = {}
+
+
+def check(binary, broken=None):
+    """The failures (empty: every file agrees). `broken` spoils one input on purpose (the
+    self-test): "drop" loses motionlab's reading of one file, "cell" moves one of its
+    coordinates by 1 mm, "malformed" does so in a malformed file motionlab reads, "exception"
+    forgets the documented malformed exceptions (when there are any)."""
     files = repository_c3d_files()
     loaded, refused = motionlab_read(binary, files)
-    failures, compared = [], 0
+    differs = {} if broken == "exception" else MALFORMED_DIFFERS
+    if broken == "drop":
+        loaded.pop(next(iter(loaded)))
+    if broken in ("cell", "malformed"):
+        # A coordinate of a well-formed file, or of a malformed one read leniently (which
+        # the check compared with nothing before issue 34).
+        path = next(p for p in files if p in loaded and (("malformed" in p) == (broken == "malformed")))
+        xyz = loaded[path]["positions"]
+        i, j = np.argwhere(~np.isnan(xyz[:, :, 0]))[0]
+        xyz[i, j, 0] += 1.0
+    failures, compared, files_compared = [], 0, 0
+    files_refused_as_expected = 0
     for path in files:
         name = os.path.basename(path).removesuffix(".gz")
         rel = os.path.relpath(path, ROOT)
@@ -517,8 +545,12 @@ def check(binary):
         if path in refused:
             if exp.get("reference", "") is None or malformed:
                 print(f"{rel}: refused, as {'tests/malformed.rs expects' if malformed else 'every reader does: ' + exp['why']}")
+                files_refused_as_expected += 1
             else:
                 failures.append(f"{rel}: motionlab refused it: {refused[path]}")
+            continue
+        if path not in loaded:
+            failures.append(f"{rel}: motionlab's reading is missing")
             continue
         ours = loaded[path]
         readers = {}
@@ -533,6 +565,7 @@ def check(binary):
         except Exception as e:
             readers["raw"] = f"refuses ({type(e).__name__}: {e})"
         said = []
+        agreed = 0
         for who, got in readers.items():
             expected = exp.get(who, "ok")
             if isinstance(got, str):
@@ -546,21 +579,43 @@ def check(binary):
                     failures.append(f"{rel}: {who} is documented as wrong here but agrees; update EXPECTED")
                 said.append(f"{who} wrong ({exp['why']})")
             elif problems and malformed:
-                said.append(f"{who} differs on this malformed file ({problems[0]})")
+                known = differs.get(name, {}).get(who)
+                if known and problems[0].startswith(known[0]):
+                    said.append(f"{who} differs on this malformed file as documented ({problems[0]}: {known[1]})")
+                else:
+                    failures.append(f"{rel}: {who} differs on this malformed file and MALFORMED_DIFFERS does not explain it: {problems[0]}")
             elif problems:
                 failures += [f"{rel}: {p}" for p in problems]
             else:
                 compared += int((~np.isnan(got['positions'][:, :, 0])).sum())
+                agreed += 1
                 said.append(f"{who} agrees")
         right = [w for w, g in readers.items() if not isinstance(g, str) and exp.get(w, "ok") == "ok"]
         if not right:
             failures.append(f"{rel}: no reader to check motionlab against")
+        files_compared += agreed > 0
         print(f"{rel}: {'; '.join(said)}" + (f"; repaired: {'; '.join(ours['repairs'])}" if ours["repairs"] else ""))
-    print(f"{len(files)} C3D files, {len(loaded)} loaded, {len(refused)} refused; {compared} sample comparisons with readers that read the file right")
-    if failures:
-        print("FAILED:\n  " + "\n  ".join(failures))
-        sys.exit(1)
-    print("every loaded file agrees with every reader documented as right, to float32 rounding")
+    print(f"{len(files)} C3D files, {len(loaded)} loaded, {len(refused)} refused; {files_compared} files agree with at least "
+          f"one reader documented as right; {compared} sample comparisons with readers that read the file right")
+    if len(files) != N_C3D_FILES:
+        failures.append(f"found {len(files)} C3D files, N_C3D_FILES says {N_C3D_FILES}")
+    # Every file either refused as documented or compared with a reader that reads it right.
+    if files_compared + files_refused_as_expected != N_C3D_FILES:
+        failures.append(f"{files_compared} files compared and {files_refused_as_expected} refused as documented, "
+                        f"of the {N_C3D_FILES} intended")
+    return failures
+
+
+def self_test(binary):
+    """Each deliberately broken input must fail the check."""
+    for broken in ("drop", "cell", "malformed", "exception"):
+        if broken == "exception" and not MALFORMED_DIFFERS:
+            continue
+        failures = check(binary, broken)
+        if not failures:
+            sys.exit(f"self-test: the check passed with a broken input ({broken})")
+        print(f"self-test ({broken}): fails as it should: {failures[0]}")
+    print("self-test passed: every broken input failed the check")
 
 
 def default_binary():
@@ -575,7 +630,15 @@ if __name__ == "__main__":
     cmd = sys.argv[1] if len(sys.argv) > 1 else "check"
     if cmd == "reference":
         reference()
-    elif cmd == "check":
-        check(sys.argv[2] if len(sys.argv) > 2 else default_binary())
+    elif cmd in ("check", "self-test"):
+        binary = sys.argv[2] if len(sys.argv) > 2 else default_binary()
+        if cmd == "self-test":
+            self_test(binary)
+            sys.exit(0)
+        failures = check(binary)
+        if failures:
+            print("FAILED:\n  " + "\n  ".join(failures))
+            sys.exit(1)
+        print("every loaded file agrees with every reader documented as right, to float32 rounding")
     else:
-        sys.exit("usage: conformance_crosscheck.py check [motionlab] | reference")
+        sys.exit("usage: conformance_crosscheck.py check [motionlab] | self-test [motionlab] | reference")

@@ -149,15 +149,25 @@ def ratio(num, den):
     return None if den == 0 else num / den
 
 
-def main():
-    n_general = int(sys.argv[1]) if len(sys.argv) > 1 else 400
+def compare(n_general, broken=None):
+    """Every case against the formulas; the list of failures (empty when all agree). `broken`
+    spoils one input on purpose (the self-test): "drop" loses motionlab's last result,
+    "cell" moves one of its precisions by 1e-9."""
     rng = random.Random(16)
     general = [general_case(rng) for _ in range(n_general)]
     separated = [separated_case(rng) for _ in range(300)]
-    results = motionlab(general + separated)
+    cases = general + separated
+    results = motionlab(cases)
+    if broken == "drop":
+        results = results[:-1]
+    if broken == "cell":
+        results[7]["precision"] = (results[7]["precision"] or 0.0) + 1e-9
     worst = {}
     counts = {}
     failures = []
+    # One result per case, or the comparison below would silently cover fewer cases.
+    if len(results) != len(cases):
+        return [f"motionlab returned {len(results)} results for {len(cases)} cases"]
 
     def check(metric, i, ours, theirs):
         counts[metric] = counts.get(metric, 0) + 1
@@ -170,7 +180,9 @@ def main():
         if not err <= TOL:
             failures.append((metric, i, ours, theirs))
 
-    for i, (case, res) in enumerate(zip(general + separated, results)):
+    compared = 0
+    for i, (case, res) in enumerate(zip(cases, results, strict=True)):
+        compared += 1
         truth, found, n = case["truth"], case["found"], case["n_frames"]
         m = max_matching(found, truth, case["tolerance_frames"])
         check("n_matched (Kuhn)", i, res["n_matched"], m)
@@ -190,11 +202,32 @@ def main():
             check("precision (ruptures)", i, res["precision"], p)
             check("recall (ruptures)", i, res["recall"], r)
 
-    print(f"{len(general)} general + {len(separated)} separated-truth random cases")
+    print(f"{len(general)} general + {len(separated)} separated-truth random cases: {compared} compared")
     print("| metric | cases compared | max |difference| |")
     print("|---|---:|---:|")
     for metric in counts:
         print(f"| {metric} | {counts[metric]} | {worst.get(metric, 0.0):.3g} |")
+    if compared != len(cases):
+        failures.append(f"compared {compared} of {len(cases)} cases")
+    # Every metric family must have been exercised by some case.
+    for metric in ("n_matched (Kuhn)", "hausdorff (ruptures)", "tcpd_f1", "covering", "precision (ruptures)"):
+        if counts.get(metric, 0) == 0:
+            failures.append(f"no case compared {metric}")
+    return failures
+
+
+def main():
+    args = sys.argv[1:]
+    if args[:1] == ["--self-test"]:
+        # Each deliberately broken input must fail the comparison.
+        for broken in ("drop", "cell"):
+            failures = compare(50, broken)
+            if not failures:
+                sys.exit(f"self-test: the comparison passed with a broken input ({broken})")
+            print(f"self-test ({broken}): fails as it should: {failures[0]}")
+        print("self-test passed: every broken input failed the check")
+        return
+    failures = compare(int(args[0]) if args else 400)
     if failures:
         for f in failures[:10]:
             print("MISMATCH", f)

@@ -596,8 +596,10 @@ mod tests {
         gap[100..140].fill(f64::NAN);
         assert!(pkg.run(&gap, 1).unwrap().candidates.is_empty());
         // The package's own result on zeros, which its update gives no evidence of the run: the
-        // most probable run length climbs to 196 and falls to 11 (the bocd 0.1.2 package gives
-        // the same drop at sample 195), so a threshold under 185 reports it.
+        // most probable run length climbs to 196 and falls to 11, so a threshold under 185
+        // reports it. The tuple is the bocd 0.1.2 package's own answer, computed by
+        // bench/bocd_package_snapshot.py (CI runs it: it fails unless the package gives
+        // exactly the tuple asserted here).
         let p: BocpdParams = toml::from_str("model = \"bocd_package\"\nnormalize = \"min_max\"\nchange_points = \"run_length_drop\"\ndrop_threshold = 20.0").unwrap();
         let run = p.check().unwrap().run(&[3.0; 300], 1).unwrap();
         assert_eq!(

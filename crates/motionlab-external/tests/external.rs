@@ -53,6 +53,11 @@ fn load(loader: &str, file: &str) -> Motion {
 fn test_python(test: &str) -> Option<PathBuf> {
     match std::env::var_os("MOTIONLAB_TEST_PYTHON") {
         Some(p) if !p.is_empty() => Some(PathBuf::from(p)),
+        _ if std::env::var_os("MOTIONLAB_CI").is_some() => {
+            panic!(
+                "{test}: MOTIONLAB_CI is set (nothing may skip) but MOTIONLAB_TEST_PYTHON is not"
+            )
+        }
         _ => {
             println!(
                 "SKIPPED {test}: set MOTIONLAB_TEST_PYTHON to a python with numpy (examples/external-segmenter/setup_venv.sh prints one)"
@@ -285,6 +290,10 @@ fn python3() -> Option<&'static str> {
         .status()
         .is_ok_and(|s| s.success());
     if !found {
+        assert!(
+            std::env::var_os("MOTIONLAB_CI").is_none(),
+            "protocol probe: no python3 on PATH, and MOTIONLAB_CI forbids skipping"
+        );
         println!("SKIPPED protocol probe: no python3 on PATH");
     }
     found.then_some("python3")
