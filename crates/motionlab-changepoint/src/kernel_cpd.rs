@@ -112,9 +112,10 @@ pub enum Search {
 /// al. 2011: both rescaled to [0, 1] over the path, the point farthest below the chord joining
 /// its ends; with fewer than three segmentations, the one with fewest change points), `bic`
 /// (the one optimal at the BIC-style penalty below, or at the nearer end of the range) or
-/// `widest` (the one optimal over the widest span of log-penalty). The run's path is a table of
-/// the workflow (`penalty_path`) and a figure (cost against number of change points, the
-/// chosen one marked).
+/// `widest` (the one optimal over the widest span of log-penalty). The ends of the range may
+/// be `"bic"` (the BIC-style penalty below) and `"whole_cost"` (the cost of the whole series
+/// as one segment, where the path reaches no change). The whole path, as a table: Python's
+/// `motionlab.penalty_path(values, path, choose, …)`.
 ///
 /// **Degenerate inputs.** Missing samples (NaN) are refused (one error naming the first; fill
 /// them first with `fill_gaps`). A constant series has no change: no candidates when stopping
@@ -176,11 +177,34 @@ pub struct KernelCpdParams {
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PenaltyPath {
-    /// The lowest and highest penalty per change, in the cost's units (0 < min < max).
-    pub path: [f64; 2],
+    /// The lowest and highest penalty per change: numbers in the cost's units (0 < min < max),
+    /// or `"bic"` (the BIC-style penalty of the series) and `"whole_cost"` (the cost of the
+    /// whole series as one segment: at that penalty no change pays, so a path ending there
+    /// reaches the segmentation without change).
+    pub path: [PathEnd; 2],
     /// The rule that picks the segmentation on the path: `elbow`, `bic` or `widest`.
     #[serde(default)]
     pub choose: PathChoice,
+}
+
+/// One end of a penalty path: a number, or a penalty computed from the series.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize, JsonSchema)]
+#[serde(untagged)]
+pub enum PathEnd {
+    /// A penalty in the cost's units.
+    Value(f64),
+    /// `"bic"` or `"whole_cost"`.
+    Named(NamedPenalty),
+}
+
+/// A penalty computed from the series.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum NamedPenalty {
+    /// The BIC-style penalty described above.
+    Bic,
+    /// The cost of the whole series as one segment.
+    WholeCost,
 }
 
 fn default_search() -> Search {
@@ -204,7 +228,7 @@ pub enum StopRule {
     Bic,
     /// Every optimal segmentation for a penalty in `[pen_min, pen_max]` (CROPS), and the one
     /// `choose` picks.
-    Path { pen_min: f64, pen_max: f64, choose: PathChoice },
+    Path { pen_min: PathEnd, pen_max: PathEnd, choose: PathChoice },
 }
 
 /// The validated `kernel_cpd` stage.
@@ -265,11 +289,14 @@ impl ParamGuard for KernelCpdParams {
                     ));
             }
             let [lo, hi] = spec.path;
-            if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo) {
+            let bad = |v: PathEnd| matches!(v, PathEnd::Value(x) if !(x.is_finite() && x > 0.0));
+            let reversed =
+                matches!((lo, hi), (PathEnd::Value(a), PathEnd::Value(b)) if a >= b) || lo == hi;
+            if bad(lo) || bad(hi) || reversed {
                 return Err(Error::new(
                     ErrorKind::OutOfRange,
                     format!(
-                        "penalty.path is [{lo}, {hi}], expected finite penalties 0 < min < max"
+                        "penalty.path is [{lo:?}, {hi:?}], expected finite penalties 0 < min < max"
                     ),
                 )
                 .with_field("penalty.path"));
@@ -557,10 +584,14 @@ impl KernelCpd {
                 .with_field("n_bkps"));
             }
             if let StopRule::Path { pen_min, pen_max, .. } = self.stop {
-                // Every penalty gives the one segment, at no cost.
+                // Every penalty gives the one segment, at no cost (a named end: 0).
+                let value = |e: PathEnd| match e {
+                    PathEnd::Value(v) => v,
+                    PathEnd::Named(_) => 0.0,
+                };
                 result.path = Some(vec![PathSegmentation {
-                    pen_min,
-                    pen_max,
+                    pen_min: value(pen_min),
+                    pen_max: value(pen_max),
                     breakpoints: vec![n],
                     cost: 0.0,
                 }]);
@@ -588,6 +619,19 @@ impl KernelCpd {
         result.pen = pen;
         if let StopRule::Path { pen_min, pen_max, choose } = self.stop {
             let bic_pen = bic();
+            let resolve = |end: PathEnd| match end {
+                PathEnd::Value(v) => v,
+                PathEnd::Named(NamedPenalty::Bic) => bic_pen,
+                PathEnd::Named(NamedPenalty::WholeCost) => self.whole_cost(signal, gamma, ar_order),
+            };
+            let (pen_min, pen_max) = (resolve(pen_min), resolve(pen_max));
+            if !(pen_min.is_finite() && pen_min > 0.0 && pen_max > pen_min) {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("{STAGE}: the penalty path resolves to [{pen_min}, {pen_max}] on this series (BIC-style penalty {bic_pen}), expected 0 < min < max"),
+                )
+                .with_field("penalty.path"));
+            }
             let path = self.penalty_path(signal, gamma, ar_order, min_size, pen_min, pen_max);
             let chosen = crops::choose(&path, choose, bic_pen);
             result.breakpoints = path[chosen].breakpoints.clone();
@@ -674,6 +718,29 @@ impl KernelCpd {
             }
         }
         Ok(result)
+    }
+
+    /// The cost of the whole series as one segment, as this stage's search computes costs.
+    fn whole_cost(&self, signal: Signal, gamma: Option<f64>, ar_order: usize) -> f64 {
+        let n = signal.n_samples;
+        match (self.search, self.cost) {
+            (Search::KernelPelt, _) => {
+                let kernel = match gamma {
+                    Some(gamma) => CKernel::Gaussian { gamma },
+                    None => CKernel::Linear,
+                };
+                kernel_pelt::whole_cost(&signal, kernel)
+            }
+            (_, CostModel::L2) => L2Cost::new(&signal).error(0, n),
+            (_, CostModel::Linear) => LinearCost::new(signal).error(0, n),
+            (_, CostModel::Ar) => ArDesign::new(signal.values, ar_order).fit(0, n).cost(),
+            (_, CostModel::Rbf) => {
+                let mut costs = RbfEndCosts::new(signal, gamma.unwrap_or(1.0), self.jump);
+                let mut out = Vec::new();
+                pelt::EndCosts::costs(&mut costs, n, &[0], &mut out);
+                out[0]
+            }
+        }
     }
 
     /// CROPS over this stage's PELT search (the caller has checked the series and the range).
@@ -997,6 +1064,23 @@ mod tests {
             assert_eq!(e.location().field.as_deref(), Some(field), "{text}: {e}");
         }
         assert!(params("penalty = { path = [1.0, 2.0], choose = \"knee\" }").is_err());
+        // Named ends: from the BIC-style penalty to the whole series' cost, the path ends at
+        // no change and starts at what PELT finds at the BIC penalty.
+        for search in ["pelt", "kernel_pelt"] {
+            let base = format!("search = \"{search}\"\ncost = \"l2\"");
+            let named =
+                params(&format!("{base}\npenalty = {{ path = [\"bic\", \"whole_cost\"] }}"))
+                    .unwrap()
+                    .run(&x, 1)
+                    .unwrap();
+            let path = named.path.unwrap();
+            assert_eq!(path[0].n_changes(), 0, "{search}");
+            let at_bic = params(&base).unwrap().run(&x, 1).unwrap();
+            assert_eq!(path.last().unwrap().breakpoints, at_bic.breakpoints, "{search}");
+            assert_eq!(path.last().unwrap().pen_min, at_bic.pen.unwrap());
+        }
+        assert!(params("penalty = { path = [\"bic\", \"bic\"] }").is_err());
+        assert!(params("penalty = { path = [\"bic\", \"whole\"] }").is_err());
     }
 
     #[test]

@@ -204,6 +204,22 @@ unsafe fn candidate_totals_avx2(
     candidate_totals_body(m_v, d, s, position, t, lo, hi, beta, m_pruning)
 }
 
+/// The cost of the whole series as one segment under ruptures' C kernel: `D[n] − S[0]/n`.
+pub(crate) fn whole_cost(signal: &Signal, k: CKernel) -> f64 {
+    let n = signal.n_samples;
+    let mut s = vec![0.0; n + 1];
+    let mut d = 0.0;
+    let mut row = Vec::new();
+    for t in 1..=n {
+        let xt = signal.row(t - 1);
+        let diag = kernel(k, xt, xt);
+        d += diag;
+        kernel_row(signal, k, t, 0, false, &mut row);
+        update_running_sums(&row, 0, diag, &mut s);
+    }
+    d - s[0] / n as f64
+}
+
 /// Breakpoints (segment ends, the last being n) as `KernelCPD.predict(pen=beta)`; the caller
 /// has checked `n ≥ 2·min_size` (ruptures' sanity check for this search).
 pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usize) -> Vec<usize> {
