@@ -10,7 +10,9 @@
 //! `{"segmenter": "verify_exp", "stride": 1}` compares the rbf kernel's inlined `exp` with the
 //! system's on every single-precision argument (`{"differ", "compared"}`).
 //! Output: one object per job, `{"breakpoints": [..] (ruptures' convention: ends, the last
-//! n), "candidates": [..], "pen", "gamma", "posterior" (bocpd, when asked), "seconds": [..]
+//! n), "candidates": [..], "pen", "gamma", "path": [{"pen_min", "pen_max", "breakpoints",
+//! "cost"}, ..] and "chosen", "bic_pen" (kernel_cpd with `penalty = {path = [..]}`),
+//! "posterior" (bocpd, when asked), "seconds": [..]
 //! (wall time of each repeat, parsing excluded), "cpu_seconds": [..] (the thread's CPU time)}` or `{"error": "…"}`; then
 //! `{"peak_rss_kib": …}` (the process's peak resident set, from /proc/self/status).
 //!
@@ -74,7 +76,18 @@ fn run_job(job: &Value) -> Result<Value, String> {
                     .map_err(|e| e.to_string())?;
                 let run = stage.run(&values, n_channels).map_err(|e| e.to_string())?;
                 let n = values.len() / n_channels;
-                json!({"breakpoints": run.breakpoints, "candidates": run.breakpoints.iter().filter(|&&b| b < n).collect::<Vec<_>>(), "pen": run.pen, "gamma": run.gamma})
+                let mut o = json!({"breakpoints": run.breakpoints, "candidates": run.breakpoints.iter().filter(|&&b| b < n).collect::<Vec<_>>(), "pen": run.pen, "gamma": run.gamma});
+                if let Some(path) = &run.path {
+                    // Penalties as exact bits too: the comparison is to 1e-9, the bits show more.
+                    o["path"] = json!(
+                        path.iter()
+                            .map(|p| json!({"pen_min": p.pen_min, "pen_max": p.pen_max, "breakpoints": p.breakpoints, "cost": p.cost}))
+                            .collect::<Vec<_>>()
+                    );
+                    o["chosen"] = json!(run.chosen);
+                    o["bic_pen"] = json!(run.bic_pen);
+                }
+                o
             }
             "window" => {
                 let stage = serde_json::from_value::<WindowParams>(params.clone())

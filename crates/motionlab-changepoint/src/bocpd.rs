@@ -5,7 +5,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
-use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, Trace};
+use motionlab_core::{Error, ErrorKind, Result, SegmenterOutput, TimeSpan, Trace};
 
 use crate::signal::{Missing, Normalize, Signal};
 
@@ -66,6 +66,11 @@ pub struct BocpdParams {
     /// Expected segment length λ in samples (the hazard is 1/λ, ≥ 1); TCPDBench's value.
     #[serde(default = "default_lambda")]
     pub lambda: f64,
+    /// Expected segment length in frames or seconds (`{ seconds = 10.0 }`), replacing `lambda`
+    /// when given: the hazard is 1/(that length in samples at the data's rate, at least 1), so
+    /// one setting means the same at 1 Hz and at 120 Hz.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expected_segment: Option<TimeSpan>,
     /// Prior mean μ₀ of each channel, in normalised units when `normalize` rescales.
     #[serde(default)]
     pub prior_mean: f64,
@@ -138,7 +143,10 @@ pub enum BocpdChangePoints {
 /// The validated `bocpd` stage.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bocpd {
+    /// The constant hazard 1/λ (NaN until `at_rate` resolves an expected segment in seconds).
     pub hazard: f64,
+    /// The expected segment length given in seconds, resolved by `at_rate`.
+    pub expected_segment_s: Option<f64>,
     pub prior_mean: f64,
     pub prior_kappa: f64,
     pub prior_alpha: f64,
@@ -204,8 +212,19 @@ impl ParamGuard for BocpdParams {
                 Some(d)
             }
         };
+        let (hazard, expected_segment_s) = match self.expected_segment {
+            None => (1.0 / self.lambda, None),
+            Some(span) => {
+                span.check("expected_segment", true)?;
+                match span {
+                    TimeSpan::Frames(f) => (1.0 / f.max(1.0), None),
+                    TimeSpan::Seconds(sec) => (f64::NAN, Some(sec)),
+                }
+            }
+        };
         Ok(Bocpd {
-            hazard: 1.0 / self.lambda,
+            hazard,
+            expected_segment_s,
             prior_mean: self.prior_mean,
             prior_kappa: self.prior_kappa,
             prior_alpha: self.prior_alpha,
@@ -254,6 +273,13 @@ impl Bocpd {
         n_channels: usize,
         mut step: impl FnMut(usize, &[f64]),
     ) -> Result<usize> {
+        if !self.hazard.is_finite() {
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                "bocpd: expected_segment is in seconds, and these values come without a rate; give it in frames, or run the stage on a motion (Bocpd::at_rate)",
+            )
+            .with_field("expected_segment"));
+        }
         let signal = Signal::new(values, n_channels, "bocpd", Missing::Allow)?;
         let (n, d) = (signal.n_samples, signal.n_channels);
         let x = self.normalize.apply(signal.values, d);
@@ -378,6 +404,19 @@ impl Bocpd {
     }
 
     /// Runs the detector on `values` (sample-major, `n_samples × n_channels`).
+    /// This stage at a data rate of `rate_hz` samples per second: an expected segment given in
+    /// seconds becomes its hazard, 1/(seconds × rate, at least 1 sample).
+    pub fn at_rate(&self, rate_hz: f64) -> Bocpd {
+        match self.expected_segment_s {
+            Some(sec) => Bocpd {
+                hazard: 1.0 / (sec * rate_hz).max(1.0),
+                expected_segment_s: None,
+                ..self.clone()
+            },
+            None => self.clone(),
+        }
+    }
+
     pub fn run(&self, values: &[f64], n_channels: usize) -> Result<BocpdRun> {
         let mut map_run_length = Vec::new();
         let mut mean_run_length = Vec::new();
@@ -452,7 +491,8 @@ impl motionlab_core::Segmenter for Bocpd {
         _cache: &motionlab_core::FeatureCache,
     ) -> Result<SegmenterOutput> {
         let channels = motion.require_channels("bocpd")?;
-        self.segment_values(channels.values(), channels.n_channels())
+        self.at_rate(motion.frame_rate().hz())
+            .segment_values(channels.values(), channels.n_channels())
     }
 }
 
@@ -465,6 +505,26 @@ mod tests {
     fn defaults() -> Bocpd {
         let p: BocpdParams = toml::from_str("").unwrap();
         p.check().unwrap()
+    }
+
+    #[test]
+    fn an_expected_segment_in_seconds_sets_the_hazard_at_the_data_rate() {
+        let p = |t: &str| toml::from_str::<BocpdParams>(t).unwrap().check();
+        let mut rng = fastrand::Rng::with_seed(4);
+        let x: Vec<f64> = (0..60).map(|_| rng.f64()).collect();
+        // 10 s at 120 Hz is 1200 samples: the same posterior as lambda = 1200.
+        let secs = p("expected_segment = { seconds = 10.0 }").unwrap();
+        let lambda = p("lambda = 1200.0").unwrap();
+        assert_eq!(
+            secs.at_rate(120.0).run_length_posterior(&x, 1).unwrap(),
+            lambda.run_length_posterior(&x, 1).unwrap()
+        );
+        assert_eq!(secs.at_rate(120.0).hazard, 1.0 / 1200.0);
+        assert_eq!(p("expected_segment = { frames = 50.0 }").unwrap().hazard, 1.0 / 50.0);
+        // Without a rate, seconds cannot be resolved: one error naming the field.
+        let e = secs.run(&x, 1).unwrap_err();
+        assert_eq!(e.location().field.as_deref(), Some("expected_segment"));
+        assert!(p("expected_segment = { seconds = 0.0 }").is_err());
     }
 
     #[test]

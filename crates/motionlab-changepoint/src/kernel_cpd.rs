@@ -8,6 +8,7 @@
 pub(crate) mod ar;
 mod binseg;
 pub(crate) mod cost;
+pub mod crops;
 pub(crate) mod glibc_exp;
 mod kernel_pelt;
 pub(crate) mod median;
@@ -23,8 +24,9 @@ use crate::signal::{Missing, Normalize, Signal, candidates_from_breakpoints};
 use ar::{ArDesign, DEFAULT_AR_ORDER, ar_min_size};
 use binseg::{ArGains, DirectGains, RbfGains, Stop, binseg};
 use cost::{L2Cost, LinearCost, SegmentCost};
-use kernel_pelt::{CKernel, kernel_pelt};
-use pelt::{ArEndCosts, DirectEndCosts, RbfEndCosts, pelt};
+pub use crops::{PathChoice, PathSegmentation};
+use kernel_pelt::{CKernel, kernel_pelt, kernel_pelt_solve};
+use pelt::{ArEndCosts, DirectEndCosts, RbfEndCosts, pelt, pelt_solve};
 
 /// A segment cost of ruptures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
@@ -99,6 +101,22 @@ pub enum Search {
 /// `log(n) · p · RSS/n` (p covariates, the residual variance of one fit to the whole series);
 /// `ar`: `log(n) · (ar_order + 1) · RSS/n` (the same with the lags and the intercept).
 ///
+/// **A penalty path** (`penalty = { path = [min, max] }`, searches `pelt` and `kernel_pelt`):
+/// instead of one penalty, every segmentation that is optimal for some penalty in
+/// `[min, max]`, each with the penalty interval it owns and its unpenalised cost, by CROPS
+/// (Haynes, Eckley & Fearnhead, "Computationally efficient changepoint detection for a range
+/// of penalties", JCGS 26(1), 2017) — about two PELT runs per segmentation on the path, the
+/// same segmentations and interval ends as ruptures-rs 0.1.1's `Crops` (checked in CI on TSSB
+/// series). The candidates are then the segmentation `choose` picks on the path: `elbow` (the
+/// elbow of the cost against the number of change points, by the Kneedle rule of Satopää et
+/// al. 2011: both rescaled to [0, 1] over the path, the point farthest below the chord joining
+/// its ends; with fewer than three segmentations, the one with fewest change points), `bic`
+/// (the one optimal at the BIC-style penalty below, or at the nearer end of the range) or
+/// `widest` (the one optimal over the widest span of log-penalty). The ends of the range may
+/// be `"bic"` (the BIC-style penalty below) and `"whole_cost"` (the cost of the whole series
+/// as one segment, where the path reaches no change). The whole path, as a table: Python's
+/// `motionlab.penalty_path(values, path, choose, …)`.
+///
 /// **Degenerate inputs.** Missing samples (NaN) are refused (one error naming the first; fill
 /// them first with `fill_gaps`). A constant series has no change: no candidates when stopping
 /// by a penalty, an error when `n_bkps` asks for some. A series too short for `min_size` (and
@@ -125,6 +143,11 @@ pub struct KernelCpdParams {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("x-default" = "the BIC-style penalty described above, computed from the series"))]
     pub pen: Option<f64>,
+    /// A penalty path instead of one penalty: `{ path = [min, max], choose = "elbow" }`, the
+    /// penalties in the cost's units (0 < min < max), `choose` one of `elbow`, `bic`, `widest`
+    /// (see above); searches `pelt` and `kernel_pelt`. Not with `pen` or `n_bkps`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub penalty: Option<PenaltyPath>,
     /// Number of change points to find (binary segmentation only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub n_bkps: Option<usize>,
@@ -149,6 +172,41 @@ pub struct KernelCpdParams {
     pub normalize: Normalize,
 }
 
+/// `penalty = { path = [min, max], choose = "elbow" }`: a range of penalties and the rule that
+/// picks one segmentation on its path.
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PenaltyPath {
+    /// The lowest and highest penalty per change: numbers in the cost's units (0 < min < max),
+    /// or `"bic"` (the BIC-style penalty of the series) and `"whole_cost"` (the cost of the
+    /// whole series as one segment: at that penalty no change pays, so a path ending there
+    /// reaches the segmentation without change).
+    pub path: [PathEnd; 2],
+    /// The rule that picks the segmentation on the path: `elbow`, `bic` or `widest`.
+    #[serde(default)]
+    pub choose: PathChoice,
+}
+
+/// One end of a penalty path: a number, or a penalty computed from the series.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize, JsonSchema)]
+#[serde(untagged)]
+pub enum PathEnd {
+    /// A penalty in the cost's units.
+    Value(f64),
+    /// `"bic"` or `"whole_cost"`.
+    Named(NamedPenalty),
+}
+
+/// A penalty computed from the series.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum NamedPenalty {
+    /// The BIC-style penalty described above.
+    Bic,
+    /// The cost of the whole series as one segment.
+    WholeCost,
+}
+
 fn default_search() -> Search {
     Search::KernelPelt
 }
@@ -168,6 +226,9 @@ pub enum StopRule {
     Count(usize),
     /// The BIC-style penalty, computed from the series.
     Bic,
+    /// Every optimal segmentation for a penalty in `[pen_min, pen_max]` (CROPS), and the one
+    /// `choose` picks.
+    Path { pen_min: PathEnd, pen_max: PathEnd, choose: PathChoice },
 }
 
 /// The validated `kernel_cpd` stage.
@@ -198,6 +259,14 @@ pub struct KernelCpdRun {
     /// Binary segmentation: the gain of splitting the whole series at each sample, NaN off the
     /// admissible grid (None for the PELT searches).
     pub first_split_gain: Option<Vec<f64>>,
+    /// With a penalty path: every segmentation on it, fewest change points (highest
+    /// penalties) first; `breakpoints` is the one at `chosen`.
+    pub path: Option<Vec<PathSegmentation>>,
+    /// The index into `path` of the segmentation `choose` picked.
+    pub chosen: Option<usize>,
+    /// The BIC-style penalty of the series (computed with a penalty path, for `choose = "bic"`
+    /// and to show beside the path).
+    pub bic_pen: Option<f64>,
 }
 
 impl ParamGuard for KernelCpdParams {
@@ -206,21 +275,50 @@ impl ParamGuard for KernelCpdParams {
         let invalid = |field: &str, msg: String| {
             Error::new(ErrorKind::InvalidParameter, msg).with_field(field.to_string())
         };
-        let stop = match check_pen_or_n_bkps(self.pen, self.n_bkps)? {
-            (Some(p), None) => StopRule::Penalty(p),
-            (_, Some(k)) => {
-                if self.search != Search::Binseg {
-                    return Err(invalid(
-                        "n_bkps",
-                        format!(
-                            "search {} stops by a penalty (pen); a number of change points needs search = \"binseg\"",
-                            search_name(self.search)
-                        ),
-                    ));
-                }
-                StopRule::Count(k)
+        let stop = if let Some(spec) = &self.penalty {
+            if self.pen.is_some() || self.n_bkps.is_some() {
+                return Err(invalid(
+                    "penalty",
+                    "penalty (a path) replaces pen and n_bkps; give one of them".into(),
+                ));
             }
-            (None, None) => StopRule::Bic,
+            if self.search == Search::Binseg {
+                return Err(invalid(
+                        "penalty",
+                        "a penalty path needs an exact penalised search (pelt or kernel_pelt); binary segmentation is not optimal for each penalty".into(),
+                    ));
+            }
+            let [lo, hi] = spec.path;
+            let bad = |v: PathEnd| matches!(v, PathEnd::Value(x) if !(x.is_finite() && x > 0.0));
+            let reversed =
+                matches!((lo, hi), (PathEnd::Value(a), PathEnd::Value(b)) if a >= b) || lo == hi;
+            if bad(lo) || bad(hi) || reversed {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!(
+                        "penalty.path is [{lo:?}, {hi:?}], expected finite penalties 0 < min < max"
+                    ),
+                )
+                .with_field("penalty.path"));
+            }
+            StopRule::Path { pen_min: lo, pen_max: hi, choose: spec.choose }
+        } else {
+            match check_pen_or_n_bkps(self.pen, self.n_bkps)? {
+                (Some(p), None) => StopRule::Penalty(p),
+                (_, Some(k)) => {
+                    if self.search != Search::Binseg {
+                        return Err(invalid(
+                            "n_bkps",
+                            format!(
+                                "search {} stops by a penalty (pen); a number of change points needs search = \"binseg\"",
+                                search_name(self.search)
+                            ),
+                        ));
+                    }
+                    StopRule::Count(k)
+                }
+                (None, None) => StopRule::Bic,
+            }
         };
         if self.min_size == 0 {
             return Err(Error::new(
@@ -471,6 +569,9 @@ impl KernelCpd {
             gamma: None,
             min_size,
             first_split_gain: None,
+            path: None,
+            chosen: None,
+            bic_pen: None,
         };
         if signal.is_constant() {
             if let StopRule::Count(k) = self.stop
@@ -482,25 +583,63 @@ impl KernelCpd {
                 )
                 .with_field("n_bkps"));
             }
+            if let StopRule::Path { pen_min, pen_max, .. } = self.stop {
+                // Every penalty gives the one segment, at no cost (a named end: 0).
+                let value = |e: PathEnd| match e {
+                    PathEnd::Value(v) => v,
+                    PathEnd::Named(_) => 0.0,
+                };
+                result.path = Some(vec![PathSegmentation {
+                    pen_min: value(pen_min),
+                    pen_max: value(pen_max),
+                    breakpoints: vec![n],
+                    cost: 0.0,
+                }]);
+                result.chosen = Some(0);
+            }
             return Ok(result);
         }
         let gamma = (self.cost == CostModel::Rbf)
             .then(|| self.gamma.unwrap_or_else(|| median::median_heuristic_gamma(&signal)));
         result.gamma = gamma;
         let ar_order = self.ar_order.unwrap_or(DEFAULT_AR_ORDER);
+        let bic = || {
+            bic_penalty(self.cost, self.ar_order, &signal, || match self.cost {
+                CostModel::L2 => L2Cost::new(&signal).error(0, n),
+                CostModel::Linear => LinearCost::new(signal).error(0, n),
+                CostModel::Ar => ArDesign::new(signal.values, ar_order).fit(0, n).cost(),
+                CostModel::Rbf => 0.0,
+            })
+        };
         let pen = match self.stop {
             StopRule::Penalty(p) => Some(p),
-            StopRule::Count(_) => None,
-            StopRule::Bic => {
-                Some(bic_penalty(self.cost, self.ar_order, &signal, || match self.cost {
-                    CostModel::L2 => L2Cost::new(&signal).error(0, n),
-                    CostModel::Linear => LinearCost::new(signal).error(0, n),
-                    CostModel::Ar => ArDesign::new(signal.values, ar_order).fit(0, n).cost(),
-                    CostModel::Rbf => 0.0,
-                }))
-            }
+            StopRule::Count(_) | StopRule::Path { .. } => None,
+            StopRule::Bic => Some(bic()),
         };
         result.pen = pen;
+        if let StopRule::Path { pen_min, pen_max, choose } = self.stop {
+            let bic_pen = bic();
+            let resolve = |end: PathEnd| match end {
+                PathEnd::Value(v) => v,
+                PathEnd::Named(NamedPenalty::Bic) => bic_pen,
+                PathEnd::Named(NamedPenalty::WholeCost) => self.whole_cost(signal, gamma, ar_order),
+            };
+            let (pen_min, pen_max) = (resolve(pen_min), resolve(pen_max));
+            if !(pen_min.is_finite() && pen_min > 0.0 && pen_max > pen_min) {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!("{STAGE}: the penalty path resolves to [{pen_min}, {pen_max}] on this series (BIC-style penalty {bic_pen}), expected 0 < min < max"),
+                )
+                .with_field("penalty.path"));
+            }
+            let path = self.penalty_path(signal, gamma, ar_order, min_size, pen_min, pen_max);
+            let chosen = crops::choose(&path, choose, bic_pen);
+            result.breakpoints = path[chosen].breakpoints.clone();
+            result.path = Some(path);
+            result.chosen = Some(chosen);
+            result.bic_pen = Some(bic_pen);
+            return Ok(result);
+        }
         match self.search {
             Search::KernelPelt => {
                 let kernel = match gamma {
@@ -579,6 +718,75 @@ impl KernelCpd {
             }
         }
         Ok(result)
+    }
+
+    /// The cost of the whole series as one segment, as this stage's search computes costs.
+    fn whole_cost(&self, signal: Signal, gamma: Option<f64>, ar_order: usize) -> f64 {
+        let n = signal.n_samples;
+        match (self.search, self.cost) {
+            (Search::KernelPelt, _) => {
+                let kernel = match gamma {
+                    Some(gamma) => CKernel::Gaussian { gamma },
+                    None => CKernel::Linear,
+                };
+                kernel_pelt::whole_cost(&signal, kernel)
+            }
+            (_, CostModel::L2) => L2Cost::new(&signal).error(0, n),
+            (_, CostModel::Linear) => LinearCost::new(signal).error(0, n),
+            (_, CostModel::Ar) => ArDesign::new(signal.values, ar_order).fit(0, n).cost(),
+            (_, CostModel::Rbf) => {
+                let mut costs = RbfEndCosts::new(signal, gamma.unwrap_or(1.0), self.jump);
+                let mut out = Vec::new();
+                pelt::EndCosts::costs(&mut costs, n, &[0], &mut out);
+                out[0]
+            }
+        }
+    }
+
+    /// CROPS over this stage's PELT search (the caller has checked the series and the range).
+    fn penalty_path(
+        &self,
+        signal: Signal,
+        gamma: Option<f64>,
+        ar_order: usize,
+        min_size: usize,
+        pen_min: f64,
+        pen_max: f64,
+    ) -> Vec<PathSegmentation> {
+        let (n, jump) = (signal.n_samples, self.jump);
+        if self.search == Search::KernelPelt {
+            let kernel = match gamma {
+                Some(gamma) => CKernel::Gaussian { gamma },
+                None => CKernel::Linear,
+            };
+            return crops::crops(pen_min, pen_max, &mut |pen| {
+                kernel_pelt_solve(&signal, kernel, pen, min_size)
+            });
+        }
+        match self.cost {
+            CostModel::L2 => {
+                let cost = L2Cost::new(&signal);
+                crops::crops(pen_min, pen_max, &mut |pen| {
+                    pelt_solve(n, pen, min_size, jump, &mut DirectEndCosts(&cost))
+                })
+            }
+            CostModel::Linear => {
+                let cost = LinearCost::new(signal);
+                crops::crops(pen_min, pen_max, &mut |pen| {
+                    pelt_solve(n, pen, min_size, jump, &mut DirectEndCosts(&cost))
+                })
+            }
+            CostModel::Rbf => crops::crops(pen_min, pen_max, &mut |pen| {
+                let mut costs = RbfEndCosts::new(signal, gamma.unwrap_or(1.0), jump);
+                pelt_solve(n, pen, min_size, jump, &mut costs)
+            }),
+            CostModel::Ar => {
+                let design = ArDesign::new(signal.values, ar_order);
+                crops::crops(pen_min, pen_max, &mut |pen| {
+                    pelt_solve(n, pen, min_size, jump, &mut ArEndCosts::new(&design, jump))
+                })
+            }
+        }
     }
 
     /// Change points of `values` (sample-major, `n_samples × n_channels`): candidates are
@@ -796,6 +1004,83 @@ mod tests {
             assert!(k.segment_values(&[7.0; 100], 1).unwrap().candidates.is_empty(), "{norm}");
         }
         assert!(params("cost = \"l2\"\nar_order = 2").is_err());
+    }
+
+    #[test]
+    fn each_path_member_is_what_pelt_finds_inside_its_interval() {
+        // Three steps of different heights in noise: the path over a wide range holds several
+        // segmentations; PELT at any penalty strictly inside a member's interval finds that
+        // member, for every search and cost that takes a path.
+        let mut rng = fastrand::Rng::with_seed(11);
+        let x: Vec<f64> = (0..400)
+            .map(|i| [0.0, 1.5, 0.5, 3.0][i / 100] + 0.6 * rng.f64() + 0.3 * (i as f64 * 0.7).sin())
+            .collect();
+        for (search, cost, extra) in [
+            ("pelt", "l2", "jump = 5"),
+            ("pelt", "l2", "jump = 1"),
+            ("pelt", "rbf", "jump = 5\ngamma = 2.0"),
+            ("pelt", "ar", "jump = 5\nmin_size = 20"),
+            ("kernel_pelt", "l2", ""),
+            ("kernel_pelt", "rbf", ""),
+        ] {
+            let base = format!("search = \"{search}\"\ncost = \"{cost}\"\n{extra}");
+            let k = params(&format!("{base}\npenalty = {{ path = [0.05, 400.0] }}")).unwrap();
+            let run = k.run(&x, 1).unwrap();
+            let path = run.path.as_ref().unwrap();
+            assert!(path.len() >= 3, "{base}: {path:?}");
+            assert_eq!((path[0].pen_max, path[path.len() - 1].pen_min), (400.0, 0.05));
+            for (i, p) in path.iter().enumerate() {
+                if i > 0 {
+                    assert_eq!(p.pen_max, path[i - 1].pen_min, "{base}: contiguous");
+                    assert!(p.n_changes() > path[i - 1].n_changes());
+                }
+                let mid = (p.pen_min * p.pen_max).sqrt();
+                let single = params(&format!("{base}\npen = {mid:e}")).unwrap().run(&x, 1).unwrap();
+                assert_eq!(single.breakpoints, p.breakpoints, "{base} at pen {mid}");
+            }
+            assert_eq!(run.breakpoints, path[run.chosen.unwrap()].breakpoints);
+        }
+        // The steps are found by the elbow on the l2 path.
+        let k = params(
+            "search = \"pelt\"\ncost = \"l2\"\njump = 1\npenalty = { path = [0.05, 400.0] }",
+        )
+        .unwrap();
+        let out = k.segment_values(&x, 1).unwrap();
+        assert_eq!(out.candidates.len(), 3, "{:?}", out.candidates);
+        for (c, want) in out.candidates.iter().zip([100, 200, 300]) {
+            assert!((*c as i64 - want).abs() <= 3, "{:?}", out.candidates);
+        }
+        // A constant series: one segmentation over the whole range.
+        let run = k.run(&[2.0; 50], 1).unwrap();
+        assert_eq!(run.path.unwrap().len(), 1);
+        // Malformed paths name their field.
+        for (text, field) in [
+            ("penalty = { path = [0.0, 1.0] }", "penalty.path"),
+            ("penalty = { path = [2.0, 1.0] }", "penalty.path"),
+            ("penalty = { path = [1.0, 2.0] }\npen = 1.0", "penalty"),
+            ("search = \"binseg\"\npenalty = { path = [1.0, 2.0] }", "penalty"),
+        ] {
+            let e = params(text).unwrap_err();
+            assert_eq!(e.location().field.as_deref(), Some(field), "{text}: {e}");
+        }
+        assert!(params("penalty = { path = [1.0, 2.0], choose = \"knee\" }").is_err());
+        // Named ends: from the BIC-style penalty to the whole series' cost, the path ends at
+        // no change and starts at what PELT finds at the BIC penalty.
+        for search in ["pelt", "kernel_pelt"] {
+            let base = format!("search = \"{search}\"\ncost = \"l2\"");
+            let named =
+                params(&format!("{base}\npenalty = {{ path = [\"bic\", \"whole_cost\"] }}"))
+                    .unwrap()
+                    .run(&x, 1)
+                    .unwrap();
+            let path = named.path.unwrap();
+            assert_eq!(path[0].n_changes(), 0, "{search}");
+            let at_bic = params(&base).unwrap().run(&x, 1).unwrap();
+            assert_eq!(path.last().unwrap().breakpoints, at_bic.breakpoints, "{search}");
+            assert_eq!(path.last().unwrap().pen_min, at_bic.pen.unwrap());
+        }
+        assert!(params("penalty = { path = [\"bic\", \"bic\"] }").is_err());
+        assert!(params("penalty = { path = [\"bic\", \"whole\"] }").is_err());
     }
 
     #[test]

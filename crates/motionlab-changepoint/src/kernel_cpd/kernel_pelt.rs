@@ -24,6 +24,7 @@
 //! minimum is searched.
 
 use super::cost::rbf_c_kernel;
+use super::crops::Solved;
 use super::glibc_exp::{self, exp_normal_fma};
 use super::pelt::breakpoints_from_path;
 use crate::signal::Signal;
@@ -203,10 +204,33 @@ unsafe fn candidate_totals_avx2(
     candidate_totals_body(m_v, d, s, position, t, lo, hi, beta, m_pruning)
 }
 
+/// The cost of the whole series as one segment under ruptures' C kernel: `D[n] − S[0]/n`.
+pub(crate) fn whole_cost(signal: &Signal, k: CKernel) -> f64 {
+    let n = signal.n_samples;
+    let mut s = vec![0.0; n + 1];
+    let mut d = 0.0;
+    let mut row = Vec::new();
+    for t in 1..=n {
+        let xt = signal.row(t - 1);
+        let diag = kernel(k, xt, xt);
+        d += diag;
+        kernel_row(signal, k, t, 0, false, &mut row);
+        update_running_sums(&row, 0, diag, &mut s);
+    }
+    d - s[0] / n as f64
+}
+
 /// Breakpoints (segment ends, the last being n) as `KernelCPD.predict(pen=beta)`; the caller
 /// has checked `n ≥ 2·min_size` (ruptures' sanity check for this search).
 pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usize) -> Vec<usize> {
+    kernel_pelt_solve(signal, k, beta, min_size).breakpoints
+}
+
+/// `kernel_pelt`, with the unpenalised cost of the segmentation found: each chosen segment's
+/// cost `D[t] − D[s] − S[s]/(t − s)` as the search computed it, summed left to right.
+pub(crate) fn kernel_pelt_solve(signal: &Signal, k: CKernel, beta: f64, min_size: usize) -> Solved {
     let n = signal.n_samples;
+    let mut segment_cost = vec![0.0; n + 1];
     let mut d = vec![0.0; n + 1];
     let mut s = vec![0.0; n + 1];
     let mut m_v = vec![0.0; n + 1];
@@ -228,6 +252,7 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
         update_running_sums(&row, 0, diag, &mut s);
         let c_cost = d[t] - d[0] - s[0] / t as f64;
         m_v[t] = c_cost + beta;
+        segment_cost[t] = c_cost;
     }
 
     for t in 2 * min_size..n + 1 {
@@ -254,6 +279,8 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
                 m_path[t] = lo + offset;
             }
         }
+        let chosen = m_path[t];
+        segment_cost[t] = d[t] - d[chosen] - s[chosen] / (t - chosen) as f64;
         while m_pruning[s_min] >= m_v[t] && s_min < t + 1 - min_size {
             if s_min == 0 {
                 s_min += min_size;
@@ -263,7 +290,9 @@ pub(crate) fn kernel_pelt(signal: &Signal, k: CKernel, beta: f64, min_size: usiz
         }
     }
 
-    breakpoints_from_path(&m_path, n)
+    let breakpoints = breakpoints_from_path(&m_path, n);
+    let cost = breakpoints.iter().map(|&b| segment_cost[b]).sum();
+    Solved { breakpoints, cost }
 }
 
 #[cfg(test)]

@@ -17,6 +17,7 @@
 
 use super::ar::{ArDesign, QrFit};
 use super::cost::{SegmentCost, rbf_cost_from_block, rbf_off_diagonal, squared_distance};
+use super::crops::Solved;
 use crate::signal::Signal;
 
 /// The costs `c(s, t)` of the admissible starts `s` at one end `t` (ends come in increasing
@@ -152,7 +153,20 @@ pub(crate) fn pelt(
     jump: usize,
     costs: &mut dyn EndCosts,
 ) -> Vec<usize> {
+    pelt_solve(n_samples, pen, min_size, jump, costs).breakpoints
+}
+
+/// `pelt`, with the unpenalised cost of the segmentation found: its segments' costs as PELT
+/// evaluated them, summed left to right (the sum ruptures' `cost.sum_of_costs` makes).
+pub(crate) fn pelt_solve(
+    n_samples: usize,
+    pen: f64,
+    min_size: usize,
+    jump: usize,
+    costs: &mut dyn EndCosts,
+) -> Solved {
     let n = n_samples;
+    let mut segment_cost = vec![0.0; n + 1];
     let mut total = vec![f64::NAN; n + 1];
     let mut solved = vec![false; n + 1];
     let mut previous = vec![0usize; n + 1];
@@ -178,13 +192,16 @@ pub(crate) fn pelt(
         }
         total[bkp] = totals[best];
         previous[bkp] = evaluated[best];
+        segment_cost[bkp] = cost_values[best];
         solved[bkp] = true;
         let bound = total[bkp] + pen;
         let kept: Vec<usize> =
             admissible.iter().zip(&totals).filter(|&(_, &v)| v <= bound).map(|(&t, _)| t).collect();
         admissible = kept;
     }
-    breakpoints_from_path(&previous, n)
+    let breakpoints = breakpoints_from_path(&previous, n);
+    let cost = breakpoints.iter().map(|&b| segment_cost[b]).sum();
+    Solved { breakpoints, cost }
 }
 
 /// ruptures' breakpoints read back from the best previous end of every end, from n.
