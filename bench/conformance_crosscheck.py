@@ -22,6 +22,14 @@ The raw reading is a NumPy reader of the C3D layout written from the C3D User Gu
 or the parameters' account of the data section (``account`` below), 16-bit integers times the
 scale factor or 32-bit floats (Intel, DEC, MIPS), a negative residual word = missing.
 
+Analog channels (EMG, force plates, …): ``check`` also compares every C3D's analog channels as
+motionlab loads them (an analog-only file's channels; a marker file's with the loader's
+``analog = true``, which ``inspect --npy`` writes to ``<n>.analog.npy``) with ezc3d's
+``data/analogs``: labels, units, rate and every sample, to float32 rounding. Where ezc3d departs
+from the C3D letter (it subtracts |ANALOG:OFFSET| and reads "UNSIGNED" words as signed), the
+channels concerned are compared with py-c3d instead, and the script says so; so are the files
+``EXPECTED`` lists ezc3d as wrong on (their data layout shifts the analog words too).
+
 Run: bench/conformance_crosscheck.py check [path/to/motionlab]
      bench/conformance_crosscheck.py self-test [path/to/motionlab]   # broken inputs must fail
      bench/conformance_crosscheck.py reference
@@ -215,6 +223,33 @@ class RawC3d:
         xyz = xyz * self.units_mm()
         xyz[values[:, :, 3] < 0] = np.nan
         return xyz
+
+    def analog(self, which="header"):
+        """(samples, channels) by the C3D letter: the words after each frame's points, sample-
+        major, (word - OFFSET) x SCALE x GEN_SCALE; words and OFFSET unsigned when ANALOG:FORMAT
+        is "UNSIGNED"."""
+        points, analog, start = self.account(which)
+        channels = (self.param("ANALOG", "USED") or [0])[0]
+        scale = (self.param("POINT", "SCALE") or [self.header["scale"]])[0]
+        word = 4 if scale < 0 else 2
+        n = self.frames()
+        frame_words = 4 * points + analog
+        raw = self.b[start:start + n * frame_words * word]
+        unsigned = (self.param("ANALOG", "FORMAT") or [""])[0].strip().upper() == "UNSIGNED"
+        if word == 4:
+            values = dec_to_ieee(raw) if self.processor == 85 else np.frombuffer(raw, self.end + "f4").astype(np.float64)
+        else:
+            values = np.frombuffer(raw, self.end + ("u2" if unsigned else "i2")).astype(np.float64)
+        values = values.reshape(n, frame_words)[:, 4 * points:].reshape(n * (analog // channels), channels)
+
+        def per_channel(name, default):
+            v = list(self.param("ANALOG", name) or [default])
+            return np.array([v[k] if k < len(v) else v[0] for k in range(channels)], dtype=np.float64)
+        offsets = per_channel("OFFSET", 0)  # int16 parameters are unpacked unsigned above
+        if not unsigned:
+            offsets = np.where(offsets > 32767, offsets - 65536, offsets)
+        gen = (self.param("ANALOG", "GEN_SCALE") or [1.0])[0]
+        return (values - offsets) * per_channel("SCALE", 1.0) * gen
 
     def labels(self, n):
         labels = list(self.param("POINT", "LABELS") or [])
@@ -458,7 +493,18 @@ def motionlab_read(binary, files):
         loaded = {}
         for r in reports:
             loaded[r["file"]] = dict(positions=np.load(r["positions_npy"]), labels=r["points"], rate=r["frame_rate_hz"],
-                                     repairs=r["repairs"])
+                                     repairs=r["repairs"], analog=None)
+            # The analog channels: the motion's own (a file without points), else the marker
+            # file's as `analog = true` loads them.
+            if r.get("channels_npy"):
+                loaded[r["file"]]["analog"] = dict(values=np.load(r["channels_npy"]), rate=r["frame_rate_hz"],
+                                                   labels=[c["name"] for c in r["channels"]],
+                                                   units=[c["unit"] for c in r["channels"]])
+            elif r.get("analog"):
+                a = r["analog"]
+                loaded[r["file"]]["analog"] = dict(values=np.load(a["npy"]), rate=a["rate_hz"],
+                                                   labels=[c["name"] for c in a["channels"]],
+                                                   units=[c["unit"] for c in a["channels"]])
     refused = {}
     for line in run.stderr.splitlines():
         for f in files:
@@ -506,10 +552,108 @@ def compare(ours, theirs, who):
     return problems
 
 
+def analog_names(labels, n):
+    """What motionlab names analog labels: blank -> A<n>, a label written again -> label#2, ..."""
+    names, seen = [], set()
+    for i in range(n):
+        label = (labels[i].strip() if i < len(labels) else "") or f"A{i + 1}"
+        if label in seen:
+            label = next(f"{label}#{k}" for k in range(2, n + 2) if f"{label}#{k}" not in seen)
+        seen.add(label)
+        names.append(label)
+    return names
+
+
+def ezc3d_analog(path):
+    def go(p):
+        e = ezc3d.c3d(p)
+        a = e["parameters"]["ANALOG"]
+        labels, units, k = list(a.get("LABELS", {}).get("value", [])), list(a.get("UNITS", {}).get("value", [])), 2
+        while f"LABELS{k}" in a:
+            labels += list(a[f"LABELS{k}"]["value"])
+            k += 1
+        k = 2
+        while f"UNITS{k}" in a:
+            units += list(a[f"UNITS{k}"]["value"])
+            k += 1
+        return dict(values=e["data"]["analogs"][0].T, labels=labels, units=units,
+                    rate=float(e["header"]["analogs"]["frame_rate"]))
+    return with_plain_file(path, go)
+
+
+def pyc3d_analog(path):
+    def go(p):
+        with open(p, "rb") as h, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = pyc3d.Reader(h)
+            return np.concatenate([a.T for _, _, a in r.read_frames()])
+    return with_plain_file(path, go)
+
+
+def close_columns(a, b):
+    """Channels where two (samples x channels) readings differ beyond float32 rounding."""
+    d = np.abs(a - b)
+    allowed = F32 * np.maximum(np.abs(a), np.abs(b)) + 1e-9
+    return [k for k in range(a.shape[1]) if (d[:, k] > allowed[:, k]).any()]
+
+
+def check_analog(path, ours, exp):
+    """Problems (text) and what was said, comparing motionlab's analog channels with ezc3d's
+    (py-c3d's on the channels where ezc3d departs from the letter)."""
+    raw = RawC3d(path)
+    unsigned = (raw.param("ANALOG", "FORMAT") or [""])[0].strip().upper() == "UNSIGNED"
+    n = ours["values"].shape[1]
+    offsets = raw.param("ANALOG", "OFFSET") or [0]
+    offsets = [struct.unpack("<h", struct.pack("<H", o))[0] if o > 32767 else o for o in offsets]
+    departs = list(range(n)) if unsigned else [k for k in range(n) if offsets[min(k, len(offsets) - 1)] < 0]
+    if exp.get("ezc3d", "ok") != "ok":
+        departs = list(range(n))
+    problems, said = [], []
+    try:
+        ez = isolated(ezc3d_analog, path)
+    except Exception as e:
+        ez = None
+        if exp.get("ezc3d", "ok") == "ok":
+            problems.append(f"analog: ezc3d refuses ({e})")
+    if ez is not None and exp.get("ezc3d", "ok") == "ok":
+        if ez["values"].shape != ours["values"].shape:
+            problems.append(f"analog: ezc3d {ez['values'].shape}, motionlab {ours['values'].shape}")
+        else:
+            if analog_names(ez["labels"], n) != ours["labels"]:
+                problems.append(f"analog labels: ezc3d {ez['labels'][:6]}..., motionlab {ours['labels'][:6]}...")
+            if [u.strip() for u in ez["units"][:n]] + [""] * max(0, n - len(ez["units"])) != ours["units"]:
+                problems.append(f"analog units: ezc3d {ez['units'][:6]}..., motionlab {ours['units'][:6]}...")
+            if abs(ez["rate"] - ours["rate"]) > 1e-6 * ours["rate"]:
+                problems.append(f"analog rate: ezc3d {ez['rate']} Hz, motionlab {ours['rate']} Hz")
+            bad = [k for k in close_columns(ours["values"], ez["values"]) if k not in departs]
+            if bad:
+                problems.append(f"analog: channels {[ours['labels'][k] for k in bad]} differ from ezc3d's beyond float32 rounding")
+            agreeing = n - len(departs)
+            if agreeing:
+                said.append(f"analog {agreeing} channels x {ours['values'].shape[0]} samples: ezc3d agrees")
+    if departs:
+        who = "py-c3d"
+        try:
+            py = isolated(pyc3d_analog, path)
+        except Exception:
+            # Where py-c3d refuses the file too, the raw reading of the account that fits it.
+            who = "the raw reading"
+            py = raw.analog(exp.get("account", "header"))
+        if py.shape != ours["values"].shape:
+            problems.append(f"analog: {who} {py.shape}, motionlab {ours['values'].shape}")
+        else:
+            bad = [k for k in close_columns(ours["values"], py) if k in departs]
+            if bad:
+                problems.append(f"analog: channels {[ours['labels'][k] for k in bad]} differ from {who}'s")
+            said.append(f"analog {len(departs)} channels where ezc3d departs from the letter"
+                        f" ({'UNSIGNED words' if unsigned else 'negative OFFSET' if exp.get('ezc3d', 'ok') == 'ok' else exp['why']}): {who} agrees")
+    return problems, said
+
+
 # Every C3D of the repository (data/ and tests/fixtures/): the check must find and compare
 # exactly these many, so a moved folder or a glob that finds nothing fails instead of checking
 # less. Raise it with the file you add.
-N_C3D_FILES = 72
+N_C3D_FILES = 75
 
 # Malformed fixtures (tests/fixtures/malformed/) where a peer reads other numbers than
 # motionlab's lenient reading: {file: {reader: (start of the exact difference expected, why it
@@ -535,7 +679,7 @@ def check(binary, broken=None):
         xyz = loaded[path]["positions"]
         i, j = np.argwhere(~np.isnan(xyz[:, :, 0]))[0]
         xyz[i, j, 0] += 1.0
-    failures, compared, files_compared = [], 0, 0
+    failures, compared, files_compared, analog_files = [], 0, 0, 0
     files_refused_as_expected = 0
     for path in files:
         name = os.path.basename(path).removesuffix(".gz")
@@ -553,6 +697,18 @@ def check(binary, broken=None):
             failures.append(f"{rel}: motionlab's reading is missing")
             continue
         ours = loaded[path]
+        said_analog = []
+        if ours["analog"] is not None:
+            problems, said_analog = check_analog(path, ours["analog"], exp)
+            failures += [f"{rel}: {p}" for p in problems]
+            analog_files += 1
+        if ours["positions"].shape[1] == 0:
+            # No 3-D point (an EMG system's export): the analog channels are the data.
+            if ours["analog"] is None:
+                failures.append(f"{rel}: motionlab loaded neither points nor analog channels")
+            print(f"{rel}: no points; {'; '.join(said_analog)}")
+            files_compared += bool(said_analog) and not problems
+            continue
         readers = {}
         for who in ("ezc3d", "pyc3d"):
             try:
@@ -593,10 +749,14 @@ def check(binary, broken=None):
         right = [w for w, g in readers.items() if not isinstance(g, str) and exp.get(w, "ok") == "ok"]
         if not right:
             failures.append(f"{rel}: no reader to check motionlab against")
+        said += said_analog
         files_compared += agreed > 0
         print(f"{rel}: {'; '.join(said)}" + (f"; repaired: {'; '.join(ours['repairs'])}" if ours["repairs"] else ""))
     print(f"{len(files)} C3D files, {len(loaded)} loaded, {len(refused)} refused; {files_compared} files agree with at least "
-          f"one reader documented as right; {compared} sample comparisons with readers that read the file right")
+          f"one reader documented as right; {compared} sample comparisons with readers that read the file right; "
+          f"analog channels compared in {analog_files} files")
+    if analog_files == 0:
+        failures.append("no file's analog channels were compared")
     if len(files) != N_C3D_FILES:
         failures.append(f"found {len(files)} C3D files, N_C3D_FILES says {N_C3D_FILES}")
     # Every file either refused as documented or compared with a reader that reads it right.

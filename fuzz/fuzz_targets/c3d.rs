@@ -15,7 +15,8 @@ fuzz_target!(|data: &[u8]| {
     let origin = Path::new("fuzz.c3d");
     match parse_c3d(data, origin, &C3dOptions::default()) {
         Ok(m) => {
-            assert!(m.n_frames() >= 1 && m.n_points() >= 1);
+            // Points, or (a file without points) its analog channels.
+            assert!(m.n_frames() >= 1 && (m.n_points() >= 1 || !m.channels().is_empty()));
             assert_eq!(m.missing_count(), m.missing_mask().iter().filter(|x| **x).count());
         }
         Err(e) => common::assert_names_file(&e, "fuzz.c3d"),
@@ -25,8 +26,13 @@ fuzz_target!(|data: &[u8]| {
         zero_means_missing: true,
         strip_subject_prefix: false,
         strict: true,
+        analog: false,
     };
     let _ = parse_c3d(data, origin, &zeros);
+    if let Ok(m) = parse_c3d(data, origin, &C3dOptions { analog: true, ..C3dOptions::default() }) {
+        assert_eq!(m.n_points(), 0);
+        assert_eq!(m.channels().n_samples(), m.n_frames());
+    }
     if let Ok(file) = C3dFile::parse(data, origin) {
         let _ = file.params();
         if let Ok(layout) = file.data_layout() {

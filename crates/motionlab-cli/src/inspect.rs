@@ -30,9 +30,35 @@ struct Report {
     skeleton_joints: Option<usize>,
     skeleton_channels: Option<usize>,
     events: Vec<EventRow>,
+    /// The motion's channels (a channel file's columns, an analog-only C3D's analog
+    /// channels), at `frame_rate_hz`; empty for a marker or skeleton file.
+    channels: Vec<ChannelRow>,
+    /// A marker C3D's analog channels, at their own rate (what the `c3d` loader gives with
+    /// `analog = true`); absent for other files.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    analog: Option<AnalogReport>,
     /// Where `--npy` wrote the positions.
     #[serde(skip_serializing_if = "Option::is_none")]
     positions_npy: Option<String>,
+    /// Where `--npy` wrote the channels (samples × channels), when there are any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    channels_npy: Option<String>,
+}
+
+#[derive(Serialize)]
+struct ChannelRow {
+    name: String,
+    unit: String,
+}
+
+#[derive(Serialize)]
+struct AnalogReport {
+    rate_hz: f64,
+    samples: usize,
+    channels: Vec<ChannelRow>,
+    /// Where `--npy` wrote them (samples × channels).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    npy: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -62,9 +88,61 @@ fn first_height(m: &Motion) -> Option<(f64, usize)> {
     })
 }
 
+fn channel_rows(c: &motionlab_core::Channels) -> Vec<ChannelRow> {
+    c.names()
+        .iter()
+        .zip(c.units())
+        .map(|(name, unit)| ChannelRow { name: name.clone(), unit: unit.clone() })
+        .collect()
+}
+
+/// Writes a motion's channels to `out` as samples × channels.
+fn write_channels(out: &Path, c: &motionlab_core::Channels) -> Result<String> {
+    let io = |e: std::io::Error| Error::io(out, e);
+    let mut w = std::io::BufWriter::new(std::fs::File::create(out).map_err(io)?);
+    motionlab_external::npy::write_matrix(&mut w, c.values(), c.n_samples(), c.n_channels())
+        .map_err(io)?;
+    std::io::Write::flush(&mut w).map_err(io)?;
+    Ok(out.display().to_string())
+}
+
+/// A marker C3D's analog channels (the `c3d` loader with `analog = true`); `None` for other
+/// formats and for a C3D without analog channels.
+fn analog_of(
+    format: &str,
+    m: &Motion,
+    path: &Path,
+    npy: Option<&Path>,
+) -> Result<Option<AnalogReport>> {
+    if format != "c3d" || m.n_points() == 0 {
+        return Ok(None);
+    }
+    let params = toml::from_str("analog = true").map_err(|e| {
+        Error::new(ErrorKind::InvalidParameter, format!("analog loader parameters: {e}"))
+    })?;
+    let Ok(a) = registry::build_loader("c3d", &params)?.load(path) else { return Ok(None) };
+    let npy = match npy {
+        Some(out) => Some(write_channels(&out.with_extension("analog.npy"), a.channels())?),
+        None => None,
+    };
+    Ok(Some(AnalogReport {
+        rate_hz: a.frame_rate().hz(),
+        samples: a.n_frames(),
+        channels: channel_rows(a.channels()),
+        npy,
+    }))
+}
+
 fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
     let (name, loader) = loader_for(path)?;
     let m: Motion = loader.load(path).map_err(|e| e.in_file(path))?;
+    let analog = analog_of(name, &m, path, npy)?;
+    let channels_npy = match npy {
+        Some(out) if !m.channels().is_empty() => {
+            Some(write_channels(&out.with_extension("channels.npy"), m.channels())?)
+        }
+        _ => None,
+    };
     let total = m.n_frames() * m.n_points();
     let height = first_height(&m);
     let positions_npy = match npy {
@@ -115,7 +193,10 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
                 frame: e.frame,
             })
             .collect(),
+        channels: channel_rows(m.channels()),
+        analog,
         positions_npy,
+        channels_npy,
     })
 }
 
@@ -138,6 +219,17 @@ fn unit_text(unit: LengthUnit) -> &'static str {
         LengthUnit::Inch => "in",
         LengthUnit::CmuUnit => "CMU unit, 1/0.45 in",
     }
+}
+
+/// `EMG1 (V), Fz1 (N), …`; a channel without a unit is its name alone.
+fn channel_list(rows: &[ChannelRow]) -> String {
+    let each: Vec<String> = rows
+        .iter()
+        .map(
+            |c| if c.unit.is_empty() { c.name.clone() } else { format!("{} ({})", c.name, c.unit) },
+        )
+        .collect();
+    each.join(", ")
 }
 
 fn text(r: &Report) -> String {
@@ -170,6 +262,23 @@ fn text(r: &Report) -> String {
     };
     for repair in &r.repairs {
         s += &format!("  repaired  {repair}\n");
+    }
+    if !r.channels.is_empty() {
+        s += &format!(
+            "  channels  {} at {} Hz: {}\n",
+            r.channels.len(),
+            rate_text(r.frame_rate_hz),
+            channel_list(&r.channels)
+        );
+    }
+    if let Some(a) = &r.analog {
+        s += &format!(
+            "  analog    {} channels, {} samples at {} Hz (loader c3d, analog = true): {}\n",
+            a.channels.len(),
+            a.samples,
+            rate_text(a.rate_hz),
+            channel_list(&a.channels)
+        );
     }
     if let (Some(j), Some(c)) = (r.skeleton_joints, r.skeleton_channels) {
         s += &format!("  skeleton  {j} joints, {c} channels\n");

@@ -125,14 +125,17 @@ enum Command {
         benchmark: bool,
     },
     /// Describe motion files: format, frames, rate, duration, points, missing samples, length
-    /// unit and standing height, what the loader repaired, events.
+    /// unit and standing height, what the loader repaired, events, channels (a C3D's analog
+    /// channels with their rate and units).
     Inspect {
         files: Vec<PathBuf>,
         /// Print JSON instead of text.
         #[arg(long)]
         json: bool,
         /// Also write each file's positions (mm, NaN = missing) to DIR/<n>.npy, numbering the
-        /// files from 0 in the order given (float64, frames × points × 3).
+        /// files from 0 in the order given (float64, frames × points × 3); its channels to
+        /// DIR/<n>.channels.npy and a marker C3D's analog channels to DIR/<n>.analog.npy
+        /// (samples × channels).
         #[arg(long, value_name = "DIR")]
         npy: Option<PathBuf>,
     },

@@ -1,4 +1,5 @@
-//! The NumPy `.npy` format 1.0, writing only: positions as float64 `(frames, points, 3)`.
+//! The NumPy `.npy` format 1.0, writing only: positions as float64 `(frames, points, 3)`,
+//! channels as `(samples, channels)`.
 //!
 //! Format (numpy.lib.format): the magic `\x93NUMPY`, version bytes `1 0`, the header length
 //! as little-endian u16, an ASCII Python dict literal padded with spaces and ended by `\n` so
@@ -27,6 +28,27 @@ pub fn write_positions(
         for c in p {
             out.write_all(&c.to_le_bytes())?;
         }
+    }
+    Ok(())
+}
+
+/// Writes `values` (row-major, `n_rows × n_cols`) as a `<f8` array of shape `(n_rows, n_cols)`:
+/// a motion's channels, samples × channels. NaN values are written as they are.
+pub fn write_matrix(
+    out: &mut impl Write,
+    values: &[f64],
+    n_rows: usize,
+    n_cols: usize,
+) -> io::Result<()> {
+    if values.len() != n_rows * n_cols {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("{} values is not {n_rows} rows × {n_cols} columns", values.len()),
+        ));
+    }
+    out.write_all(&header(&[n_rows, n_cols])?)?;
+    for v in values {
+        out.write_all(&v.to_le_bytes())?;
     }
     Ok(())
 }

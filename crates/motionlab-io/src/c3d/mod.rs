@@ -24,6 +24,7 @@
 //! files does (checked: no all-zero point in any of them), so exact zeros are data unless
 //! `zero_means_missing = true`.
 
+pub mod analog;
 pub mod raw;
 
 use std::path::Path;
@@ -33,7 +34,9 @@ use serde::{Deserialize, Serialize};
 
 use motionlab_core::registry::ParamGuard;
 use motionlab_core::units::{Axis, FrameRate, LengthUnit, Seconds};
-use motionlab_core::{ErrorKind, Event, LoadNotes, Loader, Motion, PointKind, Result};
+use motionlab_core::{
+    DataKind, Error, ErrorKind, Event, LoadNotes, Loader, Motion, PointKind, Result,
+};
 
 use raw::{C3dFile, DataLayout, Param, Repairs, header_offset};
 
@@ -43,8 +46,9 @@ use raw::{C3dFile, DataLayout, Param, Repairs, header_offset};
 /// What is read: the header (parameter block, point count, first/last frame, scale factor,
 /// data start, analog values per frame, frame rate) and every parameter; Intel, DEC (VAX
 /// floats) and MIPS (big-endian) files; float storage (scale < 0) and 16-bit integer storage
-/// (scale > 0, coordinates × scale). Analog data is skipped (its words still set the stride
-/// between frames). Rate: `POINT:RATE`, else the header's. Frames: `TRIAL:ACTUAL_START_FIELD`
+/// (scale > 0, coordinates × scale). Analog data is skipped when the points are read (its
+/// words still set the stride between frames; below: reading them).
+/// Rate: `POINT:RATE`, else the header's. Frames: `TRIAL:ACTUAL_START_FIELD`
 /// … `ACTUAL_END_FIELD` when present, else header words 4–5. Units: `POINT:UNITS` (`mm`, `cm`,
 /// `m`, `in`) converted to mm; absent or blank means mm. Names: `POINT:LABELS`, `LABELS2`,
 /// … in order, trimmed; labels beyond the point count are ignored, a blank label becomes
@@ -88,6 +92,18 @@ use raw::{C3dFile, DataLayout, Param, Repairs, header_offset};
 /// or parameter block pointer, a file shorter than its frames need (`Truncated`), a data
 /// section that fits neither account, a zero or NaN scale factor or rate, last frame < first
 /// frame, too few labels, non-UTF-8 labels.
+///
+/// Analog channels (EMG, force plates, accelerometers, dynamometers): a file with no 3-D
+/// point and `ANALOG:USED` > 0 (an EMG system's export) loads as a motion of channels at the
+/// analog rate, and with `analog = true` any file does (a marker file's analog channels then
+/// feed channel segmenters and the benchmark like a channel file). Names: `ANALOG:LABELS`,
+/// `LABELS2`, … (blank → `A<n>`, a repeated label → `EMG#2`, noted); units: `ANALOG:UNITS`,
+/// `UNITS2`, …; rate: `ANALOG:RATE`, which must equal the samples per frame × the point rate
+/// (when it does not, the data's count wins, noted); values
+/// `(word − ANALOG:OFFSET) × ANALOG:SCALE × ANALOG:GEN_SCALE`, words and offsets unsigned when
+/// `ANALOG:FORMAT` is `UNSIGNED` (the C3D User Guide's reading, py-c3d's; ezc3d's where the
+/// offsets are ≥ 0 and the words signed — every real file shipped). Events keep their times;
+/// their frame indices count analog samples.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct C3dParams {
@@ -111,6 +127,15 @@ pub struct C3dParams {
     /// repairs listed above), each with the error naming the file, byte and parameter.
     #[serde(default)]
     pub strict: bool,
+    /// Load the analog channels (at the analog rate) instead of the 3-D points, so that a
+    /// marker file's EMG or force plates feed channel segmenters and the benchmark. A file
+    /// without points loads its analog channels whatever this says.
+    #[serde(default)]
+    pub analog: bool,
+    /// With `analog = true`: the channels to keep, by label, in this order.
+    #[serde(default)]
+    #[schemars(extend("x-default" = "every analog channel"))]
+    pub analog_channels: Option<Vec<String>>,
 }
 
 fn default_strip_subject_prefix() -> bool {
@@ -128,6 +153,8 @@ pub struct C3dOptions {
     pub zero_means_missing: bool,
     pub strip_subject_prefix: bool,
     pub strict: bool,
+    /// Load the analog channels instead of the points.
+    pub analog: bool,
 }
 
 impl Default for C3dOptions {
@@ -137,6 +164,7 @@ impl Default for C3dOptions {
             zero_means_missing: false,
             strip_subject_prefix: true,
             strict: false,
+            analog: false,
         }
     }
 }
@@ -145,29 +173,59 @@ impl Default for C3dOptions {
 #[derive(Clone, Debug)]
 pub struct C3dLoader {
     options: C3dOptions,
+    analog_channels: Option<Vec<String>>,
 }
 
 impl ParamGuard for C3dParams {
     type Checked = C3dLoader;
     fn check(self) -> Result<C3dLoader> {
+        if self.analog_channels.is_some() && !self.analog {
+            return Err(Error::new(
+                ErrorKind::InvalidParameter,
+                "analog_channels picks analog channels, and analog is false: set analog = true",
+            )
+            .with_field("analog_channels"));
+        }
+        if self.analog_channels.as_ref().is_some_and(Vec::is_empty) {
+            return Err(Error::new(
+                ErrorKind::EmptySequence,
+                "analog_channels is empty; expected at least one channel label",
+            )
+            .with_field("analog_channels"));
+        }
         Ok(C3dLoader {
             options: C3dOptions {
                 up_axis: self.up_axis,
                 zero_means_missing: self.zero_means_missing,
                 strip_subject_prefix: self.strip_subject_prefix,
                 strict: self.strict,
+                analog: self.analog,
             },
+            analog_channels: self.analog_channels,
         })
     }
 }
 
 impl Loader for C3dLoader {
+    fn gives(&self) -> DataKind {
+        if self.options.analog { DataKind::Channels } else { DataKind::Points }
+    }
     fn extensions(&self) -> &'static [&'static str] {
         &["c3d"]
     }
     fn load(&self, path: &Path) -> Result<Motion> {
         let bytes = crate::read::read_bytes(path)?;
-        parse_c3d(&bytes, path, &self.options)
+        let motion = parse_c3d(&bytes, path, &self.options)?;
+        let Some(names) = &self.analog_channels else { return Ok(motion) };
+        let kept = motion
+            .channels()
+            .select(names)
+            .map_err(|e| e.in_file(path).under_field("analog_channels"))?;
+        let mut out = Motion::from_channels(motion.name.clone(), motion.frame_rate(), kept)?
+            .with_source(path, "c3d");
+        out.events = motion.events;
+        out.load_notes = motion.load_notes;
+        Ok(out)
     }
 }
 
@@ -176,18 +234,11 @@ motionlab_core::register_plugin!(Loader, C3dParams, "c3d");
 /// Parses a whole C3D file held in memory; `origin` names it in errors and in the motion.
 pub fn parse_c3d(bytes: &[u8], origin: &Path, options: &C3dOptions) -> Result<Motion> {
     let file = C3dFile::parse_with(bytes, origin, Repairs::new(options.strict))?;
-    let ctx = file.ctx;
     let layout = file.data_layout()?;
     let mut repairs = file.repairs.clone();
     repairs.notes.extend(layout.repairs.iter().cloned());
-    if layout.points == 0 {
-        return Err(ctx
-            .err(
-                ErrorKind::EmptySequence,
-                header_offset::POINT_COUNT,
-                "the file holds no 3-D points; expected at least one marker",
-            )
-            .with_field("header.point_count"));
+    if layout.points == 0 || options.analog {
+        return analog_motion(&file, &layout, origin, repairs);
     }
     let rate = frame_rate(&file)?;
     let (unit, unit_from) = units(&file, &mut repairs)?;
@@ -213,6 +264,39 @@ pub fn parse_c3d(bytes: &[u8], origin: &Path, options: &C3dOptions) -> Result<Mo
     motion.events = events;
     motion.load_notes =
         LoadNotes { length_unit: Some(unit), length_unit_from: unit_from, repairs: repairs.notes };
+    Ok(motion)
+}
+
+/// The file's analog channels as a motion of channels at the analog rate (no points).
+fn analog_motion(
+    file: &C3dFile<'_>,
+    layout: &DataLayout,
+    origin: &Path,
+    mut repairs: Repairs,
+) -> Result<Motion> {
+    let ctx = file.ctx;
+    let point_rate = frame_rate(file)?;
+    let Some(a) = analog::read(file, layout, point_rate, &mut repairs)? else {
+        let what = if layout.points == 0 {
+            "no 3-D points and no analog channels"
+        } else {
+            "no analog channels (analog = true)"
+        };
+        return Err(ctx
+            .err(
+                ErrorKind::EmptySequence,
+                header_offset::ANALOG_PER_FRAME,
+                format!("the file holds {what}; expected at least one marker or ANALOG:USED > 0"),
+            )
+            .with_field("ANALOG:USED"));
+    };
+    let events = analog::events_in_samples(events(file, layout, point_rate)?, a.per_frame);
+    let mut motion = Motion::from_channels(crate::read::stem(origin), a.rate, a.channels)
+        .map_err(|e| e.in_file(origin))?
+        .with_source(origin, "c3d");
+    motion.events = events;
+    motion.load_notes =
+        LoadNotes { length_unit: None, length_unit_from: String::new(), repairs: repairs.notes };
     Ok(motion)
 }
 

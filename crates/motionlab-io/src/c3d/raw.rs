@@ -791,6 +791,12 @@ impl<'a> C3dFile<'a> {
     /// Analog channel `channel` (0-based) over the whole file, in physical units:
     /// `(stored − ANALOG:OFFSET) × ANALOG:SCALE × ANALOG:GEN_SCALE`. Samples are stored
     /// sample-major within each frame (all channels of sample 1, then of sample 2, …).
+    ///
+    /// `ANALOG:FORMAT "UNSIGNED"` makes both the 16-bit words and the 16-bit `OFFSET` values
+    /// unsigned (an offset of 32768 can only be stored so: as the word −32768 signed), as the
+    /// C3D User Guide and py-c3d read them. ezc3d 1.7.2 departs from this twice: it reads
+    /// unsigned words as signed and subtracts |OFFSET| (so a negative offset of a signed file
+    /// is added); `bench/analog_fixtures.py` pins both differences on hand-made files.
     pub fn analog_channel(&self, layout: &DataLayout, channel: usize) -> Result<Vec<f64>> {
         let used = match self.param("ANALOG", "USED") {
             Some(p) => p.first_unsigned(self.ctx)? as usize,
@@ -813,17 +819,23 @@ impl<'a> C3dFile<'a> {
                 None => Ok(default),
             }
         };
-        let offset = pick("OFFSET", 0.0)?;
-        let scale = pick("SCALE", 1.0)?;
-        let gen_scale = match self.param("ANALOG", "GEN_SCALE") {
-            Some(p) => p.first_float(self.ctx)?,
-            None => 1.0,
-        };
         let unsigned = match self.param("ANALOG", "FORMAT") {
             Some(p) => {
                 p.strings(self.ctx)?.first().is_some_and(|s| s.eq_ignore_ascii_case("UNSIGNED"))
             }
             None => false,
+        };
+        let offset = match self.param("ANALOG", "OFFSET") {
+            Some(p) if unsigned && p.kind == ParamType::Int16 => {
+                let v = p.unsigned(self.ctx)?;
+                v.get(channel).or(v.first()).map_or(0.0, |&o| f64::from(o))
+            }
+            _ => pick("OFFSET", 0.0)?,
+        };
+        let scale = pick("SCALE", 1.0)?;
+        let gen_scale = match self.param("ANALOG", "GEN_SCALE") {
+            Some(p) => p.first_float(self.ctx)?,
+            None => 1.0,
         };
         let word = if layout.float { 4 } else { 2 };
         let mut out = Vec::with_capacity(layout.n_frames * per_frame);

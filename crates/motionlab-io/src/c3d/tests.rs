@@ -778,3 +778,67 @@ fn registered_with_defaults_and_rejects_unknown_keys() {
     let entry = motionlab_core::registry::find("c3d").unwrap();
     assert!(entry.params().iter().all(|p| p.default.is_some() && !p.description.is_empty()));
 }
+
+/// `C3dSpec::small()` with two analog words a frame (one sample of two channels at 100 Hz).
+fn with_analog(labels: &[&str], rate: f32) -> Vec<u8> {
+    let mut spec = C3dSpec::small();
+    spec.analog_per_frame = 2;
+    let width = labels.iter().map(|l| l.len()).max().unwrap_or(1);
+    spec.extra = vec![
+        spec.raw_ints("ANALOG", "USED", &[2]),
+        spec.raw_floats("ANALOG", "RATE", vec![], &[rate]),
+        C3dSpec::raw_chars("ANALOG", "LABELS", width, labels),
+    ];
+    spec.build()
+}
+
+fn analog_options(strict: bool) -> C3dOptions {
+    C3dOptions { analog: true, strict, ..C3dOptions::default() }
+}
+
+#[test]
+fn analog_channels_load_at_their_rate_with_repeated_labels_made_unique() {
+    let bytes = with_analog(&["EMG", "EMG"], 100.0);
+    let m = parse_c3d(&bytes, Path::new(ORIGIN), &analog_options(false)).unwrap();
+    assert_eq!(m.n_points(), 0);
+    assert_eq!(m.channels().names(), ["EMG", "EMG#2"]);
+    // No ANALOG:UNITS, OFFSET, SCALE or GEN_SCALE: unitless words as stored (the filler).
+    assert_eq!(m.channels().units(), ["", ""]);
+    assert_eq!(m.channels().values(), [9999.0, 10000.0, 9999.0, 10000.0, 9999.0, 10000.0]);
+    assert_eq!(m.frame_rate().hz(), 100.0);
+    assert_eq!(
+        m.load_notes.repairs,
+        ["duplicate analog labels made unique: \"EMG\" (channel 2) → EMG#2"]
+    );
+    let e = parse_c3d(&bytes, Path::new(ORIGIN), &analog_options(true)).unwrap_err();
+    assert_eq!(e.location().field.as_deref(), Some("ANALOG:LABELS"));
+    assert!(e.to_string().contains(ORIGIN), "{e}");
+    // The points are still what the default reading gives.
+    assert_eq!(parse(&bytes).unwrap().position(2, 1), [12.0, 22.0, 32.0]);
+}
+
+#[test]
+fn an_analog_rate_the_data_do_not_hold_is_read_at_the_datas_rate_and_said() {
+    // One sample a 100 Hz frame, while ANALOG:RATE says 150 Hz.
+    let bytes = with_analog(&["Fz", ""], 150.0);
+    let m = parse_c3d(&bytes, Path::new(ORIGIN), &analog_options(false)).unwrap();
+    assert_eq!(m.frame_rate().hz(), 100.0);
+    // A blank label is named by its channel number.
+    assert_eq!(m.channels().names(), ["Fz", "A2"]);
+    // The data layout's note (the parameters give no word count), then the rate's.
+    assert_eq!(m.load_notes.repairs.len(), 2, "{:?}", m.load_notes);
+    assert!(m.load_notes.repairs[1].starts_with("ANALOG:RATE is 150 Hz"), "{:?}", m.load_notes);
+    let e = parse_c3d(&bytes, Path::new(ORIGIN), &analog_options(true)).unwrap_err();
+    assert!(e.to_string().contains(ORIGIN) && e.to_string().contains("ANALOG:RATE"), "{e}");
+}
+
+#[test]
+fn a_file_with_neither_points_nor_analog_is_refused_naming_analog_used() {
+    let mut spec = C3dSpec::small();
+    spec.labels.clear();
+    spec.frames = vec![Vec::new(); 3];
+    let e = err(&spec.build());
+    assert_eq!(e.kind(), ErrorKind::EmptySequence);
+    assert_eq!(e.location().field.as_deref(), Some("ANALOG:USED"));
+    assert!(e.to_string().contains("no 3-D points and no analog channels"), "{e}");
+}

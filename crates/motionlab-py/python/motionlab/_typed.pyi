@@ -113,7 +113,7 @@ class loaders:
         """
 
     @staticmethod
-    def c3d(path: Union[str, os.PathLike], *, up_axis: Optional[str] = None, zero_means_missing: Optional[bool] = None, strip_subject_prefix: Optional[bool] = None, strict: Optional[bool] = None) -> Motion:
+    def c3d(path: Union[str, os.PathLike], *, up_axis: Optional[str] = None, zero_means_missing: Optional[bool] = None, strip_subject_prefix: Optional[bool] = None, strict: Optional[bool] = None, analog: Optional[bool] = None, analog_channels: Optional[Any] = None) -> Motion:
         """c3d (loader, from motionlab-io)
 
         Reads C3D motion-capture files (Vicon, Qualisys, Motion Analysis, …): marker positions,
@@ -122,8 +122,9 @@ class loaders:
         What is read: the header (parameter block, point count, first/last frame, scale factor,
         data start, analog values per frame, frame rate) and every parameter; Intel, DEC (VAX
         floats) and MIPS (big-endian) files; float storage (scale < 0) and 16-bit integer storage
-        (scale > 0, coordinates × scale). Analog data is skipped (its words still set the stride
-        between frames). Rate: `POINT:RATE`, else the header's. Frames: `TRIAL:ACTUAL_START_FIELD`
+        (scale > 0, coordinates × scale). Analog data is skipped when the points are read (its
+        words still set the stride between frames; below: reading them).
+        Rate: `POINT:RATE`, else the header's. Frames: `TRIAL:ACTUAL_START_FIELD`
         … `ACTUAL_END_FIELD` when present, else header words 4–5. Units: `POINT:UNITS` (`mm`, `cm`,
         `m`, `in`) converted to mm; absent or blank means mm. Names: `POINT:LABELS`, `LABELS2`,
         … in order, trimmed; labels beyond the point count are ignored, a blank label becomes
@@ -168,6 +169,18 @@ class loaders:
         section that fits neither account, a zero or NaN scale factor or rate, last frame < first
         frame, too few labels, non-UTF-8 labels.
 
+        Analog channels (EMG, force plates, accelerometers, dynamometers): a file with no 3-D
+        point and `ANALOG:USED` > 0 (an EMG system's export) loads as a motion of channels at the
+        analog rate, and with `analog = true` any file does (a marker file's analog channels then
+        feed channel segmenters and the benchmark like a channel file). Names: `ANALOG:LABELS`,
+        `LABELS2`, … (blank → `A<n>`, a repeated label → `EMG#2`, noted); units: `ANALOG:UNITS`,
+        `UNITS2`, …; rate: `ANALOG:RATE`, which must equal the samples per frame × the point rate
+        (when it does not, the data's count wins, noted); values
+        `(word − ANALOG:OFFSET) × ANALOG:SCALE × ANALOG:GEN_SCALE`, words and offsets unsigned when
+        `ANALOG:FORMAT` is `UNSIGNED` (the C3D User Guide's reading, py-c3d's; ezc3d's where the
+        offsets are ≥ 0 and the words signed — every real file shipped). Events keep their times;
+        their frame indices count analog samples.
+
         Parameters:
           up_axis : "x" | "y" | "z"  (default "z")
               The axis of the file's lab frame that points up (Vicon and Qualisys labs, including
@@ -185,6 +198,12 @@ class loaders:
           strict : boolean  (default false)
               Refuse every departure from the C3D letter that is read leniently by default (the
               repairs listed above), each with the error naming the file, byte and parameter.
+          analog : boolean  (default false)
+              Load the analog channels (at the analog rate) instead of the 3-D points, so that a
+              marker file's EMG or force plates feed channel segmenters and the benchmark. A file
+              without points loads its analog channels whatever this says.
+          analog_channels : array (optional)  (default: every analog channel)
+              With `analog = true`: the channels to keep, by label, in this order.
 
         In an experiment: { type = "c3d", <parameter> = <value>, … }
         """
