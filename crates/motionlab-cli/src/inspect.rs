@@ -120,7 +120,7 @@ fn analog_of(
     let params = toml::from_str("analog = true").map_err(|e| {
         Error::new(ErrorKind::InvalidParameter, format!("analog loader parameters: {e}"))
     })?;
-    let Ok(a) = registry::build_loader("c3d", &params)?.load(path) else { return Ok(None) };
+    let Ok(a) = motionlab_core::registry::build_loader("c3d", &params)?.load(path) else { return Ok(None) };
     let npy = match npy {
         Some(out) => Some(write_channels(&out.with_extension("analog.npy"), a.channels())?),
         None => None,
