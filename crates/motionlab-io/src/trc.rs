@@ -395,8 +395,10 @@ pub fn parse_trc(text: &str, origin: &Path) -> Result<TrcFile> {
     Ok(TrcFile { rate_hz, units, unit, labels, positions, frame_numbers, times, header, notes })
 }
 
-/// Writes `motion`'s points as an OpenSim TRC file (TAB-separated, `Units` = `unit`, missing
-/// samples as empty cells, Frame# from 1, time from 0). Values are written with Rust's
+/// Writes `motion`'s points as an OpenSim TRC file (TAB-separated, `Units` = `unit`, Frame#
+/// from 1, time from 0). Missing samples are written `NaN`, as OpenSim's own writer does: empty
+/// cells would read the same here, but OpenSim's reader drops empty cells at the end of a row
+/// and then refuses the row as short. Values are written with Rust's
 /// shortest round-trip formatting, so reading the file back gives the same `f64` in that unit.
 pub fn write_trc(
     motion: &Motion,
@@ -440,7 +442,7 @@ pub fn write_trc(
         write!(out, "{}\t{}", frame + 1, frame as f64 / hz)?;
         for (p, gone) in motion.frame(frame).iter().zip(motion.frame_missing(frame)) {
             if *gone {
-                write!(out, "\t\t\t")?;
+                write!(out, "\tNaN\tNaN\tNaN")?;
             } else {
                 write!(out, "\t{}\t{}\t{}", p[0] * per_mm, p[1] * per_mm, p[2] * per_mm)?;
             }
