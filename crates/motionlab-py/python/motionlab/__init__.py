@@ -102,7 +102,8 @@ def workflows() -> builtins.list[Dict[str, Any]]:
 
 def load(path: Union[str, os.PathLike], loader: Optional[str] = None, **params: Any) -> Motion:
     """Loads a motion file: C3D, BVH, ASF/AMC (the ``.asf`` found beside the ``.amc``),
-    Qualisys TSV or a channel file (TSSB series, CSV, ``.npy``, Parquet); ``.gz`` is read transparently.
+    Qualisys TSV, OpenSim TRC (markers) and MOT/STO (named channels) or a channel file (TSSB
+    series, CSV, ``.npy``, Parquet); ``.gz`` is read transparently.
 
     ``loader`` names a registered loader (``motionlab list``); without it, the loader registered
     for the file's extension at its defaults, as ``motionlab inspect`` picks it. ``params`` are
