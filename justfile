@@ -41,6 +41,7 @@ bench:
     python3 bench/conformance_crosscheck.py check
     python3 bench/tssb_published_settings.py
     python3 bench/tssb_differences.py
+    python3 bench/opensim_crosscheck.py
 
 # Rewrite the generated crate graph and crate table of docs/ARCHITECTURE.md from
 # crates/*/Cargo.toml, then run every docs check (after adding a crate: also give it a row in

@@ -19,7 +19,7 @@ FIXTURES = ROOT / "tests" / "fixtures"
 sys.path.insert(0, str(FIXTURES))
 from c3d_edit import C3d  # noqa: E402
 
-TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "boundaries_csv", "elan_eaf", "plugin_reply", "gunzip", "experiment_toml"]
+TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "boundaries_csv", "elan_eaf", "plugin_reply", "gunzip", "experiment_toml", "trc", "mot"]
 
 
 def read(p: Path) -> bytes:
@@ -109,6 +109,19 @@ def main() -> None:
     seeds["qualisys_tsv"]["walk1_rows_196_20_nan.tsv"] = tsv_rows(walk1, 195, 20).encode()
     dance1 = read(DATA / "mct/dance1.tsv.gz").decode()
     seeds["qualisys_tsv"]["dance1_rows_0_5.tsv"] = tsv_rows(dance1, 0, 5).encode()
+
+    # TRC and MOT/STO: every shipped sample cut to its header and first 6 rows (counts left as
+    # written: a NumFrames that differs from the rows is one of the quirks to survive).
+    for p in sorted((DATA / "formats").glob("*/*")):
+        if p.suffix in (".trc", ".mot", ".sto"):
+            lines = read(p).decode().split("\n")
+            if p.suffix == ".trc":
+                keep = lines[:12]
+            else:
+                end = next(i for i, l in enumerate(lines) if l.strip() == "endheader")
+                keep = lines[: end + 8]
+            target = "trc" if p.suffix == ".trc" else "mot"
+            seeds[target][f"{p.parent.name}_{p.name}"] = "\n".join(keep).encode() + b"\n"
 
     seeds["cmu86_labels"]["mocap.txt"] = read(DATA / "cmu86/mocap.txt")
     for p in sorted((DATA / "mocap6/truelabels").glob("*.txt")):

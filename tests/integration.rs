@@ -19,6 +19,7 @@ mod malformed;
 mod matching;
 mod missing_data;
 mod odd_names;
+mod opensim_formats;
 mod own_annotations;
 mod reader_repairs;
 mod registry;

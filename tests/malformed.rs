@@ -884,3 +884,98 @@ fn every_remaining_unwrap_in_library_code_is_documented() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// TRC (opensim-core dataWithEformat.trc: header lines 1–5, rows 6–10) and MOT/STO
+// (referenceCoordinates.sto cut to 8 rows: `endheader` on line 5, labels 6, rows 7–14)
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn trc_defects_name_kind_line_and_column() {
+    let cases: &[(&str, ErrorKind, At<'_>, &str)] = &[
+        (
+            "trc_truncated_header.trc",
+            ErrorKind::Truncated,
+            At::Line(3),
+            "the header ends after 3 lines; expected 5",
+        ),
+        ("trc_header_only.trc", ErrorKind::EmptySequence, At::Line(5), "no data rows"),
+        (
+            "trc_too_many_cells.trc",
+            ErrorKind::WrongValueCount,
+            At::Line(8),
+            "found 45 cells, a value in cell 45; expected 2 + 3 × 14 markers = 44",
+        ),
+        (
+            "trc_short_row.trc",
+            ErrorKind::WrongValueCount,
+            At::Line(7),
+            "found 40 cells; expected 2 + 3 × 14 markers = 44",
+        ),
+        (
+            "trc_not_a_number.trc",
+            ErrorKind::Syntax,
+            At::LineField(9, "RUA1 Y"),
+            "\"2,45E-01\" in column 7",
+        ),
+        (
+            "trc_no_units.trc",
+            ErrorKind::MissingKey,
+            At::LineField(3, "Units"),
+            "no Units in the header",
+        ),
+    ];
+    for (file, kind, at, says) in cases {
+        let at = match at {
+            At::Line(l) => At::Line(*l),
+            At::LineField(l, f) => At::LineField(*l, f),
+            _ => unreachable!(),
+        };
+        assert_error(load("trc", file), file, *kind, at, says);
+    }
+}
+
+#[test]
+fn trc_crlf_loads_as_lf() {
+    let lf = load_ok("trc", "trc_lf.trc");
+    assert_eq!((lf.n_frames(), lf.n_points()), (5, 14));
+    assert_same_positions(&load_ok("trc", "trc_crlf.trc"), &lf, 0.0, "trc_crlf.trc");
+}
+
+#[test]
+fn sto_defects_name_kind_line_and_column() {
+    let cases: &[(&str, ErrorKind, usize, Option<&str>, &str)] = &[
+        ("sto_no_endheader.sto", ErrorKind::Truncated, 4, None, "no `endheader` line"),
+        (
+            "sto_too_many_cells.sto",
+            ErrorKind::WrongValueCount,
+            9,
+            None,
+            "found 12 values; expected 11 (time and 10 columns, as labelled on line 6)",
+        ),
+        (
+            "sto_not_a_number.sto",
+            ErrorKind::Syntax,
+            11,
+            Some("/jointset/groundPelvis/pelvis_ty/value"),
+            "\"0.88x\" in column 4",
+        ),
+        ("sto_time_backwards.sto", ErrorKind::OutOfRange, 13, None, "expected increasing times"),
+    ];
+    for (file, kind, line, field, says) in cases {
+        let at = match field {
+            Some(f) => At::LineField(*line, f),
+            None => At::Line(*line),
+        };
+        assert_error(load("mot", file), file, *kind, at, says);
+    }
+}
+
+#[test]
+fn sto_crlf_loads_as_lf() {
+    let lf = load_ok("mot", "sto_lf.sto");
+    let crlf = load_ok("mot", "sto_crlf.sto");
+    assert_eq!((lf.n_frames(), lf.channels().n_channels()), (8, 10));
+    assert_eq!(lf.channels(), crlf.channels());
+    assert_eq!(lf.frame_rate().hz(), crlf.frame_rate().hz());
+}

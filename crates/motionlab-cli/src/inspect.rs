@@ -17,6 +17,9 @@ struct Report {
     point_kind: motionlab_core::PointKind,
     up_axis: String,
     points: Vec<String>,
+    /// The channels' names (MOT/STO columns, a channel file's columns); empty for a marker or
+    /// skeleton file.
+    channels: Vec<String>,
     missing_samples: usize,
     missing_percent: f64,
     /// The file's length unit as the loader read or inferred it (`None`: not stated).
@@ -170,6 +173,7 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         point_kind: m.point_kind(),
         up_axis: m.up_axis().to_string(),
         points: m.point_names().to_vec(),
+        channels: m.channels().names().to_vec(),
         missing_samples: m.missing_count(),
         missing_percent: if total == 0 {
             0.0
@@ -246,10 +250,14 @@ fn text(r: &Report) -> String {
         motionlab_core::PointKind::Joint => "joints",
     };
     s += &format!("  {kind:<9} {}: {}\n", r.points.len(), r.points.join(" "));
+    if !r.channels.is_empty() {
+        s += &format!("  channels  {}: {}\n", r.channels.len(), r.channels.join(" "));
+    }
     s += &format!("  missing   {} samples ({:.2} %)\n", r.missing_samples, r.missing_percent);
     s += &format!("  up axis   {}\n", r.up_axis);
     s += &match r.length_unit {
         Some(u) => format!("  unit      {} — {}\n", unit_text(u), r.length_unit_from),
+        None if !r.length_unit_from.is_empty() => format!("  unit      {}\n", r.length_unit_from),
         None => "  unit      not stated by the loader (positions are mm)\n".to_string(),
     };
     s += &match (r.height_mm, r.height_frame) {

@@ -27,6 +27,7 @@ use motionlab_engine::RunSummary;
 use motionlab_engine::consent::{ExternalCommand, TrustStore};
 use motionlab_engine::front::{RunChoices, external_policy};
 
+mod convert;
 mod export;
 pub mod inspect;
 mod new;
@@ -138,6 +139,17 @@ enum Command {
         /// (samples × channels).
         #[arg(long, value_name = "DIR")]
         npy: Option<PathBuf>,
+    },
+    /// Convert a motion file by the output's extension: marker motions (TRC, C3D, TSV) and
+    /// skeleton motions (BVH, ASF/AMC: their joint positions) to OpenSim `.trc` or `.csv`
+    /// (`frame,time_s,<point>_x_mm,…`); channel motions (MOT/STO, channel files) to `.csv`
+    /// (`time_s,<channel>,…`). Missing samples are `NaN` in TRC, empty cells in CSV.
+    Convert {
+        input: PathBuf,
+        output: PathBuf,
+        /// The TRC's length unit (`mm`, `cm`, `m`, `in`); OpenSim models are in metres.
+        #[arg(long, default_value = "mm")]
+        units: String,
     },
     /// Combine the shards of a sharded run into the tables and figures of a plain run.
     Merge {
@@ -334,6 +346,17 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             reproduce(&experiments, &opts, record, only.as_deref())
         }
         Command::Inspect { files, json, npy } => inspect::inspect(&files, json, npy.as_deref()),
+        Command::Convert { input, output, units } => {
+            let unit = motionlab_core::LengthUnit::from_label(&units).ok_or_else(|| {
+                Error::new(
+                    ErrorKind::InvalidParameter,
+                    format!("--units {units:?}; expected mm, cm, m or in"),
+                )
+            })?;
+            let c = convert::convert(&input, &output, unit)?;
+            println!("wrote {} ({} frames, {} {})", output.display(), c.frames, c.columns, c.what);
+            Ok(ExitCode::SUCCESS)
+        }
         Command::New { input, truth, output, force, benchmark } => {
             let path =
                 new::new_experiment(&new::NewArgs { input, truth, output, force, benchmark })?;

@@ -9,7 +9,7 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 8;
+pub const PLUGIN_COUNT: usize = 10;
 
 pub mod read;
 
@@ -18,6 +18,8 @@ pub mod bvh;
 pub mod c3d;
 pub mod channel_file;
 pub mod labels;
+pub mod mot;
 pub mod qualisys_tsv;
 pub mod scores_csv;
 mod text;
+pub mod trc;

@@ -18,6 +18,8 @@ TAKES = {
     "131_01": ("cmu131/131_01.bvh.gz", "bvh"),
     "walk1_c3d": ("mct/walk1.c3d.gz", "c3d"),
     "walk1_tsv": ("mct/walk1.tsv.gz", "qualisys_tsv"),
+    "walk_free_01_trc": ("formats/opensim-core/walk_free_01.trc", "trc"),
+    "blanks_trc": ("formats/opensim-core/dataWithBlanksForMissingMarkers.trc", "trc"),
 }
 
 
@@ -123,3 +125,15 @@ def test_a_parquet_channel_file_loads_the_values_of_its_text_file():
     parquet = ml.load(ROOT / "crates/motionlab-parquet/tests/fixtures/ArrowHead.parquet", "channels", rate_hz=1.0)
     assert parquet.channel_names == ["value"]
     assert np.array_equal(parquet.channels.view(np.uint64), text.channels.view(np.uint64))
+
+
+def test_mot_channels_are_the_files_columns():
+    """An OpenSim .mot loads as named channels, each column's values as NumPy parses them."""
+    path = data("formats/opensim-core/subject01_walk1_ik.mot")
+    m = ml.load(path)
+    ref = np.loadtxt(path, skiprows=12)
+    assert m.n_frames == 73 and m.channels.shape == (73, 164)
+    assert np.array_equal(m.channels, ref[:, 1:])
+    assert m.channel_names[:2] == ["pelvis_tx", "pelvis_ty"]
+    assert "ground_force_vx#2" in m.channel_names
+    assert abs(m.rate - 60.0) < 1e-9

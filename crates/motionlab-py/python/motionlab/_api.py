@@ -163,7 +163,7 @@ def workflows() -> List[Workflow]:
 
 def load(path: PathLike, loader: Optional[str] = None, **params: Any) -> Motion:
     """Loads a motion file: C3D, BVH, ASF/AMC (the ``.asf`` found beside the ``.amc``),
-    Qualisys TSV or a channel file (TSSB series, CSV, ``.npy``, Parquet); ``.gz`` is read
+    Qualisys TSV, OpenSim TRC (markers) and MOT/STO (named channels) or a channel file (TSSB series, CSV, ``.npy``, Parquet); ``.gz`` is read
     transparently.
 
     ``loader`` names a registered loader (``listing()``); without it, the loader registered for

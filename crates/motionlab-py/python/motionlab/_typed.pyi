@@ -252,6 +252,49 @@ class loaders:
         """
 
     @staticmethod
+    def mot(path: Union[str, os.PathLike], *, columns: Optional[Any] = None) -> Motion:
+        """mot (loader, from motionlab-io)
+
+        Reads OpenSim `.mot` and `.sto` files (joint angles, ground reaction forces, states…) as
+        named channels, one per data column; the first column is time in seconds.
+
+        Header: every line up to `endheader`; `key=value` (`nRows`, `nColumns`, `inDegrees`,
+        `version`, `DataRate`, …) or SIMM's `key value` (`datarows`, `datacolumns`, `range`); other
+        lines (a title, free text, `# SIMM Motion File Header:`) are kept out of the data. Then one
+        line of column labels (TAB-separated; space-separated when the line has no TAB) and one row
+        per sample.
+
+        Units: the angle unit is `inDegrees` as written (`yes`: degrees, `no`: radians); when the
+        header has no `inDegrees`, OpenSim's `Storage` assumes degrees, and so does this loader,
+        saying so. It applies to rotational coordinates only (translations are metres, forces
+        newtons, as OpenSim writes them); the file does not say which columns are which, so
+        channel units are left empty and the angle unit is stated in the load notes (`motionlab
+        inspect` prints it on its `unit` line).
+
+        Rate: the header's `DataRate` when present; else from the time column, `(rows − 1) /
+        (last time − first time)` — OpenSim writes times with few decimals, so single steps are
+        uneven (0.016/0.017 s at 60 Hz) and the mean step is the sampling rate. Times must increase,
+        and no step may differ from the mean by more than half of it (a variable-step simulation's
+        output is not one rate; resample it first).
+
+        Quirks read as OpenSim reads them and said in the load notes: header counts (`nRows`,
+        `nColumns`, `datarows`, `datacolumns`) not matching the file (the data present is read);
+        duplicate column labels (the repeat gets `#2` appended: channels need distinct names);
+        labels padded with spaces, trailing TABs, CRLF, a BOM. `NaN`, `nan` or an empty cell is a
+        missing sample.
+
+        Errors name the file and line: no `endheader`, no column labels, a row with more or fewer
+        values than labels, a value that is not a number (naming the column), times that do not
+        increase, no rows.
+
+        Parameters:
+          columns : array (optional)  (default: every column but time)
+              The channels to keep, by label (after renaming duplicates), in this order.
+
+        In an experiment: { type = "mot", <parameter> = <value>, … }
+        """
+
+    @staticmethod
     def qualisys_tsv(path: Union[str, os.PathLike], *, up_axis: Optional[str] = None) -> Motion:
         """qualisys_tsv (loader, from motionlab-io)
 
@@ -283,6 +326,46 @@ class loaders:
               Toolbox recordings, are Z-up).
 
         In an experiment: { type = "qualisys_tsv", <parameter> = <value>, … }
+        """
+
+    @staticmethod
+    def trc(path: Union[str, os.PathLike], *, up_axis: Optional[str] = None) -> Motion:
+        """trc (loader, from motionlab-io)
+
+        Reads OpenSim TRC marker files (`.trc`): marker positions with the header's `Units` and
+        `DataRate`.
+
+        Layout: line 1 `PathFileType 4 (X/Y/Z) <name>`; line 2 the header keys (`DataRate`,
+        `CameraRate`, `NumFrames`, `NumMarkers`, `Units`, `OrigDataRate`, `OrigDataStartFrame`,
+        `OrigNumFrames`) and line 3 their values, matched by name; line 4 `Frame#`, `Time` and one
+        label per marker (every third column); line 5 `X1 Y1 Z1 …`; then, after optional blank
+        lines, one row per frame: Frame#, time in seconds, X Y Z per marker.
+
+        The unit is the header's `Units` (`mm`, `cm`, `m`, `in`; positions are converted to mm);
+        the rate is `DataRate` (fractional rates such as 119.88012 kept), else `CameraRate`.
+        OpenSim's lab frame is Y-up (`up_axis`).
+
+        Quirks read as OpenSim reads them, each one said in the motion's load notes (`motionlab
+        inspect` prints them as `repaired` lines, a run's provenance lists them):
+        - `NumFrames` (or `NumMarkers`) not matching the rows (labels) present: the rows and labels
+          present are read;
+        - `Frame#` not starting at 1 or time not at 0: frame 0 of the motion is the first row;
+        - duplicate marker labels: the second gets `#2` appended;
+        - empty cells (a marker not seen, whole rows of them in Mokka files) are missing samples
+          (NaN in the missing mask), never zero; a sample with one empty coordinate is missing;
+        - trailing TABs after the last value or on header lines, spaces around values (`   151`),
+          a line 1 mixing spaces and TABs, E notation (`-2.73E-01`), CRLF and a BOM.
+
+        Errors name the file and line: a header shorter than five lines, no `DataRate`/`CameraRate`
+        or `Units`, an unknown unit, a row with more non-empty cells than `2 + 3 × markers` or
+        fewer cells than that, a value that is not a number (naming the marker and axis), no rows.
+
+        Parameters:
+          up_axis : "x" | "y" | "z"  (default "y")
+              The axis of the lab frame that points up (OpenSim's convention, and every shipped TRC:
+              Y).
+
+        In an experiment: { type = "trc", <parameter> = <value>, … }
         """
 
 
