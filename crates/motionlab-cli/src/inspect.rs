@@ -17,9 +17,6 @@ struct Report {
     point_kind: motionlab_core::PointKind,
     up_axis: String,
     points: Vec<String>,
-    /// The channels' names (MOT/STO columns, a channel file's columns); empty for a marker or
-    /// skeleton file.
-    channels: Vec<String>,
     missing_samples: usize,
     missing_percent: f64,
     /// The file's length unit as the loader read or inferred it (`None`: not stated).
@@ -173,7 +170,6 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         point_kind: m.point_kind(),
         up_axis: m.up_axis().to_string(),
         points: m.point_names().to_vec(),
-        channels: m.channels().names().to_vec(),
         missing_samples: m.missing_count(),
         missing_percent: if total == 0 {
             0.0
@@ -250,9 +246,6 @@ fn text(r: &Report) -> String {
         motionlab_core::PointKind::Joint => "joints",
     };
     s += &format!("  {kind:<9} {}: {}\n", r.points.len(), r.points.join(" "));
-    if !r.channels.is_empty() {
-        s += &format!("  channels  {}: {}\n", r.channels.len(), r.channels.join(" "));
-    }
     s += &format!("  missing   {} samples ({:.2} %)\n", r.missing_samples, r.missing_percent);
     s += &format!("  up axis   {}\n", r.up_axis);
     s += &match r.length_unit {
