@@ -316,7 +316,7 @@ def run(data, names, multichannel, n_random, binary, args):
         # The threshold rule: stumpy's CAC with excl_factor 5, regimes in the order of stumpy's
         # REA while the minimum is below 0.45.
         cac5, _ = stumpy.fluss(index_ref, L=m, n_regimes=2, excl_factor=5, custom_iac=iac.copy())
-        threshold = 0.55 if BROKEN == "threshold" else 0.45
+        threshold = 1.0 if BROKEN == "threshold" else 0.45
         th_ref = sorted(x for x in threshold_regimes(cac5, m, 5, threshold) if 0 < x < len(ts))
         n_threshold_cps += len(th_ref)
         same_th = th_ref == th_ours["candidates"]
