@@ -32,6 +32,7 @@ use motionlab_segment as _;
 use motionlab_workflows as _;
 
 mod array;
+mod changepoint;
 mod convert;
 mod eval;
 mod matching;
@@ -118,5 +119,6 @@ fn _motionlab(m: &Bound<'_, PyModule>) -> PyResult<()> {
     eval::register(m)?;
     matching::register(m)?;
     run::register(m)?;
+    changepoint::register(m)?;
     Ok(())
 }

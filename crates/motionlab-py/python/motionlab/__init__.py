@@ -38,7 +38,7 @@ __all__ = [
     "MultistreamMatch", "RunResult", "TcpdF1", "__version__",
     "load", "list", "describe", "plugins", "workflows", "preprocess", "features", "segment", "fuse", "read_truth",
     "detect_points", "align", "synchronise", "gait_cycles", "waveform_parameters", "synthesize_walk",
-    "evaluate", "boundary_pr", "covering", "tcpd_f1", "subsequence_dp", "multistream_match", "run", "validate",
+    "evaluate", "boundary_pr", "covering", "tcpd_f1", "penalty_path", "subsequence_dp", "multistream_match", "run", "validate",
     "loaders", "ground_truth_readers", "preprocessors", "feature_extractors", "segmenters", "fusers", "point_detectors",
     "matchers", "synchronisers", "gait_cycle_detectors", "waveform_analyzers", "walk_synthesizers", "evaluators",
 ]
@@ -338,6 +338,22 @@ class MultistreamMatch:
 
 def _f64(a: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def penalty_path(values: Any, path: Sequence[Any] = ("bic", "whole_cost"), choose: str = "elbow", *, pandas: bool = False, **params: Any):
+    """``kernel_cpd``'s penalty path (CROPS) of ``values`` (n samples, or n × channels): every
+    segmentation optimal for a penalty in ``path`` (numbers in the cost's units, or ``"bic"``
+    and ``"whole_cost"``), one row each, fewest change points first — ``n_changes``,
+    ``pen_min``, ``pen_max`` (the penalty interval it owns), ``cost`` (unpenalised),
+    ``chosen`` (the one ``choose`` picks: ``"elbow"``, ``"bic"`` or ``"widest"``) and
+    ``change_points`` (space-separated sample indices). Other ``kernel_cpd`` parameters
+    (``search``, ``cost``, ``min_size``, ``gamma``…) as keywords. A Polars DataFrame (pandas
+    with ``pandas=True``)."""
+    x = _f64(values)
+    if x.ndim == 1:
+        x = x.reshape(-1, 1)
+    table = _native.penalty_path(x, {**params, "penalty": {"path": builtins.list(path), "choose": choose}})
+    return _frame(table, pandas)
 
 
 def subsequence_dp(model: Any, target: Any) -> SubsequenceMatch:
