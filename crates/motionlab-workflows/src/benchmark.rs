@@ -506,12 +506,15 @@ struct HeldOutRow {
     above_chance: &'static str,
 }
 
+/// One grid point of a method: (combination, its swept values, sequence → covering).
+type GridPoint<'a> = (usize, String, Vec<(&'a str, &'a ScoreWithChance)>);
+
 /// The leave-one-sequence-out choice of each method's combination by mean covering.
 fn heldout_covering(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Table> {
     let mut rows = Vec::new();
     for method in methods {
         // (combination, parameters, sequence → covering) of every point of this method.
-        let points: Vec<(usize, String, Vec<(&str, &ScoreWithChance)>)> = combos
+        let points: Vec<GridPoint<'_>> = combos
             .iter()
             .filter(|co| co.combo.focus.as_ref().is_none_or(|f| f == method))
             .filter_map(|co| {
@@ -529,7 +532,7 @@ fn heldout_covering(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Ta
             .collect();
         let Some(first) = points.first() else { continue };
         let sequences: Vec<&str> = first.2.iter().map(|(s, _)| *s).collect();
-        let mean_on = |p: &(usize, String, Vec<(&str, &ScoreWithChance)>), skip: Option<&str>| {
+        let mean_on = |p: &GridPoint<'_>, skip: Option<&str>| {
             let v: Vec<f64> =
                 p.2.iter().filter(|(s, _)| Some(*s) != skip).map(|(_, c)| c.value).collect();
             v.iter().sum::<f64>() / v.len() as f64
@@ -543,7 +546,7 @@ fn heldout_covering(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Ta
             }
             best
         };
-        let label = |p: &(usize, String, Vec<(&str, &ScoreWithChance)>)| {
+        let label = |p: &GridPoint<'_>| {
             if p.1.is_empty() { "(no sweep)".to_string() } else { p.1.clone() }
         };
         let mut held: Vec<&ScoreWithChance> = Vec::new();
