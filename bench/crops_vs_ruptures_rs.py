@@ -12,7 +12,7 @@ relative; it prints how many series, paths and segmentations it compared, and fa
 fewer than ten series.
 
 --speed: the path of a 100,000-sample series (four channels, five mean and spread changes,
-cost rbf, kernel_pelt) against one PELT run at the range's lower penalty and at the BIC
+kernel_pelt, cost rbf or l2 with --speed-cost) against one PELT run at the range's lower penalty and at the BIC
 penalty, with the peak resident memory of our process, and the machine's load average.
 
 Our side runs through `cargo run --release -p motionlab-changepoint --example changepoint_json`.
@@ -125,26 +125,27 @@ def check(args):
     print("every path identical to ruptures-rs Crops")
 
 
-def speed():
+def speed(cost):
     rng = np.random.default_rng(5)
     n, d = 100_000, 4
     bounds = [0, 14_000, 31_000, 50_000, 66_000, 83_000, n]
     x = np.empty((n, d))
     for a, b in zip(bounds, bounds[1:]):
         x[a:b] = rng.normal(rng.normal(0, 1.5, d), rng.choice([0.5, 1.0, 2.0], d), (b - a, d))
-    base = {"cost": "rbf", "search": "kernel_pelt"}
+    base = {"cost": cost, "search": "kernel_pelt"}
     [first], _ = ours([job(x, base)])
-    bic, gamma = first["pen"], first["gamma"]
+    bic = first["pen"]
+    extra = {"gamma": first["gamma"]} if cost == "rbf" else {}
     lo, hi = bic, 100 * bic
-    one_lo, _ = ours([job(x, {**base, "gamma": gamma, "pen": lo}, repeats=1)])
-    one_bic, _ = ours([job(x, {**base, "gamma": gamma, "pen": bic * 10}, repeats=1)])
-    [path], rss = ours([job(x, {**base, "gamma": gamma, "penalty": {"path": [lo, hi]}})])
-    [single], rss_single = ours([job(x, {**base, "gamma": gamma, "pen": lo})])
+    one_lo, _ = ours([job(x, {**base, **extra, "pen": lo}, repeats=1)])
+    one_bic, _ = ours([job(x, {**base, **extra, "pen": bic * 10}, repeats=1)])
+    [path], rss = ours([job(x, {**base, **extra, "penalty": {"path": [lo, hi]}})])
+    [single], rss_single = ours([job(x, {**base, **extra, "pen": lo})])
     t_path = path["cpu_seconds"][0]
     t_lo = one_lo[0]["cpu_seconds"][0]
     t_mid = one_bic[0]["cpu_seconds"][0]
     print(f"load average: {os.getloadavg()}")
-    print(f"n = {n}, {d} channels, rbf kernel_pelt, gamma {gamma:.4g}, path over [{lo:.4g}, {hi:.4g}]: "
+    print(f"n = {n}, {d} channels, {cost} kernel_pelt, path over [{lo:.4g}, {hi:.4g}]: "
           f"{len(path['path'])} segmentations ({[len(p['breakpoints']) - 1 for p in path['path']]} change points)")
     print(f"CPU seconds: path {t_path:.2f}; one PELT at pen {lo:.4g}: {t_lo:.2f} (x{t_path / t_lo:.1f}); at pen {10 * bic:.4g}: {t_mid:.2f} (x{t_path / t_mid:.1f})")
     print(f"peak RSS: path {rss} KiB, one PELT {rss_single} KiB")
@@ -154,9 +155,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--series", type=int, default=12)
     ap.add_argument("--speed", action="store_true")
+    ap.add_argument("--speed-cost", default="rbf", choices=["rbf", "l2"])
     args = ap.parse_args()
     if args.speed:
-        speed()
+        speed(args.speed_cost)
     else:
         check(args)
 

@@ -27,6 +27,7 @@ use pyo3::types::{PyDict, PyTuple, PyType};
 use motionlab_plugins as _;
 
 mod array;
+mod changepoint;
 mod convert;
 mod eval;
 mod matching;
@@ -181,5 +182,6 @@ fn _motionlab(m: &Bound<'_, PyModule>) -> PyResult<()> {
     eval::register(m)?;
     matching::register(m)?;
     run::register(m)?;
+    changepoint::register(m)?;
     Ok(())
 }

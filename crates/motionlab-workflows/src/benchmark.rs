@@ -23,7 +23,7 @@ use motionlab_experiment::segmenters::{NamedSegmenter, build_segmenters};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
 use motionlab_experiment::workflow::{
-    BuildContext, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin,
+    BuildContext, ComboOutput, ItemData, ItemOutput, Output, WorkItem, Workflow, WorkflowPlugin,
 };
 use motionlab_experiment::{Datasets, build_stage};
 
@@ -53,6 +53,15 @@ use motionlab_experiment::{Datasets, build_stage};
 ///
 /// Every evaluation table says how each method's parameters were chosen
 /// (`parameters_chosen`: plugin defaults, set in the experiment, swept).
+///
+/// With a sweep and `selection = "leave_one_sequence_out"`, `heldout_covering`: for each
+/// sequence in turn, each method's combination with the best mean covering on the *other*
+/// sequences (each grid contributes its `focus` method, or every method without one; the first
+/// combination in grid order among equal means), its covering on the held-out sequence beside
+/// that combination's chance baseline there; a `mean` row pools them (the mean of each chance
+/// draw, as the mean rows above); and a row `all sequences` gives the same rule applied to every
+/// sequence — the value such a protocol would make the default, whose mean covering there is an
+/// oracle (chosen on the very sequences it reports).
 ///
 /// Missing samples: as each segmenter treats them (most refuse NaN: fill gaps first, or let a
 /// feature input's `fill` do it).
@@ -92,7 +101,26 @@ pub struct BenchmarkSection {
     /// Published per-sequence scores to show beside ours and to rank with ours.
     #[serde(default)]
     pub published: Option<PublishedSpec>,
+    /// With a sweep: `"leave_one_sequence_out"` adds `heldout_covering` (see above); `"none"`
+    /// only reports every combination.
+    #[serde(default)]
+    pub selection: BenchmarkSelection,
 }
+
+/// How a benchmark's sweep chooses each method's combination (`[benchmark] selection = …`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BenchmarkSelection {
+    /// No choice: every combination's tables.
+    #[default]
+    None,
+    /// Each sequence held out in turn; the combination with the best mean covering on the
+    /// others (`heldout_covering`).
+    LeaveOneSequenceOut,
+}
+
+/// Every (sequence, method, covering) of one combination, for `summarize`.
+struct CoveringScores(Vec<(String, String, ScoreWithChance)>);
 
 /// `published = { file = "…", metric = "covering", methods = { clasp = "ClaSP" } }`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -439,8 +467,133 @@ impl Workflow for BenchmarkWorkflow {
         out.tables.push(test);
         out.tables.push(runtime_table(&results, &methods)?);
         out.figures.extend(figure);
+        if self.section.selection == BenchmarkSelection::LeaveOneSequenceOut {
+            let scores = results
+                .iter()
+                .flat_map(|r| {
+                    r.methods
+                        .iter()
+                        .map(|m| (r.sequence.clone(), m.method.clone(), m.scores.covering.clone()))
+                })
+                .collect();
+            out.analyses.push((
+                "benchmark_covering".into(),
+                motionlab_core::Analysis::new(CoveringScores(scores)),
+            ));
+        }
         Ok(out)
     }
+
+    fn summarize(&self, combos: &[ComboOutput<'_>]) -> Result<Output> {
+        let mut out = Output::default();
+        if self.section.selection == BenchmarkSelection::LeaveOneSequenceOut {
+            out.tables.push(heldout_covering(combos, &self.method_names())?);
+        }
+        Ok(out)
+    }
+}
+
+/// A row of `heldout_covering`.
+#[derive(Serialize)]
+struct HeldOutRow {
+    sequence: String,
+    method: String,
+    chosen: String,
+    combination: usize,
+    covering: f64,
+    chance_covering: f64,
+    p_value_covering: f64,
+    above_chance: &'static str,
+}
+
+/// One grid point of a method: (combination, its swept values, sequence → covering).
+type GridPoint<'a> = (usize, String, Vec<(&'a str, &'a ScoreWithChance)>);
+
+/// The leave-one-sequence-out choice of each method's combination by mean covering.
+fn heldout_covering(combos: &[ComboOutput<'_>], methods: &[String]) -> Result<Table> {
+    let mut rows = Vec::new();
+    for method in methods {
+        // (combination, parameters, sequence → covering) of every point of this method.
+        let points: Vec<GridPoint<'_>> = combos
+            .iter()
+            .filter(|co| co.combo.focus.as_ref().is_none_or(|f| f == method))
+            .filter_map(|co| {
+                let (_, a) = co.output.analyses.iter().find(|(n, _)| n == "benchmark_covering")?;
+                let scores = a.get::<CoveringScores>()?;
+                let per: Vec<(&str, &ScoreWithChance)> = scores
+                    .0
+                    .iter()
+                    .filter(|(_, m, _)| m == method)
+                    .map(|(s, _, c)| (s.as_str(), c))
+                    .collect();
+                Some((co.combo.index, co.combo.label(), per))
+            })
+            .filter(|p| !p.2.is_empty())
+            .collect();
+        let Some(first) = points.first() else { continue };
+        let sequences: Vec<&str> = first.2.iter().map(|(s, _)| *s).collect();
+        let mean_on = |p: &GridPoint<'_>, skip: Option<&str>| {
+            let v: Vec<f64> =
+                p.2.iter().filter(|(s, _)| Some(*s) != skip).map(|(_, c)| c.value).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        let best = |skip: Option<&str>| {
+            let mut best = 0;
+            for i in 1..points.len() {
+                if mean_on(&points[i], skip) > mean_on(&points[best], skip) {
+                    best = i;
+                }
+            }
+            best
+        };
+        let label = |p: &GridPoint<'_>| {
+            if p.1.is_empty() { "(no sweep)".to_string() } else { p.1.clone() }
+        };
+        let mut held: Vec<&ScoreWithChance> = Vec::new();
+        for seq in &sequences {
+            let p = &points[best(Some(seq))];
+            let Some((_, score)) = p.2.iter().find(|(s, _)| s == seq) else { continue };
+            held.push(score);
+            rows.push(HeldOutRow {
+                sequence: seq.to_string(),
+                method: method.clone(),
+                chosen: label(p),
+                combination: p.0,
+                covering: score.value,
+                chance_covering: score.chance,
+                p_value_covering: score.p_value,
+                above_chance: above(score.p_value),
+            });
+        }
+        let pooled = ScoreWithChance::mean(held);
+        rows.push(HeldOutRow {
+            sequence: "mean".into(),
+            method: method.clone(),
+            chosen: "each sequence's own choice (above)".into(),
+            combination: 0,
+            covering: pooled.value,
+            chance_covering: pooled.chance,
+            p_value_covering: pooled.p_value,
+            above_chance: above(pooled.p_value),
+        });
+        let p = &points[best(None)];
+        let all = ScoreWithChance::mean(p.2.iter().map(|(_, c)| *c));
+        rows.push(HeldOutRow {
+            sequence: "all sequences (oracle)".into(),
+            method: method.clone(),
+            chosen: label(p),
+            combination: p.0,
+            covering: all.value,
+            chance_covering: all.chance,
+            p_value_covering: all.p_value,
+            above_chance: above(all.p_value),
+        });
+    }
+    Table::from_records(
+        "heldout_covering",
+        "Leave-one-sequence-out: each method's combination chosen by mean covering on the other sequences, scored on the held-out one beside chance; their mean; and the choice on all sequences (an oracle)",
+        &rows,
+    )
 }
 
 /// A row of `benchmark_covering`.
@@ -497,6 +650,15 @@ type ScoresOf<'a> = dyn Fn(&str) -> Vec<(&'a str, &'a MethodRun)> + 'a;
 
 impl BenchmarkWorkflow {
     /// The published covering of `method`'s published column on `sequence`.
+    /// Every method's name: the segmenters', then the fuser's.
+    fn method_names(&self) -> Vec<String> {
+        self.segmenters
+            .iter()
+            .map(|s| s.name.clone())
+            .chain(self.fuser.iter().map(|(n, _)| n.clone()))
+            .collect()
+    }
+
     fn published_of(&self, method: &str, sequence: &str) -> Option<(String, f64)> {
         let (scores, spec) = self.published.as_ref()?;
         let column = spec.methods.get(method)?;

@@ -50,6 +50,7 @@ from ._api import (
     align,
     boundary_pr,
     covering,
+    penalty_path,
     describe,
     detect_points,
     evaluate,
@@ -106,7 +107,7 @@ __all__ = [
     "load", "preprocess", "features", "segment", "fuse", "read_truth", "detect_points", "align", "synchronise",
     "gait_cycles", "waveform_parameters", "synthesize_walk", "evaluate",
     # metrics and matching on arrays
-    "boundary_pr", "covering", "tcpd_f1", "subsequence_dp", "multistream_match",
+    "boundary_pr", "covering", "tcpd_f1", "penalty_path", "subsequence_dp", "multistream_match",
     # whole runs
     "run", "validate",
     # one typed function per plugin, by kind

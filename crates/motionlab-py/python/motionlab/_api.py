@@ -544,6 +544,22 @@ def _f64(a: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+def penalty_path(values: Any, path: Sequence[Any] = ("bic", "whole_cost"), choose: str = "elbow", *, pandas: bool = False, **params: Any):
+    """``kernel_cpd``'s penalty path (CROPS) of ``values`` (n samples, or n × channels): every
+    segmentation optimal for a penalty in ``path`` (numbers in the cost's units, or ``"bic"``
+    and ``"whole_cost"``), one row each, fewest change points first — ``n_changes``,
+    ``pen_min``, ``pen_max`` (the penalty interval it owns), ``cost`` (unpenalised),
+    ``chosen`` (the one ``choose`` picks: ``"elbow"``, ``"bic"`` or ``"widest"``) and
+    ``change_points`` (space-separated sample indices). Other ``kernel_cpd`` parameters
+    (``search``, ``cost``, ``min_size``, ``gamma``…) as keywords. A Polars DataFrame (pandas
+    with ``pandas=True``)."""
+    x = _f64(values)
+    if x.ndim == 1:
+        x = x.reshape(-1, 1)
+    table = _native.penalty_path(x, {**params, "penalty": {"path": [*path], "choose": choose}})
+    return _frame(table, pandas)
+
+
 def subsequence_dp(model: Any, target: Any) -> SubsequenceMatch:
     """The paper's single-stream subsequence DP (free start and end) of one 3-D trajectory:
     ``model`` n × 3 against ``target`` m × 3 (mm); local distance ``|s_i − t_j|``."""
