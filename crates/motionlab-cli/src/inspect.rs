@@ -13,11 +13,14 @@ struct Report {
     file: String,
     format: String,
     frames: usize,
-    frame_rate_hz: f64,
-    duration_s: f64,
+    /// `None`: the file does not say (a channel file without a time column).
+    frame_rate_hz: Option<f64>,
+    duration_s: Option<f64>,
     point_kind: motionlab_core::PointKind,
     up_axis: String,
     points: Vec<String>,
+    /// The channels of a channel file (`channels` loader), in order.
+    channels: Vec<String>,
     missing_samples: usize,
     missing_percent: f64,
     /// The file's length unit as the loader read or inferred it (`None`: not stated).
@@ -80,10 +83,36 @@ fn first_height(m: &Motion) -> Option<(f64, usize)> {
     })
 }
 
+/// The motion as the loader reads it at its defaults, and whether its rate is known. A channel
+/// file without a time column has no rate (the `channels` loader then needs `rate_hz`): it is
+/// read at 1 Hz to describe its samples and channels, with the rate unknown.
+fn load_described(name: &str, loader: &dyn Loader, path: &Path) -> Result<(Motion, bool)> {
+    match loader.load(path) {
+        Ok(m) => Ok((m, true)),
+        Err(e)
+            if name == "channels"
+                && e.kind() == ErrorKind::MissingKey
+                && e.location().field.as_deref() == Some("rate_hz") =>
+        {
+            let mut params = toml::Table::new();
+            params.insert("rate_hz".into(), toml::Value::Float(1.0));
+            let loader = registry::build_loader("channels", &toml::Value::Table(params))?;
+            Ok((loader.load(path).map_err(|e| e.in_file(path))?, false))
+        }
+        Err(e) => Err(e.in_file(path)),
+    }
+}
+
 fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
     let (name, loader) = loader_for(path)?;
-    let m: Motion = loader.load(path).map_err(|e| e.in_file(path))?;
-    let total = m.n_frames() * m.n_points();
+    let (m, rate_known) = load_described(name, &*loader, path)?;
+    // A channel file's missing samples are its channels' (it has no points).
+    let channel_file = m.n_points() == 0 && m.channels().n_channels() > 0;
+    let (total, missing) = if channel_file {
+        (m.n_frames() * m.channels().n_channels(), m.channels().missing_count())
+    } else {
+        (m.n_frames() * m.n_points(), m.missing_count())
+    };
     let height = first_height(&m);
     let positions_npy = match npy {
         Some(out) => {
@@ -105,17 +134,14 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         file: path.display().to_string(),
         format: name.to_string(),
         frames: m.n_frames(),
-        frame_rate_hz: m.frame_rate().hz(),
-        duration_s: m.duration().value(),
+        frame_rate_hz: rate_known.then(|| m.frame_rate().hz()),
+        duration_s: rate_known.then(|| m.duration().value()),
         point_kind: m.point_kind(),
         up_axis: m.up_axis().to_string(),
         points: m.point_names().to_vec(),
-        missing_samples: m.missing_count(),
-        missing_percent: if total == 0 {
-            0.0
-        } else {
-            100.0 * m.missing_count() as f64 / total as f64
-        },
+        channels: m.channels().names().to_vec(),
+        missing_samples: missing,
+        missing_percent: if total == 0 { 0.0 } else { 100.0 * missing as f64 / total as f64 },
         length_unit: m.load_notes.length_unit,
         length_unit_from: m.load_notes.length_unit_from.clone(),
         height_mm: height.map(|h| h.0),
@@ -139,7 +165,7 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
 
 /// A rate to the 7 significant digits a file can mean: C3D stores rates as 32-bit floats
 /// (`25.000001907…` is 25 Hz), BVH a frame time of a few decimals.
-fn rate_text(hz: f64) -> String {
+pub(crate) fn rate_text(hz: f64) -> String {
     if !hz.is_finite() || hz <= 0.0 {
         return hz.to_string();
     }
@@ -161,12 +187,21 @@ fn unit_text(unit: LengthUnit) -> &'static str {
 fn text(r: &Report) -> String {
     let mut s = format!("{}\n", r.file);
     s += &format!("  format    {}\n", r.format);
-    s += &format!(
-        "  frames    {} at {} Hz ({:.3} s)\n",
-        r.frames,
-        rate_text(r.frame_rate_hz),
-        r.duration_s
-    );
+    s += &match (r.frame_rate_hz, r.duration_s) {
+        (Some(hz), Some(d)) => {
+            format!("  frames    {} at {} Hz ({d:.3} s)\n", r.frames, rate_text(hz))
+        }
+        _ => format!(
+            "  frames    {} at an unknown rate (no time_s column; give the channels loader rate_hz)\n",
+            r.frames
+        ),
+    };
+    if !r.channels.is_empty() && r.points.is_empty() {
+        // A channel file: its channels and their missing samples; no figure to describe.
+        s += &format!("  channels  {}: {}\n", r.channels.len(), r.channels.join(" "));
+        s += &format!("  missing   {} samples ({:.2} %)\n", r.missing_samples, r.missing_percent);
+        return s;
+    }
     let kind = match r.point_kind {
         motionlab_core::PointKind::Marker => "markers",
         motionlab_core::PointKind::Joint => "joints",
