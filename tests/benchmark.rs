@@ -469,23 +469,6 @@ fn the_change_points_table_rescored_gives_the_runs_covering() {
     assert_eq!(rescored_coverings_equal_the_runs(&run.join("tables"), &truth), 6);
 }
 
-/// The run of record of `tssb_benchmark` keeps its change points: re-scored against TSSB's
-/// `desc.txt` they give every recorded covering (75 series × 6 methods).
-#[test]
-fn tssb_benchmarks_recorded_change_points_give_its_recorded_covering() {
-    let root = motionlab_testkit::repo_root();
-    let desc = root.join("data/tssb/datasets/desc.txt");
-    let entries = motionlab_io::labels::tssb_desc::parse_tssb_desc(
-        &std::fs::read_to_string(&desc).unwrap(),
-        &desc,
-    )
-    .unwrap();
-    let truth: BTreeMap<String, Vec<usize>> =
-        entries.into_iter().map(|e| (e.name, e.change_points)).collect();
-    let tables = root.join("reports/tssb_benchmark/record/tables");
-    assert_eq!(rescored_coverings_equal_the_runs(&tables, &truth), 75 * 6);
-}
-
 /// A new user's files: four limb-speed channels (both hands, both feet; `marker_speed` of CMU
 /// 86_01's joints) written as CSV at 120 Hz with `time_s` rounded to microseconds (0.008333,
 /// 0.016667, …), cut in two files, and a boundaries CSV of the take's labelled boundaries.
