@@ -227,7 +227,7 @@ fn sharded_and_merged_equals_a_plain_run() {
     }
     ok(motionlab().args(["merge", "--quiet", sharded.to_str().unwrap()]));
     let (a, b) = (tables(&plain), tables(&sharded));
-    assert_eq!(a.len(), 8, "covering, f1, ranks, rank test: csv and md");
+    assert_eq!(a.len(), 10, "covering, f1, ranks, rank test, change points: csv and md");
     assert_eq!(a, b, "merged tables must equal the plain run's, cell for cell");
     assert!(sharded.join("tables/benchmark_runtime.csv").exists());
 }
@@ -374,4 +374,252 @@ fn a_parquet_channel_file_benchmarks_like_its_text_file() {
     let from_parquet = candidates(&pq, "ArrowHead.parquet");
     assert_eq!(from_parquet, candidates(&txt, "ArrowHead.txt"));
     assert_eq!(from_parquet.1, "1");
+}
+
+/// Two-channel toy series (a step in both channels; `rate_hz` given) with `desc.txt`.
+fn toy_two_channels(dir: &Path) {
+    let step = |n: usize, at: usize| {
+        let rows: String =
+            (0..n).map(|i| if i < at { "0,1\n" } else { "10,-4\n" }).collect::<Vec<_>>().concat();
+        format!("a,b\n{rows}")
+    };
+    std::fs::write(dir.join("A.csv"), step(100, 50)).unwrap();
+    std::fs::write(dir.join("B.csv"), step(120, 40)).unwrap();
+    std::fs::write(dir.join("desc.txt"), "A,10,50\nB,10,40\n").unwrap();
+}
+
+/// `floss` (FLUSS is univariate) on two-channel series fails on each; the failure is recorded
+/// with its reason, the other method is scored, and the means and ranks say how failures count
+/// (left out of the mean, ranked last).
+#[test]
+fn a_method_that_cannot_take_a_series_is_recorded_as_failed_and_the_benchmark_goes_on() {
+    let tmp = tempfile::tempdir().unwrap();
+    toy_two_channels(tmp.path());
+    let exp = tmp.path().join("two.toml");
+    let text = SECTION.replace("[A-Z].txt", "[A-Z].csv").replace(
+        "    { type = \"window\", name = \"none\", width = 1000 },\n",
+        "    { type = \"floss\", cac_threshold = 0.45 },\n",
+    );
+    std::fs::write(&exp, text).unwrap();
+    let run = run(&exp, &tmp.path().join("reports"));
+    let cov = table(&run, "benchmark_covering");
+    for s in ["A", "B"] {
+        assert_eq!(cell(&cov, s, "step", "status"), "ok");
+        assert_eq!(num(cell(&cov, s, "step", "covering")), 1.0);
+        assert_eq!(cell(&cov, s, "floss", "status"), "failed");
+        assert!(cell(&cov, s, "floss", "failure").contains("FLUSS is univariate"), "{cov:?}");
+        assert_eq!(cell(&cov, s, "floss", "covering"), "NaN");
+        assert_eq!(cell(&cov, s, "floss", "n_found"), "NaN");
+    }
+    assert!(cell(&cov, "mean", "floss", "status").contains("0 scored sequence(s); 2 failed"));
+    assert!(cell(&cov, "mean", "step", "status").contains("2 scored sequence(s); 0 failed"));
+    assert_eq!(num(cell(&cov, "mean", "step", "covering")), 1.0);
+    let f1 = table(&run, "benchmark_f1");
+    assert_eq!(cell(&f1, "A", "floss", "status"), "failed");
+    assert_eq!(num(cell(&f1, "A", "step", "tcpd_f1")), 1.0);
+    // Ranked last on both series: step 1, floss 2; both series counted.
+    let ranks = table(&run, "benchmark_ranks");
+    let row = |m: &str| ranks.iter().find(|r| r["method"] == m).unwrap().clone();
+    assert_eq!((num(&row("step")["mean_rank"]), num(&row("floss")["mean_rank"])), (1.0, 2.0));
+    assert_eq!((row("floss")["n_failed"].as_str(), row("floss")["n_series"].as_str()), ("2", "2"));
+    assert_eq!(row("step")["n_failed"], "0");
+    // The change points kept: step's, none of floss.
+    let cps = table(&run, "benchmark_change_points");
+    let found: Vec<(&str, &str, &str)> = cps
+        .iter()
+        .map(|r| (r["sequence"].as_str(), r["method"].as_str(), r["sample"].as_str()))
+        .collect();
+    assert_eq!(found, [("A", "step", "50"), ("B", "step", "40")]);
+}
+
+/// Re-scores `benchmark_change_points` with TCPDBench's covering against the truth and finds
+/// each (sequence, method)'s covering of `benchmark_covering`, bit for bit. A method with no
+/// row found nothing on that sequence.
+fn rescored_coverings_equal_the_runs(tables: &Path, truth: &BTreeMap<String, Vec<usize>>) -> usize {
+    let cov = read_table(&tables.join("benchmark_covering.csv"));
+    let cps = read_table(&tables.join("benchmark_change_points.csv"));
+    let mut found: BTreeMap<(String, String), Vec<usize>> = BTreeMap::new();
+    for r in &cps {
+        found
+            .entry((r["sequence"].clone(), r["method"].clone()))
+            .or_default()
+            .push(r["sample"].parse().unwrap());
+    }
+    let mut compared = 0;
+    for r in cov.iter().filter(|r| r["sequence"] != "mean") {
+        let key = (r["sequence"].clone(), r["method"].clone());
+        let points = found.remove(&key).unwrap_or_default();
+        assert_eq!(points.len().to_string(), r["n_found"], "{key:?}");
+        let n: usize = r["n_samples"].parse().unwrap();
+        let ours = motionlab_eval::cpd_metrics::covering(&[truth[&key.0].clone()], &points, n);
+        // Bit for bit: the table's float reads back to the same f64.
+        assert_eq!(ours, num(&r["covering"]), "{key:?}: re-scored {ours}");
+        compared += 1;
+    }
+    assert!(found.is_empty(), "change points of no covering row: {found:?}");
+    compared
+}
+
+#[test]
+fn the_change_points_table_rescored_gives_the_runs_covering() {
+    let tmp = tempfile::tempdir().unwrap();
+    toy(tmp.path());
+    let run = run(&write_experiment(tmp.path(), ""), &tmp.path().join("reports"));
+    let truth: BTreeMap<String, Vec<usize>> =
+        [("A", vec![50]), ("B", vec![40]), ("C", vec![])].map(|(s, v)| (s.to_string(), v)).into();
+    assert_eq!(rescored_coverings_equal_the_runs(&run.join("tables"), &truth), 6);
+}
+
+/// A new user's files: four limb-speed channels (both hands, both feet; `marker_speed` of CMU
+/// 86_01's joints) written as CSV at 120 Hz with `time_s` rounded to microseconds (0.008333,
+/// 0.016667, …), cut in two files, and a boundaries CSV of the take's labelled boundaries.
+/// `new` scaffolds a benchmark reading the rate from the files (no `floss`: FLUSS is
+/// univariate) and `run` scores every scaffolded segmenter.
+#[test]
+fn new_and_run_on_multichannel_csv_with_rounded_times() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("limbs");
+    std::fs::create_dir_all(&data).unwrap();
+    let motion =
+        motionlab_core::registry::build_loader("asf_amc", &toml::Value::Table(Default::default()))
+            .unwrap()
+            .load(&motionlab_testkit::data_path("cmu86/86_01.amc.gz"))
+            .unwrap();
+    let speeds = motionlab_features::speed::marker_speeds(&motion, 1);
+    let joints = ["lhand", "rhand", "lfoot", "rfoot"];
+    let index: Vec<usize> =
+        joints.iter().map(|j| motion.point_names().iter().position(|n| n == j).unwrap()).collect();
+    // The labelled boundaries of 86_01 (data/cmu86/mocap.txt, 120 Hz frames).
+    let boundaries = [549usize, 1149, 1979, 2499, 3199, 4064];
+    // Two files: frames [0, 2400) and [2400, last) (the last frame has no speed).
+    let cut = 2400;
+    let n = motion.n_frames() - 1;
+    let mut truth = "sequence,frame\n".to_string();
+    for (name, range) in [("first", 0..cut), ("second", cut..n)] {
+        let mut csv = format!("time_s,{}\n", joints.join(","));
+        for (i, f) in range.clone().enumerate() {
+            let row: Vec<String> =
+                index.iter().map(|&k| format!("{:.3}", speeds.speed(f, k))).collect();
+            csv += &format!("{:.6},{}\n", i as f64 / 120.0, row.join(","));
+        }
+        std::fs::write(data.join(format!("{name}.csv")), csv).unwrap();
+        for b in boundaries.iter().filter(|b| range.contains(b)) {
+            truth += &format!("{name},{}\n", b - range.start);
+        }
+    }
+    let text = std::fs::read_to_string(data.join("first.csv")).unwrap();
+    assert!(text.contains("\n0.008333,") && text.contains("\n0.016667,"), "rounded times");
+    let truth_path = tmp.path().join("truth.csv");
+    std::fs::write(&truth_path, truth).unwrap();
+    let out = tmp.path().join("limbs_benchmark.toml");
+    let said = ok(motionlab().args([
+        "new",
+        data.to_str().unwrap(),
+        "--truth",
+        truth_path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]));
+    assert!(said.contains("(valid)"), "{said}");
+    let scaffold = std::fs::read_to_string(&out).unwrap();
+    assert!(scaffold.contains("rate 120 Hz, read from the time_s column"), "{scaffold}");
+    assert!(!scaffold.contains("rate_hz"), "{scaffold}");
+    assert!(!scaffold.contains("type = \"floss\"") && scaffold.contains("floss left out"));
+    let run = run(&out, &tmp.path().join("reports"));
+    let cov = table(&run, "benchmark_covering");
+    let methods = ["clasp", "PELT", "BinSeg", "bocpd", "window"];
+    for s in ["first", "second"] {
+        for m in methods {
+            let c = num(cell(&cov, s, m, "covering"));
+            assert!((0.0..=1.0).contains(&c), "{s}/{m}: {c}");
+        }
+    }
+    assert!(!cov[0].contains_key("status"), "no method failed: no status column");
+    assert_eq!(cell(&cov, "first", "clasp", "n_samples"), cut.to_string());
+    // inspect reads the same rate from the file.
+    let said = ok(motionlab().args(["inspect", data.join("first.csv").to_str().unwrap()]));
+    assert!(said.contains("2400 at 120 Hz"), "{said}");
+    assert!(said.contains("channels  4: lhand rhand lfoot rfoot"), "{said}");
+}
+
+/// `inspect` describes a channel file without a time column (a TSSB series) with its rate
+/// unknown; `new` on a folder whose first file cannot be read says why, naming file and line,
+/// instead of declaring a rate.
+#[test]
+fn inspect_and_new_on_channel_files_without_a_rate_or_unreadable() {
+    let root = motionlab_testkit::repo_root();
+    let series = root.join("data/tssb/datasets/ArrowHead.txt");
+    let said = ok(motionlab().args(["inspect", series.to_str().unwrap()]));
+    assert!(said.contains("1506 at an unknown rate"), "{said}");
+    assert!(said.contains("channels  1: value"), "{said}");
+    let json = ok(motionlab().args(["inspect", "--json", series.to_str().unwrap()]));
+    assert!(
+        json.contains("\"frame_rate_hz\": null") && json.contains("\"frames\": 1506"),
+        "{json}"
+    );
+    // A time column with a dropped sample: new fails naming the file and line.
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("bad");
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::write(data.join("A.csv"), "time_s,x\n0.00,1\n0.01,2\n0.02,3\n0.04,4\n0.05,5\n")
+        .unwrap();
+    let truth = tmp.path().join("truth.csv");
+    std::fs::write(&truth, "sequence,frame\nA,2\n").unwrap();
+    let o = motionlab()
+        .args(["new", data.to_str().unwrap(), "--truth", truth.to_str().unwrap(), "-o"])
+        .arg(tmp.path().join("x.toml"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("A.csv:5") && err.contains("equally spaced"), "{err}");
+    assert!(!tmp.path().join("x.toml").exists());
+}
+
+/// A published sheet without a row for a sequence of the run is refused at validation, naming
+/// the sheet and the first missing sequence; with `missing = "skip"` the run leaves it out of
+/// the published columns and the ranks, and the tables say so.
+#[test]
+fn a_published_sheet_missing_a_sequence_is_refused_unless_skipped() {
+    let tmp = tempfile::tempdir().unwrap();
+    toy(tmp.path());
+    std::fs::write(tmp.path().join("partial.csv"), "dataset,Other,Step\nA,0.9,1.0\nB,0.9,1.0\n")
+        .unwrap();
+    let published = |ours: &str, extra: &str| {
+        format!(
+            "published = {{ file = \"partial.csv\", metric = \"covering\", methods = {{ {ours} = \"Step\" }}{extra} }}\n"
+        )
+    };
+    let e = validate_error(
+        tmp.path(),
+        &format!("segmenter = [{{ type = \"clasp\" }}]\n{}", published("clasp", "")),
+        "",
+    );
+    assert!(
+        e.contains("benchmark.published.file")
+            && e.contains("partial.csv has no row for sequence \"C\"")
+            && e.contains("1 of the run's 3 sequences")
+            && e.contains("missing = \"skip\""),
+        "{e}"
+    );
+    let exp = write_experiment(tmp.path(), "");
+    let text = std::fs::read_to_string(&exp).unwrap().replace(
+        "chance_draws = 200",
+        &format!("chance_draws = 200\n{}", published("step", ", missing = \"skip\"")),
+    );
+    std::fs::write(&exp, text).unwrap();
+    let run = run(&exp, &tmp.path().join("reports"));
+    let test = table(&run, "benchmark_rank_test");
+    assert_eq!(test[0]["n_series"], "2", "C left out of the ranks");
+    assert_eq!(
+        test[0]["published_missing"],
+        "1 sequence(s) not in partial.csv left out of the ranks (missing = skip; the first: C)"
+    );
+    let cov = table(&run, "benchmark_covering");
+    assert_eq!(
+        cell(&cov, "mean", "step", "published_method"),
+        "Step (over 2 of 3 sequences; missing = skip)"
+    );
+    assert_eq!(num(cell(&cov, "mean", "step", "published_covering")), 1.0);
+    assert_eq!(cell(&cov, "C", "step", "published_covering"), "NaN");
 }

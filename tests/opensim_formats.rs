@@ -105,7 +105,7 @@ fn inspect_says_what_the_trc_and_mot_loaders_repaired() {
         "repaired  NumFrames says 900; 73 rows are present: read 73",
         "repaired  the first row is Frame# 185 at 3.067 s",
         "format    mot",
-        "channels  164 at ",
+        "channels  164: pelvis_tx pelvis_ty",
         "unit      angles in degrees: no inDegrees in the header, OpenSim's Storage assumes degrees",
         "repaired  column label \"ground_force_vx\" repeats",
     ] {

@@ -12,8 +12,9 @@ struct Report {
     file: String,
     format: String,
     frames: usize,
-    frame_rate_hz: f64,
-    duration_s: f64,
+    /// `None`: the file does not say (a channel file without a time column).
+    frame_rate_hz: Option<f64>,
+    duration_s: Option<f64>,
     point_kind: motionlab_core::PointKind,
     up_axis: String,
     points: Vec<String>,
@@ -133,9 +134,36 @@ fn analog_of(
     }))
 }
 
+/// The motion as the loader reads it at its defaults, and whether its rate is known. A channel
+/// file without a time column has no rate (the `channels` loader then needs `rate_hz`): it is
+/// read at 1 Hz to describe its samples and channels, with the rate unknown.
+fn load_described(name: &str, loader: &dyn Loader, path: &Path) -> Result<(Motion, bool)> {
+    match loader.load(path) {
+        Ok(m) => Ok((m, true)),
+        Err(e)
+            if name == "channels"
+                && e.kind() == ErrorKind::MissingKey
+                && e.location().field.as_deref() == Some("rate_hz") =>
+        {
+            let mut params = toml::Table::new();
+            params.insert("rate_hz".into(), toml::Value::Float(1.0));
+            let loader = motionlab_core::registry::build_loader("channels", &toml::Value::Table(params))?;
+            Ok((loader.load(path).map_err(|e| e.in_file(path))?, false))
+        }
+        Err(e) => Err(e.in_file(path)),
+    }
+}
+
 fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
     let (name, loader) = loader_for(path)?;
-    let m: Motion = loader.load(path).map_err(|e| e.in_file(path))?;
+    let (m, rate_known) = load_described(name, &*loader, path)?;
+    // A channel file's missing samples are its channels' (it has no points).
+    let channel_file = m.n_points() == 0 && m.channels().n_channels() > 0;
+    let (total, missing) = if channel_file {
+        (m.n_frames() * m.channels().n_channels(), m.channels().missing_count())
+    } else {
+        (m.n_frames() * m.n_points(), m.missing_count())
+    };
     let analog = analog_of(name, &m, path, npy)?;
     let channels_npy = match npy {
         Some(out) if !m.channels().is_empty() => {
@@ -143,7 +171,6 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         }
         _ => None,
     };
-    let total = m.n_frames() * m.n_points();
     let height = first_height(&m);
     let positions_npy = match npy {
         Some(out) => {
@@ -165,17 +192,13 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         file: path.display().to_string(),
         format: name.to_string(),
         frames: m.n_frames(),
-        frame_rate_hz: m.frame_rate().hz(),
-        duration_s: m.duration().value(),
+        frame_rate_hz: rate_known.then(|| m.frame_rate().hz()),
+        duration_s: rate_known.then(|| m.duration().value()),
         point_kind: m.point_kind(),
         up_axis: m.up_axis().to_string(),
         points: m.point_names().to_vec(),
-        missing_samples: m.missing_count(),
-        missing_percent: if total == 0 {
-            0.0
-        } else {
-            100.0 * m.missing_count() as f64 / total as f64
-        },
+        missing_samples: missing,
+        missing_percent: if total == 0 { 0.0 } else { 100.0 * missing as f64 / total as f64 },
         length_unit: m.load_notes.length_unit,
         length_unit_from: m.load_notes.length_unit_from.clone(),
         height_mm: height.map(|h| h.0),
@@ -202,7 +225,7 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
 
 /// A rate to the 7 significant digits a file can mean: C3D stores rates as 32-bit floats
 /// (`25.000001907…` is 25 Hz), BVH a frame time of a few decimals.
-fn rate_text(hz: f64) -> String {
+pub(crate) fn rate_text(hz: f64) -> String {
     if !hz.is_finite() || hz <= 0.0 {
         return hz.to_string();
     }
@@ -235,12 +258,31 @@ fn channel_list(rows: &[ChannelRow]) -> String {
 fn text(r: &Report) -> String {
     let mut s = format!("{}\n", r.file);
     s += &format!("  format    {}\n", r.format);
-    s += &format!(
-        "  frames    {} at {} Hz ({:.3} s)\n",
-        r.frames,
-        rate_text(r.frame_rate_hz),
-        r.duration_s
-    );
+    s += &match (r.frame_rate_hz, r.duration_s) {
+        (Some(hz), Some(d)) => {
+            format!("  frames    {} at {} Hz ({d:.3} s)\n", r.frames, rate_text(hz))
+        }
+        _ => format!(
+            "  frames    {} at an unknown rate (no time_s column; give the channels loader rate_hz)\n",
+            r.frames
+        ),
+    };
+    if !r.channels.is_empty() && r.points.is_empty() {
+        // A channel file: its channels and their missing samples; no figure to describe.
+        let names: Vec<&str> = r.channels.iter().map(|c| c.name.as_str()).collect();
+        s += &format!("  channels  {}: {}\n", r.channels.len(), names.join(" "));
+        if r.channels.iter().any(|c| !c.unit.is_empty()) {
+            s += &format!("  units     {}\n", channel_list(&r.channels));
+        }
+        s += &format!("  missing   {} samples ({:.2} %)\n", r.missing_samples, r.missing_percent);
+        if !r.length_unit_from.is_empty() {
+            s += &format!("  unit      {}\n", r.length_unit_from);
+        }
+        for repair in &r.repairs {
+            s += &format!("  repaired  {repair}\n");
+        }
+        return s;
+    }
     let kind = match r.point_kind {
         motionlab_core::PointKind::Marker => "markers",
         motionlab_core::PointKind::Joint => "joints",
@@ -268,7 +310,7 @@ fn text(r: &Report) -> String {
         s += &format!(
             "  channels  {} at {} Hz: {}\n",
             r.channels.len(),
-            rate_text(r.frame_rate_hz),
+            r.frame_rate_hz.map(rate_text).unwrap_or_else(|| "an unknown rate".into()),
             channel_list(&r.channels)
         );
     }

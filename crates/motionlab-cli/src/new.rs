@@ -468,11 +468,12 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
     }
     let (loader_name, loader) = loader_for(&files[0])?;
     let channels = loader_name == "channels";
-    // A channel file without a time column needs its rate declared.
-    let loader_table = if channels && loader.load(&files[0]).is_err() {
-        "{ type = \"channels\", rate_hz = 1.0 }                 # no time_s column: one sample per frame; set your rate".to_string()
+    // A channel file gives its rate in a time column; without one (a TSSB series) the rate is
+    // declared as 1 (times in samples). Any other reason the file cannot be read is the error.
+    let (loader_table, n_channels) = if channels {
+        channel_loader_table(&files[0], &*loader)?
     } else {
-        format!("{{ type = \"{loader_name}\" }}")
+        (format!("{{ type = \"{loader_name}\" }}"), 0)
     };
     let mut t = String::new();
     let w = &mut t;
@@ -537,10 +538,18 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
         let _ = writeln!(w, "    {{ type = \"kernel_cpd\", name = \"PELT\", search = \"pelt\" }},");
         let _ =
             writeln!(w, "    {{ type = \"kernel_cpd\", name = \"BinSeg\", search = \"binseg\" }},");
-        let _ = writeln!(
-            w,
-            "    {{ type = \"floss\", cac_threshold = 0.45 }},        # FLOSS needs a threshold or a regime count"
-        );
+        // FLUSS is univariate: only for files of one channel.
+        if n_channels == 1 {
+            let _ = writeln!(
+                w,
+                "    {{ type = \"floss\", cac_threshold = 0.45 }},        # FLOSS needs a threshold or a regime count"
+            );
+        } else {
+            let _ = writeln!(
+                w,
+                "    # floss left out: FLUSS is univariate and these files have {n_channels} channels"
+            );
+        }
         let _ = writeln!(w, "    {{ type = \"bocpd\" }},");
         let _ = writeln!(w, "    {{ type = \"window\" }},");
     } else {
@@ -554,6 +563,40 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
     }
     let _ = writeln!(w, "]");
     write_validated(&output, &t)
+}
+
+/// The `loader = …` line for a channel file and its number of channels: the rate read from its
+/// time column (stated in the comment), else declared as 1 when the file has no time column.
+/// A file that cannot be read for any other reason is the error, naming it.
+fn channel_loader_table(
+    file: &Path,
+    loader: &dyn motionlab_core::Loader,
+) -> Result<(String, usize)> {
+    match loader.load(file) {
+        Ok(m) => Ok((
+            format!(
+                "{{ type = \"channels\" }}                 # rate {} Hz, read from the time_s column of {}",
+                crate::inspect::rate_text(m.frame_rate().hz()),
+                file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+            ),
+            m.channels().n_channels(),
+        )),
+        Err(e)
+            if e.kind() == ErrorKind::MissingKey
+                && e.location().field.as_deref() == Some("rate_hz") =>
+        {
+            let mut params = toml::Table::new();
+            params.insert("rate_hz".into(), toml::Value::Float(1.0));
+            let params = toml::Value::Table(params);
+            let loader = motionlab_core::registry::build_loader("channels", &params)?;
+            let m = loader.load(file).map_err(|e| e.in_file(file))?;
+            Ok((
+                "{ type = \"channels\", rate_hz = 1.0 }                 # no time_s column: one sample per frame; set your rate".to_string(),
+                m.channels().n_channels(),
+            ))
+        }
+        Err(e) => Err(e.in_file(file)),
+    }
 }
 
 #[cfg(test)]

@@ -17,6 +17,9 @@
 //!   typed value a benchmark averages over series.
 //! - [`human_agreement`]: evaluator plugin for the annotators' agreement with each other (F1
 //!   and a chance-corrected kappa per pair), the ceiling each method is shown under.
+//! - [`label_metrics`]: agreement of found states with true states per sample — AMI, ARI and
+//!   NMI as scikit-learn computes them — each beside the chance of the found labels permuted
+//!   across the found segments.
 //! - [`ranks`]: methods compared over many series — mean ranks, Friedman's test, the Nemenyi
 //!   critical difference and its cliques (the critical-difference diagram's arithmetic).
 //! - [`truth_csv`], [`truth_eaf`]: ground-truth readers for users' own annotations
@@ -46,6 +49,7 @@ pub mod chance;
 pub mod consensus;
 pub mod cpd_metrics;
 pub mod human_agreement;
+pub mod label_metrics;
 pub mod ranks;
 mod sequences;
 pub mod series_scores;

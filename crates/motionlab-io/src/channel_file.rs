@@ -38,10 +38,16 @@ use motionlab_core::{Channels, DataKind, Error, ErrorKind, FrameRate, Loader, Mo
 ///   type is an error naming it. Errors about samples name the row (1-based) in place of a line.
 ///
 /// Channel names: the header's, else `names`, else `value` for a single column and `ch0`,
-/// `ch1`, … for several. The rate: `rate_hz` when given; otherwise the `time_column` (seconds,
-/// not a channel), whose steps must be equal to within 1e-6 relative (else an error naming the
-/// line); a file with neither is an error. Units: as the file has them (unknown to motionlab:
-/// empty).
+/// `ch1`, … for several. The rate: `rate_hz` when given; otherwise read from the `time_column`
+/// (seconds, not a channel) as `(n - 1) / (t_last - t_first)` over its `n` times. Its steps must
+/// be equal, which for printed times means equal to within their rounding: every step may
+/// differ from the median step by one rounding unit `10^-k`, `k` the most decimals written in
+/// the column (`0.000000, 0.008333, 0.016667` — 120 Hz rounded to microseconds — steps by
+/// 0.008333 or 0.008334: equal; the unit counts at most a quarter of the step, so a dropped
+/// sample never passes), or by 1e-6 of the step where that is larger (times written in full,
+/// binary Parquet times). A larger difference — a dropped or repeated sample, a
+/// decreasing time — is an error naming the line. A file with neither is an error. Units: as
+/// the file has them (unknown to motionlab: empty).
 ///
 /// Missing samples are kept as NaN; each segmenter says how it treats them. Errors name the
 /// file and line (text, Parquet's row) or the header field (`.npy`): a row with another number of values
@@ -170,6 +176,9 @@ pub struct ColumnTable {
     /// Sample-major: `values[sample * n_columns + column]`; NaN is a missing sample.
     pub values: Vec<f64>,
     pub lines: Vec<usize>,
+    /// Text only: per column, the most decimals any of its values is written with (the
+    /// rounding unit of printed times, `10^-k`); empty for binary formats.
+    pub decimals: Vec<u32>,
 }
 
 impl ChannelFileLoader {
@@ -195,7 +204,8 @@ impl ChannelFileLoader {
         let rate = match (self.rate, time) {
             (Some(r), _) => r,
             (None, Some(k)) => {
-                rate_from_times(&all.channel(k).collect::<Vec<_>>(), &table.lines, path)?
+                let decimals = table.decimals.get(k).copied();
+                rate_from_times(&all.channel(k).collect::<Vec<_>>(), decimals, &table.lines, path)?
             }
             (None, None) => {
                 return Err(Error::new(
@@ -232,8 +242,18 @@ impl ChannelFileLoader {
     }
 }
 
-/// The rate of equally spaced times (seconds); unequal steps are an error naming the line.
-fn rate_from_times(times: &[f64], lines: &[usize], path: &Path) -> Result<FrameRate> {
+/// The rate of equally spaced times (seconds) written with at most `decimals` decimals (none:
+/// binary): `(n - 1) / (t_last - t_first)`. Printed times are multiples of the rounding unit
+/// `10^-decimals`, and so are their steps; a true step rounds to two neighbouring multiples
+/// (0.008333 or 0.008334 for 1/120 s), so every step may differ from the median step by one
+/// unit (never by more than a quarter of the step), or by 1e-6 of the step where larger. A
+/// larger difference is an error naming the line.
+fn rate_from_times(
+    times: &[f64],
+    decimals: Option<u32>,
+    lines: &[usize],
+    path: &Path,
+) -> Result<FrameRate> {
     if times.len() < 2 {
         return Err(Error::new(
             ErrorKind::EmptySequence,
@@ -241,23 +261,50 @@ fn rate_from_times(times: &[f64], lines: &[usize], path: &Path) -> Result<FrameR
         )
         .in_file(path));
     }
-    let step = times[1] - times[0];
-    for (i, w) in times.windows(2).enumerate() {
-        let d = w[1] - w[0];
-        if !(d.is_finite() && d > 0.0 && (d - step).abs() <= 1e-6 * step) {
+    let n = times.len();
+    let mut steps: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    // The median step: a dropped sample or a stray time cannot move it, as it would the mean.
+    let mut sorted = steps.clone();
+    sorted.sort_unstable_by(f64::total_cmp);
+    // The lower median: of two steps, the smaller (a dropped sample makes a step larger).
+    let median = sorted[(sorted.len() - 1) / 2];
+    let unit = decimals.map_or(0.0, |k| 10f64.powi(-(k.min(300) as i32)));
+    // Steps are whole units apart: half a unit more than one absorbs the float error of the
+    // subtraction; capped at a quarter step, so coarse rounding never lets a double step pass.
+    let rounding = (1.5 * unit).min(median.abs() / 4.0);
+    let float_error = 4.0 * f64::EPSILON * times[0].abs().max(times[n - 1].abs());
+    let tolerance = rounding.max(1e-6 * median.abs()) + float_error;
+    for (i, d) in steps.drain(..).enumerate() {
+        if !(d.is_finite() && d > 0.0 && (d - median).abs() <= tolerance) {
             let line = lines.get(i + 1).copied().unwrap_or(0);
+            let allowed = match decimals {
+                Some(k) => format!("one rounding unit of the {k} decimals written, {unit:e} s"),
+                None => "1e-6 of it".to_string(),
+            };
             return Err(Error::at_line(
                 ErrorKind::OutOfRange,
                 path,
                 line,
                 format!(
-                    "time step {d} s after {} s; expected equally spaced, increasing times (the first step is {step} s)",
-                    w[0]
+                    "time step {d} s after {} s; expected equally spaced, increasing times (the median step is {median} s; a step may differ from it by {allowed})",
+                    times[i]
                 ),
             ));
         }
     }
-    FrameRate::new(1.0 / step).map_err(|e| e.in_file(path))
+    let span = times[n - 1] - times[0];
+    FrameRate::new((n - 1) as f64 / span).map_err(|e| e.in_file(path))
+}
+
+/// The decimals a number is written with: digits after the point, less a written exponent
+/// (`0.008333` → 6, `8.333e-3` → 6, `12` → 0).
+fn written_decimals(field: &str) -> u32 {
+    let (mantissa, exponent) = match field.find(['e', 'E']) {
+        Some(at) => (&field[..at], field[at + 1..].parse::<i64>().unwrap_or(0)),
+        None => (field, 0),
+    };
+    let after_point = mantissa.find('.').map_or(0, |at| mantissa.len() - at - 1) as i64;
+    (after_point - exponent).clamp(0, 400) as u32
 }
 
 /// A value of a text table: a number, or missing.
@@ -294,7 +341,13 @@ pub fn parse_text_columns(text: &str, origin: &Path) -> Result<ColumnTable> {
     let first_fields = split(first);
     let is_header = first_fields.iter().any(|f| parse_value(f).is_none());
     let n_columns = first_fields.len();
-    let mut table = ColumnTable { header: None, n_columns, values: Vec::new(), lines: Vec::new() };
+    let mut table = ColumnTable {
+        header: None,
+        n_columns,
+        values: Vec::new(),
+        lines: Vec::new(),
+        decimals: vec![0; n_columns],
+    };
     let push_row = |line: usize, fields: Vec<String>, table: &mut ColumnTable| -> Result<()> {
         if fields.len() != n_columns {
             return Err(Error::at_line(
@@ -314,6 +367,9 @@ pub fn parse_text_columns(text: &str, origin: &Path) -> Result<ColumnTable> {
                 )
             })?;
             table.values.push(v);
+            if v.is_finite() {
+                table.decimals[k] = table.decimals[k].max(written_decimals(f));
+            }
         }
         table.lines.push(line);
         Ok(())
@@ -447,7 +503,13 @@ pub fn parse_npy(bytes: &[u8], origin: &Path) -> Result<ColumnTable> {
         )
         .in_file(origin));
     }
-    Ok(ColumnTable { header: None, n_columns: d, values, lines: (1..=n).collect() })
+    Ok(ColumnTable {
+        header: None,
+        n_columns: d,
+        values,
+        lines: (1..=n).collect(),
+        decimals: Vec::new(),
+    })
 }
 
 #[cfg(test)]
@@ -499,6 +561,48 @@ mod tests {
         let m = load("rate_hz = 50.0", "x.dat", b"1 2\n3\t4\n").unwrap();
         assert_eq!(m.channels().names(), ["ch0", "ch1"]);
         assert_eq!(m.channels().values(), &[1.0, 2.0, 3.0, 4.0]);
+    }
+
+    /// Times rounded to microseconds (120 Hz: 0.008333, 0.016667, … steps of 0.008333 or
+    /// 0.008334) are equally spaced; the rate is (n - 1) / (t_last - t_first). A time off by
+    /// three rounding units, or a dropped sample, is refused naming its line.
+    #[test]
+    fn times_rounded_to_their_printed_decimals_are_equally_spaced() {
+        let csv = |times: &[String]| {
+            let mut s = "time_s,a,b,c,d\n".to_string();
+            for (i, t) in times.iter().enumerate() {
+                s += &format!("{t},{i},1,2,3\n");
+            }
+            s
+        };
+        let times: Vec<String> = (0..1000).map(|i| format!("{:.6}", i as f64 / 120.0)).collect();
+        assert_eq!((&times[1][..], &times[2][..]), ("0.008333", "0.016667"));
+        let m = load("", "limbs.csv", csv(&times).as_bytes()).unwrap();
+        assert_eq!(m.n_frames(), 1000);
+        assert_eq!(m.channels().names(), ["a", "b", "c", "d"]);
+        // t_last is written 8.325000: exactly 999/120.
+        assert!((m.frame_rate().hz() - 120.0).abs() < 1e-9, "{}", m.frame_rate().hz());
+        // The same at 3 decimals with 100 Hz: steps of exactly 0.010.
+        let times3: Vec<String> = (0..50).map(|i| format!("{:.3}", i as f64 / 100.0)).collect();
+        let m = load("", "x.csv", csv(&times3).as_bytes()).unwrap();
+        assert!((m.frame_rate().hz() - 100.0).abs() < 1e-9);
+        // One time off by three units: refused at its line (the header is line 1).
+        let mut off = times.clone();
+        off[49] = format!("{:.6}", 49.0 / 120.0 + 3e-6);
+        let e = load("", "off.csv", csv(&off).as_bytes()).unwrap_err().to_string();
+        assert!(e.contains("off.csv:51") && e.contains("the 6 decimals written"), "{e}");
+        // A dropped sample: a double step.
+        let mut dropped = times.clone();
+        dropped.remove(500);
+        let e = load("", "drop.csv", csv(&dropped).as_bytes()).unwrap_err().to_string();
+        assert!(e.contains("drop.csv:502") && e.contains("equally spaced"), "{e}");
+        // Coarse rounding never hides a dropped sample: integer seconds, one missing.
+        let e = load("", "int.csv", b"time_s,a\n0,1\n1,2\n2,3\n4,4\n").unwrap_err();
+        assert!(e.to_string().contains("int.csv:5"), "{e}");
+        assert_eq!(written_decimals("0.008333"), 6);
+        assert_eq!(written_decimals("8.333e-3"), 6);
+        assert_eq!(written_decimals("8.333E+1"), 2);
+        assert_eq!(written_decimals("12"), 0);
     }
 
     #[test]

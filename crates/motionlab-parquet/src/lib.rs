@@ -163,7 +163,7 @@ fn read_columns(bytes: &Buffer<u8>, origin: &Path, limit: u64) -> Result<ColumnT
         header.push(name);
     }
     let lines = (1..=n_rows).collect();
-    Ok(ColumnTable { header: Some(header), n_columns, values, lines })
+    Ok(ColumnTable { header: Some(header), n_columns, values, lines, decimals: Vec::new() })
 }
 
 #[cfg(test)]

@@ -51,6 +51,9 @@ use motionlab_experiment::{Datasets, build_stage};
 ///   reports the time of the run that computed it) and per sample. Runtimes differ from run to
 ///   run; keep this table out of a run of record (`record_tables`).
 ///
+/// - `benchmark_change_points`: every change point each method found (`sequence, method,
+///   sample`), so a run can be re-scored with another metric or fed to a later stage.
+///
 /// Every evaluation table says how each method's parameters were chosen
 /// (`parameters_chosen`: plugin defaults, set in the experiment, swept).
 ///
@@ -62,6 +65,13 @@ use motionlab_experiment::{Datasets, build_stage};
 /// draw, as the mean rows above); and a row `all sequences` gives the same rule applied to every
 /// sequence — the value such a protocol would make the default, whose mean covering there is an
 /// oracle (chosen on the very sequences it reports).
+/// A method that cannot take a sequence (its segmenter's error: FLUSS on several channels, a
+/// series shorter than its window) is recorded as failed on that sequence with its reason and
+/// the benchmark goes on, as TCPDBench records failures: the per-sequence rows then carry
+/// `status` (`ok`/`failed`) and `failure` (the reason) — columns present only when a method
+/// failed —, its scores are NaN, the mean rows are over the sequences it scored (their
+/// `status` says how many failed), and in the ranks a failure ranks last on its sequence
+/// (`benchmark_ranks.n_failed`).
 ///
 /// Missing samples: as each segmenter treats them (most refuse NaN: fill gaps first, or let a
 /// feature input's `fill` do it).
@@ -134,6 +144,23 @@ pub struct PublishedSpec {
     /// Which published column each of our methods is shown beside (`our name = "column"`).
     #[serde(default)]
     pub methods: std::collections::BTreeMap<String, String>,
+    /// A sequence of the run that the sheet has no row for: `"error"` (the default: the
+    /// experiment is refused, naming the sheet and the first missing sequence) or `"skip"`
+    /// (the published columns and the ranks leave it out, and `benchmark_rank_test` and the
+    /// mean rows say how many were left out).
+    #[serde(default)]
+    pub missing: MissingPublished,
+}
+
+/// What a published sheet missing a sequence of the run does (`published.missing`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MissingPublished {
+    /// Refuse the experiment (a silently shorter ranking is the failure this prevents).
+    #[default]
+    Error,
+    /// Leave the sequence out of the published columns and the ranks, and say so.
+    Skip,
 }
 
 /// The metric of a published scores file.
@@ -158,6 +185,8 @@ pub struct BenchmarkWorkflow {
     fuse: Vec<usize>,
     chance: ChanceSettings,
     published: Option<(PublishedScores, PublishedSpec)>,
+    /// The run's sequences the published sheet has no row for (`missing = "skip"`), in order.
+    published_missing: Vec<String>,
     choices: MethodChoices,
 }
 
@@ -165,6 +194,7 @@ pub struct BenchmarkWorkflow {
 #[derive(Serialize, Deserialize)]
 struct ItemResult {
     sequence: String,
+    n_samples: usize,
     n_truth: usize,
     methods: Vec<MethodRun>,
 }
@@ -173,7 +203,19 @@ struct ItemResult {
 struct MethodRun {
     method: String,
     seconds: f64,
-    scores: SeriesScores,
+    /// The change points it found (samples), kept for `benchmark_change_points`.
+    found: Vec<usize>,
+    /// `Err(reason)`: the method could not take this series (its error, one line).
+    scores: std::result::Result<SeriesScores, String>,
+}
+
+impl MethodRun {
+    fn scored(&self) -> Option<&SeriesScores> {
+        self.scores.as_ref().ok()
+    }
+    fn failure(&self) -> Option<&str> {
+        self.scores.as_ref().err().map(String::as_str)
+    }
 }
 
 /// A segmenter's candidates and the wall time that computed them (cached together).
@@ -297,6 +339,32 @@ impl WorkflowPlugin for BenchmarkWorkflow {
                 Some((scores, p.clone()))
             }
         };
+        let mut published_missing = Vec::new();
+        if let (Some((scores, spec)), Some(p)) = (&published, &section.published) {
+            let sequences = cx
+                .data
+                .datasets
+                .iter()
+                .flat_map(|d| (0..d.files.len()).map(move |k| d.sequence_name(k)));
+            published_missing = sequences.filter(|s| scores.series(s).is_none()).collect();
+            let n_sequences: usize = cx.data.datasets.iter().map(|d| d.files.len()).sum();
+            if let (Some(first), MissingPublished::Error) =
+                (published_missing.first(), spec.missing)
+            {
+                let path = cx.source.base_dir().join(&p.file);
+                return Err(cx.locate(
+                    Error::new(
+                        ErrorKind::MissingData,
+                        format!(
+                            "{} has no row for sequence {first:?} ({} of the run's {n_sequences} sequences are missing); give every sequence its published score, or set `missing = \"skip\"` to leave them out of the published columns and the ranks",
+                            path.display(),
+                            published_missing.len()
+                        ),
+                    ),
+                    root.key("published").key("file"),
+                ));
+            }
+        }
         let swept: Vec<String> = cx
             .combo
             .params
@@ -339,6 +407,7 @@ impl WorkflowPlugin for BenchmarkWorkflow {
             fuse,
             chance,
             published,
+            published_missing,
             choices: MethodChoices { methods },
         })
     }
@@ -370,9 +439,15 @@ impl Workflow for BenchmarkWorkflow {
             .iter()
             .map(|&m| tolerance_frames(m, rate).floor() as usize)
             .collect();
-        let mut runs: Vec<(String, TimedCandidates)> = Vec::new();
+        // Each method's candidates, or why it could not take this series (`Err`).
+        let mut runs: Vec<(String, std::result::Result<TimedCandidates, String>)> = Vec::new();
         for s in &self.segmenters {
             let name = &s.name;
+            // A segmenter's own error (it cannot take this series: FLUSS on several channels,
+            // too few samples for its window…) is recorded as its failure on this series and
+            // the benchmark goes on, as TCPDBench records failures; any other error (the
+            // cache, the input) still stops the run. Failures are not cached.
+            let mut failure: Option<String> = None;
             let timed = data.stage_cached(
                 &loaded,
                 (item.dataset, item.file),
@@ -383,48 +458,87 @@ impl Workflow for BenchmarkWorkflow {
                     // A cache of its own: each method's time includes the features it reads.
                     let cache = FeatureCache::new();
                     let start = Instant::now();
-                    let out = s
-                        .segment(motion, &cache)
-                        .map_err(|e| e.in_file(&file).under_field(format!("segmenter {name}")))?;
+                    let out = s.segment(motion, &cache).map_err(|e| {
+                        failure = Some(e.message().to_string());
+                        e.in_file(&file).under_field(format!("segmenter {name}"))
+                    })?;
                     Ok(TimedCandidates {
                         candidates: out.candidates,
                         seconds: start.elapsed().as_secs_f64(),
                     })
                 },
-            )?;
-            runs.push((name.clone(), timed));
+            );
+            match (timed, failure) {
+                (Ok(t), _) => runs.push((name.clone(), Ok(t))),
+                (Err(_), Some(reason)) => runs.push((name.clone(), Err(reason))),
+                (Err(e), None) => return Err(e),
+            }
         }
         if let Some((name, fuser)) = &self.fuser {
-            let inputs: Vec<MethodCandidates<'_>> = self
-                .fuse
-                .iter()
-                .map(|&i| MethodCandidates { method: &runs[i].0, frames: &runs[i].1.candidates })
-                .collect();
-            let start = Instant::now();
-            let fused = fuser
-                .fuse(motion, &inputs)
-                .map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
-            let seconds = start.elapsed().as_secs_f64()
-                + self.fuse.iter().map(|&i| runs[i].1.seconds).sum::<f64>();
+            let fused = match self.fuse.iter().find_map(|&i| runs[i].1.as_ref().err()) {
+                Some(reason) => Err(format!("a fused method failed: {reason}")),
+                None => {
+                    let inputs: Vec<MethodCandidates<'_>> = self
+                        .fuse
+                        .iter()
+                        .filter_map(|&i| {
+                            let t = runs[i].1.as_ref().ok()?;
+                            Some(MethodCandidates { method: &runs[i].0, frames: &t.candidates })
+                        })
+                        .collect();
+                    let start = Instant::now();
+                    let fused = fuser
+                        .fuse(motion, &inputs)
+                        .map_err(|e| e.in_file(&file).under_field(format!("fuser {name}")))?;
+                    let seconds = start.elapsed().as_secs_f64()
+                        + self
+                            .fuse
+                            .iter()
+                            .filter_map(|&i| runs[i].1.as_ref().ok())
+                            .map(|t| t.seconds)
+                            .sum::<f64>();
+                    Ok(TimedCandidates { candidates: fused, seconds })
+                }
+            };
             data.record(
                 item.dataset,
                 item.file,
                 &format!("fuser {name}"),
                 motionlab_experiment::Origin::Computed,
             );
-            runs.push((name.clone(), TimedCandidates { candidates: fused, seconds }));
+            runs.push((name.clone(), fused));
         }
         let methods = runs
             .into_iter()
-            .map(|(method, t)| {
-                let seed = row_seed(self.chance.seed, &loaded.name, &method);
-                let scores =
-                    score_series(&annotators, &t.candidates, n_frames, &margins, self.chance, seed);
-                MethodRun { method, seconds: t.seconds, scores }
+            .map(|(method, t)| match t {
+                Ok(t) => {
+                    let seed = row_seed(self.chance.seed, &loaded.name, &method);
+                    let scores = score_series(
+                        &annotators,
+                        &t.candidates,
+                        n_frames,
+                        &margins,
+                        self.chance,
+                        seed,
+                    );
+                    MethodRun {
+                        method,
+                        seconds: t.seconds,
+                        found: t.candidates,
+                        scores: Ok(scores),
+                    }
+                }
+                Err(reason) => {
+                    MethodRun { method, seconds: f64::NAN, found: Vec::new(), scores: Err(reason) }
+                }
             })
             .collect();
-        let result =
-            ItemResult { sequence: loaded.name.clone(), n_truth: truth.boundaries.len(), methods };
+        let result = ItemResult {
+            sequence: loaded.name.clone(),
+            n_samples: n_frames,
+            n_truth: truth.boundaries.len(),
+            methods,
+        };
         Ok(ItemOutput::new(ItemData::encode(&result)?, Vec::new()))
     }
 
@@ -466,6 +580,7 @@ impl Workflow for BenchmarkWorkflow {
         out.tables.extend(tables);
         out.tables.push(test);
         out.tables.push(runtime_table(&results, &methods)?);
+        out.tables.push(change_points_table(&results)?);
         out.figures.extend(figure);
         if self.section.selection == BenchmarkSelection::LeaveOneSequenceOut {
             let scores = results
@@ -611,6 +726,8 @@ struct CoveringRow {
     published_method: Option<String>,
     published_covering: Option<f64>,
     covering_minus_published: Option<f64>,
+    status: String,
+    failure: String,
 }
 
 /// A row of `benchmark_f1`.
@@ -626,6 +743,8 @@ struct F1Row {
     chance_tcpd_f1: f64,
     p_value_tcpd_f1: f64,
     above_chance: &'static str,
+    status: String,
+    failure: String,
 }
 
 fn above(p: f64) -> &'static str {
@@ -647,6 +766,34 @@ fn margin_label(t: TimeSpan) -> String {
 }
 
 type ScoresOf<'a> = dyn Fn(&str) -> Vec<(&'a str, &'a MethodRun)> + 'a;
+
+/// A per-sequence row's status: `ok`, or `failed` (its reason in `failure`).
+fn status_of(m: &MethodRun) -> (String, String) {
+    match m.failure() {
+        None => ("ok".into(), String::new()),
+        Some(reason) => ("failed".into(), reason.to_string()),
+    }
+}
+
+/// A mean row's status: over how many sequences it is, and how failures are treated.
+fn mean_status(runs: &[(&str, &MethodRun)]) -> (String, String) {
+    let failed: Vec<&str> =
+        runs.iter().filter(|(_, m)| m.failure().is_some()).map(|(s, _)| *s).collect();
+    let status = format!(
+        "mean over {} scored sequence(s); {} failed (left out of the mean, ranked last)",
+        runs.len() - failed.len(),
+        failed.len()
+    );
+    (status, failed.join(" "))
+}
+
+/// Drops the `status` and `failure` columns when no method failed (the tables of a run without
+/// failures keep their columns).
+fn keep_status_columns(t: &mut Table, results: &[ItemResult]) {
+    if !results.iter().flat_map(|r| &r.methods).any(|m| m.failure().is_some()) {
+        t.columns.retain(|c| c.name != "status" && c.name != "failure");
+    }
+}
 
 impl BenchmarkWorkflow {
     /// The published covering of `method`'s published column on `sequence`.
@@ -675,33 +822,53 @@ impl BenchmarkWorkflow {
         let mut rows = Vec::new();
         for r in results {
             for m in &r.methods {
-                let s = &m.scores;
                 let published = self.published_of(&m.method, &r.sequence);
+                let (status, failure) = status_of(m);
+                let covering = m.scored().map(|s| &s.covering);
+                let value = covering.map_or(f64::NAN, |c| c.value);
                 rows.push(CoveringRow {
                     sequence: r.sequence.clone(),
                     method: m.method.clone(),
-                    n_samples: s.n_frames,
+                    n_samples: r.n_samples,
                     n_truth: r.n_truth,
-                    n_found: Some(s.n_found),
-                    covering: s.covering.value,
-                    chance_covering: s.covering.chance,
-                    p_value_covering: s.covering.p_value,
-                    above_chance: above(s.covering.p_value),
+                    n_found: m.scored().map(|s| s.n_found),
+                    covering: value,
+                    chance_covering: covering.map_or(f64::NAN, |c| c.chance),
+                    p_value_covering: covering.map_or(f64::NAN, |c| c.p_value),
+                    above_chance: above(covering.map_or(f64::NAN, |c| c.p_value)),
                     published_covering: published.as_ref().map(|p| p.1),
-                    covering_minus_published: published.as_ref().map(|p| s.covering.value - p.1),
+                    covering_minus_published: published.as_ref().map(|p| value - p.1),
                     published_method: published.map(|p| p.0),
+                    status,
+                    failure,
                 });
             }
         }
         for method in methods {
-            let runs = scores_of(method);
-            let mean = ScoreWithChance::mean(runs.iter().map(|(_, m)| &m.scores.covering));
-            let published: Option<(String, Vec<f64>)> = runs
+            let all_runs = scores_of(method);
+            let (status, failure) = mean_status(&all_runs);
+            let runs: Vec<(&str, &MethodRun)> =
+                all_runs.iter().copied().filter(|(_, m)| m.scored().is_some()).collect();
+            let mean =
+                ScoreWithChance::mean(runs.iter().filter_map(|(_, m)| Some(&m.scored()?.covering)));
+            // Over the sequences the sheet lists (all of them unless `missing = "skip"`).
+            let listed: Vec<&(&str, &MethodRun)> = runs
+                .iter()
+                .filter(|(seq, _)| !self.published_missing.iter().any(|m| m == seq))
+                .collect();
+            let published: Option<(String, Vec<f64>)> = listed
                 .iter()
                 .map(|(seq, _)| self.published_of(method, seq))
                 .collect::<Option<Vec<_>>>()
                 .and_then(|v| {
-                    let column = v.first()?.0.clone();
+                    let mut column = v.first()?.0.clone();
+                    if listed.len() < runs.len() {
+                        column = format!(
+                            "{column} (over {} of {} sequences; missing = skip)",
+                            listed.len(),
+                            runs.len()
+                        );
+                    }
                     Some((column, v.into_iter().map(|p| p.1).collect()))
                 });
             let published_mean =
@@ -709,13 +876,13 @@ impl BenchmarkWorkflow {
             rows.push(CoveringRow {
                 sequence: "mean".into(),
                 method: method.clone(),
-                n_samples: runs.iter().map(|(_, m)| m.scores.n_frames).sum(),
+                n_samples: runs.iter().filter_map(|(_, m)| m.scored()).map(|s| s.n_frames).sum(),
                 n_truth: runs
                     .iter()
                     .filter_map(|(seq, _)| results.iter().find(|r| r.sequence == *seq))
                     .map(|r| r.n_truth)
                     .sum(),
-                n_found: Some(runs.iter().map(|(_, m)| m.scores.n_found).sum()),
+                n_found: Some(runs.iter().filter_map(|(_, m)| m.scored()).map(|s| s.n_found).sum()),
                 covering: mean.value,
                 chance_covering: mean.chance,
                 p_value_covering: mean.p_value,
@@ -723,6 +890,8 @@ impl BenchmarkWorkflow {
                 covering_minus_published: published_mean.map(|p| mean.value - p),
                 published_covering: published_mean,
                 published_method: published.map(|p| p.0),
+                status,
+                failure,
             });
         }
         let mut t = Table::from_records(
@@ -734,6 +903,7 @@ impl BenchmarkWorkflow {
             t.columns
                 .retain(|c| !c.name.starts_with("published") && !c.name.ends_with("published"));
         }
+        keep_status_columns(&mut t, results);
         Ok(t)
     }
 
@@ -746,26 +916,53 @@ impl BenchmarkWorkflow {
         let mut rows = Vec::new();
         for r in results {
             for m in &r.methods {
-                for (f, &margin) in m.scores.f1.iter().zip(&self.section.margins) {
-                    rows.push(F1Row {
-                        sequence: r.sequence.clone(),
-                        method: m.method.clone(),
-                        margin: margin_label(margin),
-                        margin_frames: Some(f.margin_frames),
-                        tcpd_f1: f.f1.value,
-                        tcpd_precision: f.precision,
-                        tcpd_recall: f.recall,
-                        chance_tcpd_f1: f.f1.chance,
-                        p_value_tcpd_f1: f.f1.p_value,
-                        above_chance: above(f.f1.p_value),
-                    });
+                let (status, failure) = status_of(m);
+                match m.scored() {
+                    Some(scores) => {
+                        for (f, &margin) in scores.f1.iter().zip(&self.section.margins) {
+                            rows.push(F1Row {
+                                sequence: r.sequence.clone(),
+                                method: m.method.clone(),
+                                margin: margin_label(margin),
+                                margin_frames: Some(f.margin_frames),
+                                tcpd_f1: f.f1.value,
+                                tcpd_precision: f.precision,
+                                tcpd_recall: f.recall,
+                                chance_tcpd_f1: f.f1.chance,
+                                p_value_tcpd_f1: f.f1.p_value,
+                                above_chance: above(f.f1.p_value),
+                                status: status.clone(),
+                                failure: failure.clone(),
+                            });
+                        }
+                    }
+                    None => {
+                        for &margin in &self.section.margins {
+                            rows.push(F1Row {
+                                sequence: r.sequence.clone(),
+                                method: m.method.clone(),
+                                margin: margin_label(margin),
+                                margin_frames: None,
+                                tcpd_f1: f64::NAN,
+                                tcpd_precision: f64::NAN,
+                                tcpd_recall: f64::NAN,
+                                chance_tcpd_f1: f64::NAN,
+                                p_value_tcpd_f1: f64::NAN,
+                                above_chance: "",
+                                status: status.clone(),
+                                failure: failure.clone(),
+                            });
+                        }
+                    }
                 }
             }
         }
         for method in methods {
             let runs = scores_of(method);
+            let (status, failure) = mean_status(&runs);
             for (i, &margin) in self.section.margins.iter().enumerate() {
-                let parts: Vec<_> = runs.iter().filter_map(|(_, m)| m.scores.f1.get(i)).collect();
+                let parts: Vec<_> =
+                    runs.iter().filter_map(|(_, m)| m.scored()?.f1.get(i)).collect();
                 let mean = ScoreWithChance::mean(parts.iter().map(|f| &f.f1));
                 let n = parts.len() as f64;
                 rows.push(F1Row {
@@ -779,14 +976,18 @@ impl BenchmarkWorkflow {
                     chance_tcpd_f1: mean.chance,
                     p_value_tcpd_f1: mean.p_value,
                     above_chance: above(mean.p_value),
+                    status: status.clone(),
+                    failure: failure.clone(),
                 });
             }
         }
-        Table::from_records(
+        let mut t = Table::from_records(
             "benchmark_f1",
             "TCPDBench F1 per sequence, method and margin, beside chance, then the mean over sequences",
             &rows,
-        )
+        )?;
+        keep_status_columns(&mut t, results);
+        Ok(t)
     }
 
     /// Mean ranks by covering (ours and the published methods), the tests, and the diagram.
@@ -801,12 +1002,17 @@ impl BenchmarkWorkflow {
         if let Some(p) = published {
             labels.extend(p.methods.iter().map(|m| (format!("{m} (published)"), "published")));
         }
-        // Sequences every method scored (and the published sheet lists, when given).
+        // Sequences every method ran on (and the published sheet lists, when given); a method
+        // that failed on a sequence ranks last there (-inf: below every covering, tied with
+        // the other failures).
         let mut scores: Vec<Vec<f64>> = Vec::new();
         for r in results {
             let ours: Option<Vec<f64>> = methods
                 .iter()
-                .map(|m| r.methods.iter().find(|x| x.method == *m).map(|x| x.scores.covering.value))
+                .map(|m| {
+                    let x = r.methods.iter().find(|x| x.method == *m)?;
+                    Some(x.scored().map_or(f64::NEG_INFINITY, |s| s.covering.value))
+                })
                 .collect();
             let theirs: Option<Vec<f64>> = match published {
                 None => Some(Vec::new()),
@@ -825,6 +1031,7 @@ impl BenchmarkWorkflow {
             wins: usize,
             n_series: usize,
             mean_covering: f64,
+            n_failed: usize,
         }
         #[derive(Serialize)]
         struct TestRow {
@@ -837,6 +1044,7 @@ impl BenchmarkWorkflow {
             nemenyi_q_alpha: f64,
             critical_difference: f64,
             cliques: String,
+            published_missing: String,
         }
         let c: RankComparison =
             compare_methods(&scores, true, self.section.ties, self.section.alpha);
@@ -850,7 +1058,13 @@ impl BenchmarkWorkflow {
                 mean_rank: c.mean_ranks.get(j).copied().unwrap_or(f64::NAN),
                 wins: c.wins.get(j).copied().unwrap_or(0),
                 n_series: n,
-                mean_covering: scores.iter().map(|row| row[j]).sum::<f64>() / n as f64,
+                // Over the sequences it scored (a failure has no covering).
+                mean_covering: {
+                    let ok: Vec<f64> =
+                        scores.iter().map(|row| row[j]).filter(|v| v.is_finite()).collect();
+                    ok.iter().sum::<f64>() / ok.len() as f64
+                },
+                n_failed: scores.iter().filter(|row| row[j] == f64::NEG_INFINITY).count(),
             })
             .collect();
         let cliques = c
@@ -873,17 +1087,31 @@ impl BenchmarkWorkflow {
             nemenyi_q_alpha: c.q_alpha,
             critical_difference: c.critical_difference,
             cliques,
+            published_missing: match (self.published_missing.first(), &self.published) {
+                (Some(first), Some((_, spec))) => format!(
+                    "{} sequence(s) not in {} left out of the ranks (missing = skip; the first: {first})",
+                    self.published_missing.len(),
+                    spec.file
+                ),
+                _ => String::new(),
+            },
         };
-        let ranks = Table::from_records(
+        let mut ranks = Table::from_records(
             "benchmark_ranks",
-            "Mean rank by covering per method (1 = best) over the sequences every method scored",
+            "Mean rank by covering per method (1 = best) over the sequences every method ran on (a failure ranks last on its sequence; mean_covering is over the sequences scored)",
             &rows,
         )?;
-        let test = Table::from_records(
+        if rows.iter().all(|r| r.n_failed == 0) {
+            ranks.columns.retain(|c| c.name != "n_failed");
+        }
+        let mut test = Table::from_records(
             "benchmark_rank_test",
             "Friedman's test and Nemenyi's critical difference of the mean ranks",
             &[test],
         )?;
+        if self.published_missing.is_empty() {
+            test.columns.retain(|c| c.name != "published_missing");
+        }
         let figure = (labels.len() >= 2 && n > 0).then(|| Figure {
             name: "critical_difference".into(),
             figure: FigureKind::CriticalDifference(CriticalDifference {
@@ -915,7 +1143,7 @@ fn runtime_table(results: &[ItemResult], methods: &[String]) -> Result<Table> {
     let mut rows = Vec::new();
     for r in results {
         for m in &r.methods {
-            let n = m.scores.n_frames;
+            let n = r.n_samples;
             rows.push(Row {
                 sequence: r.sequence.clone(),
                 method: m.method.clone(),
@@ -926,9 +1154,12 @@ fn runtime_table(results: &[ItemResult], methods: &[String]) -> Result<Table> {
         }
     }
     for method in methods {
-        let runs: Vec<&MethodRun> =
-            results.iter().flat_map(|r| &r.methods).filter(|m| m.method == *method).collect();
-        let n: usize = runs.iter().map(|m| m.scores.n_frames).sum();
+        let runs: Vec<&MethodRun> = results
+            .iter()
+            .flat_map(|r| &r.methods)
+            .filter(|m| m.method == *method && m.scored().is_some())
+            .collect();
+        let n: usize = runs.iter().filter_map(|m| m.scored()).map(|s| s.n_frames).sum();
         let seconds: f64 = runs.iter().map(|m| m.seconds).sum();
         rows.push(Row {
             sequence: "total".into(),
@@ -941,6 +1172,36 @@ fn runtime_table(results: &[ItemResult], methods: &[String]) -> Result<Table> {
     Table::from_records(
         "benchmark_runtime",
         "Wall time of each segmenter per sequence (feature extraction included), as measured where it was computed",
+        &rows,
+    )
+}
+
+/// `benchmark_change_points`: every change point each method found, one row per point
+/// (`sequence, method, sample`, samples 0-based as the segmenters give them), so a run can be
+/// re-scored with another metric or fed to a later stage. A method that found none, or failed,
+/// has no row: `benchmark_covering` lists every sequence and method with its `n_found`.
+fn change_points_table(results: &[ItemResult]) -> Result<Table> {
+    #[derive(Serialize)]
+    struct Row<'a> {
+        sequence: &'a str,
+        method: &'a str,
+        sample: usize,
+    }
+    let rows: Vec<Row<'_>> = results
+        .iter()
+        .flat_map(|r| {
+            r.methods.iter().flat_map(move |m| {
+                m.found.iter().map(move |&sample| Row {
+                    sequence: &r.sequence,
+                    method: &m.method,
+                    sample,
+                })
+            })
+        })
+        .collect();
+    Table::from_records(
+        "benchmark_change_points",
+        "Every change point each method found (samples, 0-based), one row per point",
         &rows,
     )
 }
