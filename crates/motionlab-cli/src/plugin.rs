@@ -269,11 +269,15 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
             c.next().map(|f| f.to_ascii_uppercase().to_string() + c.as_str()).unwrap_or_default()
         })
         .collect();
-    let imported: Vec<&str> = skeleton
-        .lines()
-        .filter(|l| l.starts_with("use "))
-        .flat_map(|l| l.split(|c: char| !c.is_ascii_alphanumeric() && c != '_'))
-        .collect();
+    // Every name of the `use` items, which rustfmt may spread over several lines.
+    let mut imported: Vec<&str> = Vec::new();
+    let mut rest = skeleton;
+    while let Some(at) = rest.find("\nuse ") {
+        let item = &rest[at + 1..];
+        let end = item.find(';').map_or(item.len(), |e| e + 1);
+        imported.extend(item[..end].split(|c: char| !c.is_ascii_alphanumeric() && c != '_'));
+        rest = &item[end..];
+    }
     if imported.contains(&camel.as_str()) || imported.contains(&format!("{camel}Params").as_str()) {
         return Err(Error::new(
             ErrorKind::InvalidParameter,
