@@ -269,13 +269,15 @@ fn check_name(name: &str, skeleton: &str) -> Result<String> {
             c.next().map(|f| f.to_ascii_uppercase().to_string() + c.as_str()).unwrap_or_default()
         })
         .collect();
-    // Every name the skeleton's `use` items bring in; an item may span several lines (rustfmt
-    // breaks a long brace list), so each is read from `use ` to its `;`.
-    let imported: Vec<&str> = skeleton
-        .match_indices("\nuse ")
-        .filter_map(|(at, _)| skeleton[at + 1..].split_once(';').map(|(item, _)| item))
-        .flat_map(|item| item.split(|c: char| !c.is_ascii_alphanumeric() && c != '_'))
-        .collect();
+    // Every name of the `use` items, which rustfmt may spread over several lines.
+    let mut imported: Vec<&str> = Vec::new();
+    let mut rest = skeleton;
+    while let Some(at) = rest.find("\nuse ") {
+        let item = &rest[at + 1..];
+        let end = item.find(';').map_or(item.len(), |e| e + 1);
+        imported.extend(item[..end].split(|c: char| !c.is_ascii_alphanumeric() && c != '_'));
+        rest = &item[end..];
+    }
     if imported.contains(&camel.as_str()) || imported.contains(&format!("{camel}Params").as_str()) {
         return Err(Error::new(
             ErrorKind::InvalidParameter,
