@@ -121,7 +121,9 @@ fn analog_of(
     let params = toml::from_str("analog = true").map_err(|e| {
         Error::new(ErrorKind::InvalidParameter, format!("analog loader parameters: {e}"))
     })?;
-    let Ok(a) = motionlab_core::registry::build_loader("c3d", &params)?.load(path) else { return Ok(None) };
+    let Ok(a) = motionlab_core::registry::build_loader("c3d", &params)?.load(path) else {
+        return Ok(None);
+    };
     let npy = match npy {
         Some(out) => Some(write_channels(&out.with_extension("analog.npy"), a.channels())?),
         None => None,
@@ -137,7 +139,7 @@ fn analog_of(
 /// The motion as the loader reads it at its defaults, and whether its rate is known. A channel
 /// file without a time column has no rate (the `channels` loader then needs `rate_hz`): it is
 /// read at 1 Hz to describe its samples and channels, with the rate unknown.
-fn load_described(name: &str, loader: &dyn Loader, path: &Path) -> Result<(Motion, bool)> {
+fn load_described(name: &str, loader: &dyn motionlab_core::Loader, path: &Path) -> Result<(Motion, bool)> {
     match loader.load(path) {
         Ok(m) => Ok((m, true)),
         Err(e)
@@ -147,7 +149,8 @@ fn load_described(name: &str, loader: &dyn Loader, path: &Path) -> Result<(Motio
         {
             let mut params = toml::Table::new();
             params.insert("rate_hz".into(), toml::Value::Float(1.0));
-            let loader = motionlab_core::registry::build_loader("channels", &toml::Value::Table(params))?;
+            let loader =
+                motionlab_core::registry::build_loader("channels", &toml::Value::Table(params))?;
             Ok((loader.load(path).map_err(|e| e.in_file(path))?, false))
         }
         Err(e) => Err(e.in_file(path)),

@@ -586,9 +586,11 @@ impl Workflow for BenchmarkWorkflow {
             let scores = results
                 .iter()
                 .flat_map(|r| {
-                    r.methods
-                        .iter()
-                        .map(|m| (r.sequence.clone(), m.method.clone(), m.scores.covering.clone()))
+                    // A method that failed on a sequence has no covering there to choose by.
+                    r.methods.iter().filter_map(|m| {
+                        let scores = m.scores.as_ref().ok()?;
+                        Some((r.sequence.clone(), m.method.clone(), scores.covering.clone()))
+                    })
                 })
                 .collect();
             out.analyses.push((
