@@ -41,6 +41,12 @@ bench:
     python3 bench/conformance_crosscheck.py check
     python3 bench/tssb_published_settings.py
     python3 bench/tssb_differences.py
+    python3 bench/crops_vs_ruptures_rs.py
+    python3 bench/label_metrics_vs_sklearn.py
+    # Not benchmarks, run by CI (.ci/run): bench/bocd_package_snapshot.py (bocpd.rs's snapshot
+    # recomputed by the bocd package), bench/check_records.py (a fresh reproduce against the
+    # runs of record, needs its reports folder) and bench/analog_fixtures.py (writes the analog
+    # C3D fixtures of tests/fixtures/analog/).
     python3 bench/opensim_crosscheck.py
 
 # Rewrite the generated crate graph and crate table of docs/ARCHITECTURE.md from

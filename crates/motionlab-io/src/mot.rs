@@ -43,7 +43,8 @@ use motionlab_core::{
 /// `nColumns`, `datarows`, `datacolumns`) not matching the file (the data present is read);
 /// duplicate column labels (the repeat gets `#2` appended: channels need distinct names);
 /// labels padded with spaces, trailing TABs, CRLF, a BOM. `NaN`, `nan` or an empty cell is a
-/// missing sample.
+/// missing sample. Missing samples are kept as NaN in their channel (never filled or zeroed):
+/// the stages downstream treat them as their own docs say.
 ///
 /// Errors name the file and line: no `endheader`, no column labels, a row with more or fewer
 /// values than labels, a value that is not a number (naming the column), times that do not

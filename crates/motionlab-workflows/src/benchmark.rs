@@ -144,8 +144,8 @@ pub struct PublishedSpec {
     /// Which published column each of our methods is shown beside (`our name = "column"`).
     #[serde(default)]
     pub methods: std::collections::BTreeMap<String, String>,
-    /// A sequence of the run that the sheet has no row for: `"error"` (the default: the
-    /// experiment is refused, naming the sheet and the first missing sequence) or `"skip"`
+    /// A sequence of the run that the sheet has no row for: `"error"` (the experiment
+    /// is refused, naming the sheet and the first missing sequence) or `"skip"`
     /// (the published columns and the ranks leave it out, and `benchmark_rank_test` and the
     /// mean rows say how many were left out).
     #[serde(default)]
