@@ -228,10 +228,16 @@ class loaders:
           type is an error naming it. Errors about samples name the row (1-based) in place of a line.
 
         Channel names: the header's, else `names`, else `value` for a single column and `ch0`,
-        `ch1`, … for several. The rate: `rate_hz` when given; otherwise the `time_column` (seconds,
-        not a channel), whose steps must be equal to within 1e-6 relative (else an error naming the
-        line); a file with neither is an error. Units: as the file has them (unknown to motionlab:
-        empty).
+        `ch1`, … for several. The rate: `rate_hz` when given; otherwise read from the `time_column`
+        (seconds, not a channel) as `(n - 1) / (t_last - t_first)` over its `n` times. Its steps must
+        be equal, which for printed times means equal to within their rounding: every step may
+        differ from the median step by one rounding unit `10^-k`, `k` the most decimals written in
+        the column (`0.000000, 0.008333, 0.016667` — 120 Hz rounded to microseconds — steps by
+        0.008333 or 0.008334: equal; the unit counts at most a quarter of the step, so a dropped
+        sample never passes), or by 1e-6 of the step where that is larger (times written in full,
+        binary Parquet times). A larger difference — a dropped or repeated sample, a
+        decreasing time — is an error naming the line. A file with neither is an error. Units: as
+        the file has them (unknown to motionlab: empty).
 
         Missing samples are kept as NaN; each segmenter says how it treats them. Errors name the
         file and line (text, Parquet's row) or the header field (`.npy`): a row with another number of values
@@ -281,7 +287,8 @@ class loaders:
         `nColumns`, `datarows`, `datacolumns`) not matching the file (the data present is read);
         duplicate column labels (the repeat gets `#2` appended: channels need distinct names);
         labels padded with spaces, trailing TABs, CRLF, a BOM. `NaN`, `nan` or an empty cell is a
-        missing sample.
+        missing sample. Missing samples are kept as NaN in their channel (never filled or zeroed):
+        the stages downstream treat them as their own docs say.
 
         Errors name the file and line: no `endheader`, no column labels, a row with more or fewer
         values than labels, a value that is not a number (naming the column), times that do not
@@ -989,7 +996,7 @@ class segmenters:
     """Every registered segmenter, by name."""
 
     @staticmethod
-    def bocpd(motion: MotionLike, *, rate: Optional[float] = None, prior_mean: Optional[float] = None, prior_kappa: Optional[float] = None, prior_alpha: Optional[float] = None, prior_beta: Optional[float] = None, normalize: Optional[str] = None, model: Optional[str] = None, change_points: Optional[str] = None, drop_threshold: Optional[float] = None, truncate_below: Optional[float] = None) -> SegmenterOutput:
+    def bocpd(motion: MotionLike, *, rate: Optional[float] = None, expected_segment: Optional[Any] = None, prior_mean: Optional[float] = None, prior_kappa: Optional[float] = None, prior_alpha: Optional[float] = None, prior_beta: Optional[float] = None, normalize: Optional[str] = None, model: Optional[str] = None, change_points: Optional[str] = None, drop_threshold: Optional[float] = None, truncate_below: Optional[float] = None) -> SegmenterOutput:
         """bocpd (segmenter, from motionlab-changepoint)
 
         Bayesian online change-point detection (R. P. Adams & D. J. C. MacKay, "Bayesian Online
@@ -1047,6 +1054,10 @@ class segmenters:
         Parameters:
           lambda : float  (default 100.0)
               Expected segment length λ in samples (the hazard is 1/λ, ≥ 1); TCPDBench's value.
+          expected_segment : { frames = float } | { seconds = float } (optional)  (optional)
+              Expected segment length in frames or seconds (`{ seconds = 10.0 }`), replacing `lambda`
+              when given: the hazard is 1/(that length in samples at the data's rate, at least 1), so
+              one setting means the same at 1 Hz and at 120 Hz.
           prior_mean : float  (default 0.0)
               Prior mean μ₀ of each channel, in normalised units when `normalize` rescales.
           prior_kappa : float  (default 1.0)
@@ -1425,7 +1436,7 @@ class segmenters:
         """
 
     @staticmethod
-    def kernel_cpd(motion: MotionLike, *, rate: Optional[float] = None, search: Optional[str] = None, cost: Optional[str] = None, pen: Optional[float] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
+    def kernel_cpd(motion: MotionLike, *, rate: Optional[float] = None, search: Optional[str] = None, cost: Optional[str] = None, pen: Optional[float] = None, penalty: Optional[Any] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
         """kernel_cpd (segmenter, from motionlab-changepoint)
 
         Change points that minimise a segment cost plus a penalty per change (PELT), or found by
@@ -1465,6 +1476,22 @@ class segmenters:
         `log(n) · p · RSS/n` (p covariates, the residual variance of one fit to the whole series);
         `ar`: `log(n) · (ar_order + 1) · RSS/n` (the same with the lags and the intercept).
 
+        **A penalty path** (`penalty = { path = [min, max] }`, searches `pelt` and `kernel_pelt`):
+        instead of one penalty, every segmentation that is optimal for some penalty in
+        `[min, max]`, each with the penalty interval it owns and its unpenalised cost, by CROPS
+        (Haynes, Eckley & Fearnhead, "Computationally efficient changepoint detection for a range
+        of penalties", JCGS 26(1), 2017) — about two PELT runs per segmentation on the path, the
+        same segmentations and interval ends as ruptures-rs 0.1.1's `Crops` (checked in CI on TSSB
+        series). The candidates are then the segmentation `choose` picks on the path: `elbow` (the
+        elbow of the cost against the number of change points, by the Kneedle rule of Satopää et
+        al. 2011: both rescaled to [0, 1] over the path, the point farthest below the chord joining
+        its ends; with fewer than three segmentations, the one with fewest change points), `bic`
+        (the one optimal at the BIC-style penalty below, or at the nearer end of the range) or
+        `widest` (the one optimal over the widest span of log-penalty). The ends of the range may
+        be `"bic"` (the BIC-style penalty below) and `"whole_cost"` (the cost of the whole series
+        as one segment, where the path reaches no change). The whole path, as a table: Python's
+        `motionlab.penalty_path(values, path, choose, …)`.
+
         **Degenerate inputs.** Missing samples (NaN) are refused (one error naming the first; fill
         them first with `fill_gaps`). A constant series has no change: no candidates when stopping
         by a penalty, an error when `n_bkps` asks for some. A series too short for `min_size` (and
@@ -1486,6 +1513,10 @@ class segmenters:
               The segment cost: `l2`, `rbf`, `linear` or `ar` (`kernel_pelt` takes `l2` or `rbf`).
           pen : float (optional)  (default: the BIC-style penalty described above, computed from the series)
               Penalty per change, in the cost's units (> 0). Give `pen` or `n_bkps`, not both.
+          penalty : PenaltyPath (optional)  (optional)
+              A penalty path instead of one penalty: `{ path = [min, max], choose = "elbow" }`, the
+              penalties in the cost's units (0 < min < max), `choose` one of `elbow`, `bic`, `widest`
+              (see above); searches `pelt` and `kernel_pelt`. Not with `pen` or `n_bkps`.
           n_bkps : integer (optional)  (optional)
               Number of change points to find (binary segmentation only).
           min_size : integer  (default 2)
