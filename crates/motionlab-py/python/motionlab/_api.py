@@ -544,7 +544,14 @@ def _f64(a: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def penalty_path(values: Any, path: Sequence[Any] = ("bic", "whole_cost"), choose: str = "elbow", *, pandas: bool = False, **params: Any):
+def penalty_path(
+    values: Any,
+    path: Sequence[Any] = ("bic", "whole_cost"),
+    choose: str = "elbow",
+    *,
+    pandas: bool = False,
+    **params: Any,
+) -> polars.DataFrame:
     """``kernel_cpd``'s penalty path (CROPS) of ``values`` (n samples, or n × channels): every
     segmentation optimal for a penalty in ``path`` (numbers in the cost's units, or ``"bic"``
     and ``"whole_cost"``), one row each, fewest change points first — ``n_changes``,
