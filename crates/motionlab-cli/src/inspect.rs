@@ -139,7 +139,11 @@ fn analog_of(
 /// The motion as the loader reads it at its defaults, and whether its rate is known. A channel
 /// file without a time column has no rate (the `channels` loader then needs `rate_hz`): it is
 /// read at 1 Hz to describe its samples and channels, with the rate unknown.
-fn load_described(name: &str, loader: &dyn motionlab_core::Loader, path: &Path) -> Result<(Motion, bool)> {
+fn load_described(
+    name: &str,
+    loader: &dyn motionlab_core::Loader,
+    path: &Path,
+) -> Result<(Motion, bool)> {
     match loader.load(path) {
         Ok(m) => Ok((m, true)),
         Err(e)
