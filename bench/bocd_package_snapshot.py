@@ -40,8 +40,8 @@ def import_bocd():
 def package_answer(values, threshold):
     from importlib.metadata import version
 
+    bocd = import_bocd()  # installs it on first use: the version is read after
     assert version("bocd") == "0.1.2", version("bocd")
-    bocd = import_bocd()
     x = np.asarray(values, dtype=float)
     span = x.max() - x.min()
     xs = (x - x.min()) / span if span > 0 else np.zeros_like(x)  # motionlab's min_max of a constant: zeros
