@@ -489,19 +489,15 @@ mod tests {
 
     #[test]
     fn no_truncation_or_byte_flip_panics() {
-        for cut in 0..=V1.len() {
-            let _ = parse(&V1[..cut]);
-        }
-        let mut rng = motionlab_testkit::Rng::new(5);
-        let alphabet = b"\t\n\r 0123456789.-e=endheadrNa";
-        for _ in 0..3000 {
-            let mut b = V1.as_bytes().to_vec();
-            let i = (rng.next_u64() % b.len() as u64) as usize;
-            b[i] = alphabet[(rng.next_u64() % alphabet.len() as u64) as usize];
-            if let Ok(s) = String::from_utf8(b) {
-                let _ = parse(&s);
-            }
-        }
+        motionlab_testkit::truncations_and_byte_flips(
+            V1,
+            5,
+            b"\t\n\r 0123456789.-e=endheadrNa",
+            3000,
+            |s| {
+                let _ = parse(s);
+            },
+        );
     }
 
     #[test]

@@ -698,22 +698,15 @@ mod tests {
 
     #[test]
     fn no_truncation_or_byte_flip_panics() {
-        let text = file(ROWS);
-        for cut in 0..=text.len() {
-            if text.is_char_boundary(cut) {
-                let _ = parse(&text[..cut]);
-            }
-        }
-        let mut rng = motionlab_testkit::Rng::new(7);
-        let alphabet = b"\t\n\r 0123456789.-eNaXYZ_AMRKE";
-        for _ in 0..3000 {
-            let mut b = text.clone().into_bytes();
-            let i = (rng.next_u64() % b.len() as u64) as usize;
-            b[i] = alphabet[(rng.next_u64() % alphabet.len() as u64) as usize];
-            if let Ok(s) = String::from_utf8(b) {
-                let _ = parse(&s);
-            }
-        }
+        motionlab_testkit::truncations_and_byte_flips(
+            &file(ROWS),
+            7,
+            b"\t\n\r 0123456789.-eNaXYZ_AMRKE",
+            3000,
+            |s| {
+                let _ = parse(s);
+            },
+        );
     }
 
     #[test]

@@ -178,3 +178,30 @@ pub fn viewer_lane<'a>(meta: &'a serde_json::Value, name: &str) -> &'a serde_jso
         .find(|l| l["name"] == name)
         .unwrap_or_else(|| panic!("no lane {name:?} in {}", meta["title"]))
 }
+
+/// A text parser's no-panic sweep: `parse` gets every prefix of `text` (cut at char
+/// boundaries), then `flips` copies with one byte replaced by a byte of `alphabet` (position and
+/// byte drawn from `Rng::new(seed)`; copies that are no longer UTF-8 are skipped). What `parse`
+/// returns is the caller's to ignore: only a panic fails the calling test.
+pub fn truncations_and_byte_flips(
+    text: &str,
+    seed: u64,
+    alphabet: &[u8],
+    flips: usize,
+    mut parse: impl FnMut(&str),
+) {
+    for cut in 0..=text.len() {
+        if text.is_char_boundary(cut) {
+            parse(&text[..cut]);
+        }
+    }
+    let mut rng = Rng::new(seed);
+    for _ in 0..flips {
+        let mut b = text.as_bytes().to_vec();
+        let i = (rng.next_u64() % b.len() as u64) as usize;
+        b[i] = alphabet[(rng.next_u64() % alphabet.len() as u64) as usize];
+        if let Ok(s) = String::from_utf8(b) {
+            parse(&s);
+        }
+    }
+}
