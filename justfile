@@ -19,6 +19,8 @@ record:
 # crates/*/benches/README.md, bench/README.md. (The cold-build measure, bench/cold_build.sh,
 # empties a target dir and is run on its own.)
 bench:
+    # The peer ratios README quotes, in one sitting with the load stated: bench/speed_ratios.sh
+    # (runs the side-by-side scripts below three times each; idle machine).
     cargo bench -p motionlab-io
     cargo bench -p motionlab-features
     cargo bench -p motionlab-segment
