@@ -14,10 +14,13 @@ log=${2:-/tmp/motionlab-speed-ratios.log}
 : > "$log"
 say() { echo "$*" | tee -a "$log"; }
 load() { cut -d' ' -f1-3 /proc/loadavg; }
-measure() { # name, command…
+failed=0
+measure() { # name, command… — a script whose check fails is said and counted; the sitting goes on
   local name=$1; shift
   say ""; say "### $name: $* — $(date -u +%FT%TZ), load average before: $(load)"
-  "$@" 2>&1 | tee -a "$log"
+  local status=0
+  "$@" 2>&1 | tee -a "$log" || status=$?
+  [ "$status" -eq 0 ] || { failed=$((failed + 1)); say "### $name: the script FAILED (exit $status)"; }
   say "### $name done — load average after: $(load)"
 }
 say "speed ratios: $runs runs each, $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //')"
@@ -41,4 +44,5 @@ done
 for i in $(seq "$(( runs < 2 ? runs : 2 ))"); do
   measure "clasp vs claspy BinaryClaSPSegmentation, all 75 TSSB series, run $i" bench/profile_vs_peers.py --all
 done
-say ""; say "all done — $(date -u +%FT%TZ), load average: $(load)"
+say ""; say "all done — $(date -u +%FT%TZ), load average: $(load); scripts failed: $failed"
+[ "$failed" -eq 0 ]
