@@ -51,12 +51,19 @@ def test_segmentation_round_trips():
     assert s.annotators == [[10, 20], [30]]
 
 
-def test_the_stub_file_is_current():
+def test_the_installed_stubs_are_the_built_modules():
+    # The build backend writes them from the module it built (never committed): the installed
+    # file must be exactly what the registry of this build gives, and valid Python.
     stub = Path(ml.__file__).with_name("_typed.pyi")
+    assert stub.is_file(), f"{stub}: no stubs installed (was the package built by build_backend/motionlab_build.py?)"
     fresh = subprocess.run([sys.executable, "-m", "motionlab._stubgen"], capture_output=True, text=True, check=True).stdout
-    source = Path(__file__).resolve().parents[1] / "python/motionlab/_typed.pyi"
-    assert source.read_text() == fresh, "run `python -m motionlab._stubgen > crates/motionlab-py/python/motionlab/_typed.pyi`"
+    assert stub.read_text() == fresh
     assert "def fastest_marker_speed(motion: MotionLike, *, rate: Optional[float] = None, " in fresh
+    from motionlab._kinds import KINDS
+    callable_plugins = [p.name for p in ml.plugins() if p.kind in KINDS]
+    assert len(callable_plugins) >= 40
+    for name in callable_plugins:
+        assert f"    def {name}(" in fresh, name
     compile(fresh, str(stub), "exec")
 
 

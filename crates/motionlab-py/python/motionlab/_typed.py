@@ -3,8 +3,8 @@ each with the plugin's documentation — the text ``motionlab describe NAME`` pr
 params struct's doc comments — as its docstring and its parameters as keyword arguments.
 
 Built from the registry at import, so they are always the plugins of this build;
-``_typed.pyi`` (written by ``python -m motionlab._stubgen``, checked current by the tests)
-gives type checkers the same functions."""
+``_typed.pyi`` (written by ``python -m motionlab._stubgen`` when the wheel is built, see
+``build_backend/motionlab_build.py``) gives type checkers the same functions."""
 
 from __future__ import annotations
 
@@ -14,31 +14,7 @@ from types import SimpleNamespace
 
 from . import _motionlab as _native
 
-# kind -> (namespace, positional arguments, the generic function's name)
-KINDS = {
-    "loader": ("loaders", ["path"], "load"),
-    "ground_truth": ("ground_truth_readers", ["path", "motion"], "read_truth"),
-    "preprocessor": ("preprocessors", ["motion"], "preprocess"),
-    "feature_extractor": ("feature_extractors", ["motion"], "features"),
-    "segmenter": ("segmenters", ["motion"], "segment"),
-    "fuser": ("fusers", ["motion", "candidates"], "fuse"),
-    "point_detector": ("point_detectors", ["motion"], "detect_points"),
-    "matcher": ("matchers", ["model", "target"], "align"),
-    "synchroniser": ("synchronisers", ["alignment", "model_frames"], "synchronise"),
-    "gait_cycle_detector": ("gait_cycle_detectors", ["motion"], "gait_cycles"),
-    "waveform_analyzer": ("waveform_analyzers", ["curves", "cycles"], "waveform_parameters"),
-    "walk_synthesizer": ("walk_synthesizers", ["walk", "cycles", "changes"], "synthesize_walk"),
-    "evaluator": ("evaluators", ["results"], "evaluate"),
-}
-
-
-# Kinds whose plugins read a motion: their functions take NumPy data too, with its `rate`.
-TAKES_MOTION = {"motion", "model", "target"}
-
-
-def takes_rate(positional):
-    """Whether a kind's function has the ``rate`` keyword (for arrays given as motions)."""
-    return bool(TAKES_MOTION & set(positional))
+from ._kinds import KINDS, takes_rate
 
 
 def _function(plugin, positional, generic):
