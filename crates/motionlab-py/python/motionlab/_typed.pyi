@@ -1088,6 +1088,66 @@ class segmenters:
         """
 
     @staticmethod
+    def bocpd_online(motion: MotionLike, *, rate: Optional[float] = None, expected_segment: Optional[Any] = None, prior_mean: Optional[float] = None, prior_kappa: Optional[float] = None, prior_alpha: Optional[float] = None, prior_beta: Optional[float] = None, model: Optional[str] = None, drop_threshold: Optional[float] = None, truncate_below: Optional[float] = None, max_run_length: Optional[int] = None) -> SegmenterOutput:
+        """bocpd_online (segmenter, from motionlab-changepoint)
+
+        Online Bayesian change-point detection: the model of `bocpd` (Adams & MacKay 2007; its
+        Normal-Gamma observation model, constant hazard and the `bocd` package's update as
+        `model = "bocd_package"` — `motionlab describe bocpd` has the formulas), run one sample at
+        a time, deciding a change point the moment the most probable run length falls.
+
+        **Decisions.** After sample u the filter's most probable run length r*_u (the smallest of
+        equal maxima) is known; when r*_u − r*_{u−1} ≤ −`drop_threshold`, sample t = u − 1 — the
+        last sample of the old run, as the TSSB scripts report it and as `bocpd` with
+        `change_points = "run_length_drop"` reports it offline — is a change point, decided at
+        sample u: a detection delay of one sample after the drop, however late the drop itself
+        comes (the run length falls only once the new segment's samples outweigh the old run).
+        These are exactly the offline model's run-length drops (same filter code, same numbers),
+        as long as `max_run_length` is not reached.
+
+        **No rescaling.** `bocpd` standardises each channel with the whole series' mean and spread
+        before the prior applies; a stream has no whole series, so the values are used as given:
+        feed data on the prior's scale, or set `prior_mean` and `prior_beta` to the data's.
+
+        **Memory** is bounded: run lengths beyond `max_run_length` are dropped (and the posterior
+        renormalised) after every sample, so a session holds O(`max_run_length` × channels) numbers
+        however long the stream, and each sample costs as much. `truncate_below` can drop
+        improbable run lengths earlier.
+
+        **Missing samples (NaN)** are unobserved: a missing channel adds nothing to the predictive
+        and leaves its statistics unchanged, while the run length still advances (as `bocpd`).
+
+        Parameters:
+          lambda : float  (default 100.0)
+              Expected segment length λ in samples (the hazard is 1/λ, ≥ 1); TCPDBench's value.
+          expected_segment : { frames = float } | { seconds = float } (optional)  (optional)
+              Expected segment length in frames or seconds (`{ seconds = 10.0 }`), replacing `lambda`
+              when given (seconds at the stream's rate).
+          prior_mean : float  (default 0.0)
+              Prior mean μ₀ of each channel, in the channel's own units.
+          prior_kappa : float  (default 1.0)
+              Prior strength κ₀ of the mean, in pseudo-samples (> 0).
+          prior_alpha : float  (default 1.0)
+              Gamma shape α₀ of the precision (> 0).
+          prior_beta : float  (default 1.0)
+              Gamma rate β₀ of the precision, in squared channel units (> 0).
+          model : "normal_gamma" | "bocd_package"  (default "normal_gamma")
+              The conjugate update: `normal_gamma` (Murphy 2007) or `bocd_package` (the `bocd` 0.1.2
+              package's, whose β update uses κ in place of β).
+          drop_threshold : float  (default 250.0)
+              The fall of the most probable run length that makes a change point, in samples (> 0);
+              the TSSB scripts' value.
+          truncate_below : float  (default 0.0)
+              Drop the run lengths beyond the last one whose posterior probability is at least this
+              (and renormalise), in [0, 1); 0 keeps every run length up to `max_run_length`.
+          max_run_length : integer (optional)  (default: 10 × the expected segment length, and at least 2 × drop_threshold)
+              The longest run length kept, in samples (more than `drop_threshold`): the session's
+              memory bound.
+
+        In an experiment: { type = "bocpd_online", <parameter> = <value>, … }
+        """
+
+    @staticmethod
     def clasp(motion: MotionLike, *, rate: Optional[float] = None, window: Optional[Any] = None, n_segments: Optional[Any] = None, n_estimators: Optional[int] = None, k_neighbours: Optional[int] = None, score: Optional[str] = None, early_stopping: Optional[bool] = None, validation: Optional[str] = None, threshold: Optional[float] = None, excl_radius: Optional[int] = None, random_state: Optional[int] = None) -> SegmenterOutput:
         """clasp (segmenter, from motionlab-profile)
 
@@ -1216,6 +1276,51 @@ class segmenters:
         """
 
     @staticmethod
+    def direction_change_online(motion: MotionLike, *, rate: Optional[float] = None, root: Optional[str] = None, lag: Optional[Any] = None, min_leg_mm: Optional[float] = None, c_min: Optional[float] = None, up_axis: Optional[str] = None) -> SegmenterOutput:
+        """direction_change_online (segmenter, from motionlab-segment)
+
+        The turns of the root's floor-plane path (`direction_change`, Sonoda et al. §2.2), decided
+        on a stream of frames: with q the root's floor-plane position and L the lag,
+        `C[i] = a·b / (|a||b|)`, `a = q[i−L] − q[i]`, `b = q[i+L] − q[i]` (undefined when a leg is
+        shorter than `min_leg_mm` or a position is missing); candidate i when
+        `C[i−1] < C[i] > C[i+1]` and `C[i] ≥ c_min` — exactly `direction_change`'s candidates with
+        these parameters.
+
+        **Lag, stated:** candidate i is decided when frame i + L + 1 arrives: C[i+1] needs
+        q[i+1+L]. With the default lag of 0.5 s that is half a second and a frame.
+
+        **Memory**: the last 2L + 2 root positions and three values of C. **Missing samples**: a
+        missing root makes C undefined at the three samples that read it; an undefined C is never a
+        candidate nor the neighbour of one (nothing is interpolated).
+
+        The defaults are `direction_change`'s, chosen by the protocol its documentation gives
+        (`motionlab describe direction_change`).
+
+        Parameters:
+          root : string  (default "root")
+              Root marker or joint, by its name in the stream.
+          lag : { frames = float } | { seconds = float }  (default { seconds = 0.5 })
+              The lag L (frames or seconds); also the decision delay, plus one frame.
+          min_leg_mm : float  (default 100.0)
+              The paper's T, mm: C is undefined when either leg is shorter.
+          c_min : float  (default 0.25)
+              A local maximum of C counts when C ≥ this (dimensionless, −1 … 1).
+          up_axis : "x" | "y" | "z" (optional)  (default: the stream's up axis)
+              Up axis to drop for the floor plane (`"x"`, `"y"`, `"z"`).
+
+        Defaults tuned on 7 input file(s) (SHA-256):
+          f3d98b96940de9107bc9bfa5a5ecec2a029cdb45713e333d7bc69a0893cfac07
+          e4baaca37a4e7feb6888083f6d1e2d9307884a834d8bd39a944f8089d99a41f5
+          5d652718c31a6e56aea62d6057d0257ae1144a414398ad8e1ff9a974ddd59b8a
+          fe22588ae74eee5e5034cca7ce4f7b5dd5460f96da40c176b3981f8707e87438
+          0527685d3d25f5fcf2d0b9ba92da6af092379433e9c809d76964892780076c6b
+          bdeb88b304e912b5b691e89225bef1f8b0fca026eacbd35509e82d929e4afa77
+          4bb31962cb2a7fd7758f97dfe3778609ada26a5904a51793130808291b5dc72a
+
+        In an experiment: { type = "direction_change_online", <parameter> = <value>, … }
+        """
+
+    @staticmethod
     def external(motion: MotionLike, *, rate: Optional[float] = None, command: Optional[Sequence[str]] = None, timeout_s: Optional[float] = None, max_output_mb: Optional[int] = None, params: Optional[Any] = None) -> SegmenterOutput:
         """external (segmenter, from motionlab-external)
 
@@ -1333,6 +1438,44 @@ class segmenters:
         """
 
     @staticmethod
+    def fastest_marker_speed_online(motion: MotionLike, *, rate: Optional[float] = None, v_high_mm_per_s: Optional[float] = None, v_low_mm_per_s: Optional[float] = None, smoothing: Optional[Any] = None) -> SegmenterOutput:
+        """fastest_marker_speed_online (segmenter, from motionlab-segment)
+
+        The fastest-marker tracker of `fastest_marker_speed` (Sonoda et al. §2.1: from each local
+        maximum of V ≥ `v_high_mm_per_s`, follow its marker k to its own next local minimum j; j is
+        a candidate when V[j] ≤ `v_low_mm_per_s`), run causally on a stream of frames: the same
+        steps, taken as soon as the frames they read have arrived, so its candidates are exactly
+        `fastest_marker_speed`'s with these thresholds in mm/s and this smoothing.
+
+        **Lag, stated:** candidate j is decided when frame j + 2 + h arrives, h = ⌊w/2⌋ for a
+        smoothing window of w > 1 frames (h = 0 without smoothing): V[j] is the speed from frame j
+        to j + 1, a local minimum needs the next speed too (frame j + 2), and a centred average
+        needs h frames past its centre. At the end of a stream the last h smoothed frames are
+        averaged over what there is (as offline), and candidates found then are decided at the end.
+
+        **Thresholds in mm/s only.** `fastest_marker_speed`'s default thresholds are fractions of
+        the take's 90th-percentile speed, which only the whole take gives; a stream needs them in
+        mm/s.
+
+        **Memory**: the last 2h + 1 frames and three frames of speeds: constant however long the
+        stream. **Missing samples**: as `fastest_marker_speed` — a marker missing at either frame of
+        a step has no speed and is skipped for V; a missing speed of the followed marker is never a
+        local minimum; the centred average skips missing samples and leaves a missing one missing.
+
+        Parameters:
+          v_high_mm_per_s : float  (required)
+              A local maximum of V starts a followed stretch when V ≥ this, mm/s.
+          v_low_mm_per_s : float  (required)
+              The followed marker's minimum j is a candidate when V[j] ≤ this, mm/s (below
+              `v_high_mm_per_s`).
+          smoothing : { frames = float } | { seconds = float } (optional)  (default: raw positions)
+              Centred moving-average window on positions before differentiating (`{ frames = 5 }` or
+              `{ seconds = 0.05 }`); adds half the window to the lag.
+
+        In an experiment: { type = "fastest_marker_speed_online", <parameter> = <value>, … }
+        """
+
+    @staticmethod
     def floss(motion: MotionLike, *, rate: Optional[float] = None, window: Optional[Any] = None, n_regimes: Optional[int] = None, cac_threshold: Optional[float] = None, excl_factor: Optional[int] = None) -> SegmenterOutput:
         """floss (segmenter, from motionlab-profile)
 
@@ -1433,6 +1576,34 @@ class segmenters:
           4bb31962cb2a7fd7758f97dfe3778609ada26a5904a51793130808291b5dc72a
 
         In an experiment: { type = "hull_volume_change", <parameter> = <value>, … }
+        """
+
+    @staticmethod
+    def hull_volume_change_online(motion: MotionLike, *, rate: Optional[float] = None, t_mm3_per_s: Optional[float] = None) -> SegmenterOutput:
+        """hull_volume_change_online (segmenter, from motionlab-segment)
+
+        Where the volume of the body's convex hull starts to change quickly (`hull_volume_change`,
+        Sonoda et al. §2.3), decided on a stream of frames: `Vol[i]` the hull volume of frame i's
+        valid markers (mm³), `D[i] = |Vol[i] − Vol[i−1]|` (mm³/frame); candidate i when
+        `D[i−1] > D[i] < D[i+1]` and `D[i] < t < D[i+1]`, t = `t_mm3_per_s` / the stream's rate —
+        exactly `hull_volume_change`'s candidates with `t = { mm3_per_s = … }`.
+
+        **Lag, stated:** candidate i is decided when frame i + 1 arrives (D[i+1] needs it): one
+        frame. **Threshold in mm³/s only**: `hull_volume_change`'s default is a fraction of the
+        take's own 90th-percentile D, which only the whole take gives.
+
+        **Memory**: one frame's hull (the tracker re-uses it), the last frame's missing markers and
+        three values of D. **Missing samples**: as `hull_volume_change` — the hull is taken over the
+        frame's valid markers; a frame with fewer than 4, or all coplanar, is degenerate; D is
+        undefined next to a degenerate frame and where the set of valid markers changes; an
+        undefined D is never a candidate nor the neighbour of one.
+
+        Parameters:
+          t_mm3_per_s : float  (required)
+              The threshold t on D as a rate of volume change, mm³/s (per frame: divided by the
+              stream's rate).
+
+        In an experiment: { type = "hull_volume_change_online", <parameter> = <value>, … }
         """
 
     @staticmethod
