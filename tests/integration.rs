@@ -15,6 +15,7 @@ mod data_manifest;
 mod docs_truth;
 mod gait;
 mod input_limits;
+mod live;
 mod malformed;
 mod matching;
 mod missing_data;

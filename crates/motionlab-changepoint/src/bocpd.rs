@@ -264,6 +264,187 @@ struct RunStats {
     beta: Vec<f64>,
 }
 
+/// The run-length filter of [`Bocpd`], one sample at a time: what the offline run and the
+/// online stage (`bocpd_online`) both step, so they compute the same posterior bit for bit.
+/// Its memory is O(R·channels), R the run lengths it keeps: every one (R grows with the
+/// stream) unless `truncate_below` or a `max_run_length` bounds it.
+pub(crate) struct BocpdFilter {
+    hazard: f64,
+    prior_mean: f64,
+    prior_beta: f64,
+    prior_alpha: f64,
+    prior_kappa: f64,
+    bocd_package: bool,
+    truncate_below: f64,
+    /// The longest run length kept: longer ones are dropped and the posterior renormalised.
+    max_run_length: Option<usize>,
+    d: usize,
+    /// Per observed-sample count, extended as runs grow.
+    per_count: Vec<Count>,
+    stats: RunStats,
+    posterior: Vec<f64>,
+    log_pred: Vec<f64>,
+    next: Vec<f64>,
+}
+
+impl BocpdFilter {
+    /// A filter of `bocpd` (hazard resolved: finite) on `d` channels.
+    pub(crate) fn new(b: &Bocpd, d: usize, max_run_length: Option<usize>) -> Self {
+        BocpdFilter {
+            hazard: b.hazard,
+            prior_mean: b.prior_mean,
+            prior_beta: b.prior_beta,
+            prior_alpha: b.prior_alpha,
+            prior_kappa: b.prior_kappa,
+            bocd_package: b.model == BocpdModel::BocdPackage,
+            truncate_below: b.truncate_below,
+            max_run_length,
+            d,
+            per_count: Vec::new(),
+            stats: RunStats {
+                count: vec![0; d],
+                mu: vec![b.prior_mean; d],
+                beta: vec![b.prior_beta; d],
+            },
+            posterior: vec![1.0],
+            log_pred: Vec::new(),
+            next: Vec::new(),
+        }
+    }
+
+    /// Run lengths currently kept (the posterior's length).
+    #[cfg(test)]
+    pub(crate) fn runs(&self) -> usize {
+        self.posterior.len()
+    }
+
+    /// Makes `per_count` hold counts 0..=k.
+    fn counts_up_to(&mut self, k: usize) {
+        // Per observed-sample count k (α = α₀ + k/2, κ = κ₀ + k, ν = 2α): log Γ(α+½) − log Γ(α),
+        // the factor c with ν·scale² = β·c (c = ν(κ+1)/(ακ)), log(π·c), ν and κ.
+        let (a0, k0) = (self.prior_alpha, self.prior_kappa);
+        while self.per_count.len() <= k {
+            let k = self.per_count.len();
+            let alpha = a0 + k as f64 / 2.0;
+            let kappa = k0 + k as f64;
+            let nu = 2.0 * alpha;
+            let scale_factor = nu * (kappa + 1.0) / (alpha * kappa);
+            self.per_count.push(Count {
+                log_gamma_ratio: libm::lgamma(alpha + 0.5) - libm::lgamma(alpha),
+                scale_factor,
+                log_norm: (std::f64::consts::PI * scale_factor).ln(),
+                nu,
+                kappa,
+            });
+        }
+    }
+
+    /// Takes one sample (`d` values, NaN = unobserved) and returns the posterior
+    /// P(r_t = r | x_0..=t) for r = 0, 1, ….
+    pub(crate) fn step(&mut self, row: &[f64]) -> &[f64] {
+        let d = self.d;
+        // A run of r samples has seen at most r: counts up to the longest run, plus this one.
+        self.counts_up_to(self.posterior.len());
+        let runs = self.posterior.len();
+        let stats = &self.stats;
+        let per_count = &self.per_count;
+        self.log_pred.clear();
+        for r in 0..runs {
+            let mut lp = 0.0;
+            for (c, &v) in row.iter().enumerate() {
+                if v.is_nan() {
+                    continue;
+                }
+                let i = r * d + c;
+                let k = &per_count[stats.count[i] as usize];
+                let beta = stats.beta[i];
+                // log Student-t: log Γ(α+½) − log Γ(α) − ½ log(π ν scale²) − (ν+1)/2 · log(1 + (x−μ)²/(ν scale²))
+                let z = (v - stats.mu[i]).powi(2) / (beta * k.scale_factor);
+                lp += k.log_gamma_ratio
+                    - 0.5 * (k.log_norm + beta.ln())
+                    - 0.5 * (k.nu + 1.0) * z.ln_1p();
+            }
+            self.log_pred.push(lp);
+        }
+        let top = self.log_pred.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let h = self.hazard;
+        self.next.clear();
+        self.next.push(0.0);
+        let mut cp = 0.0;
+        for r in 0..runs {
+            let w = self.posterior[r] * (self.log_pred[r] - top).exp();
+            cp += w;
+            self.next.push(w * (1.0 - h));
+        }
+        self.next[0] = cp * h;
+        let total: f64 = self.next.iter().sum();
+        for p in self.next.iter_mut() {
+            *p /= total;
+        }
+        // The statistics of run r+1 are run r's updated with this sample; run 0 restarts.
+        let mut count = Vec::with_capacity((runs + 1) * d);
+        let mut mu = Vec::with_capacity((runs + 1) * d);
+        let mut beta = Vec::with_capacity((runs + 1) * d);
+        count.extend(std::iter::repeat_n(0, d));
+        mu.extend(std::iter::repeat_n(self.prior_mean, d));
+        beta.extend(std::iter::repeat_n(self.prior_beta, d));
+        for r in 0..runs {
+            for (c, &v) in row.iter().enumerate() {
+                let i = r * d + c;
+                if v.is_nan() {
+                    count.push(stats.count[i]);
+                    mu.push(stats.mu[i]);
+                    beta.push(stats.beta[i]);
+                } else {
+                    let kappa = per_count[stats.count[i] as usize].kappa;
+                    let m = stats.mu[i];
+                    count.push(stats.count[i] + 1);
+                    mu.push((kappa * m + v) / (kappa + 1.0));
+                    let spread = kappa * (v - m).powi(2) / (2.0 * (kappa + 1.0));
+                    beta.push(if self.bocd_package {
+                        kappa + spread
+                    } else {
+                        stats.beta[i] + spread
+                    });
+                }
+            }
+        }
+        self.stats = RunStats { count, mu, beta };
+        std::mem::swap(&mut self.posterior, &mut self.next);
+        let mut keep = self.posterior.len();
+        if self.truncate_below > 0.0
+            && let Some(last) = self.posterior.iter().rposition(|&p| p >= self.truncate_below)
+        {
+            keep = keep.min(last + 1);
+        }
+        if let Some(max) = self.max_run_length {
+            keep = keep.min(max + 1);
+        }
+        if keep < self.posterior.len() {
+            self.posterior.truncate(keep);
+            self.stats.count.truncate(keep * d);
+            self.stats.mu.truncate(keep * d);
+            self.stats.beta.truncate(keep * d);
+            let total: f64 = self.posterior.iter().sum();
+            for p in self.posterior.iter_mut() {
+                *p /= total;
+            }
+        }
+        &self.posterior
+    }
+}
+
+/// The most probable run length of a posterior (the smallest of equal maxima).
+pub(crate) fn map_run_length_of(p: &[f64]) -> usize {
+    let mut best = 0;
+    for (r, &v) in p.iter().enumerate() {
+        if v > p[best] {
+            best = r;
+        }
+    }
+    best
+}
+
 impl Bocpd {
     /// Runs the filter, calling `step(t, posterior)` after each sample with P(r_t = r | x_0..=t)
     /// for r = 0, 1, ….
@@ -273,125 +454,27 @@ impl Bocpd {
         n_channels: usize,
         mut step: impl FnMut(usize, &[f64]),
     ) -> Result<usize> {
-        if !self.hazard.is_finite() {
-            return Err(Error::new(
-                ErrorKind::InvalidParameter,
-                "bocpd: expected_segment is in seconds, and these values come without a rate; give it in frames, or run the stage on a motion (Bocpd::at_rate)",
-            )
-            .with_field("expected_segment"));
-        }
+        self.require_hazard()?;
         let signal = Signal::new(values, n_channels, "bocpd", Missing::Allow)?;
         let (n, d) = (signal.n_samples, signal.n_channels);
         let x = self.normalize.apply(signal.values, d);
-        let bocd_package = self.model == BocpdModel::BocdPackage;
-        // Per observed-sample count k (α = α₀ + k/2, κ = κ₀ + k, ν = 2α): log Γ(α+½) − log Γ(α),
-        // the factor c with ν·scale² = β·c (c = ν(κ+1)/(ακ)), log(π·c), ν and κ.
-        let (a0, k0) = (self.prior_alpha, self.prior_kappa);
-        let per_count: Vec<Count> = (0..=n)
-            .map(|k| {
-                let alpha = a0 + k as f64 / 2.0;
-                let kappa = k0 + k as f64;
-                let nu = 2.0 * alpha;
-                let scale_factor = nu * (kappa + 1.0) / (alpha * kappa);
-                Count {
-                    log_gamma_ratio: libm::lgamma(alpha + 0.5) - libm::lgamma(alpha),
-                    scale_factor,
-                    log_norm: (std::f64::consts::PI * scale_factor).ln(),
-                    nu,
-                    kappa,
-                }
-            })
-            .collect();
-        let mut stats = RunStats {
-            count: vec![0; d],
-            mu: vec![self.prior_mean; d],
-            beta: vec![self.prior_beta; d],
-        };
-        let mut posterior = vec![1.0];
-        let mut log_pred = Vec::new();
-        let mut next = Vec::new();
-        let h = self.hazard;
+        let mut filter = BocpdFilter::new(self, d, None);
         for t in 0..n {
-            let row = &x[t * d..(t + 1) * d];
-            let runs = posterior.len();
-            log_pred.clear();
-            for r in 0..runs {
-                let mut lp = 0.0;
-                for (c, &v) in row.iter().enumerate() {
-                    if v.is_nan() {
-                        continue;
-                    }
-                    let i = r * d + c;
-                    let k = &per_count[stats.count[i] as usize];
-                    let beta = stats.beta[i];
-                    // log Student-t: log Γ(α+½) − log Γ(α) − ½ log(π ν scale²) − (ν+1)/2 · log(1 + (x−μ)²/(ν scale²))
-                    let z = (v - stats.mu[i]).powi(2) / (beta * k.scale_factor);
-                    lp += k.log_gamma_ratio
-                        - 0.5 * (k.log_norm + beta.ln())
-                        - 0.5 * (k.nu + 1.0) * z.ln_1p();
-                }
-                log_pred.push(lp);
-            }
-            let top = log_pred.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            next.clear();
-            next.push(0.0);
-            let mut cp = 0.0;
-            for r in 0..runs {
-                let w = posterior[r] * (log_pred[r] - top).exp();
-                cp += w;
-                next.push(w * (1.0 - h));
-            }
-            next[0] = cp * h;
-            let total: f64 = next.iter().sum();
-            for p in next.iter_mut() {
-                *p /= total;
-            }
-            // The statistics of run r+1 are run r's updated with this sample; run 0 restarts.
-            let mut count = Vec::with_capacity((runs + 1) * d);
-            let mut mu = Vec::with_capacity((runs + 1) * d);
-            let mut beta = Vec::with_capacity((runs + 1) * d);
-            count.extend(std::iter::repeat_n(0, d));
-            mu.extend(std::iter::repeat_n(self.prior_mean, d));
-            beta.extend(std::iter::repeat_n(self.prior_beta, d));
-            for r in 0..runs {
-                for (c, &v) in row.iter().enumerate() {
-                    let i = r * d + c;
-                    if v.is_nan() {
-                        count.push(stats.count[i]);
-                        mu.push(stats.mu[i]);
-                        beta.push(stats.beta[i]);
-                    } else {
-                        let kappa = per_count[stats.count[i] as usize].kappa;
-                        let m = stats.mu[i];
-                        count.push(stats.count[i] + 1);
-                        mu.push((kappa * m + v) / (kappa + 1.0));
-                        let spread = kappa * (v - m).powi(2) / (2.0 * (kappa + 1.0));
-                        beta.push(if bocd_package {
-                            kappa + spread
-                        } else {
-                            stats.beta[i] + spread
-                        });
-                    }
-                }
-            }
-            stats = RunStats { count, mu, beta };
-            std::mem::swap(&mut posterior, &mut next);
-            if self.truncate_below > 0.0
-                && let Some(last) = posterior.iter().rposition(|&p| p >= self.truncate_below)
-                && last + 1 < posterior.len()
-            {
-                posterior.truncate(last + 1);
-                stats.count.truncate((last + 1) * d);
-                stats.mu.truncate((last + 1) * d);
-                stats.beta.truncate((last + 1) * d);
-                let total: f64 = posterior.iter().sum();
-                for p in posterior.iter_mut() {
-                    *p /= total;
-                }
-            }
-            step(t, &posterior);
+            step(t, filter.step(&x[t * d..(t + 1) * d]));
         }
         Ok(n)
+    }
+
+    /// An error naming `expected_segment` when it is in seconds and no rate resolved it.
+    pub(crate) fn require_hazard(&self) -> Result<()> {
+        if self.hazard.is_finite() {
+            return Ok(());
+        }
+        Err(Error::new(
+            ErrorKind::InvalidParameter,
+            "bocpd: expected_segment is in seconds, and these values come without a rate; give it in frames, or run the stage on a motion (Bocpd::at_rate)",
+        )
+        .with_field("expected_segment"))
     }
 
     /// The run-length posterior after every sample: row t holds P(r_t = r | x_0..=t) for
@@ -421,13 +504,7 @@ impl Bocpd {
         let mut map_run_length = Vec::new();
         let mut mean_run_length = Vec::new();
         let n = self.filter(values, n_channels, |_, p| {
-            let mut best = 0;
-            for (r, &v) in p.iter().enumerate() {
-                if v > p[best] {
-                    best = r;
-                }
-            }
-            map_run_length.push(best);
+            map_run_length.push(map_run_length_of(p));
             mean_run_length.push(p.iter().enumerate().map(|(r, &v)| r as f64 * v).sum());
         })?;
         if let Some(threshold) = self.drop_threshold {

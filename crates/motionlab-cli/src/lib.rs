@@ -30,6 +30,7 @@ use motionlab_engine::front::{RunChoices, external_policy};
 mod convert;
 mod export;
 pub mod inspect;
+mod live;
 mod new;
 mod plugin;
 // Their old paths: they live in the engine now, shared with the Python package.
@@ -216,6 +217,11 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Segment samples as they arrive with a streaming segmenter (`bocpd_online`,
+    /// `fastest_marker_speed_online`, …): from standard input or a local TCP socket (JSON lines:
+    /// a header, then one sample per line, then `{"end": true}`), or a motion file replayed at
+    /// its capture rate; each boundary is printed as a JSON line the moment it is decided.
+    Live(live::LiveArgs),
     /// Start a new plugin: `motionlab plugin new NAME --kind segmenter|extractor|evaluator`.
     Plugin {
         #[command(subcommand)]
@@ -496,6 +502,7 @@ fn dispatch(command: Command) -> Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
+        Command::Live(args) => live::run(&args),
         Command::Plugin { command } => {
             plugin::run(command)?;
             Ok(ExitCode::SUCCESS)

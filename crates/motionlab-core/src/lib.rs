@@ -10,7 +10,8 @@
 //!   are visible in types.
 //! - [`Table`]: the column table results travel in (polars stays out of algorithm crates).
 //! - [`Error`]: one error type whose message names the file and line/field and what was expected.
-//! - [`stage`] and [`registry`]: the stage traits and the `inventory`-based plugin registry.
+//! - [`stage`] and [`registry`]: the stage traits and the `inventory`-based plugin registry;
+//!   [`streaming`]: segmenters that decide boundaries as samples arrive.
 //! - [`limits`] and [`programs`]: how much of an input is read, and which external programs
 //!   may be started (docs/security.md).
 //!
@@ -26,6 +27,7 @@ pub mod registry;
 pub mod segmentation;
 pub mod skeleton;
 pub mod stage;
+pub mod streaming;
 pub mod table;
 pub mod units;
 pub mod viewer;
@@ -37,6 +39,7 @@ pub use registry::{ParamGuard, StageKind};
 pub use segmentation::{Boundary, Segment, Segmentation, Transition};
 pub use skeleton::{ChannelKind, ForwardKinematics, Joint, Skeleton, SkeletonMotion};
 pub use stage::*;
+pub use streaming::{Decision, SegmenterSession, StreamLayout, Streamed, StreamingSegmenter};
 pub use table::{Column, ColumnValues, Table};
 pub use units::{
     Axis, CubicMillimetres, Degrees, FrameRate, LengthUnit, Millimetres, MillimetresPerSecond,

@@ -277,6 +277,12 @@ pub trait Segmenter: Send + Sync {
         DataKind::Points
     }
     fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput>;
+    /// Its streaming form, when it decides boundaries as samples arrive (a plugin registered
+    /// as [`Streamed`](crate::streaming::Streamed)): what the `live` command and streaming
+    /// benchmarks run. `None` for a segmenter that needs the whole series.
+    fn streaming(&self) -> Option<&dyn crate::streaming::StreamingSegmenter> {
+        None
+    }
 }
 
 /// Combines several methods' candidates into one list.

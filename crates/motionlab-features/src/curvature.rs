@@ -30,16 +30,24 @@ pub fn k_cosine(q: &[[f64; 2]], lag_frames: usize, min_leg_mm: f64) -> Vec<f64> 
         return c;
     }
     for i in lag_frames..n.saturating_sub(lag_frames) {
-        let (p, before, after) = (q[i], q[i - lag_frames], q[i + lag_frames]);
-        let a = [before[0] - p[0], before[1] - p[1]];
-        let b = [after[0] - p[0], after[1] - p[1]];
-        let (la, lb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
-        // NaN lengths (missing samples) fail both comparisons and stay undefined.
-        if la >= min_leg_mm && lb >= min_leg_mm && la > 0.0 && lb > 0.0 {
-            c[i] = ((a[0] * b[0] + a[1] * b[1]) / (la * lb)).clamp(-1.0, 1.0);
-        }
+        c[i] = k_cosine_at(q[i - lag_frames], q[i], q[i + lag_frames], min_leg_mm);
     }
     c
+}
+
+/// `C` at one sample from its three floor-plane positions (`before` = q[i−L], `p` = q[i],
+/// `after` = q[i+L]): what [`k_cosine`] computes at each sample, for streams that get one
+/// frame at a time. NaN when a leg is shorter than `min_leg_mm` or a position is missing.
+pub fn k_cosine_at(before: [f64; 2], p: [f64; 2], after: [f64; 2], min_leg_mm: f64) -> f64 {
+    let a = [before[0] - p[0], before[1] - p[1]];
+    let b = [after[0] - p[0], after[1] - p[1]];
+    let (la, lb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
+    // NaN lengths (missing samples) fail both comparisons and stay undefined.
+    if la >= min_leg_mm && lb >= min_leg_mm && la > 0.0 && lb > 0.0 {
+        ((a[0] * b[0] + a[1] * b[1]) / (la * lb)).clamp(-1.0, 1.0)
+    } else {
+        f64::NAN
+    }
 }
 
 /// The floor-plane path of one point: its two non-up coordinates per frame (NaN when missing).

@@ -72,6 +72,16 @@ pub fn marker_speeds(motion: &Motion, smoothing_frames: usize) -> MarkerSpeeds {
     MarkerSpeeds { n_points: m, speeds, fastest, fastest_marker }
 }
 
+/// One step of [`marker_speeds`], for streams that get one frame at a time: `row[k]` = the
+/// speed of marker `k` from frame `a` to frame `b` (flat x, y, z per marker, mm; NaN =
+/// missing) in mm/s, with the same operations (and bits) as the whole-motion computation.
+/// Returns the fastest marker (the first at the top speed) and its speed, None when no marker
+/// is valid at both frames.
+pub fn step_speeds(a: &[f64], b: &[f64], fps: f64, row: &mut [f64]) -> Option<(usize, f64)> {
+    let top = speed_row_dispatch(crate::simd::available(), a, b, fps, row);
+    row.iter().position(|&v| v == top).map(|k| (k, top))
+}
+
 /// [`speed_row_avx2`] when `simd` (from `simd::available`), else [`speed_row`].
 #[inline]
 fn speed_row_dispatch(simd: bool, a: &[f64], b: &[f64], fps: f64, row: &mut [f64]) -> f64 {

@@ -34,6 +34,7 @@ mod matching;
 mod motion;
 mod run;
 mod stages;
+mod streaming;
 
 pyo3::create_exception!(
     motionlab,
@@ -183,5 +184,6 @@ fn _motionlab(m: &Bound<'_, PyModule>) -> PyResult<()> {
     matching::register(m)?;
     run::register(m)?;
     changepoint::register(m)?;
+    streaming::register(m)?;
     Ok(())
 }

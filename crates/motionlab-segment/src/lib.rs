@@ -3,11 +3,15 @@
 //! Segmenters and fusers, one file each. A new segmenter is one file like
 //! [`speed_minima`]: a documented params struct, a `ParamGuard` into the checked stage, the
 //! `Segmenter` impl and one `register_plugin!` line — plus its `mod` line below.
+//!
+//! The `*_online` files are the three Sonoda trackers in causal form: streaming segmenters
+//! (`motionlab_core::streaming`) that decide each candidate a stated number of frames after it,
+//! the same candidates as the offline stage with the same parameters.
 
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 6;
+pub const PLUGIN_COUNT: usize = 9;
 
 /// The inputs the Sonoda stages' defaults were tuned on (`experiments/sonoda_defaults.toml`):
 /// SHA-256 of CMU 86_01, 86_09 and mocap6 13_29, 13_30, 13_31, 14_14, 14_20 as shipped in
@@ -25,10 +29,14 @@ pub const SONODA_DEFAULTS_TUNED_ON: [&str; 7] = [
 ];
 
 pub mod direction_change;
+pub mod direction_change_online;
 pub mod fastest_marker_speed;
+pub mod fastest_marker_speed_online;
 pub mod hull_volume_change;
+pub mod hull_volume_change_online;
 pub mod pca_error_rise;
 pub mod speed_minima;
+mod stream_frames;
 #[cfg(test)]
 mod test_data;
 pub mod thresholds;

@@ -53,6 +53,14 @@ use motionlab_experiment::{Datasets, build_stage};
 ///
 /// - `benchmark_change_points`: every change point each method found (`sequence, method,
 ///   sample`), so a run can be re-scored with another metric or fed to a later stage.
+/// - `benchmark_detection_delay`, when a segmenter is a streaming one (it decides as samples
+///   arrive: `bocpd_online`, the `*_online` trackers; it runs on the whole series through the
+///   same session it runs live with, so its time is its streaming throughput): per sequence and
+///   in total, how many true changes (the consensus boundaries) it detected within the first
+///   margin and how late — `decided_at − true change`, in samples and seconds, median and 90th
+///   percentile (negative: decided before the true change, a boundary placed early). Each true
+///   change takes, among the unused change points within the margin, the one decided first.
+///   Its throughput is `benchmark_runtime`'s time per sample.
 ///
 /// Every evaluation table says how each method's parameters were chosen
 /// (`parameters_chosen`: plugin defaults, set in the experiment, swept).
@@ -197,6 +205,12 @@ struct ItemResult {
     n_samples: usize,
     n_truth: usize,
     methods: Vec<MethodRun>,
+    /// The consensus true changes (samples), for detection delays.
+    #[serde(default)]
+    truth: Vec<usize>,
+    /// Samples per second.
+    #[serde(default)]
+    rate_hz: f64,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -207,6 +221,9 @@ struct MethodRun {
     found: Vec<usize>,
     /// `Err(reason)`: the method could not take this series (its error, one line).
     scores: std::result::Result<SeriesScores, String>,
+    /// For a streaming segmenter, the sample at which each of `found` was decided.
+    #[serde(default)]
+    decided_at: Option<Vec<usize>>,
 }
 
 impl MethodRun {
@@ -223,6 +240,9 @@ impl MethodRun {
 struct TimedCandidates {
     candidates: Vec<usize>,
     seconds: f64,
+    /// For a streaming segmenter, the sample at which each candidate was decided.
+    #[serde(default)]
+    decided_at: Option<Vec<usize>>,
 }
 
 impl WorkflowPlugin for BenchmarkWorkflow {
@@ -462,10 +482,20 @@ impl Workflow for BenchmarkWorkflow {
                         failure = Some(e.message().to_string());
                         e.in_file(&file).under_field(format!("segmenter {name}"))
                     })?;
-                    Ok(TimedCandidates {
-                        candidates: out.candidates,
-                        seconds: start.elapsed().as_secs_f64(),
-                    })
+                    let seconds = start.elapsed().as_secs_f64();
+                    // A streaming segmenter's offline output says when each point was decided.
+                    let decided_at = s.stage.streaming().and_then(|_| {
+                        let delay =
+                            out.traces.iter().find(|t| t.name == "decision_delay_samples")?;
+                        out.candidates
+                            .iter()
+                            .map(|&c| {
+                                let d = *delay.values.get(c)?;
+                                d.is_finite().then(|| c + d as usize)
+                            })
+                            .collect::<Option<Vec<usize>>>()
+                    });
+                    Ok(TimedCandidates { candidates: out.candidates, seconds, decided_at })
                 },
             );
             match (timed, failure) {
@@ -497,7 +527,7 @@ impl Workflow for BenchmarkWorkflow {
                             .filter_map(|&i| runs[i].1.as_ref().ok())
                             .map(|t| t.seconds)
                             .sum::<f64>();
-                    Ok(TimedCandidates { candidates: fused, seconds })
+                    Ok(TimedCandidates { candidates: fused, seconds, decided_at: None })
                 }
             };
             data.record(
@@ -526,11 +556,16 @@ impl Workflow for BenchmarkWorkflow {
                         seconds: t.seconds,
                         found: t.candidates,
                         scores: Ok(scores),
+                        decided_at: t.decided_at,
                     }
                 }
-                Err(reason) => {
-                    MethodRun { method, seconds: f64::NAN, found: Vec::new(), scores: Err(reason) }
-                }
+                Err(reason) => MethodRun {
+                    method,
+                    seconds: f64::NAN,
+                    found: Vec::new(),
+                    scores: Err(reason),
+                    decided_at: None,
+                },
             })
             .collect();
         let result = ItemResult {
@@ -538,6 +573,8 @@ impl Workflow for BenchmarkWorkflow {
             n_samples: n_frames,
             n_truth: truth.boundaries.len(),
             methods,
+            truth: truth.frames(),
+            rate_hz: rate.hz(),
         };
         Ok(ItemOutput::new(ItemData::encode(&result)?, Vec::new()))
     }
@@ -581,6 +618,10 @@ impl Workflow for BenchmarkWorkflow {
         out.tables.push(test);
         out.tables.push(runtime_table(&results, &methods)?);
         out.tables.push(change_points_table(&results)?);
+        if results.iter().flat_map(|r| &r.methods).any(|m| m.decided_at.is_some()) {
+            let margin = self.section.margins.first().copied().unwrap_or(TimeSpan::Frames(0.0));
+            out.tables.push(detection_delay_table(&results, &methods, margin)?);
+        }
         out.figures.extend(figure);
         if self.section.selection == BenchmarkSelection::LeaveOneSequenceOut {
             let scores = results
@@ -1206,4 +1247,128 @@ fn change_points_table(results: &[ItemResult]) -> Result<Table> {
         "Every change point each method found (samples, 0-based), one row per point",
         &rows,
     )
+}
+
+/// For each true change (in order), the delay `decided_at − change` (samples) of the change
+/// point that detects it: among the unused points within `margin` samples of it, the one
+/// decided first (the nearest among equals). Undetected changes are left out.
+fn detection_delays(
+    truth: &[usize],
+    found: &[usize],
+    decided_at: &[usize],
+    margin: usize,
+) -> Vec<i64> {
+    let mut used = vec![false; found.len()];
+    let mut out = Vec::new();
+    for &t in truth {
+        let best = (0..found.len())
+            .filter(|&j| !used[j] && found[j].abs_diff(t) <= margin)
+            .min_by_key(|&j| (decided_at[j], found[j].abs_diff(t)));
+        if let Some(j) = best {
+            used[j] = true;
+            out.push(decided_at[j] as i64 - t as i64);
+        }
+    }
+    out
+}
+
+/// The `q` quantile (0–1) of `v` by linear interpolation between order statistics (numpy's
+/// default); NaN when `v` is empty.
+fn quantile(v: &[i64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_unstable();
+    let pos = q * (s.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    s[lo] as f64 + (pos - lo as f64) * (s[hi] - s[lo]) as f64
+}
+
+/// `benchmark_detection_delay`: each streaming method's detection delays and throughput, per
+/// sequence and in total (see [`BenchmarkSection`]).
+fn detection_delay_table(
+    results: &[ItemResult],
+    methods: &[String],
+    margin: TimeSpan,
+) -> Result<Table> {
+    #[derive(Serialize)]
+    struct Row {
+        sequence: String,
+        method: String,
+        n_true: usize,
+        n_detected: usize,
+        delay_median_samples: f64,
+        delay_p90_samples: f64,
+        delay_median_s: f64,
+        delay_p90_s: f64,
+    }
+    let mut rows = Vec::new();
+    for method in methods {
+        let (mut all, mut all_s) = (Vec::new(), Vec::new());
+        let mut n_true = 0;
+        let mut streamed = false;
+        for r in results {
+            let Some(m) = r.methods.iter().find(|m| &m.method == method) else { continue };
+            let Some(decided) = &m.decided_at else { continue };
+            streamed = true;
+            let rate = motionlab_core::FrameRate::new(r.rate_hz)
+                .map_err(|e| e.under_field("benchmark_detection_delay"))?;
+            let margin_samples = tolerance_frames(margin, rate).floor() as usize;
+            let delays = detection_delays(&r.truth, &m.found, decided, margin_samples);
+            let hz = r.rate_hz;
+            rows.push(Row {
+                sequence: r.sequence.clone(),
+                method: method.clone(),
+                n_true: r.truth.len(),
+                n_detected: delays.len(),
+                delay_median_samples: quantile(&delays, 0.5),
+                delay_p90_samples: quantile(&delays, 0.9),
+                delay_median_s: quantile(&delays, 0.5) / hz,
+                delay_p90_s: quantile(&delays, 0.9) / hz,
+            });
+            n_true += r.truth.len();
+            all_s.extend(delays.iter().map(|&d| (d as f64 / hz * 1e6).round() as i64));
+            all.extend(delays);
+        }
+        if streamed {
+            rows.push(Row {
+                sequence: "total".into(),
+                method: method.clone(),
+                n_true,
+                n_detected: all.len(),
+                delay_median_samples: quantile(&all, 0.5),
+                delay_p90_samples: quantile(&all, 0.9),
+                // Pooled over sequences of any rate: the quantiles of the delays in seconds
+                // (kept in whole microseconds to sort exactly).
+                delay_median_s: quantile(&all_s, 0.5) / 1e6,
+                delay_p90_s: quantile(&all_s, 0.9) / 1e6,
+            });
+        }
+    }
+    Table::from_records(
+        "benchmark_detection_delay",
+        "Streaming segmenters: true changes detected within the first margin, and how many samples and seconds after each change they were decided (median, 90th percentile)",
+        &rows,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn detection_delays_take_the_first_decided_point_within_the_margin() {
+        // Changes at 100 and 200; points at 95 (decided at 130), 104 (decided at 106), 260.
+        let d = detection_delays(&[100, 200], &[95, 104, 260], &[130, 106, 262], 10);
+        assert_eq!(d, vec![6]);
+        // Each point detects one change: 104 cannot serve both 100 and 108.
+        let d = detection_delays(&[100, 108], &[104], &[107], 10);
+        assert_eq!(d, vec![7]);
+        // Decided before the change: a negative delay.
+        assert_eq!(detection_delays(&[50], &[45], &[47], 10), vec![-3]);
+        assert_eq!(quantile(&[1, 2, 3, 4], 0.5), 2.5);
+        assert_eq!(quantile(&[0, 10], 0.9), 9.0);
+        assert!(quantile(&[], 0.5).is_nan());
+    }
 }

@@ -73,7 +73,7 @@ from ._api import (
     waveform_parameters,
     workflows,
 )
-from ._motionlab import ArgumentError, FileError, Motion, MotionlabError, Segmentation, __version__
+from ._motionlab import ArgumentError, FileError, Motion, MotionlabError, Segmentation, Stream, __version__
 
 # One typed function per plugin, by kind (`motionlab.segmenters.clasp(ts, …)`), built from the
 # registry at import.
@@ -110,6 +110,8 @@ __all__ = [
     "boundary_pr", "covering", "tcpd_f1", "penalty_path", "subsequence_dp", "multistream_match",
     # whole runs
     "run", "validate",
+    # streaming segmenters, fed samples as they arrive
+    "Stream",
     # one typed function per plugin, by kind
     "loaders", "ground_truth_readers", "preprocessors", "feature_extractors", "segmenters", "fusers", "point_detectors",
     "matchers", "synchronisers", "gait_cycle_detectors", "waveform_analyzers", "walk_synthesizers", "evaluators",
