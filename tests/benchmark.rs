@@ -674,7 +674,7 @@ fn labellers_label_states_and_score_them_beside_chance() {
         }
     }
     assert_eq!(cell(&st, "T", "truth + segment_clusters", "n_samples"), "80");
-    assert_eq!(cell(&st, "T", "truth + segment_clusters", "n_states"), "3");
+    assert_eq!(num(cell(&st, "T", "truth + segment_clusters", "n_states")), 3.0);
     assert!((num(cell(&st, "mean", "truth + segment_clusters", "ami")) - 1.0).abs() < 1e-12);
     let segs = table(&run, "benchmark_segment_states");
     let t: Vec<(&str, &str, &str)> = segs

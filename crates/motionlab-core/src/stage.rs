@@ -256,6 +256,12 @@ pub trait Loader: Send + Sync {
 /// Reads human ground truth for a motion into a [`Segmentation`] at the motion's rate.
 pub trait GroundTruthReader: Send + Sync {
     fn read(&self, path: &Path, motion: &Motion) -> Result<Segmentation>;
+    /// Files beside `path` the reading also depends on (TSSB's `properties.txt` beside
+    /// `desc.txt`): the on-disk cache keys a loaded truth on their bytes too, so editing one
+    /// is never answered from the cache. Default: none.
+    fn companions(&self, _path: &Path) -> Vec<std::path::PathBuf> {
+        Vec::new()
+    }
 }
 
 /// Transforms a motion before analysis (gap filling, initial-pose normalisation, …).

@@ -141,6 +141,9 @@ pub fn states_of(
 }
 
 impl GroundTruthReader for TssbDesc {
+    fn companions(&self, path: &Path) -> Vec<std::path::PathBuf> {
+        vec![path.with_file_name("properties.txt")]
+    }
     fn read(&self, path: &Path, motion: &Motion) -> Result<Segmentation> {
         let entries = parse_tssb_desc(&crate::read::read_text(path)?, path)?;
         let stem = motion
