@@ -30,6 +30,16 @@ use crate::multistream::two_stage;
 ///    of `segment_clusters`: each segment its own state with one or two segments, else the
 ///    `k` in `2 ..= min(max_states, segments − 1)` with the largest silhouette.
 ///
+/// **Choosing `threshold_mm` (the protocol):** leave-one-take-out on the five shipped labelled
+/// mocap6 takes with the truth's own segments — for each take held out, the threshold with the
+/// best mean AMI on the other four (candidates: every merge distance there, and 0; the
+/// smallest on ties), scored on the held-out take
+/// (`crates/motionlab-workflows/examples/multistream_dp_threshold.rs`). It chooses 0 — every
+/// segment its own state — on every fold: within one mocap6 take an exercise rarely recurs
+/// (one repeat in 30 segments), so never merging is nearly perfect there, and it is exactly
+/// its own chance baseline. That choice says nothing about telling motions apart, so it is
+/// not the default: without a threshold the silhouette rule decides.
+///
 /// The result keeps the merge history and the distance matrix (mm). Cost: one DP per ordered
 /// pair of segments, each `frames(A) × frames(B) × points` cells at the sampled rate.
 ///
