@@ -37,8 +37,8 @@ use crate::multistream::two_stage;
 /// (`crates/motionlab-workflows/examples/multistream_dp_threshold.rs`). It chooses 0 — every
 /// segment its own state — on every fold: within one mocap6 take an exercise rarely recurs
 /// (one repeat in 30 segments), so never merging is nearly perfect there, and it is exactly
-/// its own chance baseline. That choice says nothing about telling motions apart, so it is
-/// not the default: without a threshold the silhouette rule decides.
+/// its own chance baseline. That choice says nothing about telling motions apart, so no
+/// threshold is set unless the experiment sets one: the silhouette rule decides.
 ///
 /// The result keeps the merge history and the distance matrix (mm). Cost: one DP per ordered
 /// pair of segments, each `frames(A) × frames(B) × points` cells at the sampled rate.

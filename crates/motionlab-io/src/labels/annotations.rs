@@ -77,7 +77,11 @@ pub fn track_segmentation(
         }
         Ok(f as usize)
     };
-    check_state_labels(track, origin)?;
+    if rule == EndRule::LastEndOnly {
+        // The CSV's segment rows (`start_frame,end_frame,label`) are the state format; ELAN
+        // tiers mark boundaries and may leave segments unlabelled.
+        check_state_labels(track, origin)?;
+    }
     let is_inner = |f: usize| f > 0 && f + 1 < n_frames;
     let mut boundaries = Vec::new();
     let mut segments = Vec::new();
@@ -114,8 +118,8 @@ pub fn track_segmentation(
     })
 }
 
-/// When an annotator labels segments (any segment of the track has a label), the labels are
-/// states — one per sample — so every segment must have one and no two may overlap; the
+/// When an annotator of a CSV labels segments (any segment of the track has a label), the
+/// labels are states — one per sample — so every segment must have one and no two may overlap; the
 /// error names the file and the line of the offending segment. Tracks without labels (plain
 /// boundaries) are not checked.
 fn check_state_labels(track: &AnnotatorTrack, origin: &Path) -> Result<()> {
