@@ -623,3 +623,131 @@ fn a_published_sheet_missing_a_sequence_is_refused_unless_skipped() {
     assert_eq!(num(cell(&cov, "mean", "step", "published_covering")), 1.0);
     assert_eq!(cell(&cov, "C", "step", "published_covering"), "NaN");
 }
+
+/// Two series with repeated states, TSSB's files plus CLaP's `properties.txt` (one state label
+/// per segment): S = levels 0, 10, 0 (states 0 1 0), T = 0, 10, 20, 10 (a b c b); 20 samples
+/// per segment.
+fn toy_states(dir: &Path) {
+    let levels = |ls: &[u32]| {
+        ls.iter().flat_map(|l| std::iter::repeat_n(format!("{l}\n"), 20)).collect::<String>()
+    };
+    std::fs::write(dir.join("S.txt"), levels(&[0, 10, 0])).unwrap();
+    std::fs::write(dir.join("T.txt"), levels(&[0, 10, 20, 10])).unwrap();
+    std::fs::write(dir.join("desc.txt"), "S,10,20,40\nT,10,20,40,60\n").unwrap();
+    std::fs::write(dir.join("properties.txt"), "S,0,1,0\nT,a,b,c,b\n").unwrap();
+}
+
+const STATES: &str = r#"
+[experiment]
+name = "toy_states"
+
+[[dataset]]
+files = ["[A-Z].txt"]
+loader = { type = "channels", rate_hz = 1.0 }
+ground_truth = { type = "tssb_desc", file = "desc.txt" }
+
+[benchmark]
+chance_draws = 200
+segmenter = [{ type = "kernel_cpd", name = "step", search = "binseg", cost = "l2", pen = 100.0 }]
+labeller = [{ type = "segment_clusters" }]
+"#;
+
+/// The labeller on the truth's segments (an oracle segmentation) and on `step`'s: by hand,
+/// segment means 0 10 0 give two clusters by the silhouette rule ({0, 2}, {1}) and 0 10 20 10
+/// three ({0}, {1, 3}, {2}): the truth's partitions, AMI = ARI = NMI = 1, above their chance
+/// (the same segments with the labels permuted); the segments and states are kept.
+#[test]
+fn labellers_label_states_and_score_them_beside_chance() {
+    let tmp = tempfile::tempdir().unwrap();
+    toy_states(tmp.path());
+    let exp = tmp.path().join("states.toml");
+    std::fs::write(&exp, STATES).unwrap();
+    let run = run(&exp, &tmp.path().join("reports"));
+    let st = table(&run, "benchmark_states");
+    for s in ["S", "T"] {
+        for m in ["truth + segment_clusters", "step + segment_clusters"] {
+            for metric in ["ami", "ari", "nmi"] {
+                assert!((num(cell(&st, s, m, metric)) - 1.0).abs() < 1e-12, "{s} {m} {metric}");
+            }
+            let chance = num(cell(&st, s, m, "chance_ami"));
+            assert!(chance < 1.0 && chance > -1.0, "{s} {m}: {chance}");
+        }
+    }
+    assert_eq!(cell(&st, "T", "truth + segment_clusters", "n_samples"), "80");
+    assert_eq!(num(cell(&st, "T", "truth + segment_clusters", "n_states")), 3.0);
+    assert!((num(cell(&st, "mean", "truth + segment_clusters", "ami")) - 1.0).abs() < 1e-12);
+    let segs = table(&run, "benchmark_segment_states");
+    let t: Vec<(&str, &str, &str)> = segs
+        .iter()
+        .filter(|r| r["sequence"] == "T" && r["method"] == "truth + segment_clusters")
+        .map(|r| (r["start"].as_str(), r["end"].as_str(), r["state"].as_str()))
+        .collect();
+    assert_eq!(t, [("0", "20", "0"), ("20", "40", "1"), ("40", "60", "2"), ("60", "80", "1")]);
+    // A label file for other segments: one error naming properties.txt and its line.
+    std::fs::write(tmp.path().join("properties.txt"), "S,0,1,0\nT,a,b,c\n").unwrap();
+    let out = motionlab()
+        .args(["run", exp.to_str().unwrap(), "--quiet", "--reports"])
+        .arg(tmp.path().join("reports2"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("properties.txt:2") && err.contains("3 state label(s) for the 4 segment(s)"),
+        "{err}"
+    );
+    // Segmentations to label are names of the benchmark's methods or "truth".
+    let bad = STATES.replace("labeller = [", "label_segments = [\"truht\"]\nlabeller = [");
+    std::fs::write(&exp, bad).unwrap();
+    let out = motionlab().args(["validate", exp.to_str().unwrap()]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("benchmark.label_segments") && err.contains("\"truht\""), "{err}");
+}
+
+/// A labelled truth CSV (`start_frame,end_frame,label` rows): `new` scaffolds a benchmark that
+/// labels states and `run` reports AMI with chance; a segment without a label is one error
+/// naming the CSV and its line.
+#[test]
+fn new_with_a_labelled_truth_scaffolds_state_labelling() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("series");
+    std::fs::create_dir_all(&data).unwrap();
+    toy_states(&data);
+    for f in ["desc.txt", "properties.txt"] {
+        std::fs::remove_file(data.join(f)).unwrap();
+    }
+    let truth = tmp.path().join("truth.csv");
+    let csv = "sequence,start_frame,end_frame,label\nS,0,20,rest\nS,20,40,move\nS,40,60,rest\nT,0,20,low\nT,20,40,mid\nT,40,60,high\nT,60,80,mid\n";
+    std::fs::write(&truth, csv).unwrap();
+    let out = tmp.path().join("states_benchmark.toml");
+    let said = ok(motionlab().args([
+        "new",
+        data.to_str().unwrap(),
+        "--truth",
+        truth.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]));
+    assert!(said.contains("(valid)"), "{said}");
+    let scaffold = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        scaffold.contains("type = \"segment_clusters\"") && scaffold.contains("benchmark_states"),
+        "{scaffold}"
+    );
+    let run = run(&out, &tmp.path().join("reports"));
+    let st = table(&run, "benchmark_states");
+    for s in ["S", "T"] {
+        assert!((num(cell(&st, s, "truth + segment_clusters", "ami")) - 1.0).abs() < 1e-12);
+        assert!(num(cell(&st, s, "truth + segment_clusters", "chance_ami")) < 1.0);
+        assert!(!cell(&st, s, "truth + segment_clusters", "p_value_ami").is_empty());
+    }
+    // A segment without a label: the CSV and its line.
+    std::fs::write(&truth, csv.replace("T,20,40,mid", "T,20,40,")).unwrap();
+    let out = motionlab()
+        .args(["run", out.to_str().unwrap(), "--quiet", "--reports"])
+        .arg(tmp.path().join("reports2"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("truth.csv:6") && err.contains("without a label"), "{err}");
+}

@@ -73,6 +73,7 @@ fn declared_kinds_are_listed_and_built_like_cores() {
         "waveform analyzers:",
         "walk synthesizers:",
         "evaluators:",
+        "state labellers:",
     ]
     .iter()
     .map(|h| {

@@ -194,6 +194,8 @@ struct Truth {
     comments: Vec<String>,
     /// The stems with rows (CSV with a `sequence` column).
     sequences: Option<Vec<String>>,
+    /// The truth labels its segments (states): a benchmark then labels states too.
+    labelled: bool,
 }
 
 fn truth_spec(truth: &Path, out_dir: &Path, files: &[PathBuf]) -> Result<Truth> {
@@ -227,7 +229,8 @@ fn truth_spec(truth: &Path, out_dir: &Path, files: &[PathBuf]) -> Result<Truth> 
             }
             table.push_str(" }");
             let sequences = csv.has_sequence.then(|| csv.sequences().into_iter().map(str::to_string).collect());
-            Ok(Truth { table, comments, sequences })
+            let labelled = csv.segments && csv.rows.iter().any(|r| !r.item.label.trim().is_empty());
+            Ok(Truth { table, comments, sequences, labelled })
         }
         "eaf" => {
             let tiers = motionlab_io::labels::elan_eaf::parse_eaf(&text, truth)?;
@@ -247,7 +250,7 @@ fn truth_spec(truth: &Path, out_dir: &Path, files: &[PathBuf]) -> Result<Truth> 
                     format!("{{ type = \"elan_eaf\", file = \"{file}\", consensus = {{ tolerance = {{ seconds = 0.25 }} }} }}")
                 }
             };
-            Ok(Truth { table, comments, sequences: None })
+            Ok(Truth { table, comments, sequences: None, labelled: false })
         }
         _ => Err(Error::new(ErrorKind::UnknownPlugin, format!("no annotation reader for .{ext} files; expected .csv (boundaries_csv) or .eaf (elan_eaf)"))
             .with_location(Location::file(truth))),
@@ -438,7 +441,7 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
     let desc = motionlab_io::read::read_text(truth_path)
         .ok()
         .and_then(|t| motionlab_io::labels::tssb_desc::parse_tssb_desc(&t, truth_path).ok());
-    let (truth_table, truth_comments, sequences) = match desc {
+    let (truth_table, truth_comments, sequences, labelled) = match desc {
         Some(entries) => (
             format!(
                 "{{ type = \"tssb_desc\", file = \"{}\" }}",
@@ -446,10 +449,12 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
             ),
             vec![format!("TSSB's desc.txt: {} series with their change points", entries.len())],
             Some(entries.into_iter().map(|e| e.name).collect::<Vec<_>>()),
+            // CLaP's folders label each segment's state in properties.txt beside desc.txt.
+            truth_path.with_file_name("properties.txt").is_file(),
         ),
         None => {
             let t = truth_spec(truth_path, &out_dir, &files)?;
-            (t.table, t.comments, t.sequences)
+            (t.table, t.comments, t.sequences, t.labelled)
         }
     };
     let mut skipped = Vec::new();
@@ -502,7 +507,8 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
         writeln!(w, "description = \"Segmentation benchmark on {}\"", args.input.replace('"', "'"));
     let _ = writeln!(
         w,
-        "record_tables = [\"benchmark_covering\", \"benchmark_f1\", \"benchmark_ranks\", \"benchmark_rank_test\"]   # runtimes vary run to run\n"
+        "record_tables = [\"benchmark_covering\", \"benchmark_f1\", \"benchmark_ranks\", \"benchmark_rank_test\"{}]   # runtimes vary run to run\n",
+        if labelled { ", \"benchmark_states\"" } else { "" }
     );
     let _ = writeln!(w, "[[dataset]]");
     let _ = writeln!(
@@ -562,6 +568,32 @@ fn new_benchmark(args: &NewArgs, mut files: Vec<PathBuf>, folder_note: &str) -> 
         let _ = writeln!(w, "    {{ type = \"pca_error_rise\", name = \"pca\" }},");
     }
     let _ = writeln!(w, "]");
+    if labelled {
+        let _ = writeln!(
+            w,
+            "# States: the truth labels its segments, so labellers say which segments are the same motion —"
+        );
+        let _ = writeln!(
+            w,
+            "# on the truth's own segments (an oracle segmentation) and on clasp's — scored per sample by"
+        );
+        let _ = writeln!(
+            w,
+            "# AMI, ARI and NMI, each beside chance (the same segments, labels permuted): `benchmark_states`."
+        );
+        let _ = writeln!(w, "label_segments = [\"truth\", \"clasp\"]");
+        let _ = writeln!(w, "labeller = [");
+        if channels {
+            let _ = writeln!(w, "    {{ type = \"segment_clusters\" }},");
+        } else {
+            let _ = writeln!(
+                w,
+                "    {{ type = \"segment_clusters\", input = {{ features = [{{ type = \"marker_speed\", per_marker = true }}] }} }},"
+            );
+            let _ = writeln!(w, "    {{ type = \"multistream_dp\" }},");
+        }
+        let _ = writeln!(w, "]");
+    }
     write_validated(&output, &t)
 }
 

@@ -104,6 +104,7 @@ stage_kinds! {
     Segmenter => Segmenter, "segmenter", build_segmenter;
     Fuser => Fuser, "fuser", build_fuser;
     Evaluator => Evaluator, "evaluator", build_evaluator;
+    Labeller => Labeller, "state labeller", build_labeller;
 }
 
 impl StageKind {

@@ -256,6 +256,12 @@ pub trait Loader: Send + Sync {
 /// Reads human ground truth for a motion into a [`Segmentation`] at the motion's rate.
 pub trait GroundTruthReader: Send + Sync {
     fn read(&self, path: &Path, motion: &Motion) -> Result<Segmentation>;
+    /// Files beside `path` the reading also depends on (TSSB's `properties.txt` beside
+    /// `desc.txt`): the on-disk cache keys a loaded truth on their bytes too, so editing one
+    /// is never answered from the cache. Default: none.
+    fn companions(&self, _path: &Path) -> Vec<std::path::PathBuf> {
+        Vec::new()
+    }
 }
 
 /// Transforms a motion before analysis (gap filling, initial-pose normalisation, …).
@@ -288,6 +294,95 @@ pub trait Segmenter: Send + Sync {
 /// Combines several methods' candidates into one list.
 pub trait Fuser: Send + Sync {
     fn fuse(&self, motion: &Motion, inputs: &[MethodCandidates<'_>]) -> Result<Vec<usize>>;
+}
+
+/// One merge of an agglomerative labeller: clusters `a` and `b` (ids as scipy's linkage numbers
+/// them: segments `0..n`, then each merge `n + k`) joined at `distance` into a cluster of
+/// `size` segments.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Merge {
+    pub a: usize,
+    pub b: usize,
+    pub distance: f64,
+    pub size: usize,
+}
+
+/// What a [`Labeller`] says of one sequence's segments: a state per segment, and how it got
+/// there when the method has it (the merge history and the segment-by-segment distances).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StateLabels {
+    /// The state of each segment, in segment order, numbered `0..` in order of first appearance.
+    pub segment_states: Vec<usize>,
+    /// Agglomerative merges in order (empty for a method that does not merge).
+    pub merges: Vec<Merge>,
+    /// The segment-by-segment distances the method compared (row-major, `n × n`; empty when
+    /// it has none), in the unit the labeller documents.
+    pub distances: Vec<f64>,
+}
+
+impl StateLabels {
+    /// One state per sample: segment `k`'s state on every sample of `segments[k]`. The segments
+    /// must be consecutive from sample 0 (as [`segments_of`] makes them).
+    pub fn per_sample(&self, segments: &[std::ops::Range<usize>]) -> Result<Vec<usize>> {
+        if segments.len() != self.segment_states.len() {
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!(
+                    "{} states for {} segments; expected one state per segment",
+                    self.segment_states.len(),
+                    segments.len()
+                ),
+            ));
+        }
+        let mut out = Vec::with_capacity(segments.last().map_or(0, |s| s.end));
+        for (s, &state) in segments.iter().zip(&self.segment_states) {
+            if s.start != out.len() {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    format!(
+                        "segment {}..{} does not start where the one before ends ({})",
+                        s.start,
+                        s.end,
+                        out.len()
+                    ),
+                ));
+            }
+            out.resize(s.end, state);
+        }
+        Ok(out)
+    }
+}
+
+/// Renumbers states `0..` in order of first appearance (so equal partitions read equal).
+pub fn canonical_states(states: &[usize]) -> Vec<usize> {
+    let mut seen: Vec<usize> = Vec::new();
+    states
+        .iter()
+        .map(|s| match seen.iter().position(|x| x == s) {
+            Some(i) => i,
+            None => {
+                seen.push(*s);
+                seen.len() - 1
+            }
+        })
+        .collect()
+}
+
+/// The segments `0..c1, c1..c2, …, ck..n` of `n` samples cut at the change points `cuts`
+/// (sorted; cuts at 0 or ≥ `n` and repeats are ignored).
+pub fn segments_of(cuts: &[usize], n: usize) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for &c in cuts {
+        if c > start && c < n {
+            out.push(start..c);
+            start = c;
+        }
+    }
+    if n > start || out.is_empty() {
+        out.push(start..n);
+    }
+    out
 }
 
 /// What an evaluator produced: its tables and, for an evaluator whose analysis a workflow
@@ -400,6 +495,17 @@ impl Analysis {
     }
 }
 
+/// Says which segments of a sequence are the same motion: a state per segment. The segments
+/// come from any segmenter or fuser (or the truth's own boundaries, for an oracle-segmentation
+/// study) and cover the sequence consecutively from sample 0.
+pub trait Labeller: Send + Sync {
+    /// What it reads of a motion: its [`Channels`](crate::Channels) (the default) or its points.
+    fn consumes(&self) -> DataKind {
+        DataKind::Channels
+    }
+    fn label(&self, motion: &Motion, segments: &[std::ops::Range<usize>]) -> Result<StateLabels>;
+}
+
 /// Turns results into tables.
 pub trait Evaluator: Send + Sync {
     /// The results it reads: a workflow that produces another type cannot use it (checked at
@@ -448,6 +554,22 @@ mod tests {
         assert!(plain.encode().is_none());
         let plain = plain.downcast::<u16>().unwrap_err();
         assert_eq!(*plain.downcast::<u8>().unwrap(), 7);
+    }
+
+    /// Cuts make consecutive segments from 0 (cuts at the edges or repeated are ignored), and
+    /// the states spread over them sample by sample.
+    #[test]
+    fn segments_and_states_per_sample() {
+        assert_eq!(segments_of(&[3, 5], 8), vec![0..3, 3..5, 5..8]);
+        assert_eq!(segments_of(&[0, 3, 3, 8, 9], 8), vec![0..3, 3..8]);
+        assert_eq!(segments_of(&[], 4), vec![0..4]);
+        assert_eq!(segments_of(&[], 0), vec![0..0]);
+        let s = StateLabels { segment_states: vec![1, 0, 1], ..Default::default() };
+        let segs = segments_of(&[2, 3], 5);
+        assert_eq!(s.per_sample(&segs).unwrap(), vec![1, 1, 0, 1, 1]);
+        assert!(s.per_sample(&segs[..2]).is_err(), "a state per segment");
+        assert!(s.per_sample(&[0..2, 3..4, 4..5]).is_err(), "a gap");
+        assert_eq!(canonical_states(&[7, 7, 3, 9, 3]), vec![0, 0, 1, 2, 1]);
     }
 
     #[test]

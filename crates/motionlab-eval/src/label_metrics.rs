@@ -291,6 +291,47 @@ pub fn label_scores<T: Eq + Hash, U: Eq + Hash>(
     })
 }
 
+/// The true state of every sample from a ground truth's labelled segments (the segment's
+/// label; `None` for a sample in no segment, which the scores leave out). `what` names the
+/// truth in messages (its file). Refused, with what was expected: a truth without labelled
+/// segments, a segment without a label, overlapping segments, a segment past the sequence's
+/// `n_samples`.
+pub fn truth_states(
+    segments: &[motionlab_core::Segment],
+    n_samples: usize,
+    what: &str,
+) -> Result<Vec<Option<String>>> {
+    let bad = |msg: String| Err(Error::new(ErrorKind::InvalidParameter, format!("{what}: {msg}")));
+    if segments.is_empty() {
+        return bad("has no labelled segments; states are scored against a label per segment (a CSV truth's `label` column, mocap6 or CMU-86 labels, TSSB's properties.txt)".into());
+    }
+    let mut out: Vec<Option<String>> = vec![None; n_samples];
+    let mut sorted: Vec<&motionlab_core::Segment> = segments.iter().collect();
+    sorted.sort_by_key(|s| (s.start, s.end));
+    for (k, s) in sorted.iter().enumerate() {
+        if s.label.trim().is_empty() {
+            return bad(format!(
+                "segment {}..{} has no label; expected a state label on every segment",
+                s.start, s.end
+            ));
+        }
+        if s.end > n_samples || s.start >= s.end {
+            return bad(format!(
+                "segment {}..{} ({:?}) is empty or ends past the sequence's {n_samples} samples; a label file for another sequence?",
+                s.start, s.end, s.label
+            ));
+        }
+        if let Some(prev) = k.checked_sub(1).map(|j| sorted[j]).filter(|p| p.end > s.start) {
+            return bad(format!(
+                "segments {}..{} ({:?}) and {}..{} ({:?}) overlap; expected one state per sample",
+                prev.start, prev.end, prev.label, s.start, s.end, s.label
+            ));
+        }
+        out[s.start..s.end].fill(Some(s.label.clone()));
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -386,5 +427,32 @@ mod tests {
         let s = label_scores(&truth, &fresh, chance, 42).unwrap();
         assert!(s.nmi.draws.iter().all(|&d| (d - s.nmi.value).abs() < 1e-12));
         assert_eq!(s.nmi.p_value, 1.0);
+    }
+
+    #[test]
+    fn truth_states_refuse_unlabelled_overlapping_and_too_long_segments() {
+        let seg =
+            |start, end, label: &str| motionlab_core::Segment { start, end, label: label.into() };
+        let ok = truth_states(&[seg(0, 2, "a"), seg(3, 5, "b")], 6, "t.csv").unwrap();
+        assert_eq!(
+            ok,
+            vec![
+                Some("a".into()),
+                Some("a".into()),
+                None,
+                Some("b".into()),
+                Some("b".into()),
+                None
+            ]
+        );
+        for (segments, needle) in [
+            (vec![], "no labelled segments"),
+            (vec![seg(0, 2, "a"), seg(2, 4, " ")], "segment 2..4 has no label"),
+            (vec![seg(0, 3, "a"), seg(2, 4, "b")], "overlap"),
+            (vec![seg(0, 3, "a"), seg(3, 9, "b")], "past the sequence's 6 samples"),
+        ] {
+            let e = truth_states(&segments, 6, "t.csv").unwrap_err();
+            assert!(e.to_string().contains(needle) && e.to_string().contains("t.csv"), "{e}");
+        }
     }
 }

@@ -251,6 +251,10 @@ impl Datasets {
                 .part("file", &self.cache.file_sha256(&d.files[file])?);
             if let Some(gt) = d.ground_truth_path(file) {
                 k = k.part("truth", &self.cache.file_sha256(&gt)?);
+                let companions = d.ground_truth.as_ref().map(|(r, _)| r.companions(&gt));
+                for c in companions.unwrap_or_default().iter().filter(|c| c.is_file()) {
+                    k = k.part("truth companion", &self.cache.file_sha256(c)?);
+                }
             }
             Ok(k.finish())
         };

@@ -18,6 +18,7 @@
 //! in `motionlab-workflows`; a researcher's own workflow is one file in their own crate.
 
 pub mod context;
+pub mod labellers;
 pub mod run_cache;
 pub mod segmenters;
 pub mod spec;

@@ -166,101 +166,7 @@ pub fn build_segmenters(
             ));
         }
         let stage = build_stage(source, combo, spec, &here, registry::build_segmenter)?;
-        let input = match spec.channel_input() {
-            None => None,
-            Some(value) => Some(deserialize_section::<ChannelInput>(
-                source,
-                &combo.doc,
-                value.clone(),
-                &here.key("input"),
-            )?),
-        };
-        let gives: Vec<(usize, DataKind, &str)> = cx
-            .data
-            .datasets
-            .iter()
-            .map(|d| (d.index, d.loader.gives(), d.spec.loader.kind.as_str()))
-            .collect();
-        let refuse = |msg: String, key: KeyPath| {
-            Err(cx.locate(Error::new(ErrorKind::InvalidParameter, msg), key))
-        };
-        match (stage.consumes(), &input) {
-            (DataKind::Points, Some(_)) => {
-                return refuse(
-                    format!(
-                        "{} reads marker or joint positions, not channels: `input` is for segmenters that read channels",
-                        spec.kind
-                    ),
-                    here.key("input"),
-                );
-            }
-            (DataKind::Points, None) => {
-                if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
-                    return refuse(
-                        format!(
-                            "{} reads marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels only",
-                            spec.kind
-                        ),
-                        here.key("type"),
-                    );
-                }
-            }
-            (DataKind::Channels, Some(_)) => {
-                if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
-                    return refuse(
-                        format!(
-                            "`input` computes channels from marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels already: remove `input`"
-                        ),
-                        here.key("input"),
-                    );
-                }
-            }
-            (DataKind::Channels, None) => {
-                if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Points) {
-                    return refuse(
-                        format!(
-                            "{} reads channels, and dataset[{d}] (loader `{loader}`) gives marker or joint positions: add `input = {{ features = [{{ type = \"marker_speed\" }}] }}` — the features whose traces become its channels",
-                            spec.kind
-                        ),
-                        here.key("type"),
-                    );
-                }
-            }
-        }
-        let input_text = input.as_ref().map(|i| toml::to_string(i).unwrap_or_default());
-        let input = match input {
-            None => None,
-            Some(i) => {
-                let features = here.key("input").key("features");
-                let extractors = i
-                    .features
-                    .iter()
-                    .enumerate()
-                    .map(|(j, f)| {
-                        Ok((
-                            f.display_name(),
-                            build_stage(
-                                source,
-                                combo,
-                                f,
-                                &features.index(j),
-                                registry::build_feature_extractor,
-                            )?,
-                        ))
-                    })
-                    .collect::<Result<Vec<_>>>()?;
-                if extractors.is_empty() {
-                    return Err(cx.locate(
-                        Error::new(
-                            ErrorKind::MissingKey,
-                            "lists no feature extractor; expected at least one",
-                        ),
-                        features,
-                    ));
-                }
-                Some(FeatureChannels { extractors, channels: i.channels, fill: i.fill })
-            }
-        };
+        let (input, input_text) = channel_input(cx, spec, &here, stage.consumes(), "segmenters")?;
         let mut cache_key = format!("{} {}", spec.kind, spec.plugin_params());
         if let Some(t) = input_text {
             cache_key.push_str(&format!(" input {t}"));
@@ -268,6 +174,116 @@ pub fn build_segmenters(
         out.push(NamedSegmenter { name, stage, input, cache_key });
     }
     Ok(out)
+}
+
+/// The `input = { features = … }` of a stage that reads channels (a segmenter, a labeller),
+/// checked against what every dataset gives and built; with its text for the cache key.
+/// `what` names the stages in messages (`segmenters`).
+pub fn channel_input(
+    cx: &BuildContext<'_>,
+    spec: &StageSpec,
+    here: &KeyPath,
+    consumes: DataKind,
+    what: &str,
+) -> Result<(Option<FeatureChannels>, Option<String>)> {
+    let (source, combo) = (cx.source, cx.combo);
+    let here = here.clone();
+    let input = match spec.channel_input() {
+        None => None,
+        Some(value) => Some(deserialize_section::<ChannelInput>(
+            source,
+            &combo.doc,
+            value.clone(),
+            &here.key("input"),
+        )?),
+    };
+    let gives: Vec<(usize, DataKind, &str)> = cx
+        .data
+        .datasets
+        .iter()
+        .map(|d| (d.index, d.loader.gives(), d.spec.loader.kind.as_str()))
+        .collect();
+    let refuse = |msg: String, key: KeyPath| {
+        Err(cx.locate(Error::new(ErrorKind::InvalidParameter, msg), key))
+    };
+    match (consumes, &input) {
+        (DataKind::Points, Some(_)) => {
+            return refuse(
+                format!(
+                    "{} reads marker or joint positions, not channels: `input` is for {what} that read channels",
+                    spec.kind
+                ),
+                here.key("input"),
+            );
+        }
+        (DataKind::Points, None) => {
+            if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
+                return refuse(
+                    format!(
+                        "{} reads marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels only",
+                        spec.kind
+                    ),
+                    here.key("type"),
+                );
+            }
+        }
+        (DataKind::Channels, Some(_)) => {
+            if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
+                return refuse(
+                    format!(
+                        "`input` computes channels from marker or joint positions, and dataset[{d}] (loader `{loader}`) gives channels already: remove `input`"
+                    ),
+                    here.key("input"),
+                );
+            }
+        }
+        (DataKind::Channels, None) => {
+            if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Points) {
+                return refuse(
+                    format!(
+                        "{} reads channels, and dataset[{d}] (loader `{loader}`) gives marker or joint positions: add `input = {{ features = [{{ type = \"marker_speed\" }}] }}` — the features whose traces become its channels",
+                        spec.kind
+                    ),
+                    here.key("type"),
+                );
+            }
+        }
+    }
+    let input_text = input.as_ref().map(|i| toml::to_string(i).unwrap_or_default());
+    let input = match input {
+        None => None,
+        Some(i) => {
+            let features = here.key("input").key("features");
+            let extractors = i
+                .features
+                .iter()
+                .enumerate()
+                .map(|(j, f)| {
+                    Ok((
+                        f.display_name(),
+                        build_stage(
+                            source,
+                            combo,
+                            f,
+                            &features.index(j),
+                            registry::build_feature_extractor,
+                        )?,
+                    ))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            if extractors.is_empty() {
+                return Err(cx.locate(
+                    Error::new(
+                        ErrorKind::MissingKey,
+                        "lists no feature extractor; expected at least one",
+                    ),
+                    features,
+                ));
+            }
+            Some(FeatureChannels { extractors, channels: i.channels, fill: i.fill })
+        }
+    };
+    Ok((input, input_text))
 }
 
 #[cfg(test)]

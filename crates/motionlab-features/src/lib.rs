@@ -9,6 +9,7 @@
 pub const PLUGIN_COUNT: usize = 11;
 
 pub mod butterworth;
+pub mod clustering;
 pub mod curvature;
 pub mod gait_cycles;
 pub mod gait_stages;

@@ -55,7 +55,7 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 8;
+pub const PLUGIN_COUNT: usize = 9;
 
 pub mod delay;
 pub mod distinct_points;
@@ -69,6 +69,7 @@ pub mod peaks;
 pub mod retrieval;
 pub mod simd;
 pub mod stage;
+pub mod state_labeller;
 pub mod subsequence;
 pub mod sync;
 
@@ -82,7 +83,8 @@ pub use stage::{
 mod tests {
     use motionlab_core::registry::{check_registry, find, find_custom};
 
-    const PLUGINS: [&str; 7] = [
+    const PLUGINS: [&str; 8] = [
+        "multistream_dp",
         "initial_pose_normalisation",
         "delay_points",
         "velocity_peaks",

@@ -11,7 +11,7 @@
 /// How many plugins this crate registers: the registry test (`tests/registry.rs`) checks the
 /// binary holds exactly this many from this crate, so a plugin that silently vanishes (a
 /// missing `mod` line, a crate left unlinked) fails it. Adding a plugin means counting it here.
-pub const PLUGIN_COUNT: usize = 9;
+pub const PLUGIN_COUNT: usize = 10;
 
 /// The inputs the Sonoda stages' defaults were tuned on (`experiments/sonoda_defaults.toml`):
 /// SHA-256 of CMU 86_01, 86_09 and mocap6 13_29, 13_30, 13_31, 14_14, 14_20 as shipped in
@@ -35,6 +35,7 @@ pub mod fastest_marker_speed_online;
 pub mod hull_volume_change;
 pub mod hull_volume_change_online;
 pub mod pca_error_rise;
+pub mod segment_clusters;
 pub mod speed_minima;
 mod stream_frames;
 #[cfg(test)]

@@ -13,12 +13,14 @@ use motionlab_core::{
 };
 use motionlab_eval::boundaries::tolerance_frames;
 use motionlab_eval::chance::{ALPHA, ChanceSettings, row_seed};
+use motionlab_eval::label_metrics::{LabelScores, label_scores, truth_states};
 use motionlab_eval::ranks::{RankComparison, Ties, compare_methods};
 use motionlab_eval::series_scores::{ScoreWithChance, SeriesScores, score_series};
 use motionlab_figure::{CriticalDifference, Figure, FigureKind, RankedMethod};
 use motionlab_io::scores_csv::{PublishedScores, read_scores_csv};
 
 use crate::parameter_choice::{MethodChoices, StageChoice};
+use motionlab_experiment::labellers::{NamedLabeller, build_labellers};
 use motionlab_experiment::segmenters::{NamedSegmenter, build_segmenters};
 use motionlab_experiment::spec::StageSpec;
 use motionlab_experiment::toml_paths::KeyPath;
@@ -123,6 +125,19 @@ pub struct BenchmarkSection {
     /// only reports every combination.
     #[serde(default)]
     pub selection: BenchmarkSelection,
+    /// State labellers (`labeller = [{ type = "segment_clusters" }, { type = "multistream_dp" }]`),
+    /// each run on the segments of every segmentation of `label_segments`: which segments are
+    /// the same motion. Scored per sample against the truth's segment labels in
+    /// `benchmark_states` (AMI, ARI, NMI beside chance); their segments and states in
+    /// `benchmark_segment_states`.
+    #[serde(default, rename = "labeller")]
+    pub labellers: Vec<StageSpec>,
+    /// The segmentations the labellers label: method names of this benchmark, and `"truth"` —
+    /// the truth's own boundaries (an oracle segmentation: how well the labeller does when
+    /// the cuts are right).
+    #[serde(default)]
+    #[schemars(extend("x-default" = "every method, then \"truth\""))]
+    pub label_segments: Option<Vec<String>>,
 }
 
 /// How a benchmark's sweep chooses each method's combination (`[benchmark] selection = …`).
@@ -196,7 +211,13 @@ pub struct BenchmarkWorkflow {
     /// The run's sequences the published sheet has no row for (`missing = "skip"`), in order.
     published_missing: Vec<String>,
     choices: MethodChoices,
+    labellers: Vec<NamedLabeller>,
+    /// What the labellers label: method names and `truth`, in order.
+    label_segments: Vec<String>,
 }
+
+/// The segmentation name that stands for the truth's own boundaries in `label_segments`.
+const TRUTH_SEGMENTS: &str = "truth";
 
 /// What one sequence produced.
 #[derive(Serialize, Deserialize)]
@@ -211,6 +232,23 @@ struct ItemResult {
     /// Samples per second.
     #[serde(default)]
     rate_hz: f64,
+    /// Each labeller on each segmentation of `label_segments` (empty without labellers).
+    #[serde(default)]
+    labels: Vec<LabelRun>,
+}
+
+/// One labeller on one segmentation of one sequence.
+#[derive(Serialize, Deserialize)]
+struct LabelRun {
+    /// The segmentation labelled: a method's name or `truth`.
+    segmentation: String,
+    labeller: String,
+    seconds: f64,
+    /// `(start, end, state)` of each segment (samples, end exclusive).
+    segments: Vec<(usize, usize, usize)>,
+    /// The true states on the samples the truth labels (how many), and the scores; `Err`:
+    /// the labeller (or the segmentation it needed) failed, with the reason.
+    scores: std::result::Result<LabelScores, String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -420,6 +458,39 @@ impl WorkflowPlugin for BenchmarkWorkflow {
                     .collect(),
             ));
         }
+        let labellers = build_labellers(cx, &section.labellers, &root.key("labeller"))?;
+        let label_segments = match &section.label_segments {
+            None => method_names.iter().cloned().chain([TRUTH_SEGMENTS.to_string()]).collect(),
+            Some(names) => {
+                for n in names {
+                    if n != TRUTH_SEGMENTS && !method_names.contains(n) {
+                        return Err(cx.locate(
+                            Error::new(
+                                ErrorKind::UnknownName,
+                                format!(
+                                    "names {n:?}, which is neither a method of this benchmark ({}) nor \"truth\"",
+                                    method_names.join(", ")
+                                ),
+                            ),
+                            root.key("label_segments"),
+                        ));
+                    }
+                }
+                if names.is_empty() && !labellers.is_empty() {
+                    return invalid(
+                        "lists no segmentation for the labellers; expected method names or \"truth\"".into(),
+                        root.key("label_segments"),
+                    );
+                }
+                names.clone()
+            }
+        };
+        if section.label_segments.is_some() && labellers.is_empty() {
+            return invalid(
+                "names segmentations to label, but the benchmark has no `labeller`".into(),
+                root.key("label_segments"),
+            );
+        }
         Ok(BenchmarkWorkflow {
             section,
             segmenters,
@@ -429,6 +500,8 @@ impl WorkflowPlugin for BenchmarkWorkflow {
             published,
             published_missing,
             choices: MethodChoices { methods },
+            labellers,
+            label_segments,
         })
     }
 }
@@ -538,7 +611,7 @@ impl Workflow for BenchmarkWorkflow {
             );
             runs.push((name.clone(), fused));
         }
-        let methods = runs
+        let methods: Vec<MethodRun> = runs
             .into_iter()
             .map(|(method, t)| match t {
                 Ok(t) => {
@@ -568,6 +641,7 @@ impl Workflow for BenchmarkWorkflow {
                 },
             })
             .collect();
+        let labels = self.label_item(&loaded.name, motion, truth, &methods, &file)?;
         let result = ItemResult {
             sequence: loaded.name.clone(),
             n_samples: n_frames,
@@ -575,6 +649,7 @@ impl Workflow for BenchmarkWorkflow {
             methods,
             truth: truth.frames(),
             rate_hz: rate.hz(),
+            labels,
         };
         Ok(ItemOutput::new(ItemData::encode(&result)?, Vec::new()))
     }
@@ -621,6 +696,10 @@ impl Workflow for BenchmarkWorkflow {
         if results.iter().flat_map(|r| &r.methods).any(|m| m.decided_at.is_some()) {
             let margin = self.section.margins.first().copied().unwrap_or(TimeSpan::Frames(0.0));
             out.tables.push(detection_delay_table(&results, &methods, margin)?);
+        }
+        if !self.labellers.is_empty() {
+            out.tables.push(self.states_table(&results)?);
+            out.tables.push(segment_states_table(&results)?);
         }
         out.figures.extend(figure);
         if self.section.selection == BenchmarkSelection::LeaveOneSequenceOut {
@@ -773,6 +852,65 @@ struct CoveringRow {
     failure: String,
 }
 
+/// A row of `benchmark_states`.
+#[derive(Serialize)]
+struct StatesRow {
+    sequence: String,
+    segmentation: String,
+    labeller: String,
+    method: String,
+    n_samples: usize,
+    n_segments: Option<usize>,
+    n_states: Option<usize>,
+    ami: f64,
+    chance_ami: f64,
+    p_value_ami: f64,
+    ari: f64,
+    chance_ari: f64,
+    p_value_ari: f64,
+    nmi: f64,
+    chance_nmi: f64,
+    p_value_nmi: f64,
+    above_chance_ami: &'static str,
+    status: String,
+    failure: String,
+}
+
+/// `benchmark_segment_states`: every labelled segment (`sequence, method, start, end, state`).
+fn segment_states_table(results: &[ItemResult]) -> Result<Table> {
+    #[derive(Serialize)]
+    struct Row {
+        sequence: String,
+        method: String,
+        segmentation: String,
+        labeller: String,
+        start: usize,
+        end: usize,
+        state: usize,
+    }
+    let rows: Vec<Row> = results
+        .iter()
+        .flat_map(|r| {
+            r.labels.iter().flat_map(move |l| {
+                l.segments.iter().map(move |&(start, end, state)| Row {
+                    sequence: r.sequence.clone(),
+                    method: format!("{} + {}", l.segmentation, l.labeller),
+                    segmentation: l.segmentation.clone(),
+                    labeller: l.labeller.clone(),
+                    start,
+                    end,
+                    state,
+                })
+            })
+        })
+        .collect();
+    Table::from_records(
+        "benchmark_segment_states",
+        "Every segment each labeller labelled (samples start..end, end exclusive) and its state",
+        &rows,
+    )
+}
+
 /// A row of `benchmark_f1`.
 #[derive(Serialize)]
 struct F1Row {
@@ -839,6 +977,186 @@ fn keep_status_columns(t: &mut Table, results: &[ItemResult]) {
 }
 
 impl BenchmarkWorkflow {
+    /// Every labeller on every segmentation of `label_segments` for one sequence, scored per
+    /// sample against the truth's states (the samples in a labelled truth segment).
+    fn label_item(
+        &self,
+        sequence: &str,
+        motion: &motionlab_core::Motion,
+        truth: &motionlab_core::Segmentation,
+        methods: &[MethodRun],
+        file: &std::path::Path,
+    ) -> Result<Vec<LabelRun>> {
+        if self.labellers.is_empty() {
+            return Ok(Vec::new());
+        }
+        let n = motion.n_frames();
+        let what = format!("the ground truth of {sequence} ({})", file.display());
+        let states = truth_states(&truth.segments, n, &what)
+            .map_err(|e| e.with_location(motionlab_core::Location::file(file)))?;
+        let kept: Vec<usize> = (0..n).filter(|&i| states[i].is_some()).collect();
+        let true_states: Vec<&str> = kept.iter().filter_map(|&i| states[i].as_deref()).collect();
+        let cache = FeatureCache::new();
+        let mut out = Vec::new();
+        for seg in &self.label_segments {
+            let cuts: std::result::Result<Vec<usize>, String> = if seg == TRUTH_SEGMENTS {
+                Ok(truth.frames())
+            } else {
+                match methods.iter().find(|m| &m.method == seg) {
+                    Some(m) => match m.failure() {
+                        None => Ok(m.found.clone()),
+                        Some(reason) => Err(format!("segmentation {seg} failed: {reason}")),
+                    },
+                    None => Err(format!("no segmentation {seg}")),
+                }
+            };
+            for l in &self.labellers {
+                let segments = cuts.as_ref().map(|c| motionlab_core::segments_of(c, n));
+                let start = Instant::now();
+                let labelled = match &segments {
+                    Err(reason) => Err(reason.to_string()),
+                    Ok(segments) => l
+                        .label(motion, segments, &cache)
+                        .and_then(|s| Ok((s.per_sample(segments)?, s)))
+                        .map_err(|e| e.message().to_string()),
+                };
+                let seconds = start.elapsed().as_secs_f64();
+                let (found_segments, scores) = match labelled {
+                    Err(reason) => (Vec::new(), Err(reason)),
+                    Ok((per_sample, s)) => {
+                        let found: Vec<usize> = kept.iter().map(|&i| per_sample[i]).collect();
+                        let seed =
+                            row_seed(self.chance.seed, sequence, &format!("{seg} {}", l.name));
+                        let scores = label_scores(&true_states, &found, self.chance, seed)
+                            .map_err(|e| e.message().to_string());
+                        let segs = segments
+                            .as_ref()
+                            .map(|v| {
+                                v.iter()
+                                    .zip(&s.segment_states)
+                                    .map(|(r, &st)| (r.start, r.end, st))
+                                    .collect()
+                            })
+                            .unwrap_or_default();
+                        (segs, scores)
+                    }
+                };
+                out.push(LabelRun {
+                    segmentation: seg.clone(),
+                    labeller: l.name.clone(),
+                    seconds,
+                    segments: found_segments,
+                    scores,
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// `benchmark_states`: AMI, ARI and NMI per sample of each labeller on each segmentation,
+    /// each beside its chance baseline, per sequence and as the mean over sequences.
+    fn states_table(&self, results: &[ItemResult]) -> Result<Table> {
+        let mut rows = Vec::new();
+        let row = |sequence: String,
+                   segmentation: &str,
+                   labeller: &str,
+                   n_samples: usize,
+                   n_segments: Option<usize>,
+                   n_states: Option<usize>,
+                   scores: [Option<&ScoreWithChance>; 3],
+                   status: String,
+                   failure: String| {
+            let v = |k: usize, f: fn(&ScoreWithChance) -> f64| scores[k].map_or(f64::NAN, f);
+            StatesRow {
+                sequence,
+                segmentation: segmentation.to_string(),
+                labeller: labeller.to_string(),
+                method: format!("{segmentation} + {labeller}"),
+                n_samples,
+                n_segments,
+                n_states,
+                ami: v(0, |s| s.value),
+                chance_ami: v(0, |s| s.chance),
+                p_value_ami: v(0, |s| s.p_value),
+                ari: v(1, |s| s.value),
+                chance_ari: v(1, |s| s.chance),
+                p_value_ari: v(1, |s| s.p_value),
+                nmi: v(2, |s| s.value),
+                chance_nmi: v(2, |s| s.chance),
+                p_value_nmi: v(2, |s| s.p_value),
+                above_chance_ami: above(v(0, |s| s.p_value)),
+                status,
+                failure,
+            }
+        };
+        for r in results {
+            for l in &r.labels {
+                let (status, failure) = match &l.scores {
+                    Ok(_) => ("ok".to_string(), String::new()),
+                    Err(e) => ("failed".to_string(), e.clone()),
+                };
+                let s = l.scores.as_ref().ok();
+                let n_states = s.map(|_| {
+                    let mut st: Vec<usize> = l.segments.iter().map(|x| x.2).collect();
+                    st.sort_unstable();
+                    st.dedup();
+                    st.len()
+                });
+                rows.push(row(
+                    r.sequence.clone(),
+                    &l.segmentation,
+                    &l.labeller,
+                    s.map_or(0, |s| s.n_samples),
+                    s.map(|_| l.segments.len()),
+                    n_states,
+                    [s.map(|s| &s.ami), s.map(|s| &s.ari), s.map(|s| &s.nmi)],
+                    status,
+                    failure,
+                ));
+            }
+        }
+        for seg in &self.label_segments {
+            for lab in &self.labellers {
+                let runs: Vec<(&str, &LabelRun)> = results
+                    .iter()
+                    .flat_map(|r| {
+                        r.labels
+                            .iter()
+                            .filter(|l| &l.segmentation == seg && l.labeller == lab.name)
+                            .map(move |l| (r.sequence.as_str(), l))
+                    })
+                    .collect();
+                let ok: Vec<&LabelScores> =
+                    runs.iter().filter_map(|(_, l)| l.scores.as_ref().ok()).collect();
+                let failed: Vec<&str> =
+                    runs.iter().filter(|(_, l)| l.scores.is_err()).map(|(s, _)| *s).collect();
+                let ami = ScoreWithChance::mean(ok.iter().map(|s| &s.ami));
+                let ari = ScoreWithChance::mean(ok.iter().map(|s| &s.ari));
+                let nmi = ScoreWithChance::mean(ok.iter().map(|s| &s.nmi));
+                rows.push(row(
+                    "mean".into(),
+                    seg,
+                    &lab.name,
+                    ok.iter().map(|s| s.n_samples).sum(),
+                    None,
+                    None,
+                    [Some(&ami), Some(&ari), Some(&nmi)],
+                    format!("mean over {} scored sequence(s); {} failed", ok.len(), failed.len()),
+                    failed.join(" "),
+                ));
+            }
+        }
+        let mut t = Table::from_records(
+            "benchmark_states",
+            "State labelling per sequence, segmentation and labeller: AMI, ARI and NMI per sample against the truth's segment labels, each beside chance (the found labels permuted across the found segments) and its p-value; then the mean over sequences",
+            &rows,
+        )?;
+        if results.iter().flat_map(|r| &r.labels).all(|l| l.scores.is_ok()) {
+            t.columns.retain(|c| c.name != "failure");
+        }
+        Ok(t)
+    }
+
     /// The published covering of `method`'s published column on `sequence`.
     /// Every method's name: the segmenters', then the fuser's.
     fn method_names(&self) -> Vec<String> {

@@ -77,6 +77,11 @@ pub fn track_segmentation(
         }
         Ok(f as usize)
     };
+    if rule == EndRule::LastEndOnly {
+        // The CSV's segment rows (`start_frame,end_frame,label`) are the state format; ELAN
+        // tiers mark boundaries and may leave segments unlabelled.
+        check_state_labels(track, origin)?;
+    }
     let is_inner = |f: usize| f > 0 && f + 1 < n_frames;
     let mut boundaries = Vec::new();
     let mut segments = Vec::new();
@@ -111,6 +116,48 @@ pub fn track_segmentation(
         annotators: Vec::new(),
         annotator_names: Vec::new(),
     })
+}
+
+/// When an annotator of a CSV labels segments (any segment of the track has a label), the
+/// labels are states — one per sample — so every segment must have one and no two may overlap; the
+/// error names the file and the line of the offending segment. Tracks without labels (plain
+/// boundaries) are not checked.
+fn check_state_labels(track: &AnnotatorTrack, origin: &Path) -> Result<()> {
+    let segments: Vec<(&AnnotatedItem, f64)> =
+        track.items.iter().filter_map(|i| Some((i, i.end.as_ref()?.1))).collect();
+    if !segments.iter().any(|(i, _)| !i.label.trim().is_empty()) {
+        return Ok(());
+    }
+    if let Some((i, _)) = segments.iter().find(|(i, _)| i.label.trim().is_empty()) {
+        return Err(Error::at_line(
+            ErrorKind::MissingData,
+            origin,
+            i.line,
+            format!(
+                "segment of annotator {:?} without a label, while its other segments have one; expected a state label on every segment",
+                track.annotator
+            ),
+        )
+        .with_field("label"));
+    }
+    let mut sorted = segments.clone();
+    sorted.sort_by(|a, b| a.0.start.total_cmp(&b.0.start));
+    for w in sorted.windows(2) {
+        let ((a, a_end), (b, _)) = (w[0], w[1]);
+        if a_end > b.start {
+            return Err(Error::at_line(
+                ErrorKind::OutOfRange,
+                origin,
+                b.line,
+                format!(
+                    "segment {:?} starting at {} overlaps segment {:?} of line {} (ending at {a_end}); expected one state label per sample",
+                    b.label, b.start, a.label, a.line
+                ),
+            )
+            .with_field(b.start_field.clone()));
+        }
+    }
+    Ok(())
 }
 
 /// Parses a number cell: finite and ≥ 0, else an error naming line and column.
@@ -214,6 +261,58 @@ mod tests {
         assert_eq!(
             (e.kind(), e.location().line, e.location().field.as_deref()),
             (ErrorKind::OutOfRange, Some(7), Some("e"))
+        );
+    }
+
+    /// Labelled segments are states: one without a label among labelled ones, or two that
+    /// overlap, is refused at its line; unlabelled boundary tracks are not checked.
+    #[test]
+    fn state_labels_need_a_label_per_segment_and_no_overlap() {
+        let r = FrameRate::new(100.0).unwrap();
+        let o = Path::new("truth.csv");
+        let labelled = |items: Vec<AnnotatedItem>| AnnotatorTrack { annotator: "A".into(), items };
+        let mut unlabelled = item(3, 10.0, Some(20.0));
+        unlabelled.label = String::new();
+        let e = track_segmentation(
+            &labelled(vec![item(2, 0.0, Some(10.0)), unlabelled.clone()]),
+            |v| v,
+            EndRule::LastEndOnly,
+            o,
+            r,
+            100,
+        )
+        .unwrap_err();
+        assert_eq!((e.kind(), e.location().line), (ErrorKind::MissingData, Some(3)));
+        assert!(
+            e.to_string().contains("truth.csv") && e.to_string().contains("without a label"),
+            "{e}"
+        );
+        let e = track_segmentation(
+            &labelled(vec![item(2, 0.0, Some(12.0)), item(3, 10.0, Some(20.0))]),
+            |v| v,
+            EndRule::LastEndOnly,
+            o,
+            r,
+            100,
+        )
+        .unwrap_err();
+        assert_eq!((e.kind(), e.location().line), (ErrorKind::OutOfRange, Some(3)));
+        assert!(e.to_string().contains("overlaps"), "{e}");
+        // Touching segments are fine; so are unlabelled overlapping ones (plain boundaries).
+        let ok = vec![item(2, 0.0, Some(10.0)), item(3, 10.0, Some(20.0))];
+        assert!(track_segmentation(&labelled(ok), |v| v, EndRule::LastEndOnly, o, r, 100).is_ok());
+        let mut a = unlabelled.clone();
+        a.end = Some(("e".into(), 30.0));
+        assert!(
+            track_segmentation(
+                &labelled(vec![a, unlabelled]),
+                |v| v,
+                EndRule::LastEndOnly,
+                o,
+                r,
+                100
+            )
+            .is_ok()
         );
     }
 }

@@ -19,9 +19,18 @@ use motionlab_core::{Error, ErrorKind, GroundTruthReader, Motion, Result, Segmen
 /// boundary; a segmenter that wants it reads `desc.txt` itself (the benchmark's published
 /// methods choose their own).
 ///
-/// Errors name `desc.txt` and the line: no line for the series (with the closest names), a
-/// change point that is not a whole number, not increasing, or not inside `1..n` of the
-/// series. Missing samples in the series do not matter: only its length is used.
+/// **States**: when a `properties.txt` lies beside `desc.txt` (as in CLaP's TSSB, UTSA and
+/// SKAB folders), each segment is labelled with its state from the series' line there: TSSB's
+/// `name,flag,label_cut,resample_rate,c0,c1,…` gives segment i the state `c_i // (label_cut + 1)`
+/// (CLaP's loader: UCR classes merged into states), the other benchmarks'
+/// `name,l0,l1,…` the label `l_i` as written; the labels read `state S`. Without
+/// `properties.txt` (or without a line for the series) every segment is its own state.
+///
+/// Errors name `desc.txt` (or `properties.txt`) and the line: no line for the series (with the
+/// closest names), a change point that is not a whole number, not increasing, or not inside
+/// `1..n` of the series; a properties line whose number of labels is not the number of
+/// segments, or a class that is not a whole number. Missing samples in the series do not
+/// matter: only its length is used.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TssbDescParams {}
@@ -85,7 +94,56 @@ pub fn parse_tssb_desc(text: &str, origin: &Path) -> Result<Vec<TssbEntry>> {
     Ok(out)
 }
 
+/// The state of each of the `n_segments` segments of series `name` from a `properties.txt`
+/// (see [`TssbDescParams`]); `None` when the file has no line for it.
+pub fn states_of(
+    text: &str,
+    origin: &Path,
+    name: &str,
+    n_segments: usize,
+) -> Result<Option<Vec<String>>> {
+    let text = crate::text::strip_bom(text);
+    for (i, raw) in text.split('\n').enumerate() {
+        let line = raw.trim_end_matches('\r').trim();
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.first() != Some(&name) {
+            continue;
+        }
+        let at = |msg: String| Error::at_line(ErrorKind::Syntax, origin, i + 1, msg);
+        let states: Vec<String> = if matches!(fields.get(1), Some(&"true") | Some(&"false")) {
+            // TSSB: name, flag, label_cut, resample_rate, then one UCR class per segment.
+            let whole = |f: &str, what: &str| {
+                f.parse::<usize>().map_err(|_| at(format!("{what} {f:?} is not a whole number")))
+            };
+            let cut = whole(fields.get(2).copied().unwrap_or_default(), "label_cut")?;
+            fields
+                .iter()
+                .skip(4)
+                .map(|c| whole(c, "class").map(|c| (c / (cut + 1)).to_string()))
+                .collect::<Result<_>>()?
+        } else {
+            fields.iter().skip(1).map(|l| l.to_string()).collect()
+        };
+        if states.len() != n_segments || states.iter().any(String::is_empty) {
+            return Err(Error::at_line(
+                ErrorKind::WrongValueCount,
+                origin,
+                i + 1,
+                format!(
+                    "{} state label(s) for the {n_segments} segment(s) of {name} in desc.txt; expected one non-empty label per segment",
+                    states.len()
+                ),
+            ));
+        }
+        return Ok(Some(states));
+    }
+    Ok(None)
+}
+
 impl GroundTruthReader for TssbDesc {
+    fn companions(&self, path: &Path) -> Vec<std::path::PathBuf> {
+        vec![path.with_file_name("properties.txt")]
+    }
     fn read(&self, path: &Path, motion: &Motion) -> Result<Segmentation> {
         let entries = parse_tssb_desc(&crate::read::read_text(path)?, path)?;
         let stem = motion
@@ -116,10 +174,23 @@ impl GroundTruthReader for TssbDesc {
         let mut bounds = vec![0];
         bounds.extend(&e.change_points);
         bounds.push(n);
+        let properties = path.with_file_name("properties.txt");
+        let states = if properties.is_file() {
+            states_of(&crate::read::read_text(&properties)?, &properties, &stem, bounds.len() - 1)?
+        } else {
+            None
+        };
         let segments = bounds
             .windows(2)
             .enumerate()
-            .map(|(k, w)| Segment { start: w[0], end: w[1], label: format!("segment {}", k + 1) })
+            .map(|(k, w)| Segment {
+                start: w[0],
+                end: w[1],
+                label: match &states {
+                    Some(s) => format!("state {}", s[k]),
+                    None => format!("segment {}", k + 1),
+                },
+            })
             .collect();
         Segmentation::from_segments(motion.frame_rate(), segments).map_err(|err| err.in_file(path))
     }
@@ -156,6 +227,28 @@ mod tests {
         let t = TssbDesc.read(&desc, &series("Adiac", 1408)).unwrap();
         assert_eq!(t.frames(), vec![572, 1012, 1232]);
         assert_eq!((t.segments.len(), t.segments[3].end), (4, 1408));
+        // properties.txt beside it: `Adiac,true,0,4,0,1,2,4` → label_cut 0: states 0 1 2 4.
+        let labels: Vec<&str> = t.segments.iter().map(|s| s.label.as_str()).collect();
+        assert_eq!(labels, ["state 0", "state 1", "state 2", "state 4"]);
+    }
+
+    /// CLaP's rule `c // (label_cut + 1)`: Crop-like classes 0,3,6,1 with label_cut 2 give
+    /// 0,1,2,0; UTSA's plain labels are kept; a count mismatch names properties.txt's line.
+    #[test]
+    fn states_from_properties() {
+        let p = Path::new("properties.txt");
+        let text = "X,true,2,1,0,3,6,1\nU,0,1,0\n";
+        assert_eq!(states_of(text, p, "X", 4).unwrap().unwrap(), ["0", "1", "2", "0"]);
+        assert_eq!(states_of(text, p, "U", 3).unwrap().unwrap(), ["0", "1", "0"]);
+        assert_eq!(states_of(text, p, "Z", 3).unwrap(), None);
+        let e = states_of(text, p, "U", 4).unwrap_err();
+        assert!(
+            e.to_string().contains("properties.txt:2")
+                && e.to_string().contains("3 state label(s) for the 4"),
+            "{e}"
+        );
+        let e = states_of("X,true,a,1,0\n", p, "X", 1).unwrap_err();
+        assert!(e.to_string().contains("label_cut"), "{e}");
     }
 
     #[test]
