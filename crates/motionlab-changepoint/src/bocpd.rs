@@ -73,8 +73,9 @@ use crate::signal::{Missing, Normalize, Signal};
 /// 0.327 against 0.259 by chance (p = 0.002), where λ = 100 samples scored 0.313 against 0.244
 /// (p = 0.002). The hazard moves this model little at mocap rates (517 change points at 100
 /// samples, 472 at 40 s, 35 true): the over-segmentation comes from the Gaussian model of
-/// independent samples meeting smooth, autocorrelated speeds, which no hazard undoes. Those takes are listed by SHA-256 in the schema
-/// (`x-defaults-tuned-on`), so an evaluation table's `parameters_chosen` says `tuned on this
+/// independent samples meeting smooth, autocorrelated speeds, which no hazard undoes. Those takes
+/// are listed by SHA-256 at the end of `motionlab describe`, so an evaluation table's
+/// `parameters_chosen` says `tuned on this
 /// sequence (oracle)` for them and `held-out` for any other. A run on bare values without a
 /// rate needs `lambda` or `expected_segment` in frames; the TSSB benchmark's run of record keeps
 /// TCPDBench's λ = 100 written out.

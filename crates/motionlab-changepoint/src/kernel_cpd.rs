@@ -138,8 +138,8 @@ pub enum Search {
 /// (as many change points drawn uniformly). Outcome (the run of record, `heldout_covering`):
 /// `elbow`, chosen in every fold; held out, mean covering 0.588 against 0.512 by chance (p =
 /// 0.006), with 100 change points for the 35 true, where the BIC-style penalty alone scored
-/// 0.282 against 0.281 (p = 0.46) with 417; `widest` kept no change on any take (0.184). Those takes are listed
-/// by SHA-256 in the schema (`x-defaults-tuned-on`), so an evaluation table's
+/// 0.282 against 0.281 (p = 0.46) with 417; `widest` kept no change on any take (0.184). Those
+/// takes are listed by SHA-256 at the end of `motionlab describe`, so an evaluation table's
 /// `parameters_chosen` says `tuned on this sequence (oracle)` for them and `held-out` for any
 /// other. The TSSB benchmark's run of record keeps ruptures' BIC-style penalty written out.
 ///

@@ -1046,18 +1046,43 @@ class segmenters:
         segment's end. The traces are the MAP run length and the posterior mean run length per
         sample.
 
+        **The hazard when neither `lambda` nor `expected_segment` is given** is an expected
+        segment length in seconds (`motionlab describe bocpd`, `expected_segment`), so the data's
+        rate sets it: at 120 Hz TCPDBench's λ = 100 samples expects a change every 0.83 s (it found
+        517 change points on the four limb speeds of seven labelled CMU takes, 35 true). How
+        the length was chosen — a written protocol, `experiments/changepoint_defaults.toml`,
+        whose run of record `motionlab reproduce --only changepoint_defaults` makes: the seven labelled takes of
+        `mocap_benchmark` (CMU 86_01, 86_09, and 13_29–13_31, 14_14, 14_20 of mocap6; never TSSB or
+        other evaluation data), the four limb speeds (`marker_speed` of both hands and feet); the
+        candidates λ = 100 samples (the earlier behaviour) and 1, 2, 5, 10, 20 and 40 s; the one
+        with the best mean segment covering (TCPDBench's) over the takes, the first in that order
+        among equal means. Its honest estimate is leave-one-take-out: each take scored at the length
+        chosen on the other six, beside chance (as many change points drawn uniformly).
+        Outcome (the run of record, `heldout_covering`): 40 s, the grid's longest — as long as the
+        longest take, so a change is barely expected — chosen in every fold; held out, mean covering
+        0.327 against 0.259 by chance (p = 0.002), where λ = 100 samples scored 0.313 against 0.244
+        (p = 0.002). The hazard moves this model little at mocap rates (517 change points at 100
+        samples, 472 at 40 s, 35 true): the over-segmentation comes from the Gaussian model of
+        independent samples meeting smooth, autocorrelated speeds, which no hazard undoes. Those takes
+        are listed by SHA-256 at the end of `motionlab describe`, so an evaluation table's
+        `parameters_chosen` says `tuned on this
+        sequence (oracle)` for them and `held-out` for any other. A run on bare values without a
+        rate needs `lambda` or `expected_segment` in frames; the TSSB benchmark's run of record keeps
+        TCPDBench's λ = 100 written out.
+
         **Missing samples (NaN)** are skipped as unobserved: a missing channel adds nothing to the
         predictive and leaves its statistics unchanged, while the run length still advances.
         **Cost**: O(n·R·channels) time and O(R·channels) memory, R the longest run kept — every run
         length (R = n) unless `truncate_below` drops the tail of the posterior below a probability.
 
         Parameters:
-          lambda : float  (default 100.0)
-              Expected segment length λ in samples (the hazard is 1/λ, ≥ 1); TCPDBench's value.
-          expected_segment : { frames = float } | { seconds = float } (optional)  (optional)
-              Expected segment length in frames or seconds (`{ seconds = 10.0 }`), replacing `lambda`
-              when given: the hazard is 1/(that length in samples at the data's rate, at least 1), so
-              one setting means the same at 1 Hz and at 120 Hz.
+          lambda : float (optional)  (default: none: expected_segment sets the hazard)
+              Expected segment length λ in samples (the hazard is 1/λ, ≥ 1; TCPDBench's is 100). Give
+              `lambda` or `expected_segment`, not both.
+          expected_segment : { frames = float } | { seconds = float } (optional)  (default: without lambda: { seconds = 40.0 }, the length the protocol above chose at mocap rates)
+              Expected segment length in frames or seconds (`{ seconds = 10.0 }`): the hazard is
+              1/(that length in samples at the data's rate, at least 1), so one setting means the
+              same at 1 Hz and at 120 Hz.
           prior_mean : float  (default 0.0)
               Prior mean μ₀ of each channel, in normalised units when `normalize` rescales.
           prior_kappa : float  (default 1.0)
@@ -1083,6 +1108,15 @@ class segmenters:
           truncate_below : float  (default 0.0)
               Drop the run lengths beyond the last one whose posterior probability is at least this
               (and renormalise), in [0, 1); 0 keeps every run length (the exact posterior).
+
+        Defaults tuned on 7 input file(s) (SHA-256):
+          f3d98b96940de9107bc9bfa5a5ecec2a029cdb45713e333d7bc69a0893cfac07
+          e4baaca37a4e7feb6888083f6d1e2d9307884a834d8bd39a944f8089d99a41f5
+          5d652718c31a6e56aea62d6057d0257ae1144a414398ad8e1ff9a974ddd59b8a
+          fe22588ae74eee5e5034cca7ce4f7b5dd5460f96da40c176b3981f8707e87438
+          0527685d3d25f5fcf2d0b9ba92da6af092379433e9c809d76964892780076c6b
+          bdeb88b304e912b5b691e89225bef1f8b0fca026eacbd35509e82d929e4afa77
+          4bb31962cb2a7fd7758f97dfe3778609ada26a5904a51793130808291b5dc72a
 
         In an experiment: { type = "bocpd", <parameter> = <value>, … }
         """
@@ -1436,7 +1470,7 @@ class segmenters:
         """
 
     @staticmethod
-    def kernel_cpd(motion: MotionLike, *, rate: Optional[float] = None, search: Optional[str] = None, cost: Optional[str] = None, pen: Optional[float] = None, penalty: Optional[Any] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
+    def kernel_cpd(motion: MotionLike, *, rate: Optional[float] = None, search: Optional[str] = None, cost: Optional[str] = None, pen: Optional[Any] = None, penalty: Optional[Any] = None, n_bkps: Optional[int] = None, min_size: Optional[int] = None, jump: Optional[int] = None, gamma: Optional[float] = None, ar_order: Optional[int] = None, normalize: Optional[str] = None) -> SegmenterOutput:
         """kernel_cpd (segmenter, from motionlab-changepoint)
 
         Change points that minimise a segment cost plus a penalty per change (PELT), or found by
@@ -1466,15 +1500,18 @@ class segmenters:
         here (ruptures' Python costs store all n² kernel values): running kernel sums keep memory at
         O(n), so PELT on 100 000 samples fits in a few megabytes.
 
-        **Stopping** (`pen` or `n_bkps`): PELT minimises `Σ cost + pen × (number of segments)`;
-        binary segmentation adds a breakpoint while its gain exceeds `pen`, or until `n_bkps`
-        breakpoints. Without either, the penalty is a BIC-style one (Schwarz 1978), the one ruptures'
+        **Stopping** (`pen`, `n_bkps` or `penalty`): PELT minimises `Σ cost + pen × (number of
+        segments)`; binary segmentation adds a breakpoint while its gain exceeds `pen`, or until
+        `n_bkps` breakpoints. `pen = "bic"` is a BIC-style penalty (Schwarz 1978), the one ruptures'
         documentation suggests, `pen = log(n) · σ²` per parameter, with the variance measured on the
         whole series — never tuned on any data: `l2`: `log(n) · Σ_channels var` (the cost of the
         whole series divided by n: each channel's mean is one parameter with its own variance);
         `rbf`: `log(n)` (the kernel's feature-space variance is at most k(x, x) = 1); `linear`:
         `log(n) · p · RSS/n` (p covariates, the residual variance of one fit to the whole series);
-        `ar`: `log(n) · (ar_order + 1) · RSS/n` (the same with the lags and the intercept).
+        `ar`: `log(n) · (ar_order + 1) · RSS/n` (the same with the lags and the intercept). With none
+        of the three given, binary segmentation stops at that penalty, and the PELT searches choose
+        on the penalty path from it to the whole series' cost by the rule below (see "When nothing
+        is given").
 
         **A penalty path** (`penalty = { path = [min, max] }`, searches `pelt` and `kernel_pelt`):
         instead of one penalty, every segmentation that is optimal for some penalty in
@@ -1489,8 +1526,31 @@ class segmenters:
         (the one optimal at the BIC-style penalty below, or at the nearer end of the range) or
         `widest` (the one optimal over the widest span of log-penalty). The ends of the range may
         be `"bic"` (the BIC-style penalty below) and `"whole_cost"` (the cost of the whole series
-        as one segment, where the path reaches no change). The whole path, as a table: Python's
-        `motionlab.penalty_path(values, path, choose, …)`.
+        as one segment, where the path reaches no change; when that cost is no more than the
+        BIC-style penalty, the path is the one segment). The whole path, as a table: a run's
+        `penalty_path` (with a figure of cost against number of change points, the chosen point
+        marked) and Python's `motionlab.penalty_path(values, path, choose, …)`.
+
+        **When nothing is given** (no `pen`, `n_bkps` or `penalty`; searches `pelt` and
+        `kernel_pelt`): the candidates are chosen on the path from `"bic"` to `"whole_cost"` by the
+        rule the note of `penalty` names (`motionlab describe kernel_cpd`). Why: at motion
+        capture rates the BIC-style penalty alone cuts every few frames (417 change points on the
+        four limb speeds of seven labelled CMU takes at 120 Hz, 35 true). How it was chosen — a
+        written protocol, `experiments/changepoint_defaults.toml`, run by `motionlab run
+        experiments/changepoint_defaults.toml`: the seven labelled takes of `mocap_benchmark` (CMU 86_01,
+        86_09, and 13_29–13_31, 14_14, 14_20 of mocap6; never TSSB or other evaluation data), the
+        four limb speeds (`marker_speed` of both hands and feet); the candidates `bic` (the
+        segmentation at the BIC-style penalty: the earlier behaviour), `elbow` and `widest` on the
+        path from `"bic"` to `"whole_cost"`; the one with the best mean segment covering
+        (TCPDBench's) over the takes, the first in that order among equal means. Its honest estimate
+        is leave-one-take-out: each take scored at the rule chosen on the other six, beside chance
+        (as many change points drawn uniformly). Outcome (the run of record, `heldout_covering`):
+        `elbow`, chosen in every fold; held out, mean covering 0.588 against 0.512 by chance (p =
+        0.006), with 100 change points for the 35 true, where the BIC-style penalty alone scored
+        0.282 against 0.281 (p = 0.46) with 417; `widest` kept no change on any take (0.184). Those
+        takes are listed by SHA-256 at the end of `motionlab describe`, so an evaluation table's
+        `parameters_chosen` says `tuned on this sequence (oracle)` for them and `held-out` for any
+        other. The TSSB benchmark's run of record keeps ruptures' BIC-style penalty written out.
 
         **Degenerate inputs.** Missing samples (NaN) are refused (one error naming the first; fill
         them first with `fill_gaps`). A constant series has no change: no candidates when stopping
@@ -1511,9 +1571,11 @@ class segmenters:
               `KernelCPD` with its rbf kernel, the common untuned kernel baseline).
           cost : "l2" | "rbf" | "linear" | "ar"  (default "rbf")
               The segment cost: `l2`, `rbf`, `linear` or `ar` (`kernel_pelt` takes `l2` or `rbf`).
-          pen : float (optional)  (default: the BIC-style penalty described above, computed from the series)
-              Penalty per change, in the cost's units (> 0). Give `pen` or `n_bkps`, not both.
-          penalty : PenaltyPath (optional)  (optional)
+          pen : Pen (optional)  (default: unset: see penalty)
+              Penalty per change: a number in the cost's units (> 0), or `"bic"` (the BIC-style
+              penalty described above, computed from the series). Give one of `pen`, `n_bkps` and
+              `penalty`.
+          penalty : PenaltyPath (optional)  (default: with neither pen nor n_bkps: searches pelt and kernel_pelt take { path = ["bic", "whole_cost"], choose = "elbow" }, the rule the protocol above chose at mocap rates; binseg stops at the BIC-style penalty)
               A penalty path instead of one penalty: `{ path = [min, max], choose = "elbow" }`, the
               penalties in the cost's units (0 < min < max), `choose` one of `elbow`, `bic`, `widest`
               (see above); searches `pelt` and `kernel_pelt`. Not with `pen` or `n_bkps`.
@@ -1530,6 +1592,15 @@ class segmenters:
               Autoregressive order of the `ar` cost, in samples (≥ 1; `ar` only).
           normalize : "none" | "min_max" | "z_score"  (default "none")
               Per-channel rescaling before the search: `none`, `min_max` or `z_score`.
+
+        Defaults tuned on 7 input file(s) (SHA-256):
+          f3d98b96940de9107bc9bfa5a5ecec2a029cdb45713e333d7bc69a0893cfac07
+          e4baaca37a4e7feb6888083f6d1e2d9307884a834d8bd39a944f8089d99a41f5
+          5d652718c31a6e56aea62d6057d0257ae1144a414398ad8e1ff9a974ddd59b8a
+          fe22588ae74eee5e5034cca7ce4f7b5dd5460f96da40c176b3981f8707e87438
+          0527685d3d25f5fcf2d0b9ba92da6af092379433e9c809d76964892780076c6b
+          bdeb88b304e912b5b691e89225bef1f8b0fca026eacbd35509e82d929e4afa77
+          4bb31962cb2a7fd7758f97dfe3778609ada26a5904a51793130808291b5dc72a
 
         In an experiment: { type = "kernel_cpd", <parameter> = <value>, … }
         """
@@ -1652,6 +1723,15 @@ class segmenters:
         - Cost `ar` (ruptures' `CostAR`, one channel) fits each half window once and the whole
           window by merging the two halves' least-squares factorisations.
         - `normalize = "min_max"` rescales each channel to [0, 1] first (`z_score` standardises).
+
+        **No penalty path, no expected segment length here** (unlike `kernel_cpd` and `bocpd`):
+        `pen` stops a greedy walk down the peaks, not a search for the segmentation optimal at that
+        penalty, so CROPS's path — every segmentation optimal for some penalty, each with the
+        interval it owns — has nothing to recover (a penalty here only sets how far down the one
+        fixed order of peaks the walk goes); and the threshold is a gain in the cost's units, with
+        no segment length in it for a data rate to set. Its settings remain ruptures' and were not
+        chosen on any data; at mocap rates give `pen` or `n_bkps` (and `width` in samples at the
+        data's rate).
 
         Candidates are ruptures' breakpoints without the final n. The trace `window_discrepancy`
         holds the score at each grid sample (NaN elsewhere). A series shorter than the width has no
