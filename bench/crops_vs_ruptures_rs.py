@@ -6,7 +6,7 @@ normalised as the TSSB scripts feed ruptures, and each configuration — cost l2
 bandwidth ours resolved, given to both), Pelt's grid (jump 5, min_size 2) and every sample
 (jump 1); cost ar (order 4, min_size 20) on the first few — both libraries return every
 segmentation optimal for a penalty in [BIC/20, 50·BIC] (BIC the penalty `kernel_cpd` uses
-without `pen`) with its penalty interval. The run fails unless the segmentations are identical
+with `pen = "bic"`, which the bridge gives a job without `pen`) with its penalty interval. The run fails unless the segmentations are identical
 (same number, same breakpoints, in the same order) and every interval end agrees within 1e-9
 relative; it prints how many series, paths and segmentations it compared, and fails with
 fewer than ten series.
@@ -17,7 +17,10 @@ penalty, with the peak resident memory of our process, and the machine's load av
 
 Our side runs through `cargo run --release -p motionlab-changepoint --example changepoint_json`.
 Its own venv: bench/.venv-crops from bench/requirements-crops.txt (bench/setup_venv.sh).
-Usage: bench/crops_vs_ruptures_rs.py [--series 12] [--speed]
+--speed-many: the same measure on a path with many segmentations (30 changes of spread heights,
+path over [BIC/10, 2·BIC]), with the time per segmentation.
+
+Usage: bench/crops_vs_ruptures_rs.py [--series 12] [--speed | --speed-many] [--speed-cost l2]
 """
 import argparse
 import glob
@@ -151,13 +154,55 @@ def speed(cost):
     print(f"peak RSS: path {rss} KiB, one PELT {rss_single} KiB")
 
 
+def speed_many(cost):
+    """A path with many segmentations: 100,000 samples, four channels, 30 mean changes whose
+    heights are spread log-uniformly (0.25 to 3 noise standard deviations, one channel each),
+    so that segmentations with from a few up to all 30 changes are each optimal somewhere in
+    [BIC/10, 2·BIC]. CROPS runs PELT about twice per segmentation on its path: the ratio to one
+    PELT run grows with the path's length, and this measures it where that length is real."""
+    rng = np.random.default_rng(35)
+    n, d, k = 100_000, 4, 30
+    bounds = np.sort(rng.choice(np.arange(2_000, n - 2_000, 500), k, replace=False))
+    heights = np.exp(rng.uniform(np.log(0.25), np.log(3.0), k))
+    x = rng.normal(0.0, 1.0, (n, d))
+    level = np.zeros(d)
+    edges = [0, *bounds.tolist(), n]
+    for i, (a, b) in enumerate(zip(edges, edges[1:])):
+        if i > 0:
+            level[rng.integers(d)] += heights[i - 1] * rng.choice([-1.0, 1.0])
+        x[a:b] += level
+    base = {"cost": cost, "search": "kernel_pelt"}
+    [first], _ = ours([job(x, base)])
+    bic = first["pen"]
+    extra = {"gamma": first["gamma"]} if cost == "rbf" else {}
+    # BIC here counts the level shifts in the variance (log n · Σ var): the small steps pay
+    # below it, the large ones up to a few times it; a range where PELT finds no change would
+    # time a run without pruning (O(n²)), not the path.
+    lo, hi = bic / 10, 2 * bic
+    [one_lo], rss_single = ours([job(x, {**base, **extra, "pen": lo})])
+    [one_hi], _ = ours([job(x, {**base, **extra, "pen": hi})])
+    [path], rss = ours([job(x, {**base, **extra, "penalty": {"path": [lo, hi]}})])
+    t_path, t_lo, t_hi = path["cpu_seconds"][0], one_lo["cpu_seconds"][0], one_hi["cpu_seconds"][0]
+    counts = [len(p["breakpoints"]) - 1 for p in path["path"]]
+    print(f"load average: {os.getloadavg()}")
+    print(f"n = {n}, {d} channels, {k} true changes, {cost} kernel_pelt, path over [{lo:.4g}, {hi:.4g}]: "
+          f"{len(counts)} segmentations (change points {counts})")
+    print(f"CPU seconds: path {t_path:.2f}; one PELT at pen {lo:.4g} (BIC/10): {t_lo:.2f} (path x{t_path / t_lo:.1f}); "
+          f"at pen {hi:.4g}: {t_hi:.2f} (path x{t_path / t_hi:.1f}); per segmentation {t_path / len(counts):.2f} "
+          f"(x{t_path / len(counts) / t_lo:.1f} one PELT at BIC/10)")
+    print(f"peak RSS: path {rss} KiB, one PELT {rss_single} KiB")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--series", type=int, default=12)
     ap.add_argument("--speed", action="store_true")
+    ap.add_argument("--speed-many", action="store_true", help="the 100,000-sample path with many segmentations")
     ap.add_argument("--speed-cost", default="rbf", choices=["rbf", "l2"])
     args = ap.parse_args()
-    if args.speed:
+    if args.speed_many:
+        speed_many(args.speed_cost)
+    elif args.speed:
         speed(args.speed_cost)
     else:
         check(args)

@@ -22,6 +22,7 @@ mod missing_data;
 mod odd_names;
 mod opensim_formats;
 mod own_annotations;
+mod penalty_path;
 mod reader_repairs;
 mod registry;
 mod retrieval;

@@ -40,7 +40,7 @@ fn kernel_pelt_rbf(bencher: divan::Bencher, n: usize) {
 #[divan::bench(args = [10_000, 100_000], sample_count = 5)]
 fn kernel_pelt_rbf_median_heuristic(bencher: divan::Bencher, n: usize) {
     let x = series(n, 1, 1);
-    let stage = kernel_cpd("search = \"kernel_pelt\"\ncost = \"rbf\"");
+    let stage = kernel_cpd("search = \"kernel_pelt\"\ncost = \"rbf\"\npen = \"bic\"");
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }
 
@@ -54,11 +54,12 @@ fn median_heuristic(bencher: divan::Bencher, (channels, n): (usize, usize)) {
     });
 }
 
-/// ruptures' Pelt semantics: l2 (prefix sums) and rbf (running kernel sums), jump 5.
+/// ruptures' Pelt semantics: l2 (prefix sums) and rbf (running kernel sums), jump 5, at the
+/// BIC-style penalty.
 #[divan::bench(args = ["l2", "rbf"], sample_count = 5)]
 fn pelt_jump5_n10000(bencher: divan::Bencher, cost: &str) {
     let x = series(10_000, 1, 3);
-    let stage = kernel_cpd(&format!("search = \"pelt\"\ncost = \"{cost}\""));
+    let stage = kernel_cpd(&format!("search = \"pelt\"\ncost = \"{cost}\"\npen = \"bic\""));
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }
 
@@ -79,13 +80,15 @@ fn window_n10000(bencher: divan::Bencher, cost: &str) {
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }
 
-/// BOCPD, exact posterior (every run length) and truncated at 1e-6.
+/// BOCPD at λ = 100 samples, exact posterior (every run length) and truncated at 1e-6.
 #[divan::bench(args = [0.0, 1e-6], sample_count = 5)]
 fn bocpd_n5000(bencher: divan::Bencher, truncate_below: f64) {
     let x = series(5_000, 1, 6);
-    let stage = toml::from_str::<BocpdParams>(&format!("truncate_below = {truncate_below}"))
-        .unwrap()
-        .check()
-        .unwrap();
+    let stage = toml::from_str::<BocpdParams>(&format!(
+        "lambda = 100.0\ntruncate_below = {truncate_below}"
+    ))
+    .unwrap()
+    .check()
+    .unwrap();
     bencher.bench(|| stage.segment_values(divan::black_box(&x), 1).unwrap());
 }

@@ -6,7 +6,9 @@
 //! "values_hex": "…" (sample-major float64, little-endian bytes in hex: exact, NaN included,
 //! where JSON numbers would go through a decimal parse), "n_channels": d, "posterior": false,
 //! "repeats": 1}]}`; `values` (a JSON array, null for NaN) or `values_file` (one float per
-//! line, a TSSB series; one channel) may replace `values_hex`.
+//! line, a TSSB series; one channel) may replace `values_hex`. A job describes the peer's call:
+//! `kernel_cpd` without `pen`, `n_bkps` or `penalty` runs at ruptures' BIC-style penalty
+//! (`pen = "bic"`), `bocpd` without `lambda` or `expected_segment` at λ = 100 samples.
 //! `{"segmenter": "verify_exp", "stride": 1}` compares the rbf kernel's inlined `exp` with the
 //! system's on every single-precision argument (`{"differ", "compared"}`).
 //! Output: one object per job, `{"breakpoints": [..] (ruptures' convention: ends, the last
@@ -33,7 +35,22 @@ fn run_job(job: &Value) -> Result<Value, String> {
         );
         return Ok(json!({"differ": bad, "compared": total}));
     }
-    let params = job.get("params").cloned().unwrap_or(json!({}));
+    let mut params = job.get("params").cloned().unwrap_or(json!({}));
+    // A job describes a call of the peer (ruptures, the NumPy BOCPD of Adams & MacKay), whose
+    // unset stopping rule is ruptures' suggested BIC-style penalty and whose hazard is
+    // TCPDBench's λ = 100 samples; the plugins' own defaults were chosen at mocap rates
+    // instead, so the bridge spells the peer's out.
+    if let Some(p) = params.as_object_mut() {
+        let unset = |p: &serde_json::Map<String, Value>, keys: &[&str]| {
+            keys.iter().all(|k| !p.contains_key(*k))
+        };
+        if segmenter == "kernel_cpd" && unset(p, &["pen", "n_bkps", "penalty"]) {
+            p.insert("pen".into(), json!("bic"));
+        }
+        if segmenter == "bocpd" && unset(p, &["lambda", "expected_segment"]) {
+            p.insert("lambda".into(), json!(100.0));
+        }
+    }
     let (values, n_channels): (Vec<f64>, usize) = if let Some(path) = job["values_file"].as_str() {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
         let v = text

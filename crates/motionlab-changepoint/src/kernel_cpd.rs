@@ -91,15 +91,18 @@ pub enum Search {
 /// here (ruptures' Python costs store all n² kernel values): running kernel sums keep memory at
 /// O(n), so PELT on 100 000 samples fits in a few megabytes.
 ///
-/// **Stopping** (`pen` or `n_bkps`): PELT minimises `Σ cost + pen × (number of segments)`;
-/// binary segmentation adds a breakpoint while its gain exceeds `pen`, or until `n_bkps`
-/// breakpoints. Without either, the penalty is a BIC-style one (Schwarz 1978), the one ruptures'
+/// **Stopping** (`pen`, `n_bkps` or `penalty`): PELT minimises `Σ cost + pen × (number of
+/// segments)`; binary segmentation adds a breakpoint while its gain exceeds `pen`, or until
+/// `n_bkps` breakpoints. `pen = "bic"` is a BIC-style penalty (Schwarz 1978), the one ruptures'
 /// documentation suggests, `pen = log(n) · σ²` per parameter, with the variance measured on the
 /// whole series — never tuned on any data: `l2`: `log(n) · Σ_channels var` (the cost of the
 /// whole series divided by n: each channel's mean is one parameter with its own variance);
 /// `rbf`: `log(n)` (the kernel's feature-space variance is at most k(x, x) = 1); `linear`:
 /// `log(n) · p · RSS/n` (p covariates, the residual variance of one fit to the whole series);
-/// `ar`: `log(n) · (ar_order + 1) · RSS/n` (the same with the lags and the intercept).
+/// `ar`: `log(n) · (ar_order + 1) · RSS/n` (the same with the lags and the intercept). With none
+/// of the three given, binary segmentation stops at that penalty, and the PELT searches choose
+/// on the penalty path from it to the whole series' cost by the rule below (see "When nothing
+/// is given").
 ///
 /// **A penalty path** (`penalty = { path = [min, max] }`, searches `pelt` and `kernel_pelt`):
 /// instead of one penalty, every segmentation that is optimal for some penalty in
@@ -114,8 +117,31 @@ pub enum Search {
 /// (the one optimal at the BIC-style penalty below, or at the nearer end of the range) or
 /// `widest` (the one optimal over the widest span of log-penalty). The ends of the range may
 /// be `"bic"` (the BIC-style penalty below) and `"whole_cost"` (the cost of the whole series
-/// as one segment, where the path reaches no change). The whole path, as a table: Python's
-/// `motionlab.penalty_path(values, path, choose, …)`.
+/// as one segment, where the path reaches no change; when that cost is no more than the
+/// BIC-style penalty, the path is the one segment). The whole path, as a table: a run's
+/// `penalty_path` (with a figure of cost against number of change points, the chosen point
+/// marked) and Python's `motionlab.penalty_path(values, path, choose, …)`.
+///
+/// **When nothing is given** (no `pen`, `n_bkps` or `penalty`; searches `pelt` and
+/// `kernel_pelt`): the candidates are chosen on the path from `"bic"` to `"whole_cost"` by the
+/// rule the note of `penalty` names (`motionlab describe kernel_cpd`). Why: at motion
+/// capture rates the BIC-style penalty alone cuts every few frames (417 change points on the
+/// four limb speeds of seven labelled CMU takes at 120 Hz, 35 true). How it was chosen — a
+/// written protocol, `experiments/changepoint_defaults.toml`, run by `motionlab run
+/// experiments/changepoint_defaults.toml`: the seven labelled takes of `mocap_benchmark` (CMU 86_01,
+/// 86_09, and 13_29–13_31, 14_14, 14_20 of mocap6; never TSSB or other evaluation data), the
+/// four limb speeds (`marker_speed` of both hands and feet); the candidates `bic` (the
+/// segmentation at the BIC-style penalty: the earlier behaviour), `elbow` and `widest` on the
+/// path from `"bic"` to `"whole_cost"`; the one with the best mean segment covering
+/// (TCPDBench's) over the takes, the first in that order among equal means. Its honest estimate
+/// is leave-one-take-out: each take scored at the rule chosen on the other six, beside chance
+/// (as many change points drawn uniformly). Outcome (the run of record, `heldout_covering`):
+/// `elbow`, chosen in every fold; held out, mean covering 0.588 against 0.512 by chance (p =
+/// 0.006), with 100 change points for the 35 true, where the BIC-style penalty alone scored
+/// 0.282 against 0.281 (p = 0.46) with 417; `widest` kept no change on any take (0.184). Those
+/// takes are listed by SHA-256 at the end of `motionlab describe`, so an evaluation table's
+/// `parameters_chosen` says `tuned on this sequence (oracle)` for them and `held-out` for any
+/// other. The TSSB benchmark's run of record keeps ruptures' BIC-style penalty written out.
 ///
 /// **Degenerate inputs.** Missing samples (NaN) are refused (one error naming the first; fill
 /// them first with `fill_gaps`). A constant series has no change: no candidates when stopping
@@ -131,6 +157,7 @@ pub enum Search {
 /// adds PELT totals with a compensated `sum`, a change of the same size.
 #[derive(Clone, Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("x-defaults-tuned-on" = MOCAP_DEFAULTS_CHOSEN_ON))]
 pub struct KernelCpdParams {
     /// The search: `pelt`, `binseg` or `kernel_pelt` (`kernel_pelt` with `rbf` is ruptures'
     /// `KernelCPD` with its rbf kernel, the common untuned kernel baseline).
@@ -139,14 +166,17 @@ pub struct KernelCpdParams {
     /// The segment cost: `l2`, `rbf`, `linear` or `ar` (`kernel_pelt` takes `l2` or `rbf`).
     #[serde(default = "default_cost")]
     pub cost: CostModel,
-    /// Penalty per change, in the cost's units (> 0). Give `pen` or `n_bkps`, not both.
+    /// Penalty per change: a number in the cost's units (> 0), or `"bic"` (the BIC-style
+    /// penalty described above, computed from the series). Give one of `pen`, `n_bkps` and
+    /// `penalty`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schemars(extend("x-default" = "the BIC-style penalty described above, computed from the series"))]
-    pub pen: Option<f64>,
+    #[schemars(extend("x-default" = "unset: see penalty"))]
+    pub pen: Option<Pen>,
     /// A penalty path instead of one penalty: `{ path = [min, max], choose = "elbow" }`, the
     /// penalties in the cost's units (0 < min < max), `choose` one of `elbow`, `bic`, `widest`
     /// (see above); searches `pelt` and `kernel_pelt`. Not with `pen` or `n_bkps`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-default" = "with neither pen nor n_bkps: searches pelt and kernel_pelt take { path = [\"bic\", \"whole_cost\"], choose = \"elbow\" }, the rule the protocol above chose at mocap rates; binseg stops at the BIC-style penalty"))]
     pub penalty: Option<PenaltyPath>,
     /// Number of change points to find (binary segmentation only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -187,6 +217,24 @@ pub struct PenaltyPath {
     pub choose: PathChoice,
 }
 
+/// A penalty per change: a number, or `"bic"`.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize, JsonSchema)]
+#[serde(untagged)]
+pub enum Pen {
+    /// A penalty in the cost's units.
+    Value(f64),
+    /// `"bic"`: the BIC-style penalty of the series.
+    Named(BicPenalty),
+}
+
+/// The BIC-style penalty, by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BicPenalty {
+    /// The BIC-style penalty described above.
+    Bic,
+}
+
 /// One end of a penalty path: a number, or a penalty computed from the series.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize, JsonSchema)]
 #[serde(untagged)]
@@ -206,6 +254,27 @@ pub enum NamedPenalty {
     /// The cost of the whole series as one segment.
     WholeCost,
 }
+
+/// The rule on the penalty path from `"bic"` to `"whole_cost"` that `kernel_cpd` uses when
+/// given neither `pen`, `n_bkps` nor `penalty` (searches `pelt` and `kernel_pelt`), chosen by
+/// leave-one-take-out on the seven labelled mocap takes (`experiments/changepoint_defaults.toml`).
+pub const MOCAP_PATH_CHOICE: PathChoice = PathChoice::Elbow;
+
+/// The inputs the defaults of `kernel_cpd` and `bocpd` were chosen on
+/// (`experiments/changepoint_defaults.toml`): SHA-256 of CMU 86_01, 86_09 and mocap6 13_29, 13_30,
+/// 13_31, 14_14, 14_20 as shipped in `data/` (the digests `motionlab-segment` lists for the
+/// Sonoda stages, tuned on the same takes). In both plugins' schemas
+/// ([`motionlab_core::registry::DEFAULTS_TUNED_ON_KEY`]), so an evaluation at the defaults says
+/// per sequence whether it is scored on the takes they were chosen on.
+pub const MOCAP_DEFAULTS_CHOSEN_ON: [&str; 7] = [
+    "f3d98b96940de9107bc9bfa5a5ecec2a029cdb45713e333d7bc69a0893cfac07",
+    "e4baaca37a4e7feb6888083f6d1e2d9307884a834d8bd39a944f8089d99a41f5",
+    "5d652718c31a6e56aea62d6057d0257ae1144a414398ad8e1ff9a974ddd59b8a",
+    "fe22588ae74eee5e5034cca7ce4f7b5dd5460f96da40c176b3981f8707e87438",
+    "0527685d3d25f5fcf2d0b9ba92da6af092379433e9c809d76964892780076c6b",
+    "bdeb88b304e912b5b691e89225bef1f8b0fca026eacbd35509e82d929e4afa77",
+    "4bb31962cb2a7fd7758f97dfe3778609ada26a5904a51793130808291b5dc72a",
+];
 
 fn default_search() -> Search {
     Search::KernelPelt
@@ -302,8 +371,17 @@ impl ParamGuard for KernelCpdParams {
                 .with_field("penalty.path"));
             }
             StopRule::Path { pen_min: lo, pen_max: hi, choose: spec.choose }
+        } else if self.pen == Some(Pen::Named(BicPenalty::Bic)) {
+            if self.n_bkps.is_some() {
+                return Err(invalid("pen", "give pen or n_bkps, not both".into()));
+            }
+            StopRule::Bic
         } else {
-            match check_pen_or_n_bkps(self.pen, self.n_bkps)? {
+            let pen = match self.pen {
+                Some(Pen::Value(v)) => Some(v),
+                _ => None,
+            };
+            match check_pen_or_n_bkps(pen, self.n_bkps)? {
                 (Some(p), None) => StopRule::Penalty(p),
                 (_, Some(k)) => {
                     if self.search != Search::Binseg {
@@ -317,7 +395,14 @@ impl ParamGuard for KernelCpdParams {
                     }
                     StopRule::Count(k)
                 }
-                (None, None) => StopRule::Bic,
+                // Nothing given: the rule chosen at mocap rates (see the docs above), which
+                // needs a search optimal at each penalty; binary segmentation keeps the BIC.
+                (None, None) if self.search == Search::Binseg => StopRule::Bic,
+                (None, None) => StopRule::Path {
+                    pen_min: PathEnd::Named(NamedPenalty::Bic),
+                    pen_max: PathEnd::Named(NamedPenalty::WholeCost),
+                    choose: MOCAP_PATH_CHOICE,
+                },
             }
         };
         if self.min_size == 0 {
@@ -624,7 +709,21 @@ impl KernelCpd {
                 PathEnd::Named(NamedPenalty::Bic) => bic_pen,
                 PathEnd::Named(NamedPenalty::WholeCost) => self.whole_cost(signal, gamma, ar_order),
             };
+            let reaches_no_change = pen_max == PathEnd::Named(NamedPenalty::WholeCost);
             let (pen_min, pen_max) = (resolve(pen_min), resolve(pen_max));
+            if reaches_no_change && pen_min.is_finite() && pen_min > 0.0 && pen_max <= pen_min {
+                // The whole series costs no more than one change's penalty: at every penalty
+                // of the range no change pays, so the path is the one segment.
+                result.path = Some(vec![PathSegmentation {
+                    pen_min,
+                    pen_max: pen_min,
+                    breakpoints: vec![n],
+                    cost: pen_max,
+                }]);
+                result.chosen = Some(0);
+                result.bic_pen = Some(bic_pen);
+                return Ok(result);
+            }
             if !(pen_min.is_finite() && pen_min > 0.0 && pen_max > pen_min) {
                 return Err(Error::new(
                     ErrorKind::OutOfRange,
@@ -800,6 +899,19 @@ impl KernelCpd {
             candidates: candidates_from_breakpoints(&run.breakpoints, n),
             ..Default::default()
         };
+        if let Some(path) = &run.path {
+            output.penalty_path = path
+                .iter()
+                .enumerate()
+                .map(|(i, p)| motionlab_core::PathPoint {
+                    pen_min: p.pen_min,
+                    pen_max: p.pen_max,
+                    cost: p.cost,
+                    change_points: candidates_from_breakpoints(&p.breakpoints, n),
+                    chosen: run.chosen == Some(i),
+                })
+                .collect();
+        }
         if let Some(curve) = run.first_split_gain {
             output.traces.push(Trace::new("first_split_gain", "", curve));
             if let Some(pen) = run.pen {
@@ -846,14 +958,19 @@ mod tests {
     }
 
     #[test]
-    fn defaults_are_rupture_s_kernel_pelt_with_rbf_and_bic() {
+    fn defaults_are_kernel_pelt_with_rbf_on_the_path_and_pen_bic_is_ruptures_bic() {
         let k = params("").unwrap();
+        let mocap_rule = StopRule::Path {
+            pen_min: PathEnd::Named(NamedPenalty::Bic),
+            pen_max: PathEnd::Named(NamedPenalty::WholeCost),
+            choose: MOCAP_PATH_CHOICE,
+        };
         assert_eq!(
             k,
             KernelCpd {
                 search: Search::KernelPelt,
                 cost: CostModel::Rbf,
-                stop: StopRule::Bic,
+                stop: mocap_rule,
                 min_size: 2,
                 jump: 1,
                 gamma: None,
@@ -861,12 +978,45 @@ mod tests {
                 normalize: Normalize::None
             }
         );
+        assert_eq!(params("search = \"pelt\"").unwrap().stop, mocap_rule);
         assert_eq!(params("search = \"pelt\"").unwrap().jump, 5);
+        // Binary segmentation has no path: it stops at the BIC-style penalty.
+        assert_eq!(params("search = \"binseg\"").unwrap().stop, StopRule::Bic);
         let x = step_signal(300, &[100, 200], 1);
         let run = k.run(&x, 1).unwrap();
+        assert!(run.bic_pen == Some(300f64.ln()));
+        // The candidates are the chosen member of the path, which ends at the BIC's answer.
+        let path = run.path.unwrap();
+        let chosen = &path[run.chosen.unwrap()];
+        assert_eq!(chosen.breakpoints, run.breakpoints);
+        assert_eq!(path.last().unwrap().breakpoints, vec![100, 200, 300]);
+        assert_eq!(path[0].breakpoints, vec![300]);
+        // pen = "bic" is ruptures' suggested penalty, one PELT run.
+        let bic = params("pen = \"bic\"").unwrap();
+        assert_eq!(bic.stop, StopRule::Bic);
+        let run = bic.run(&x, 1).unwrap();
         assert_eq!(run.pen, Some(300f64.ln()));
-        assert!(run.gamma.unwrap() > 0.0);
-        assert_eq!(k.segment_values(&x, 1).unwrap().candidates, vec![100, 200]);
+        assert!(run.gamma.unwrap() > 0.0 && run.path.is_none());
+        assert_eq!(bic.segment_values(&x, 1).unwrap().candidates, vec![100, 200]);
+        assert_eq!(
+            params("pen = \"bic\"\nsearch = \"binseg\"\nn_bkps = 2")
+                .unwrap_err()
+                .location()
+                .field
+                .as_deref(),
+            Some("pen")
+        );
+        assert!(params("pen = \"whole_cost\"").is_err());
+        assert_eq!(params("pen = 2.5").unwrap().stop, StopRule::Penalty(2.5));
+        // A near-constant series: the whole series costs less than one change's penalty, so
+        // the unset rule's path is the one segment (no error, no change).
+        // (One sample off by 1e-3: the median distance is 0, so γ = 1, and every kernel value
+        // is clipped to exp(−0.01): the whole series costs 0 < log n.)
+        let mut flat = vec![1.0; 200];
+        flat[50] = 1.001;
+        let run = k.run(&flat, 1).unwrap();
+        assert_eq!((run.breakpoints.clone(), run.path.map(|p| p.len())), (vec![200], Some(1)));
+        assert!(k.segment_values(&flat, 1).unwrap().candidates.is_empty());
     }
 
     #[test]
@@ -875,7 +1025,7 @@ mod tests {
         for search in ["pelt", "binseg", "kernel_pelt"] {
             for cost in ["l2", "rbf"] {
                 let k = params(&format!(
-                    "search = \"{search}\"\ncost = \"{cost}\"\njump = {}",
+                    "search = \"{search}\"\ncost = \"{cost}\"\npen = \"bic\"\njump = {}",
                     if search == "kernel_pelt" { 1 } else { 5 }
                 ))
                 .unwrap();
@@ -903,7 +1053,7 @@ mod tests {
             let y = if i < 60 { t } else { 60.0 - 2.0 * (t - 60.0) } + 0.1 * rng.f64();
             x.extend_from_slice(&[y, 1.0, t]);
         }
-        let k = params("search = \"pelt\"\ncost = \"linear\"").unwrap();
+        let k = params("search = \"pelt\"\ncost = \"linear\"\npen = \"bic\"").unwrap();
         assert_eq!(k.segment_values(&x, 3).unwrap().candidates, vec![60]);
         let e = k.segment_values(&step_signal(50, &[], 1), 1).unwrap_err();
         assert_eq!(e.location().field.as_deref(), Some("cost"));
@@ -1075,7 +1225,7 @@ mod tests {
                     .unwrap();
             let path = named.path.unwrap();
             assert_eq!(path[0].n_changes(), 0, "{search}");
-            let at_bic = params(&base).unwrap().run(&x, 1).unwrap();
+            let at_bic = params(&format!("{base}\npen = \"bic\"")).unwrap().run(&x, 1).unwrap();
             assert_eq!(path.last().unwrap().breakpoints, at_bic.breakpoints, "{search}");
             assert_eq!(path.last().unwrap().pen_min, at_bic.pen.unwrap());
         }
@@ -1089,7 +1239,12 @@ mod tests {
         let x: Vec<f64> = (0..200)
             .flat_map(|i| [rng.f64(), if i < 120 { 0.0 } else { 2.0 } + rng.f64(), rng.f64()])
             .collect();
-        for text in ["", "cost = \"l2\"", "search = \"pelt\"", "search = \"binseg\"\nn_bkps = 1"] {
+        for text in [
+            "pen = \"bic\"",
+            "cost = \"l2\"\npen = \"bic\"",
+            "search = \"pelt\"\npen = \"bic\"",
+            "search = \"binseg\"\nn_bkps = 1",
+        ] {
             assert_eq!(
                 params(text).unwrap().segment_values(&x, 3).unwrap().candidates,
                 vec![120],

@@ -40,6 +40,15 @@ use crate::signal::{Missing, Normalize, Signal, candidates_from_breakpoints};
 ///   window by merging the two halves' least-squares factorisations.
 /// - `normalize = "min_max"` rescales each channel to [0, 1] first (`z_score` standardises).
 ///
+/// **No penalty path, no expected segment length here** (unlike `kernel_cpd` and `bocpd`):
+/// `pen` stops a greedy walk down the peaks, not a search for the segmentation optimal at that
+/// penalty, so CROPS's path — every segmentation optimal for some penalty, each with the
+/// interval it owns — has nothing to recover (a penalty here only sets how far down the one
+/// fixed order of peaks the walk goes); and the threshold is a gain in the cost's units, with
+/// no segment length in it for a data rate to set. Its settings remain ruptures' and were not
+/// chosen on any data; at mocap rates give `pen` or `n_bkps` (and `width` in samples at the
+/// data's rate).
+///
 /// Candidates are ruptures' breakpoints without the final n. The trace `window_discrepancy`
 /// holds the score at each grid sample (NaN elsewhere). A series shorter than the width has no
 /// score and no candidates, as in ruptures. Missing samples (NaN) are refused (fill them first

@@ -20,6 +20,8 @@ const KERNEL_CPD: &[&str] = &[
     "cost = \"l2\"",
     "cost = \"rbf\"\ngamma = 0.5",
     "search = \"pelt\"",
+    "pen = \"bic\"",
+    "search = \"pelt\"\ncost = \"l2\"\npenalty = { path = [\"bic\", \"whole_cost\"], choose = \"widest\" }",
     "search = \"binseg\"\npen = 3.0",
     "search = \"binseg\"\nn_bkps = 2\njump = 1\nmin_size = 1",
     "search = \"binseg\"\nn_bkps = 1\nmin_size = 2",
@@ -46,6 +48,7 @@ const WINDOW: &[&str] = &[
 const BOCPD: &[&str] = &[
     "",
     "lambda = 10.0",
+    "expected_segment = { seconds = 0.05 }",
     "normalize = \"min_max\"",
     "normalize = \"none\"",
     "model = \"bocd_package\"\nnormalize = \"min_max\"\nchange_points = \"run_length_drop\"\ndrop_threshold = 100.0",
@@ -69,7 +72,8 @@ fn window_never_panics_on_degenerate_series() {
 
 #[test]
 fn bocpd_never_panics_on_degenerate_series() {
+    // At 120 Hz: an expected segment in seconds (the one unset) needs the data's rate.
     sweep_segmenter("bocpd", BOCPD, &series(), checked::<BocpdParams>, |s, v, d| {
-        s.segment_values(v, d)
+        s.at_rate(120.0).segment_values(v, d)
     });
 }

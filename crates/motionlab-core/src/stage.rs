@@ -71,6 +71,25 @@ pub struct SegmenterOutput {
     pub thresholds: Vec<Threshold>,
     /// Frames flagged as unreliable (e.g. hull degenerate: fewer than 4 non-coplanar markers).
     pub flagged_frames: Vec<usize>,
+    /// The penalty path the candidates were chosen on (`kernel_cpd` with `penalty = { path
+    /// }`): every segmentation of it, fewest change points first; empty without one. The
+    /// segmentation workflow writes it as the table `penalty_path` and a figure.
+    #[serde(default)]
+    pub penalty_path: Vec<PathPoint>,
+}
+
+/// One segmentation of a penalty path: optimal for every penalty in `[pen_min, pen_max]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PathPoint {
+    /// The penalty interval it owns, in the cost's units.
+    pub pen_min: f64,
+    pub pen_max: f64,
+    /// Its unpenalised cost (the sum of its segments' costs).
+    pub cost: f64,
+    /// Its change points (first frames of every segment but the first).
+    pub change_points: Vec<usize>,
+    /// Whether the segmenter's rule chose it (its change points are the candidates).
+    pub chosen: bool,
 }
 
 /// One method's candidates, as handed to a fuser.

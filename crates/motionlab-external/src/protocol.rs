@@ -222,6 +222,7 @@ pub fn segmenter_output(
         traces,
         thresholds,
         flagged_frames: reply.flagged_frames,
+        penalty_path: Vec::new(),
     })
 }
 

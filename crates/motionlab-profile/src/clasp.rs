@@ -333,6 +333,7 @@ impl Clasp {
             traces: vec![Trace::new(CLASP_TRACE, "", trace)],
             thresholds,
             flagged_frames: Vec::new(),
+            penalty_path: Vec::new(),
         })
     }
 

@@ -246,6 +246,7 @@ impl Floss {
             traces: vec![Trace::new(FLOSS_TRACE, "", trace)],
             thresholds,
             flagged_frames: Vec::new(),
+            penalty_path: Vec::new(),
         })
     }
 }

@@ -107,6 +107,7 @@ impl Segmenter for DirectionChange {
                 value: self.c_min,
             }],
             flagged_frames: Vec::new(),
+            penalty_path: Vec::new(),
         })
     }
 }

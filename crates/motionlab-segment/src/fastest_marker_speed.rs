@@ -190,6 +190,7 @@ impl Segmenter for FastestMarkerSpeed {
                 Threshold { name: "v_low".into(), trace: "V_mm_per_s".into(), value: v_low },
             ],
             flagged_frames: Vec::new(),
+            penalty_path: Vec::new(),
         })
     }
 }

@@ -87,6 +87,7 @@ impl Segmenter for HullVolumeChange {
                 value: t,
             }],
             flagged_frames: h.flagged_frames(),
+            penalty_path: Vec::new(),
         })
     }
 }

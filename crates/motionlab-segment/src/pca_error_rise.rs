@@ -257,6 +257,7 @@ impl Segmenter for PcaErrorRise {
             traces: vec![Trace::new("pca_error_mm2", "mm²", error)],
             thresholds: Vec::new(),
             flagged_frames: Vec::new(),
+            penalty_path: Vec::new(),
         })
     }
 }

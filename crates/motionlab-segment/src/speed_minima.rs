@@ -87,6 +87,7 @@ impl Segmenter for SpeedMinima {
                 value: v_low,
             }],
             flagged_frames: Vec::new(),
+            penalty_path: Vec::new(),
         })
     }
 }

@@ -13,8 +13,8 @@ use motionlab_core::viewer::{
 };
 use motionlab_core::{
     Error, ErrorKind, EvalInput, EvalInputType, Evaluation, Evaluator, FeatureCache, Fuser,
-    MethodCandidates, MethodResult, Result, Segment, Segmentation, SegmenterOutput, SequenceResult,
-    Table, Threshold, Trace,
+    MethodCandidates, MethodResult, PathPoint, Result, Segment, Segmentation, SegmenterOutput,
+    SequenceResult, Table, Threshold, Trace,
 };
 use motionlab_eval::boundaries::default_tolerance;
 use motionlab_eval::boundary_analysis::{BoundaryAnalysis, MatchOutcome, SequenceBoundaries};
@@ -44,6 +44,12 @@ use motionlab_experiment::{Datasets, Locator, build_stage};
 /// best-F1 operating point (`best_f1`) — an oracle, chosen on the sequences it is reported
 /// on — and, with `selection`, operating points chosen on other sequences (`heldout_f1`,
 /// `heldout_choices`).
+///
+/// A segmenter that chose its candidates on a penalty path (`kernel_cpd` with `penalty = {
+/// path }`, or unset at its pelt/kernel_pelt defaults) adds the table `penalty_path` — every
+/// segmentation of the path per sequence, with its penalty interval, cost, number of change
+/// points and the chosen one flagged — and a figure per sequence, `…_penalty_path`, its cost
+/// against its number of change points with the chosen point marked.
 ///
 /// Missing samples: as each segmenter treats them; figures leave gaps where a trace is NaN.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -141,6 +147,55 @@ struct ItemResult {
     /// Each segmenter's traces and thresholds, for the viewer pages (base combination only).
     #[serde(default)]
     traces: Vec<(String, Vec<Trace>, Vec<Threshold>)>,
+    /// Each segmenter that chose on a penalty path: that path (the table `penalty_path`).
+    #[serde(default)]
+    paths: Vec<(String, Vec<PathPoint>)>,
+}
+
+/// A row of `penalty_path`: one segmentation of one method's path on one sequence.
+#[derive(Serialize)]
+struct PathRow {
+    sequence: String,
+    method: String,
+    n_changes: usize,
+    pen_min: f64,
+    pen_max: f64,
+    cost: f64,
+    chosen: bool,
+    /// Space-separated frames (first frames of every segment but the first).
+    change_points: String,
+}
+
+/// The figure of a penalty path: its cost against its number of change points, the chosen
+/// segmentation marked.
+fn penalty_path_chart(sequence: &str, method: &str, path: &[PathPoint]) -> Chart {
+    let mut sorted: Vec<&PathPoint> = path.iter().collect();
+    sorted.sort_by_key(|p| p.change_points.len());
+    let xy = |ps: &[&PathPoint]| -> (Vec<f64>, Vec<f64>) {
+        (
+            ps.iter().map(|p| p.change_points.len() as f64).collect(),
+            ps.iter().map(|p| p.cost).collect(),
+        )
+    };
+    let (x, y) = xy(&sorted);
+    let chosen: Vec<&PathPoint> = sorted.iter().copied().filter(|p| p.chosen).collect();
+    let (cx, cy) = xy(&chosen);
+    Chart {
+        title: format!("{sequence} — {method}: the penalty path (cost against change points)"),
+        x_label: "number of change points".into(),
+        y_label: "cost (unpenalised)".into(),
+        lines: vec![Series::new("segmentations on the path", x, y)],
+        points: vec![Series {
+            label: "chosen".into(),
+            point_labels: chosen
+                .iter()
+                .map(|p| format!("chosen: {}", p.change_points.len()))
+                .collect(),
+            x: cx,
+            y: cy,
+        }],
+        ..Default::default()
+    }
 }
 
 #[derive(Serialize, Deserialize)]
@@ -325,11 +380,24 @@ impl Workflow for SegmentationWorkflow {
                 flagged_frames: 0,
             });
         }
-        let figures = if draw {
+        let mut figures = if draw {
             self.figures(&item.id, &loaded.name, motion, loaded.truth.as_ref(), &outputs, &methods)?
         } else {
             Vec::new()
         };
+        let paths: Vec<(String, Vec<PathPoint>)> = outputs
+            .iter()
+            .filter(|(_, o)| !o.penalty_path.is_empty())
+            .map(|(n, o)| (n.clone(), o.penalty_path.clone()))
+            .collect();
+        if draw {
+            for (method, path) in &paths {
+                figures.push(Figure::chart(
+                    format!("{}_{}_penalty_path", item.id, sanitize(method)),
+                    penalty_path_chart(&loaded.name, method, path),
+                ));
+            }
+        }
         let traces = if draw {
             outputs
                 .iter()
@@ -344,6 +412,7 @@ impl Workflow for SegmentationWorkflow {
             n_frames: motion.n_frames(),
             methods,
             traces,
+            paths,
         };
         Ok(ItemOutput::new(ItemData::encode(&result)?, figures))
     }
@@ -362,9 +431,23 @@ impl Workflow for SegmentationWorkflow {
         let mut reads: Vec<(Option<motionlab_experiment::run_cache::Key>, Vec<u8>)> = Vec::new();
         // Each sequence's input file (SHA-256, hex): was a method's default tuned on it?
         let mut inputs: Vec<(String, String)> = Vec::new();
+        let mut path_rows = Vec::new();
         for (item, value) in items {
             let mut r: ItemResult = value.decode()?;
             viewer_traces.push((item.id.clone(), std::mem::take(&mut r.traces)));
+            for (method, path) in &r.paths {
+                path_rows.extend(path.iter().map(|p| PathRow {
+                    sequence: r.sequence.clone(),
+                    method: method.clone(),
+                    n_changes: p.change_points.len(),
+                    pen_min: p.pen_min,
+                    pen_max: p.pen_max,
+                    cost: p.cost,
+                    chosen: p.chosen,
+                    change_points:
+                        p.change_points.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" "),
+                }));
+            }
             for m in &r.methods {
                 rows.extend(m.candidates.iter().map(|&f| CandidateRow {
                     sequence: r.sequence.clone(),
@@ -403,6 +486,13 @@ impl Workflow for SegmentationWorkflow {
             "Candidate frames per sequence and method",
             &rows,
         )?);
+        if !path_rows.is_empty() {
+            out.tables.push(Table::from_records(
+                "penalty_path",
+                "Each penalty path a method chose on (kernel_cpd's penalty = { path }): every segmentation optimal for a penalty of the range, fewest change points first, with its penalty interval, unpenalised cost and whether the method's rule chose it",
+                &path_rows,
+            )?);
+        }
         let logged: Vec<(usize, usize)> = items.iter().map(|(i, _)| (i.dataset, i.file)).collect();
         for ((name, e), params) in self.evaluators.iter().zip(&self.evaluator_params) {
             let Evaluation { mut tables, analysis } = data.evaluation_cached(
