@@ -104,7 +104,8 @@ impl ParamGuard for BocpdOnlineParams {
     type Checked = Streamed<BocpdOnline>;
     fn check(self) -> Result<Streamed<BocpdOnline>> {
         let model = BocpdParams {
-            lambda: self.lambda,
+            // `expected_segment` replaces `lambda` when given (its documented meaning here).
+            lambda: if self.expected_segment.is_some() { None } else { Some(self.lambda) },
             expected_segment: self.expected_segment,
             prior_mean: self.prior_mean,
             prior_kappa: self.prior_kappa,
