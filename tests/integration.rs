@@ -21,6 +21,7 @@ mod missing_data;
 mod odd_names;
 mod opensim_formats;
 mod own_annotations;
+mod pose_formats;
 mod reader_repairs;
 mod registry;
 mod retrieval;

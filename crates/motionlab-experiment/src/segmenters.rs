@@ -195,6 +195,7 @@ pub fn build_segmenters(
                 );
             }
             (DataKind::Points, None) => {
+                cx.require_3d_unless(&spec.kind, stage.accepts_2d(), here.key("type"))?;
                 if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
                     return refuse(
                         format!(
@@ -237,16 +238,19 @@ pub fn build_segmenters(
                     .iter()
                     .enumerate()
                     .map(|(j, f)| {
-                        Ok((
-                            f.display_name(),
-                            build_stage(
-                                source,
-                                combo,
-                                f,
-                                &features.index(j),
-                                registry::build_feature_extractor,
-                            )?,
-                        ))
+                        let x = build_stage(
+                            source,
+                            combo,
+                            f,
+                            &features.index(j),
+                            registry::build_feature_extractor,
+                        )?;
+                        cx.require_3d_unless(
+                            &f.kind,
+                            x.accepts_2d(),
+                            features.index(j).key("type"),
+                        )?;
+                        Ok((f.display_name(), x))
                     })
                     .collect::<Result<Vec<_>>>()?;
                 if extractors.is_empty() {
