@@ -258,6 +258,78 @@ class loaders:
         """
 
     @staticmethod
+    def coco_keypoints(path: Union[str, os.PathLike], *, rate_hz: Optional[float] = None, person: Optional[str] = None, min_confidence: Optional[float] = None) -> Motion:
+        """coco_keypoints (loader, from motionlab-io)
+
+        Reads COCO keypoint JSON (`.json`) into a 2-D motion: one frame per image, keypoint
+        positions in pixels, the third value of each keypoint as its confidence.
+
+        Two layouts, told apart by the top level: an **annotation file** (an object with `images`,
+        `annotations` and `categories`; frames are the `images` in file order, keypoint names the
+        `person` category's `keypoints`) and a **results file** (a list of detections `{image_id,
+        keypoints, score}`; frames are the image ids in order of first appearance, keypoints the
+        COCO 17 when there are 17, else `kp0`, `kp1`, …). Keypoints are flat `[x, y, v, …]`; in
+        annotations v is 0 (not labelled), 1 (labelled, not visible) or 2 (visible), in results a
+        detector's confidence.
+
+        **People**: an image may hold several; `person` chooses one per image (rank by the mean of
+        the third values). **Missing samples**: a keypoint whose third value is 0 (unlabelled,
+        whatever filler coordinates it carries) or below `min_confidence`, and every keypoint of
+        an image without annotations. Only `category_id` 1 (person) is read from a results file.
+
+        The files carry no frame rate: `rate_hz` is required (for a video's frames, its frames per
+        second). Errors name the file, the line and the field (`annotations[3].keypoints`): not
+        JSON, keypoints not a multiple of 3 or not numbers, an annotation of an image the file does
+        not list, counts that differ between annotations.
+
+        Parameters:
+          rate_hz : float (optional)  (default: none: loading a file asks for it)
+              Frames (images) per second (COCO files do not store one).
+          person : "highest_mean_confidence" | "nearest_previous"  (default "highest_mean_confidence")
+              Which person of an image with several becomes the motion's.
+          min_confidence : float  (default 0.0)
+              Keypoints whose third value is below this are missing samples (v = 0 always is); 0 keeps
+              every labelled keypoint, visible or not.
+
+        In an experiment: { type = "coco_keypoints", <parameter> = <value>, … }
+        """
+
+    @staticmethod
+    def mediapipe(path: Union[str, os.PathLike], *, rate_hz: Optional[float] = None, image_width_px: Optional[float] = None, image_height_px: Optional[float] = None, min_confidence: Optional[float] = None) -> Motion:
+        """mediapipe (loader, from motionlab-io)
+
+        Reads MediaPipe pose landmarks in protobuf text format (`.pbtxt`) into a 2-D motion.
+
+        Each top-level `landmarks { landmark { x: … y: … z: … visibility: … presence: … } … }`
+        block (MediaPipe's `LandmarksDetectionResult`; a bare list of `landmark { … }` blocks, a
+        `NormalizedLandmarkList`, is one block) is one frame; several blocks, as a video's results
+        written one after another, are consecutive frames. 33 landmarks are named as BlazePose's
+        (`nose` … `right_foot_index`), another count `kp0`, `kp1`, …. `world_landmarks` blocks
+        (metres) are not read, nor `z` (relative depth, not a coordinate).
+
+        x and y are normalised to the image (0–1); with `image_width_px` and `image_height_px`
+        they become pixels, else they stay normalised (the load notes say so, and speeds are then
+        in image widths/heights per second). A landmark's confidence is its `visibility` (or
+        `presence` when visibility is absent; 1 when neither is written). **Missing samples**: a
+        landmark with confidence 0 or below `min_confidence`, or without x or y.
+
+        The files carry no frame rate: `rate_hz` is required. Errors name the file and line: an
+        unclosed block, a field without a value, a value that is not a number, no landmark.
+
+        Parameters:
+          rate_hz : float (optional)  (default: none: loading a file asks for it)
+              Frames per second of the video (the files do not store it).
+          image_width_px : float (optional)  (default: none: x stays normalised)
+              The image's width in pixels, to turn normalised x into pixels.
+          image_height_px : float (optional)  (default: none: y stays normalised)
+              The image's height in pixels, to turn normalised y into pixels.
+          min_confidence : float  (default 0.0)
+              Landmarks whose visibility is below this (0–1) are missing samples.
+
+        In an experiment: { type = "mediapipe", <parameter> = <value>, … }
+        """
+
+    @staticmethod
     def mot(path: Union[str, os.PathLike], *, columns: Optional[Any] = None) -> Motion:
         """mot (loader, from motionlab-io)
 
@@ -299,6 +371,77 @@ class loaders:
               The channels to keep, by label (after renaming duplicates), in this order.
 
         In an experiment: { type = "mot", <parameter> = <value>, … }
+        """
+
+    @staticmethod
+    def mvnx(path: Union[str, os.PathLike]) -> Motion:
+        """mvnx (loader, from motionlab-io)
+
+        Reads Xsens MVNX files (`.mvnx`): the segments' positions as points (metres in the file,
+        mm here), their orientations and the joint angles as channels, foot contacts as events.
+
+        Layout (MVNX 3/4): `<mvnx><subject frameRate="…">` holds `<segments>` (one `<segment
+        label="…">` each, in the order of the frame data), `<joints>` (one `<joint label="…">` each),
+        an optional `<footContactDefinition>` (`<contactDefinition index="…" label="LeftFoot_Heel"/>`)
+        and `<frames>`, whose `<frame type="normal">` elements are the recording (the calibration
+        frames `identity`, `tpose`, `tpose-isb` are skipped). Per frame, read: `<position>` (x y z per
+        segment, m), `<orientation>` (q0 q1 q2 q3 per segment, a unit quaternion), `<jointAngle>`
+        (x y z per joint, degrees: ZXY Euler angles as MVN defines them) and `<footContacts>` (one 0/1
+        per contact point); other elements (velocities, sensors, centre of mass) are not read.
+
+        The motion: points = the segments (Xsens's lab frame is Z-up); channels `<segment>_q0`…`_q3`
+        and `<joint>_x_deg`, `_y_deg`, `_z_deg`; events `Foot Strike` / `Foot Off` with context
+        `Left` / `Right` where a foot's first contact point touches down after none did, or its last
+        lifts off (contact labels starting `Left`/`Right`); the rate is `frameRate`.
+
+        **Missing samples**: MVN writes none (an inertial suit sees every segment); a value that is
+        not a number is an error. Errors name the file and line: not XML, no `<subject>` or
+        `frameRate`, a frame whose `<position>` or `<jointAngle>` holds the wrong number of values
+        (naming the element), no normal frame.
+
+        Parameters: none
+        """
+
+    @staticmethod
+    def openpose(path: Union[str, os.PathLike], *, rate_hz: Optional[float] = None, model: Optional[str] = None, person: Optional[str] = None, min_confidence: Optional[float] = None) -> Motion:
+        """openpose (loader, from motionlab-io)
+
+        Reads a folder of OpenPose JSON files (one per video frame) into a 2-D motion: keypoint
+        positions in pixels (x right, y down) with OpenPose's confidence per keypoint.
+
+        Frames are the folder's `.json` files in name order (OpenPose numbers them with zero-padded
+        frame numbers: `<video>_000000000012_keypoints.json`, Pose2Sim's `cam01.0012.json`); other
+        files are ignored. Each file is `{"version": …, "people": [{"pose_keypoints_2d": [x, y, c,
+        …]}, …]}`; hand, face and 3-D arrays are not read. The keypoint layout is `model`, or by
+        count: 18 keypoints are OpenPose's COCO model, 25 its default BODY_25 (BODY_25B, which
+        Pose2Sim uses, has 25 keypoints in another order: say `model = "body_25b"`); another count
+        names them `kp0`, `kp1`, ….
+
+        **People**: a frame may hold several; `person` chooses one per frame (`highest_mean_confidence`
+        or `nearest_previous`, see `motionlab describe openpose`). A person written as `{}` or with
+        an empty keypoint list is not a person. **Missing samples**: a keypoint written `0,0,0`
+        (undetected), with confidence 0, or below `min_confidence` is missing, and so is every
+        keypoint of a frame without people; the load notes count each kind.
+
+        The files carry no frame rate: `rate_hz` is required (the video's frames per second).
+        Errors name the file and the field: a file that is not JSON (with its line), no `people`
+        list, keypoints that are not numbers or not a multiple of 3, a person with a keypoint count
+        other than the folder's or the model's, an empty folder.
+
+        Parameters:
+          rate_hz : float (optional)  (default: none: loading a file asks for it)
+              Frames per second of the video the keypoints were estimated from (the JSON files do
+              not store it).
+          model : "body_25" | "body_25b" | "coco_18" | "auto"  (default "auto")
+              The keypoint layout: `"auto"` (by count: 18 = COCO, 25 = BODY_25), `"body_25"`,
+              `"body_25b"`, `"coco_18"`.
+          person : "highest_mean_confidence" | "nearest_previous"  (default "highest_mean_confidence")
+              Which person of a frame with several becomes the motion's.
+          min_confidence : float  (default 0.05)
+              Keypoints with a confidence below this (0–1) are missing samples. The default is
+              OpenPose's own `--render_threshold`, below which it does not draw a keypoint.
+
+        In an experiment: { type = "openpose", <parameter> = <value>, … }
         """
 
     @staticmethod
@@ -928,7 +1071,8 @@ class feature_extractors:
         """marker_speed (feature extractor, from motionlab-features)
 
         Per-frame speed of every marker and the fastest-marker speed V (mm/s), with the name of the
-        fastest marker at each frame (Sonoda et al. §2.1).
+        fastest marker at each frame (Sonoda et al. §2.1). On 2-D image positions (video pose
+        estimation) the speeds are px/s and the traces are named `V_px_per_s`, `v_<marker>_px_per_s`.
 
         `v[i][k] = |p[i+1][k] − p[i][k]| · fps`; `V[i] = max_k v[i][k]`. The last frame is NaN
         (no successor). Missing samples: a marker missing at either frame is skipped; V is NaN only
