@@ -50,6 +50,7 @@ bench:
     # runs of record, needs its reports folder) and bench/analog_fixtures.py (writes the analog
     # C3D fixtures of tests/fixtures/analog/).
     python3 bench/opensim_crosscheck.py
+    python3 bench/pose_crosscheck.py
 
 # Rewrite the generated crate graph and crate table of docs/ARCHITECTURE.md from
 # crates/*/Cargo.toml, then run every docs check (after adding a crate: also give it a row in

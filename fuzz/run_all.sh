@@ -11,7 +11,7 @@ cd "$(dirname "$0")"
 
 seconds="${1:-600}"
 shift || true
-all=(bvh asf amc c3d qualisys_tsv trc mot cmu86_labels mocap6_labels boundaries_csv elan_eaf plugin_reply gunzip experiment_toml)
+all=(bvh asf amc c3d qualisys_tsv trc mot openpose coco_keypoints mediapipe mvnx cmu86_labels mocap6_labels boundaries_csv elan_eaf plugin_reply gunzip experiment_toml)
 if [ "$#" -gt 0 ]; then targets=("$@"); else targets=("${all[@]}"); fi
 
 export RUSTC_BOOTSTRAP=1

@@ -19,7 +19,7 @@ FIXTURES = ROOT / "tests" / "fixtures"
 sys.path.insert(0, str(FIXTURES))
 from c3d_edit import C3d  # noqa: E402
 
-TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "boundaries_csv", "elan_eaf", "plugin_reply", "gunzip", "experiment_toml", "trc", "mot"]
+TARGETS = ["bvh", "asf", "amc", "c3d", "qualisys_tsv", "cmu86_labels", "mocap6_labels", "boundaries_csv", "elan_eaf", "plugin_reply", "gunzip", "experiment_toml", "trc", "mot", "openpose", "coco_keypoints", "mediapipe", "mvnx"]
 
 
 def read(p: Path) -> bytes:
@@ -122,6 +122,33 @@ def main() -> None:
                 keep = lines[: end + 8]
             target = "trc" if p.suffix == ".trc" else "mot"
             seeds[target][f"{p.parent.name}_{p.name}"] = "\n".join(keep).encode() + b"\n"
+
+    # Video keypoints: a few OpenPose frames (frame 37 holds three people), the COCO files, the
+    # MediaPipe landmarks, and the malformed corpus's cases of each.
+    for k in (0, 37, 99):
+        p = DATA / f"formats/pose2sim/openpose_balancing_cam01_json/cam01.{k:04}.json"
+        seeds["openpose"][p.name] = read(p)
+    for p in [DATA / "formats/mmpose-coco/test_coco.json", DATA / "formats/cocoapi/person_keypoints_val2014_fakekeypoints100_results.json"]:
+        seeds["coco_keypoints"][p.name] = read(p)
+    seeds["mediapipe"]["pose_landmarks.pbtxt"] = read(DATA / "formats/mediapipe/pose_landmarks.pbtxt")
+    for p in sorted((FIXTURES / "malformed").glob("*")):
+        if p.is_dir() and p.name.startswith("openpose_"):
+            for f in sorted(p.glob("*.json")):
+                seeds["openpose"][f"malformed_{f.name}"] = read(f)
+        elif p.name.startswith("coco_"):
+            seeds["coco_keypoints"][p.name] = read(p)
+        elif p.name.startswith("mediapipe_"):
+            seeds["mediapipe"][p.name] = read(p)
+    # MVNX: no shipped file; the schema's layout, one calibration and two normal frames.
+    seeds["mvnx"]["two_frames.mvnx"] = (
+        b'<?xml version="1.0"?>\n<mvnx version="4"><subject frameRate="60"><segments><segment label="Pelvis"/><segment label="L5"/></segments>'
+        b'<joints><joint label="jL5S1"/></joints><footContactDefinition><contactDefinition index="0" label="LeftFoot_Heel"/>'
+        b'<contactDefinition index="1" label="RightFoot_Heel"/></footContactDefinition><frames>'
+        b'<frame type="tpose"><orientation>1 0 0 0 1 0 0 0</orientation><position>0 0 1 0 0 1.1</position></frame>'
+        b'<frame type="normal"><orientation>1 0 0 0 1 0 0 0</orientation><position>0 0 1 0 0 1.1</position><jointAngle>1 2 3</jointAngle><footContacts>0 1</footContacts></frame>'
+        b'<frame type="normal"><orientation>1 0 0 0 1 0 0 0</orientation><position>0 0 1 0 0 1.1</position><jointAngle>1 2 3</jointAngle><footContacts>1 0</footContacts></frame>'
+        b'</frames></subject></mvnx>\n'
+    )
 
     seeds["cmu86_labels"]["mocap.txt"] = read(DATA / "cmu86/mocap.txt")
     for p in sorted((DATA / "mocap6/truelabels").glob("*.txt")):

@@ -23,6 +23,7 @@ mod odd_names;
 mod opensim_formats;
 mod own_annotations;
 mod penalty_path;
+mod pose_formats;
 mod reader_repairs;
 mod registry;
 mod retrieval;

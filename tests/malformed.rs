@@ -981,3 +981,89 @@ fn sto_crlf_loads_as_lf() {
     assert_eq!(lf.channels(), crlf.channels());
     assert_eq!(lf.frame_rate().hz(), crlf.frame_rate().hz());
 }
+
+// ---------------------------------------------------------------------------------------------
+// Video pose estimation: OpenPose frame folders (each case a folder holding a frame file named
+// after it), COCO keypoint JSON, MediaPipe landmarks (see make.py's `pose_cases`)
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn openpose_defects_name_kind_file_line_and_field() {
+    let cases: &[(&str, &str, ErrorKind, At<'_>, &str)] = &[
+        (
+            "openpose_no_people",
+            "openpose_no_people.json",
+            ErrorKind::MissingKey,
+            At::LineField(1, "people"),
+            "has no `people` list",
+        ),
+        (
+            "openpose_not_multiple_of_3",
+            "openpose_not_multiple_of_3.json",
+            ErrorKind::WrongValueCount,
+            At::LineField(1, "people[0].pose_keypoints_2d"),
+            "holds 74 numbers, not a multiple of 3",
+        ),
+        (
+            "openpose_truncated",
+            "openpose_truncated.json",
+            ErrorKind::Truncated,
+            At::Line(1),
+            "not valid JSON",
+        ),
+        (
+            "openpose_count_differs",
+            "openpose_count_differs.json",
+            ErrorKind::WrongValueCount,
+            At::LineField(1, "people[0].pose_keypoints_2d"),
+            "18 keypoints; expected 25",
+        ),
+    ];
+    for (folder, file, kind, at, says) in cases {
+        let at = match at {
+            At::Line(l) => At::Line(*l),
+            At::LineField(l, f) => At::LineField(*l, f),
+            _ => unreachable!(),
+        };
+        assert_error(load_with("openpose", "rate_hz = 60.0", folder), file, *kind, at, says);
+    }
+    let e = load_with("openpose", "rate_hz = 60.0", "openpose_empty").unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::EmptySequence, "{e}");
+    assert!(
+        e.to_string().contains("openpose_empty") && e.to_string().contains("no .json file"),
+        "{e}"
+    );
+}
+
+#[test]
+fn coco_and_mediapipe_defects_name_kind_line_and_field() {
+    let coco_line = line_containing("coco_not_multiple_of_3.json", "\"keypoints\": [", 2);
+    assert_error(
+        load_with("coco_keypoints", "rate_hz = 1.0", "coco_not_multiple_of_3.json"),
+        "coco_not_multiple_of_3.json",
+        ErrorKind::WrongValueCount,
+        At::LineField(coco_line, "annotations[0].keypoints"),
+        "holds 50 numbers, not a multiple of 3",
+    );
+    assert_error(
+        load_with("coco_keypoints", "rate_hz = 1.0", "coco_unknown_image.json"),
+        "coco_unknown_image.json",
+        ErrorKind::UnknownName,
+        At::LineField(coco_line, "annotations[0].image_id"),
+        "is 999999, an image `images` does not list",
+    );
+    assert_error(
+        load_with("mediapipe", "rate_hz = 30.0", "mediapipe_not_a_number.pbtxt"),
+        "mediapipe_not_a_number.pbtxt",
+        ErrorKind::Syntax,
+        At::LineField(5, "x"),
+        "\"0.465O7242\" is not a number",
+    );
+    assert_error(
+        load_with("mediapipe", "rate_hz = 30.0", "mediapipe_truncated.pbtxt"),
+        "mediapipe_truncated.pbtxt",
+        ErrorKind::Truncated,
+        At::Line(12),
+        "the block opened on line 11 is not closed",
+    );
+}

@@ -14,8 +14,8 @@ use serde::{Deserialize, Serialize};
 
 use motionlab_core::skeleton::{ChannelKind, Joint, Skeleton, SkeletonMotion};
 use motionlab_core::{
-    Axis, Boundary, Channels, Error, ErrorKind, Event, FrameRate, LoadNotes, Motion, PointKind,
-    Result, Seconds, Segment, Segmentation,
+    Axis, Boundary, Channels, Dimensionality, Error, ErrorKind, Event, FrameRate, LoadNotes,
+    Motion, PointKind, Result, Seconds, Segment, Segmentation,
 };
 
 #[derive(Serialize, Deserialize)]
@@ -37,6 +37,12 @@ struct Header {
     /// The loader's length unit and repairs, for `inspect` and the run's provenance.
     #[serde(default)]
     load_notes: LoadNotes,
+    /// 3-D world or 2-D image positions (video pose estimation).
+    #[serde(default)]
+    dimensionality: Dimensionality,
+    /// The per-sample confidence, when the loader gave one (frame-major).
+    #[serde(default)]
+    confidence: Option<Vec<f32>>,
 }
 
 /// A ground truth as cached.
@@ -122,6 +128,8 @@ pub fn encode(motion: &Motion, truth: Option<&Segmentation>) -> Result<Vec<u8>> 
         channels: (!motion.channels().is_empty())
             .then(|| (motion.channels().names().to_vec(), motion.channels().units().to_vec())),
         load_notes: motion.load_notes.clone(),
+        dimensionality: motion.dimensionality(),
+        confidence: motion.confidence().map(<[f32]>::to_vec),
     };
     let head = rmp_serde::to_vec(&header).map_err(|e| bad(format!("cannot encode: {e}")))?;
     let values = motion.skeleton.as_ref().map_or(&[][..], |s| s.channel_values());
@@ -204,6 +212,12 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
         .map(|(label, context, t, frame)| Event { label, context, time: Seconds(t), frame })
         .collect();
     motion.load_notes = h.load_notes;
+    if h.dimensionality == Dimensionality::Two {
+        motion = motion.into_image_2d();
+    }
+    if let Some(c) = h.confidence {
+        motion = motion.with_confidence(c)?;
+    }
     match h.skeleton {
         Some(joints) => {
             let joints: Vec<Joint> =
@@ -256,6 +270,40 @@ pub fn decode(bytes: &[u8]) -> Result<(Motion, Option<Segmentation>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_2d_motion_with_confidence_comes_back_2d_with_its_confidence() {
+        let rate = FrameRate::new(60.0).unwrap();
+        let pos = vec![[505.232, 431.63, 0.0], [f64::NAN; 3]];
+        let m =
+            Motion::new("cam", rate, Axis::Y, PointKind::Marker, vec!["a".into(), "b".into()], pos)
+                .unwrap()
+                .into_image_2d()
+                .with_confidence(vec![0.664216, 0.0])
+                .unwrap();
+        let (back, _) = decode(&encode(&m, None).unwrap()).unwrap();
+        assert_eq!(back.dimensionality(), Dimensionality::Two);
+        assert_eq!(back.confidence(), Some(&[0.664216_f32, 0.0][..]));
+        assert_eq!(back.position(0, 0), [505.232, 431.63, 0.0]);
+        assert!(back.is_missing(0, 1));
+        let (plain, _) = decode(
+            &encode(
+                &Motion::new(
+                    "p",
+                    rate,
+                    Axis::Y,
+                    PointKind::Marker,
+                    vec!["a".into()],
+                    vec![[1.0, 2.0, 3.0]],
+                )
+                .unwrap(),
+                None,
+            )
+            .unwrap(),
+        )
+        .unwrap();
+        assert_eq!((plain.dimensionality(), plain.confidence()), (Dimensionality::Three, None));
+    }
 
     #[test]
     fn round_trip_keeps_every_bit() {

@@ -34,6 +34,16 @@ pub fn convert(input: &Path, output: &Path, unit: LengthUnit) -> Result<Converte
                 )
                 .in_file(input));
             }
+            if motion.dimensionality() == motionlab_core::Dimensionality::Two {
+                return Err(Error::new(
+                    ErrorKind::Mismatch,
+                    format!(
+                        "{} holds 2-D image positions (px), and TRC holds 3-D positions in a length unit (write .csv instead)",
+                        input.display()
+                    ),
+                )
+                .in_file(input));
+            }
             let name = output.file_name().and_then(|n| n.to_str()).unwrap_or("motion.trc");
             write_trc(&motion, unit, name, &mut bytes).map_err(io)?;
             Converted { frames: motion.n_frames(), columns: motion.n_points(), what: "points" }

@@ -16,6 +16,10 @@ struct Report {
     frame_rate_hz: Option<f64>,
     duration_s: Option<f64>,
     point_kind: motionlab_core::PointKind,
+    /// `3d` (world positions, mm) or `2d` (image positions, px: video pose estimation).
+    dimensionality: motionlab_core::Dimensionality,
+    /// Whether the loader gave a per-sample confidence (pose estimation).
+    confidence: bool,
     up_axis: String,
     points: Vec<String>,
     missing_samples: usize,
@@ -136,9 +140,10 @@ fn analog_of(
     }))
 }
 
-/// The motion as the loader reads it at its defaults, and whether its rate is known. A channel
-/// file without a time column has no rate (the `channels` loader then needs `rate_hz`): it is
-/// read at 1 Hz to describe its samples and channels, with the rate unknown.
+/// The motion as the loader reads it at its defaults, and whether its rate is known. A file
+/// that stores no rate (a channel file without a time column; OpenPose, COCO and MediaPipe
+/// keypoints) makes its loader ask for `rate_hz`: it is read at 1 Hz to describe its samples,
+/// points and channels, with the rate unknown.
 fn load_described(
     name: &str,
     loader: &dyn motionlab_core::Loader,
@@ -147,14 +152,12 @@ fn load_described(
     match loader.load(path) {
         Ok(m) => Ok((m, true)),
         Err(e)
-            if name == "channels"
-                && e.kind() == ErrorKind::MissingKey
+            if e.kind() == ErrorKind::MissingKey
                 && e.location().field.as_deref() == Some("rate_hz") =>
         {
             let mut params = toml::Table::new();
             params.insert("rate_hz".into(), toml::Value::Float(1.0));
-            let loader =
-                motionlab_core::registry::build_loader("channels", &toml::Value::Table(params))?;
+            let loader = motionlab_core::registry::build_loader(name, &toml::Value::Table(params))?;
             Ok((loader.load(path).map_err(|e| e.in_file(path))?, false))
         }
         Err(e) => Err(e.in_file(path)),
@@ -202,6 +205,8 @@ fn report(path: &Path, npy: Option<&Path>) -> Result<Report> {
         frame_rate_hz: rate_known.then(|| m.frame_rate().hz()),
         duration_s: rate_known.then(|| m.duration().value()),
         point_kind: m.point_kind(),
+        dimensionality: m.dimensionality(),
+        confidence: m.confidence().is_some(),
         up_axis: m.up_axis().to_string(),
         points: m.point_names().to_vec(),
         missing_samples: missing,
@@ -269,9 +274,13 @@ fn text(r: &Report) -> String {
         (Some(hz), Some(d)) => {
             format!("  frames    {} at {} Hz ({d:.3} s)\n", r.frames, rate_text(hz))
         }
-        _ => format!(
+        _ if r.format == "channels" => format!(
             "  frames    {} at an unknown rate (no time_s column; give the channels loader rate_hz)\n",
             r.frames
+        ),
+        _ => format!(
+            "  frames    {} at an unknown rate (the {} format stores none; give the loader rate_hz)\n",
+            r.frames, r.format
         ),
     };
     if !r.channels.is_empty() && r.points.is_empty() {
@@ -295,6 +304,12 @@ fn text(r: &Report) -> String {
         motionlab_core::PointKind::Joint => "joints",
     };
     s += &format!("  {kind:<9} {}: {}\n", r.points.len(), r.points.join(" "));
+    if r.dimensionality == motionlab_core::Dimensionality::Two {
+        s += &format!(
+            "  space     2-D image positions (px, x right, y down){}\n",
+            if r.confidence { ", with a confidence per sample" } else { "" }
+        );
+    }
     s += &format!("  missing   {} samples ({:.2} %)\n", r.missing_samples, r.missing_percent);
     s += &format!("  up axis   {}\n", r.up_axis);
     s += &match r.length_unit {
@@ -304,7 +319,8 @@ fn text(r: &Report) -> String {
     };
     s += &match (r.height_mm, r.height_frame) {
         (Some(h), Some(f)) => format!(
-            "  height    {h:.0} mm along {} in frame {} (the figure's extent)\n",
+            "  height    {h:.0} {} along {} in frame {} (the figure's extent)\n",
+            r.dimensionality.length_unit(),
             r.up_axis,
             f + 1
         ),

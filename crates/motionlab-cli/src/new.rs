@@ -144,15 +144,27 @@ fn motion_files(input: &str) -> Result<(Vec<PathBuf>, String)> {
                 None => by_ext.push((ext, vec![p])),
             }
         }
+        // Folders of per-frame JSON (OpenPose) are one more group, one motion per folder.
+        let folders = frame_folders(dir)?;
+        if !folders.is_empty() {
+            by_ext.push((FRAME_FOLDERS.into(), folders));
+        }
         // Most files first; C3D first on a tie (it carries the capture's own rate and units).
         by_ext.sort_by_key(|(ext, v)| (std::cmp::Reverse(v.len()), ext != "c3d", ext.clone()));
         if by_ext.len() > 1 {
+            let what = |e: &str| {
+                if e == FRAME_FOLDERS {
+                    "folders of JSON frames".to_string()
+                } else {
+                    format!(".{e} files")
+                }
+            };
             let others: Vec<String> =
-                by_ext[1..].iter().map(|(e, v)| format!("{} .{e}", v.len())).collect();
+                by_ext[1..].iter().map(|(e, v)| format!("{} {}", v.len(), what(e))).collect();
             note = format!(
-                "the folder also holds {}; this uses the .{} files",
+                "the folder also holds {}; this uses the {}",
                 others.join(", "),
-                by_ext[0].0
+                what(&by_ext[0].0)
             );
         }
         by_ext.into_iter().next().map(|(_, v)| v).unwrap_or_default()
@@ -165,11 +177,30 @@ fn motion_files(input: &str) -> Result<(Vec<PathBuf>, String)> {
         v
     };
     if files.is_empty() {
-        return Err(Error::new(ErrorKind::EmptySequence, "no motion file a loader reads (bvh, amc, c3d, tsv, …); expected a folder or glob of them")
+        return Err(Error::new(ErrorKind::EmptySequence, "no motion file a loader reads (bvh, amc, c3d, tsv, …) and no folder of OpenPose frames; expected a folder or glob of them")
             .with_location(Location::file(input)));
     }
     Ok((files, note))
 }
+
+/// The group name of [`frame_folders`] among a folder's file extensions.
+const FRAME_FOLDERS: &str = "json frame folders";
+
+/// The subfolders of `dir` that hold per-frame JSON files (OpenPose writes one folder per
+/// video): the motions of a folder without motion files of its own.
+fn frame_folders(dir: &Path) -> Result<Vec<PathBuf>> {
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    let mut dirs: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir() && motionlab_io::openpose::frame_files(p).is_ok())
+        .collect();
+    dirs.sort();
+    Ok(dirs)
+}
+
+/// The rate `new` writes for a loader whose files store none (OpenPose, COCO, MediaPipe), with
+/// the comment that says so: common video's rate, to be set.
+const ASSUMED_VIDEO_RATE_HZ: f64 = 30.0;
 
 /// A name the experiment table accepts: lower-case letters, digits and `_`.
 fn experiment_name(input: &str) -> String {
@@ -286,7 +317,21 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
         skipped = drop;
     }
     let (loader_name, loader) = loader_for(&files[0])?;
-    let first = loader.load(&files[0]).map_err(|e| e.in_file(&files[0]))?;
+    // A format that stores no rate (video keypoints) is read, and written, at an assumed one.
+    let (first, rate_line) = match loader.load(&files[0]) {
+        Err(e)
+            if e.kind() == ErrorKind::MissingKey
+                && e.location().field.as_deref() == Some("rate_hz") =>
+        {
+            let mut params = toml::Table::new();
+            params.insert("rate_hz".into(), toml::Value::Float(ASSUMED_VIDEO_RATE_HZ));
+            let loader =
+                motionlab_core::registry::build_loader(loader_name, &toml::Value::Table(params))?;
+            (loader.load(&files[0]).map_err(|e| e.in_file(&files[0]))?, true)
+        }
+        other => (other.map_err(|e| e.in_file(&files[0]))?, false),
+    };
+    let two_d = first.dimensionality() == motionlab_core::Dimensionality::Two;
     let root = choose_root(&first);
 
     let mut t = String::new();
@@ -334,7 +379,18 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
         .map(|f| relative(&out_dir, f).map(|p| format!("\"{}\"", toml_path(&p))))
         .collect::<Result<_>>()?;
     let _ = writeln!(w, "files = [{}]", listed.join(", "));
-    let _ = writeln!(w, "loader = {{ type = \"{loader_name}\" }}");
+    if rate_line {
+        let _ = writeln!(
+            w,
+            "# The {loader_name} files store no frame rate: {ASSUMED_VIDEO_RATE_HZ} is assumed; set your video's frames per second."
+        );
+        let _ = writeln!(
+            w,
+            "loader = {{ type = \"{loader_name}\", rate_hz = {ASSUMED_VIDEO_RATE_HZ:?} }}"
+        );
+    } else {
+        let _ = writeln!(w, "loader = {{ type = \"{loader_name}\" }}");
+    }
     let root_name = match &root {
         Root::Point { name, why } => {
             let _ = writeln!(w, "# Root: {name:?}, {why}.");
@@ -357,22 +413,27 @@ pub fn new_experiment(args: &NewArgs) -> Result<PathBuf> {
         }
         let _ = writeln!(w, "ground_truth = {}", tr.table);
     }
-    let _ = writeln!(
-        w,
-        "\n[segmentation]\nroot = {root_name:?}\nfuse = [\"speed\", \"direction\", \"hull\"]\n"
-    );
+    let fuse = if two_d { "[\"speed\"]" } else { "[\"speed\", \"direction\", \"hull\"]" };
+    let _ = writeln!(w, "\n[segmentation]\nroot = {root_name:?}\nfuse = {fuse}\n");
     let _ = writeln!(
         w,
         "[[segmentation.segmenter]]\ntype = \"fastest_marker_speed\"                           # §2.1\nname = \"speed\"\n"
     );
-    let _ = writeln!(
-        w,
-        "[[segmentation.segmenter]]\ntype = \"direction_change\"                               # §2.2\nname = \"direction\"\nlag = {{ seconds = 0.5 }}                                 # the paper's 15 frames at 30 fps\n"
-    );
-    let _ = writeln!(
-        w,
-        "[[segmentation.segmenter]]\ntype = \"hull_volume_change\"                             # §2.3\nname = \"hull\"\n"
-    );
+    if two_d {
+        let _ = writeln!(
+            w,
+            "# 2-D image keypoints (px): the speed method only (speeds in px/s); the direction (§2.2)\n# and hull (§2.3) methods need 3-D positions.\n"
+        );
+    } else {
+        let _ = writeln!(
+            w,
+            "[[segmentation.segmenter]]\ntype = \"direction_change\"                               # §2.2\nname = \"direction\"\nlag = {{ seconds = 0.5 }}                                 # the paper's 15 frames at 30 fps\n"
+        );
+        let _ = writeln!(
+            w,
+            "[[segmentation.segmenter]]\ntype = \"hull_volume_change\"                             # §2.3\nname = \"hull\"\n"
+        );
+    }
     let _ = writeln!(
         w,
         "[segmentation.fuser]\ntype = \"union_merge\"                                    # §2.4\nname = \"fused\""

@@ -34,7 +34,7 @@ pub mod viewer;
 
 pub use channels::Channels;
 pub use error::{Error, ErrorKind, Location, Result};
-pub use motion::{Event, LoadNotes, Motion, Point3, PointKind};
+pub use motion::{Dimensionality, Event, LoadNotes, Motion, Point3, PointKind};
 pub use registry::{ParamGuard, StageKind};
 pub use segmentation::{Boundary, Segment, Segmentation, Transition};
 pub use skeleton::{ChannelKind, ForwardKinematics, Joint, Skeleton, SkeletonMotion};

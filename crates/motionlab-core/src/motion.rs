@@ -9,6 +9,13 @@
 //! positions. A channel file (a TSSB series, a CSV of sensor values) loads as a motion with
 //! channels and no points ([`Motion::from_channels`]); stages that need points say so when
 //! they meet one.
+//!
+//! A motion knows its [`Dimensionality`]: 3-D world positions in mm (every marker and
+//! skeleton format), or 2-D image positions in pixels (video pose estimation: OpenPose, COCO
+//! keypoints, MediaPipe), stored as `[x, y, 0]`. It may carry a per-sample confidence
+//! (a pose estimator's score, 0–1). Stages that need depth (hull volumes, joint angles, the
+//! floor plane) say so ([`crate::Segmenter::accepts_2d`]) and are refused 2-D datasets when an
+//! experiment is validated; [`Motion::require_3d`] is the same check at run time.
 
 use std::path::PathBuf;
 
@@ -26,6 +33,36 @@ pub type Point3 = [f64; 3];
 pub enum PointKind {
     Marker,
     Joint,
+}
+
+/// Whether a motion's positions are 3-D world coordinates (mm) or 2-D image coordinates
+/// (pixels, stored as `[x, y, 0]`), as video pose estimators write them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Dimensionality {
+    /// World coordinates, mm.
+    #[default]
+    #[serde(rename = "3d")]
+    Three,
+    /// Image coordinates, pixels (x right, y down); the third coordinate is 0.
+    #[serde(rename = "2d")]
+    Two,
+}
+
+impl Dimensionality {
+    /// The unit of the positions: `mm` or `px`.
+    pub fn length_unit(self) -> &'static str {
+        match self {
+            Dimensionality::Three => "mm",
+            Dimensionality::Two => "px",
+        }
+    }
+    /// `3-D (mm)` / `2-D image (px)`, for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Dimensionality::Three => "3-D (mm)",
+            Dimensionality::Two => "2-D image (px)",
+        }
+    }
 }
 
 /// An annotated instant in a recording (C3D `EVENT` parameters, e.g. a foot strike).
@@ -74,6 +111,9 @@ pub struct Motion {
     positions: Vec<Point3>,
     missing: Vec<bool>,
     n_frames: usize,
+    dimensionality: Dimensionality,
+    /// Per-sample confidence (frame-major like the positions), when the source gives one.
+    confidence: Option<Vec<f32>>,
     /// Present when the source has a skeleton (BVH, ASF/AMC): hierarchy, channel values and
     /// per-frame local rotations. `point_names` are then its joints, in skeleton order.
     pub skeleton: Option<SkeletonMotion>,
@@ -147,6 +187,8 @@ impl Motion {
             positions,
             missing,
             n_frames,
+            dimensionality: Dimensionality::Three,
+            confidence: None,
             skeleton: None,
             events: Vec::new(),
             channels: Channels::default(),
@@ -177,6 +219,8 @@ impl Motion {
             positions: Vec::new(),
             missing: Vec::new(),
             n_frames: channels.n_samples(),
+            dimensionality: Dimensionality::Three,
+            confidence: None,
             skeleton: None,
             events: Vec::new(),
             channels,
@@ -211,11 +255,76 @@ impl Motion {
             positions: Vec::new(),
             missing: Vec::new(),
             n_frames,
+            dimensionality: Dimensionality::Three,
+            confidence: None,
             skeleton: None,
             events: Vec::new(),
             channels: Channels::default(),
             load_notes: LoadNotes::default(),
         })
+    }
+
+    /// The motion as 2-D image positions in pixels: the third coordinate of every sample
+    /// present is set to 0 (a 2-D source has none).
+    pub fn into_image_2d(mut self) -> Self {
+        for p in &mut self.positions {
+            if p[2].is_finite() {
+                p[2] = 0.0;
+            }
+        }
+        self.dimensionality = Dimensionality::Two;
+        self
+    }
+
+    /// The motion with a per-sample confidence (frame-major, one per position); fails unless
+    /// there is one value per sample.
+    pub fn with_confidence(mut self, confidence: Vec<f32>) -> Result<Self> {
+        if confidence.len() != self.positions.len() {
+            return Err(Error::new(
+                ErrorKind::WrongValueCount,
+                format!(
+                    "{} confidence values for {} samples ({})",
+                    confidence.len(),
+                    self.positions.len(),
+                    self.name
+                ),
+            ));
+        }
+        self.confidence = Some(confidence);
+        Ok(self)
+    }
+
+    /// 3-D world positions (mm) or 2-D image positions (px).
+    pub fn dimensionality(&self) -> Dimensionality {
+        self.dimensionality
+    }
+
+    /// The unit of the positions (`mm` or `px`), for trace names and labels.
+    pub fn length_unit(&self) -> &'static str {
+        self.dimensionality.length_unit()
+    }
+
+    /// Per-sample confidence, frame-major, when the source gave one.
+    pub fn confidence(&self) -> Option<&[f32]> {
+        self.confidence.as_deref()
+    }
+
+    /// Fails with [`ErrorKind::Mismatch`] naming the stage when the motion is 2-D, for stages
+    /// that need depth (the same check validation makes from the loader).
+    pub fn require_3d(&self, stage: &str) -> Result<()> {
+        if self.dimensionality == Dimensionality::Two {
+            let loc = self.source.as_ref().map(Location::file).unwrap_or_default();
+            Err(Error::new(
+                ErrorKind::Mismatch,
+                format!(
+                    "{stage} needs 3-D positions, and {} is 2-D image positions (px)",
+                    self.name
+                ),
+            )
+            .with_location(loc))
+        } else {
+            Ok(())
+        }
     }
 
     /// The motion with these channels (replacing any it had); fails unless there is one sample
@@ -361,6 +470,7 @@ impl Motion {
         let mut out = self.clone();
         out.positions = self.positions[start * m..end * m].to_vec();
         out.missing = self.missing[start * m..end * m].to_vec();
+        out.confidence = self.confidence.as_ref().map(|c| c[start * m..end * m].to_vec());
         out.n_frames = end - start;
         if !self.channels.is_empty() {
             out.channels = self.channels.slice_samples(start, end);
@@ -396,6 +506,10 @@ impl Motion {
         out.events = self.events.clone();
         out.channels = self.channels.clone();
         out.load_notes = self.load_notes.clone();
+        out.dimensionality = self.dimensionality;
+        out.confidence = self.confidence.as_ref().map(|c| {
+            (0..self.n_frames).flat_map(|f| idx.iter().map(move |&k| c[f * m + k])).collect()
+        });
         Ok(out)
     }
     /// Fails with [`ErrorKind::EmptySequence`] naming the stage when the motion has no points
@@ -542,6 +656,26 @@ mod tests {
         assert!(m.slice_frames(2, 2).is_err());
         let e = m.point_index("c").unwrap_err();
         assert_eq!(e.kind(), ErrorKind::UnknownName);
+    }
+
+    #[test]
+    fn a_2d_motion_keeps_its_dimensionality_and_confidence_through_slices_and_selections() {
+        let m = two_point_motion().into_image_2d();
+        assert_eq!(m.dimensionality(), Dimensionality::Two);
+        assert_eq!(m.length_unit(), "px");
+        assert_eq!(m.position(0, 1), [1.0, 2.0, 0.0]);
+        assert!(m.position(1, 1)[2].is_nan(), "a missing sample stays NaN");
+        assert!(m.clone().with_confidence(vec![0.5; 5]).is_err(), "one value per sample");
+        let m = m.with_confidence(vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6]).unwrap();
+        let s = m.slice_frames(1, 3).unwrap();
+        assert_eq!(s.confidence(), Some(&[0.3, 0.4, 0.5, 0.6][..]));
+        let b = m.select_points(&["b"]).unwrap();
+        assert_eq!(b.confidence(), Some(&[0.2, 0.4, 0.6][..]));
+        assert_eq!(b.dimensionality(), Dimensionality::Two);
+        let e = b.require_3d("hull_volume").unwrap_err();
+        assert!(e.to_string().contains("hull_volume needs 3-D positions"), "{e}");
+        assert!(two_point_motion().require_3d("hull_volume").is_ok());
+        assert_eq!(two_point_motion().dimensionality().length_unit(), "mm");
     }
 
     #[test]

@@ -12,7 +12,7 @@ use std::sync::{Arc, Mutex};
 
 use serde::{Deserialize, Serialize};
 
-use crate::motion::Motion;
+use crate::motion::{Dimensionality, Motion};
 use crate::segmentation::Segmentation;
 use crate::table::Table;
 use crate::{Error, ErrorKind, Result};
@@ -269,6 +269,16 @@ pub trait Loader: Send + Sync {
     /// File extensions (without dot, lower case, without `.gz`) this loader reads; used by
     /// `motionlab inspect` to pick a loader.
     fn extensions(&self) -> &'static [&'static str];
+    /// Whether its motions are 3-D world positions (the default) or 2-D image positions
+    /// (video pose estimation): validation refuses a 2-D dataset to a stage that needs depth.
+    fn dimensionality(&self) -> Dimensionality {
+        Dimensionality::Three
+    }
+    /// Whether a motion is a folder (OpenPose writes one JSON file per frame) rather than a
+    /// file: datasets then list folders, and `inspect` and `new` pick it for a folder.
+    fn reads_folders(&self) -> bool {
+        false
+    }
     fn load(&self, path: &Path) -> Result<Motion>;
 }
 
@@ -290,6 +300,11 @@ pub trait Preprocessor: Send + Sync {
 
 /// Computes per-frame features of a motion.
 pub trait FeatureExtractor: Send + Sync {
+    /// Whether it gives a meaningful result on 2-D image positions (px); `false` (the
+    /// default) for features that need depth, refused 2-D datasets at validation.
+    fn accepts_2d(&self) -> bool {
+        false
+    }
     fn extract(&self, motion: &Motion, cache: &FeatureCache) -> Result<FeatureSet>;
 }
 
@@ -300,6 +315,13 @@ pub trait Segmenter: Send + Sync {
     /// (`input = { features = … }`).
     fn consumes(&self) -> DataKind {
         DataKind::Points
+    }
+    /// Whether, reading positions, it works on 2-D image positions (px) as well: `false` (the
+    /// default) for methods that need depth (hull volumes, the floor plane), which validation
+    /// refuses 2-D datasets. A segmenter that reads channels reads no positions, so this is
+    /// not asked of it (its `input` features are asked instead).
+    fn accepts_2d(&self) -> bool {
+        false
     }
     fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput>;
     /// Its streaming form, when it decides boundaries as samples arrive (a plugin registered

@@ -105,13 +105,17 @@ pub fn validate(
 }
 
 /// The loader registered for a file's extension, at its default parameters.
+/// A folder is read by the loader that reads folders (OpenPose's per-frame JSON).
 pub fn loader_for(path: &Path) -> Result<(&'static str, Box<dyn Loader>)> {
     let ext = motionlab_core::paths::format_extension(path).unwrap_or_default();
+    let folder = path.is_dir();
     let mut known = Vec::new();
     for p in registry::plugins().into_iter().filter(|p| p.kind == StageKind::Loader) {
         if let Build::Loader(build) = p.build {
             let loader = build(&registry::default_params())?;
-            if loader.extensions().contains(&ext.as_str()) {
+            if (folder && loader.reads_folders())
+                || (!folder && loader.extensions().contains(&ext.as_str()))
+            {
                 return Ok((p.name, loader));
             }
             known.extend(loader.extensions().iter().map(|e| e.to_string()));

@@ -315,7 +315,7 @@ fn build_datasets(
             })
             .collect::<Result<Vec<_>>>()?;
         let files = match inputs {
-            Inputs::Resolve => resolve_files(source, &base, &spec.files)
+            Inputs::Resolve => resolve_files(source, &base, &spec.files, loader.reads_folders())
                 .map_err(|e| source.locate(e, dp.key("files"), &combo.doc))?,
             Inputs::Skip => Vec::new(),
         };
@@ -355,7 +355,15 @@ fn build_datasets(
     Ok(Datasets::new(datasets, preprocess, combo.file.preprocess.clone(), Arc::clone(cache)))
 }
 
-fn resolve_files(_source: &Source, base: &Path, patterns: &[String]) -> Result<Vec<PathBuf>> {
+/// The files the patterns name — or, for a loader that reads a folder per motion (OpenPose's
+/// per-frame JSON), the folders.
+fn resolve_files(
+    _source: &Source,
+    base: &Path,
+    patterns: &[String],
+    folders: bool,
+) -> Result<Vec<PathBuf>> {
+    let wanted = |f: &Path| if folders { f.is_dir() } else { f.is_file() };
     if patterns.is_empty() {
         return Err(Error::new(ErrorKind::MissingKey, "files = [] lists no file"));
     }
@@ -367,16 +375,20 @@ fn resolve_files(_source: &Source, base: &Path, patterns: &[String]) -> Result<V
             let matches: Vec<PathBuf> = glob::glob(&text)
                 .map_err(|e| Error::new(ErrorKind::Syntax, format!("bad glob {p:?}: {e}")))?
                 .filter_map(|r| r.ok())
-                .filter(|f| f.is_file())
+                .filter(|f| wanted(f))
                 .collect();
             if matches.is_empty() {
                 return Err(Error::new(
                     ErrorKind::Io,
-                    format!("glob {p:?} matches no file (relative to {})", base.display()),
+                    format!(
+                        "glob {p:?} matches no {} (relative to {})",
+                        if folders { "folder" } else { "file" },
+                        base.display()
+                    ),
                 ));
             }
             out.extend(matches);
-        } else if full.is_file() {
+        } else if wanted(&full) {
             out.push(full);
         } else {
             return Err(Error::new(

@@ -135,15 +135,23 @@ pub(crate) fn sequence_of(motion: &Motion) -> String {
     }
 }
 
-/// Every `sequence` of the file must name a motion file of the motion's format in its folder.
+/// Every `sequence` of the file must name a motion file of the motion's format in its folder
+/// (a motion read from a folder, OpenPose's frames: a folder beside it).
 fn check_sequences_exist(csv: &CsvAnnotations, origin: &Path, motion: &Motion) -> Result<()> {
     let Some(source) = &motion.source else { return Ok(()) };
     let ext = motionlab_core::paths::format_extension(source);
+    let folders = source.is_dir();
     let dir = source.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let Ok(entries) = std::fs::read_dir(dir) else { return Ok(()) };
     let mut stems: Vec<String> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_file() && motionlab_core::paths::format_extension(p) == ext)
+        .filter(|p| {
+            if folders {
+                p.is_dir()
+            } else {
+                p.is_file() && motionlab_core::paths::format_extension(p) == ext
+            }
+        })
         .map(|p| motionlab_core::paths::stem(&p))
         .collect();
     stems.sort();

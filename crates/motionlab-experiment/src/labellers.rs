@@ -63,7 +63,8 @@ pub fn build_labellers(
         }
         let stage = build_stage(cx.source, cx.combo, spec, &here, registry::build_labeller)?;
         let consumes: DataKind = stage.consumes();
-        let (input, _) = channel_input(cx, spec, &here, consumes, "labellers")?;
+        // Labellers of positions (multistream_dp) compare them in mm: 2-D input is refused.
+        let (input, _) = channel_input(cx, spec, &here, consumes, false, "labellers")?;
         out.push(NamedLabeller { name, stage, input });
     }
     Ok(out)

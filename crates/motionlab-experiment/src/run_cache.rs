@@ -133,12 +133,31 @@ impl RunCache {
     pub fn load_repairs(&self) -> BTreeMap<PathBuf, Vec<String>> {
         self.load_repairs.lock().map(|m| m.clone()).unwrap_or_default()
     }
-    /// SHA-256 of a file's bytes, read once per run.
+    /// SHA-256 of a file's bytes, read once per run. A folder (a motion of per-frame files,
+    /// OpenPose's) hashes the list of its files' names and SHA-256, in name order: any frame
+    /// changed, added or removed changes it.
     pub fn file_sha256(&self, path: &Path) -> Result<[u8; 32]> {
         if let Some(h) = self.file_hashes.lock().ok().and_then(|m| m.get(path).copied()) {
             return Ok(h);
         }
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = if path.is_dir() {
+            let entries = std::fs::read_dir(path).map_err(|e| Error::io(path, e))?;
+            let mut files: Vec<std::path::PathBuf> =
+                entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()).collect();
+            files.sort();
+            let mut list = Vec::new();
+            for f in files {
+                let content = std::fs::read(&f).map_err(|e| Error::io(&f, e))?;
+                let name =
+                    f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                list.extend_from_slice(name.as_bytes());
+                list.push(0);
+                list.extend_from_slice(&motionlab_cache::sha256(&content));
+            }
+            list
+        } else {
+            std::fs::read(path).map_err(|e| Error::io(path, e))?
+        };
         let h = motionlab_cache::sha256(&bytes);
         if let Ok(mut m) = self.file_hashes.lock() {
             m.insert(path.to_path_buf(), h);

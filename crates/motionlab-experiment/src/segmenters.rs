@@ -166,7 +166,8 @@ pub fn build_segmenters(
             ));
         }
         let stage = build_stage(source, combo, spec, &here, registry::build_segmenter)?;
-        let (input, input_text) = channel_input(cx, spec, &here, stage.consumes(), "segmenters")?;
+        let (input, input_text) =
+            channel_input(cx, spec, &here, stage.consumes(), stage.accepts_2d(), "segmenters")?;
         let mut cache_key = format!("{} {}", spec.kind, spec.plugin_params());
         if let Some(t) = input_text {
             cache_key.push_str(&format!(" input {t}"));
@@ -178,12 +179,14 @@ pub fn build_segmenters(
 
 /// The `input = { features = … }` of a stage that reads channels (a segmenter, a labeller),
 /// checked against what every dataset gives and built; with its text for the cache key.
-/// `what` names the stages in messages (`segmenters`).
+/// `what` names the stages in messages (`segmenters`); a stage that reads positions and does not
+/// `accepts_2d` is refused on 2-D data, as is each input feature that does not.
 pub fn channel_input(
     cx: &BuildContext<'_>,
     spec: &StageSpec,
     here: &KeyPath,
     consumes: DataKind,
+    accepts_2d: bool,
     what: &str,
 ) -> Result<(Option<FeatureChannels>, Option<String>)> {
     let (source, combo) = (cx.source, cx.combo);
@@ -217,6 +220,7 @@ pub fn channel_input(
             );
         }
         (DataKind::Points, None) => {
+            cx.require_3d_unless(&spec.kind, accepts_2d, here.key("type"))?;
             if let Some((d, _, loader)) = gives.iter().find(|g| g.1 == DataKind::Channels) {
                 return refuse(
                     format!(
@@ -259,16 +263,15 @@ pub fn channel_input(
                 .iter()
                 .enumerate()
                 .map(|(j, f)| {
-                    Ok((
-                        f.display_name(),
-                        build_stage(
-                            source,
-                            combo,
-                            f,
-                            &features.index(j),
-                            registry::build_feature_extractor,
-                        )?,
-                    ))
+                    let x = build_stage(
+                        source,
+                        combo,
+                        f,
+                        &features.index(j),
+                        registry::build_feature_extractor,
+                    )?;
+                    cx.require_3d_unless(&f.kind, x.accepts_2d(), features.index(j).key("type"))?;
+                    Ok((f.display_name(), x))
                 })
                 .collect::<Result<Vec<_>>>()?;
             if extractors.is_empty() {

@@ -269,6 +269,38 @@ impl BuildContext<'_> {
     pub fn locator(&self) -> Locator {
         Locator { source: self.source.clone(), doc: self.combo.doc.clone() }
     }
+
+    /// Refuses, located at `at`, a stage that needs 3-D positions (`accepts_2d` false) when a
+    /// dataset's loader gives 2-D image positions (video pose estimation): one line naming the
+    /// stage, the dataset and its loader. The one check every workflow makes for depth.
+    pub fn require_3d_unless(
+        &self,
+        stage: &str,
+        accepts_2d: bool,
+        at: impl Into<crate::context::At>,
+    ) -> Result<()> {
+        if accepts_2d {
+            return Ok(());
+        }
+        match self
+            .data
+            .datasets
+            .iter()
+            .find(|d| d.loader.dimensionality() == motionlab_core::Dimensionality::Two)
+        {
+            None => Ok(()),
+            Some(d) => Err(self.locate(
+                Error::new(
+                    ErrorKind::InvalidParameter,
+                    format!(
+                        "{stage} needs 3-D positions, and dataset[{}] (loader `{}`) gives 2-D image positions (px)",
+                        d.index, d.spec.loader.kind
+                    ),
+                ),
+                at,
+            )),
+        }
+    }
 }
 
 /// [`BuildContext::locate`] after the build: the experiment file and one combination's document.

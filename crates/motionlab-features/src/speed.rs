@@ -171,7 +171,8 @@ pub fn cached_marker_speeds(
 }
 
 /// Per-frame speed of every marker and the fastest-marker speed V (mm/s), with the name of the
-/// fastest marker at each frame (Sonoda et al. §2.1).
+/// fastest marker at each frame (Sonoda et al. §2.1). On 2-D image positions (video pose
+/// estimation) the speeds are px/s and the traces are named `V_px_per_s`, `v_<marker>_px_per_s`.
 ///
 /// `v[i][k] = |p[i+1][k] − p[i][k]| · fps`; `V[i] = max_k v[i][k]`. The last frame is NaN
 /// (no successor). Missing samples: a marker missing at either frame is skipped; V is NaN only
@@ -200,15 +201,26 @@ impl ParamGuard for MarkerSpeedParams {
 }
 
 impl FeatureExtractor for MarkerSpeedParams {
+    /// Speeds of image positions are px/s (trace names say `px_per_s`).
+    fn accepts_2d(&self) -> bool {
+        true
+    }
     fn extract(&self, motion: &Motion, cache: &FeatureCache) -> Result<FeatureSet> {
         motion.require_frames(2, "marker_speed")?;
         let smoothing = self.smoothing.map(|s| s.whole_frames_at(motion.frame_rate())).unwrap_or(0);
         let s = cached_marker_speeds(motion, cache, smoothing)?;
         let names = motion.point_names();
-        let mut traces = vec![Trace::new("V_mm_per_s", "mm/s", s.fastest.clone())];
+        // mm/s on 3-D positions, px/s on 2-D image positions.
+        let u = motion.length_unit();
+        let mut traces =
+            vec![Trace::new(format!("V_{u}_per_s"), format!("{u}/s"), s.fastest.clone())];
         if self.per_marker {
             for (k, n) in names.iter().enumerate() {
-                traces.push(Trace::new(format!("v_{n}_mm_per_s"), "mm/s", s.marker_speed(k)));
+                traces.push(Trace::new(
+                    format!("v_{n}_{u}_per_s"),
+                    format!("{u}/s"),
+                    s.marker_speed(k),
+                ));
             }
         }
         let labels = vec![LabelTrace {

@@ -124,6 +124,11 @@ impl Preprocessor for AddCentroid {
             positions.extend_from_slice(motion.frame(i));
             positions.push(c);
         }
+        // 2-D image keypoints stay 2-D; the virtual point has no estimator's confidence (NaN).
+        let two_d = motion.dimensionality() == motionlab_core::Dimensionality::Two;
+        let confidence: Option<Vec<f32>> = motion.confidence().map(|c| {
+            c.chunks(m.max(1)).flat_map(|row| row.iter().copied().chain([f32::NAN])).collect()
+        });
         let mut out = Motion::new(
             motion.name.clone(),
             motion.frame_rate(),
@@ -137,6 +142,12 @@ impl Preprocessor for AddCentroid {
         out.format = motion.format;
         out.skeleton = motion.skeleton;
         out.events = motion.events;
+        if two_d {
+            out = out.into_image_2d();
+        }
+        if let Some(c) = confidence {
+            out = out.with_confidence(c)?;
+        }
         Ok(out)
     }
 }

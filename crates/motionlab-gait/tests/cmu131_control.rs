@@ -1,5 +1,6 @@
 //! Walk control on a real skeleton walk: CMU 131_01 (BVH, start–walk–stop, 120 fps), changed
-//! through a marker-channel → BVH-channel map, written as BVH and read back.
+//! through a marker-channel → BVH-channel map, written as BVH and read back, and its joint
+//! positions written as OpenSim TRC and read back.
 
 use motionlab_core::registry::ParamGuard;
 use motionlab_features::gait_cycles::HeelHeightParams;
@@ -110,6 +111,34 @@ fn a_bvh_walk_is_changed_resampled_written_and_read_back() {
         reread.skeleton.as_ref().unwrap().skeleton.joints.len(),
         data.motion.skeleton.joints.len()
     );
+
+    // The synthesised walk's joint positions as OpenSim TRC (in metres, as OpenSim models
+    // are), read back: same joints, frames and rate, every position equal to within the
+    // writer's shortest round-trip decimals (1e-12 relative, after mm → m → mm).
+    let mut trc = Vec::new();
+    motionlab_io::trc::write_trc(
+        &reread,
+        motionlab_core::LengthUnit::Metre,
+        "131_01_fast.trc",
+        &mut trc,
+    )
+    .unwrap();
+    let back = motionlab_io::trc::parse_trc(
+        std::str::from_utf8(&trc).unwrap(),
+        std::path::Path::new("131_01_fast.trc"),
+    )
+    .unwrap()
+    .into_motion(std::path::Path::new("131_01_fast.trc"), reread.up_axis())
+    .unwrap();
+    assert_eq!(back.point_names(), reread.point_names());
+    assert_eq!(back.n_frames(), synthesized.n_frames());
+    assert!((back.frame_rate().hz() - reread.frame_rate().hz()).abs() < 1e-9);
+    assert_eq!(back.missing_count(), 0);
+    for (a, b) in back.positions().iter().zip(reread.positions()) {
+        for k in 0..3 {
+            assert!((a[k] - b[k]).abs() <= 1e-12 * b[k].abs().max(1.0), "{a:?} vs {b:?}");
+        }
+    }
 }
 
 #[test]

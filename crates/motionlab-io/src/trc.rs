@@ -418,6 +418,12 @@ pub fn write_trc(
             ));
         }
     };
+    if motion.dimensionality() == motionlab_core::Dimensionality::Two {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "TRC holds 3-D positions in a length unit, not 2-D image positions (px); write .csv",
+        ));
+    }
     let per_mm = 1.0 / unit.millimetres_per_unit();
     let hz = motion.frame_rate().hz();
     let (f, m) = (motion.n_frames(), motion.n_points());
@@ -454,26 +460,39 @@ pub fn write_trc(
 
 /// Writes `motion`'s points as CSV: `frame,time_s,<point>_x_mm,<point>_y_mm,<point>_z_mm,…`,
 /// one row per frame, missing samples as empty fields. Names holding a comma or quote are
-/// quoted.
+/// quoted. A 2-D motion (video keypoints) writes `<point>_x_px,<point>_y_px` and, when it has
+/// one, `<point>_confidence`.
 pub fn write_positions_csv(motion: &Motion, out: &mut impl Write) -> std::io::Result<()> {
     let quote = |s: String| {
         if s.contains([',', '"', '\n']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s }
     };
     let hz = motion.frame_rate().hz();
+    // 2-D image keypoints: x and y in px, and the estimator's confidence when it gave one.
+    let two_d = motion.dimensionality() == motionlab_core::Dimensionality::Two;
+    let axes: &[&str] = if two_d { &["x", "y"] } else { &["x", "y", "z"] };
+    let unit = motion.length_unit();
+    let confidence = motion.confidence();
     write!(out, "frame,time_s")?;
     for name in motion.point_names() {
-        for axis in ["x", "y", "z"] {
-            write!(out, ",{}", quote(format!("{name}_{axis}_mm")))?;
+        for axis in axes {
+            write!(out, ",{}", quote(format!("{name}_{axis}_{unit}")))?;
+        }
+        if confidence.is_some() {
+            write!(out, ",{}", quote(format!("{name}_confidence")))?;
         }
     }
     writeln!(out)?;
+    let m = motion.n_points();
     for frame in 0..motion.n_frames() {
         write!(out, "{frame},{}", frame as f64 / hz)?;
-        for (p, gone) in motion.frame(frame).iter().zip(motion.frame_missing(frame)) {
-            if *gone {
-                write!(out, ",,,")?;
-            } else {
-                write!(out, ",{},{},{}", p[0], p[1], p[2])?;
+        for (k, (p, gone)) in
+            motion.frame(frame).iter().zip(motion.frame_missing(frame)).enumerate()
+        {
+            for v in &p[..axes.len()] {
+                if *gone { write!(out, ",")? } else { write!(out, ",{v}")? }
+            }
+            if let Some(c) = confidence {
+                write!(out, ",{}", c[frame * m + k])?;
             }
         }
         writeln!(out)?;
@@ -613,6 +632,26 @@ mod tests {
         assert_eq!(lines[0], "frame,time_s,a_x_mm,a_y_mm,a_z_mm,b_x_mm,b_y_mm,b_z_mm");
         assert_eq!(lines[1], "0,0,1000,2000,3000,4000,5000,6000");
         assert_eq!(lines[2], "1,0.01,1500,2500,3500,,,");
+    }
+
+    #[test]
+    fn a_2d_motion_writes_px_and_confidence_to_csv_and_is_refused_by_trc() {
+        let m = parse(&file(ROWS))
+            .unwrap()
+            .into_motion(Path::new(ORIGIN), Axis::Y)
+            .unwrap()
+            .into_image_2d()
+            .with_confidence(vec![0.5, 0.25, 1.0, 0.0, 0.75, 0.125])
+            .unwrap();
+        let mut out = Vec::new();
+        write_positions_csv(&m, &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], "frame,time_s,a_x_px,a_y_px,a_confidence,b_x_px,b_y_px,b_confidence");
+        assert_eq!(lines[1], "0,0,1000,2000,0.5,4000,5000,0.25");
+        assert_eq!(lines[2], "1,0.01,1500,2500,1,,,0");
+        let e = write_trc(&m, LengthUnit::Millimetre, "x.trc", &mut Vec::new()).unwrap_err();
+        assert!(e.to_string().contains("not 2-D image positions"), "{e}");
     }
 
     #[test]

@@ -61,6 +61,7 @@ impl ArrayBuffer {
 const F64: &str = if cfg!(target_endian = "little") { "<f8" } else { ">f8" };
 const I64: &str = if cfg!(target_endian = "little") { "<i8" } else { ">i8" };
 const BOOL: &str = "|b1";
+const F32: &str = if cfg!(target_endian = "little") { "<f4" } else { ">f4" };
 
 fn array<'py>(py: Python<'py>, buffer: ArrayBuffer) -> PyResult<Bound<'py, PyAny>> {
     let b = Bound::new(py, buffer)?;
@@ -124,6 +125,9 @@ pub trait Element {
 }
 impl Element for f64 {
     const TYPESTR: &'static str = F64;
+}
+impl Element for f32 {
+    const TYPESTR: &'static str = F32;
 }
 impl Element for bool {
     const TYPESTR: &'static str = BOOL;

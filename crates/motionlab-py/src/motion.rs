@@ -132,6 +132,27 @@ impl PyMotion {
         borrowed(slf.as_any(), m.missing_mask(), &[m.n_frames(), m.n_points()])
     }
 
+    /// `"3d"` (world positions, mm) or `"2d"` (image positions in px, the third coordinate 0:
+    /// video pose estimation — OpenPose, COCO keypoints, MediaPipe).
+    #[getter]
+    fn dimensionality(&self) -> &'static str {
+        match self.inner.dimensionality() {
+            motionlab_core::Dimensionality::Three => "3d",
+            motionlab_core::Dimensionality::Two => "2d",
+        }
+    }
+
+    /// The per-sample confidence the pose estimator gave, frames × points float32 (a read-only
+    /// view, no copy), or None for a source without one.
+    #[getter]
+    fn confidence<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let m = &slf.get().inner;
+        match m.confidence() {
+            None => Ok(None),
+            Some(c) => borrowed(slf.as_any(), c, &[m.n_frames(), m.n_points()]).map(Some),
+        }
+    }
+
     /// Frame rate in Hz.
     #[getter]
     fn rate(&self) -> f64 {

@@ -137,3 +137,27 @@ def test_mot_channels_are_the_files_columns():
     assert m.channel_names[:2] == ["pelvis_tx", "pelvis_ty"]
     assert "ground_force_vx#2" in m.channel_names
     assert abs(m.rate - 60.0) < 1e-9
+
+
+# Video keypoints: the loader picked like the CLI's (a folder: `openpose`; `.json`:
+# `coco_keypoints`; `.pbtxt`: `mediapipe`), at the rate given (the files store none), as 2-D
+# positions with a confidence per sample, equal bit for bit to the CLI's `inspect --npy`.
+KEYPOINTS = {
+    "openpose": "formats/pose2sim/openpose_balancing_cam01_json",
+    "coco_keypoints": "formats/mmpose-coco/test_coco.json",
+    "mediapipe": "formats/mediapipe/pose_landmarks.pbtxt",
+}
+
+
+@pytest.mark.parametrize("loader", list(KEYPOINTS))
+def test_keypoints_load_by_extension_or_folder_as_2d_with_confidence(cli, tmp_path, loader):
+    path = data(KEYPOINTS[loader])
+    m = ml.load(path, rate_hz=30.0)
+    assert m.format == loader and m.dimensionality == "2d" and m.rate == 30.0
+    assert m.confidence.shape == m.missing.shape and m.confidence.dtype == np.float32
+    assert np.all(m.positions[~m.missing][:, 2] == 0.0)
+    meta = json.loads(run_cli(cli, "inspect", "--json", "--npy", str(tmp_path), path).stdout)[0]
+    assert meta["format"] == loader and meta["dimensionality"] == "2d"
+    theirs = np.load(tmp_path / "0.npy")
+    assert np.array_equal(m.positions.view(np.uint64), theirs.view(np.uint64))
+    assert ml.load(data("formats/opensim-core/walk_free_01.trc")).confidence is None

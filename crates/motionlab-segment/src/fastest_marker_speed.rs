@@ -162,6 +162,10 @@ impl ParamGuard for FastestMarkerSpeedParams {
 }
 
 impl Segmenter for FastestMarkerSpeed {
+    /// On 2-D image positions V is px/s (absolute thresholds are then read as px/s).
+    fn accepts_2d(&self) -> bool {
+        true
+    }
     fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput> {
         motion.require_frames(3, "fastest_marker_speed")?;
         let smoothing = self.smoothing.map(|s| s.whole_frames_at(motion.frame_rate())).unwrap_or(0);
@@ -172,22 +176,25 @@ impl Segmenter for FastestMarkerSpeed {
             return Err(Error::new(
                 ErrorKind::InvalidParameter,
                 format!(
-                    "on {} v_low resolves to {v_low:.1} mm/s, not below v_high = {v_high:.1} mm/s",
-                    motion.name
+                    "on {} v_low resolves to {v_low:.1} {u}/s, not below v_high = {v_high:.1} {u}/s",
+                    motion.name,
+                    u = motion.length_unit()
                 ),
             )
             .with_field("v_low"));
         }
         let t = track_fastest_marker(&speeds, v_high, v_low);
+        let u = motion.length_unit();
+        let trace = format!("V_{u}_per_s");
         Ok(SegmenterOutput {
             candidates: t.candidates,
             traces: vec![
-                Trace::new("V_mm_per_s", "mm/s", v.clone()),
-                Trace::new("tracked_speed_mm_per_s", "mm/s", t.tracked_speed),
+                Trace::new(trace.clone(), format!("{u}/s"), v.clone()),
+                Trace::new(format!("tracked_speed_{u}_per_s"), format!("{u}/s"), t.tracked_speed),
             ],
             thresholds: vec![
-                Threshold { name: "v_high".into(), trace: "V_mm_per_s".into(), value: v_high },
-                Threshold { name: "v_low".into(), trace: "V_mm_per_s".into(), value: v_low },
+                Threshold { name: "v_high".into(), trace: trace.clone(), value: v_high },
+                Threshold { name: "v_low".into(), trace, value: v_low },
             ],
             flagged_frames: Vec::new(),
             penalty_path: Vec::new(),

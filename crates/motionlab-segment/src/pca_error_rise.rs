@@ -248,13 +248,21 @@ impl PcaErrorRise {
 }
 
 impl Segmenter for PcaErrorRise {
+    /// PCA of image positions is as defined as of world positions (the error is then px²).
+    fn accepts_2d(&self) -> bool {
+        true
+    }
     fn segment(&self, motion: &Motion, _cache: &FeatureCache) -> Result<SegmenterOutput> {
         let p = self.frames(motion);
         motion.require_frames(p.initial + p.lag + 1, "pca_error_rise")?;
         let (candidates, error) = pca_error_rise(motion, p);
         Ok(SegmenterOutput {
             candidates,
-            traces: vec![Trace::new("pca_error_mm2", "mm²", error)],
+            traces: vec![Trace::new(
+                format!("pca_error_{}2", motion.length_unit()),
+                format!("{}²", motion.length_unit()),
+                error,
+            )],
             thresholds: Vec::new(),
             flagged_frames: Vec::new(),
             penalty_path: Vec::new(),

@@ -71,6 +71,10 @@ impl ParamGuard for SpeedMinimaParams {
 }
 
 impl Segmenter for SpeedMinima {
+    /// On 2-D image positions V is px/s (an absolute `v_low` is then read as px/s).
+    fn accepts_2d(&self) -> bool {
+        true
+    }
     fn segment(&self, motion: &Motion, cache: &FeatureCache) -> Result<SegmenterOutput> {
         motion.require_frames(3, "speed_minima")?;
         let smoothing = self.smoothing.map(|s| s.whole_frames_at(motion.frame_rate())).unwrap_or(0);
@@ -78,14 +82,12 @@ impl Segmenter for SpeedMinima {
         let v = &speeds.fastest;
         let v_low = self.v_low.resolve(v)?;
         let candidates = (0..v.len()).filter(|&i| is_local_min(v, i) && v[i] <= v_low).collect();
+        let u = motion.length_unit();
+        let trace = format!("V_{u}_per_s");
         Ok(SegmenterOutput {
             candidates,
-            traces: vec![Trace::new("V_mm_per_s", "mm/s", v.clone())],
-            thresholds: vec![Threshold {
-                name: "v_low".into(),
-                trace: "V_mm_per_s".into(),
-                value: v_low,
-            }],
+            traces: vec![Trace::new(trace.clone(), format!("{u}/s"), v.clone())],
+            thresholds: vec![Threshold { name: "v_low".into(), trace, value: v_low }],
             flagged_frames: Vec::new(),
             penalty_path: Vec::new(),
         })

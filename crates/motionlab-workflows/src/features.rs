@@ -63,6 +63,10 @@ impl WorkflowPlugin for FeaturesWorkflow {
             "extractors",
             registry::build_feature_extractor,
         )?;
+        for (k, ((_, x), spec)) in extractors.iter().zip(&section.extractors).enumerate() {
+            let at = cx.root.key("extractors").index(k).key("type");
+            cx.require_3d_unless(&spec.kind, x.accepts_2d(), at)?;
+        }
         Ok(FeaturesWorkflow { extractors })
     }
 }

@@ -138,6 +138,8 @@ pub struct RetrievalWorkflow {
 impl WorkflowPlugin for RetrievalWorkflow {
     type Section = RetrievalSection;
     fn build(section: RetrievalSection, cx: &BuildContext<'_>) -> Result<Self> {
+        // The matcher's features are 3-D marker distances and directions.
+        cx.require_3d_unless("the retrieval workflow", false, &cx.root)?;
         let locate = |e: Error, key: &str| cx.locate(e, cx.root.join_field(key));
         for (key, span) in [("window", section.window), ("stride", section.stride)] {
             if let Some(s) = span {

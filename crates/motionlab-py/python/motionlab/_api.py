@@ -164,7 +164,10 @@ def workflows() -> List[Workflow]:
 def load(path: PathLike, loader: Optional[str] = None, **params: Any) -> Motion:
     """Loads a motion file: C3D, BVH, ASF/AMC (the ``.asf`` found beside the ``.amc``),
     Qualisys TSV, OpenSim TRC (markers) and MOT/STO (named channels) or a channel file (TSSB series, CSV, ``.npy``, Parquet); ``.gz`` is read
-    transparently.
+    transparently. Video keypoints load as 2-D motions (``Motion.dimensionality == "2d"``, px,
+    with ``Motion.confidence``): a folder of OpenPose JSON frames, COCO keypoint ``.json``,
+    MediaPipe ``.pbtxt`` — their files store no rate, so give ``rate_hz``. Xsens ``.mvnx`` loads
+    as segment positions with orientation and joint-angle channels.
 
     ``loader`` names a registered loader (``listing()``); without it, the loader registered for
     the file's extension, as ``motionlab inspect`` picks it. ``params`` are the loader's

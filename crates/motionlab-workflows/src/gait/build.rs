@@ -21,6 +21,8 @@ use super::{
 impl WorkflowPlugin for GaitWorkflow {
     type Section = GaitSection;
     fn build(section: GaitSection, cx: &BuildContext<'_>) -> Result<Self> {
+        // Joint angles and the floor plane need depth.
+        cx.require_3d_unless("the gait workflow", false, &cx.root)?;
         let stages = TrialStages::build(&section, cx)?;
         let evaluators = build_evaluators(cx.source, cx.combo, motionlab_gait::gait_study())?;
         // Tables 2–3, the control and the leave-one-out build on the change-rate analysis: one

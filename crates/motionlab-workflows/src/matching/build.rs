@@ -12,6 +12,8 @@ use super::{MatchingSection, MatchingWorkflow, Take, TakeKind};
 impl WorkflowPlugin for MatchingWorkflow {
     type Section = MatchingSection;
     fn build(section: MatchingSection, cx: &BuildContext<'_>) -> Result<Self> {
+        // Yabe & Tanaka's features are 3-D marker distances and directions.
+        cx.require_3d_unless("the matching workflow", false, &cx.root)?;
         let (source, combo, root) = (cx.source, cx.combo, &cx.root);
         let locate = |e: Error, key: &str| cx.locate(e, root.join_field(key));
         if section.peaks_per_repetition == 0 {
